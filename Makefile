@@ -1,0 +1,53 @@
+# Two entry points a new user needs: `make demo` and `make test` (see README.md).
+# Both set everything up first; setup is idempotent and only redoes what changed.
+SHELL := /bin/bash
+PY ?= $(shell command -v python3.11 || command -v python3)
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed-stamp
+WS := ros2_ws
+PKGS := rftgls_core minirquad_driver rftgls_ros
+PKG_FILES := $(foreach p,$(PKGS),src/$(p)/setup.py src/$(p)/setup.cfg src/$(p)/package.xml)
+# DDS stays on loopback for everything started from here.
+export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
+export MPLBACKEND := Agg
+ENV := source tools/env.sh
+PYTEST_ARGS ?= -n 2
+
+.PHONY: setup build demo test bench freeze clean
+
+setup: $(STAMP) $(WS)/install/.built-stamp
+
+$(STAMP): requirements/requirements.txt requirements/constraints.txt $(PKG_FILES)
+	@test -x $(BIN)/python || $(PY) -m venv $(VENV)
+	$(BIN)/python -m pip install --disable-pip-version-check -q \
+	    -r requirements/requirements.txt -c requirements/constraints.txt
+	$(BIN)/python -m pip install --disable-pip-version-check -q --no-deps --no-build-isolation \
+	    $(foreach p,$(PKGS),-e src/$(p))
+	install -m 755 tools/ros2 $(BIN)/ros2
+	touch $@
+
+# colcon gives the ament layout (lib/<pkg>/<exe>) that `ros2 run` looks up.
+$(WS)/install/.built-stamp: $(STAMP) $(PKG_FILES)
+	source $(BIN)/activate && cd $(WS) && colcon build --symlink-install
+	touch $@
+
+build: setup
+
+demo: setup
+	$(ENV) && ROS_DOMAIN_ID=$${ROS_DOMAIN_ID_DEMO:-43} rftgls demo --out out/demo
+
+test: setup
+	$(ENV) && python -m pytest tests $(PYTEST_ARGS)
+
+bench: setup
+	$(ENV) && rftgls bench
+
+# Re-pin after changing requirements/requirements.txt.
+freeze:
+	rm -rf /tmp/rftgls-freeze && $(PY) -m venv /tmp/rftgls-freeze
+	/tmp/rftgls-freeze/bin/pip install -q -r requirements/requirements.txt
+	/tmp/rftgls-freeze/bin/pip freeze | grep -vE "^([a-z_]+_(msgs|interfaces|srvs)|rosidl_[a-z_]+|rclpy|rcutils|rmw_dds_common)==" > requirements/constraints.txt
+
+clean:
+	rm -rf $(VENV) $(WS)/build $(WS)/install $(WS)/log out

@@ -1,0 +1,24 @@
+"""ament_python package minirquad_driver; also installs with plain pip."""
+from setuptools import find_packages, setup
+
+PACKAGE = 'minirquad_driver'
+
+setup(
+    name=PACKAGE,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'tests']),
+    package_data={PACKAGE: []},
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
+        ('share/' + PACKAGE, ['package.xml']),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=False,
+    description='MiniRQuad serial bridge (COBS + CRC-16 protocol) and a simulated microcontroller on a pty.',
+    license='BSD-3-Clause',
+    entry_points={
+        'console_scripts': [
+
+        ],
+    },
+)

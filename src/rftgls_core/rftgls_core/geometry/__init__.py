@@ -1,0 +1,1 @@
+"""Triangle meshes: the facet data RFT integrates over, STL I/O, parametric shapes."""

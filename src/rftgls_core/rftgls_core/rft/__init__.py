@@ -1,0 +1,1 @@
+"""Granular resistive force theory: media, per-facet stress models, batched wrench engine."""

@@ -1,0 +1,24 @@
+"""ament_python package rftgls_core; also installs with plain pip."""
+from setuptools import find_packages, setup
+
+PACKAGE = 'rftgls_core'
+
+setup(
+    name=PACKAGE,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'tests']),
+    package_data={PACKAGE: ['data/*']},
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
+        ('share/' + PACKAGE, ['package.xml']),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=False,
+    description='RFT-GLS core: granular RFT, limit surfaces, load capacity, slip twist, HDF5 maps. No ROS inside.',
+    license='BSD-3-Clause',
+    entry_points={
+        'console_scripts': [
+            'rftgls = rftgls_core.cli.main:main',
+        ],
+    },
+)

@@ -1,0 +1,94 @@
+"""Shared test fixtures.
+
+ROS isolation: every pytest process (each xdist worker) reserves its own ROS_DOMAIN_ID for
+the whole session by binding a loopback TCP port (32768 + id, the same scheme as ROS 2's
+domain_coordinator), so parallel workers and parallel test runs on one machine never see
+each other's nodes. DDS discovery is kept on loopback. Core tests never import rclpy.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+_domain_socket: socket.socket | None = None
+
+
+def _reserve_domain_id() -> int:
+    global _domain_socket
+    start = 1 + (os.getpid() % 90)
+    for k in range(100):
+        domain = 1 + (start + k - 1) % 100
+        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        try:
+            sock.bind(('127.0.0.1', 32768 + domain))
+        except OSError:
+            sock.close()
+            continue
+        _domain_socket = sock
+        return domain
+    raise RuntimeError('no free ROS domain id in 1..100')
+
+
+def pytest_configure(config):
+    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    os.environ.setdefault('MPLBACKEND', 'Agg')
+    os.environ['ROS_DOMAIN_ID'] = str(_reserve_domain_id())
+
+
+@pytest.fixture
+def ros_context():
+    """A private, initialised rclpy context on this worker's domain (no signal handlers)."""
+    rclpy = pytest.importorskip('rclpy')
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx, domain_id=int(os.environ['ROS_DOMAIN_ID']))
+    try:
+        yield ctx
+    finally:
+        rclpy.try_shutdown(context=ctx)
+
+
+def stop_process(proc: subprocess.Popen, timeout: float = 5.0) -> None:
+    """terminate -> timed wait -> kill: an rclpy node can ignore SIGTERM (see ros2-from-pip.md)."""
+    if proc.poll() is not None:
+        return
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(timeout)
+        return
+    except subprocess.TimeoutExpired:
+        pass
+    proc.terminate()
+    try:
+        proc.wait(timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(timeout)
+
+
+@pytest.fixture
+def spawn():
+    """Start processes (argv lists) with this worker's ROS environment; always stopped after."""
+    procs: list[subprocess.Popen] = []
+
+    def _spawn(argv, **kwargs) -> subprocess.Popen:
+        env = dict(os.environ)
+        env.update(kwargs.pop('env', {}) or {})
+        proc = subprocess.Popen(argv, env=env, **kwargs)
+        procs.append(proc)
+        return proc
+
+    yield _spawn
+    for p in procs:
+        stop_process(p)
+
+
+@pytest.fixture(scope='session')
+def python_exe() -> str:
+    return sys.executable
