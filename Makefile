@@ -24,7 +24,7 @@ $(STAMP): requirements/requirements.txt requirements/constraints.txt $(PKG_FILES
 	    -r requirements/requirements.txt -c requirements/constraints.txt
 	$(BIN)/python -m pip install --disable-pip-version-check -q --no-deps --no-build-isolation \
 	    $(foreach p,$(PKGS),-e src/$(p))
-	install -m 755 tools/ros2 $(BIN)/ros2
+	install -m 755 tools/ros2 tools/rftgls $(BIN)/
 	touch $@
 
 # colcon gives the ament layout (lib/<pkg>/<exe>) that `ros2 run` looks up.

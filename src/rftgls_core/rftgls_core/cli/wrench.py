@@ -1,0 +1,57 @@
+"""`rftgls wrench`: the RFT wrench on a mesh placed in the medium, for one twist."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry.stl import read_stl
+from ..geometry.transforms import rpy_matrix
+from ..rft.engine import BuriedBody
+from ..rft.models import make_model
+from .common import add_medium_args, finite_float, medium_from_args, print_json
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser('wrench', help='RFT force and moment on a mesh for one twist',
+                       description='Resistive wrench on an STL body in the medium (free '
+                       'surface z = 0, world z up) for one twist.')
+    p.add_argument('--mesh', required=True, help='STL file (binary or ASCII)')
+    p.add_argument('--units', choices=('mm', 'm'), default='mm', help='STL units (default mm)')
+    p.add_argument('--position', nargs=3, type=finite_float, default=(0.0, 0.0, 0.0),
+                   metavar=('X', 'Y', 'Z'), help='mesh origin in the world, m')
+    p.add_argument('--rpy', nargs=3, type=finite_float, default=(0.0, 0.0, 0.0),
+                   metavar=('R', 'P', 'Y'),
+                   help='roll, pitch, yaw in degrees about the mesh origin (extrinsic x, y, z)')
+    p.add_argument('--twist', nargs=6, type=finite_float, required=True,
+                   metavar=('VX', 'VY', 'VZ', 'WX', 'WY', 'WZ'),
+                   help='world-frame twist at the reference point: m/s and rad/s')
+    p.add_argument('--ref', nargs=3, type=finite_float, default=None, metavar=('X', 'Y', 'Z'),
+                   help='reference point of twist and moment, m (default: placed mesh origin)')
+    add_medium_args(p, default='glass_beads')
+    p.add_argument('--json', action='store_true', help='print JSON')
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    medium = medium_from_args(args)
+    model = make_model(args.model, medium)
+    twist = np.asarray(args.twist, dtype=float)
+    if not np.any(twist != 0.0):
+        raise ValueError('zero twist: RFT needs a direction of motion')
+    mesh = read_stl(args.mesh, units=args.units)
+    position = np.asarray(args.position, dtype=float)
+    rot = rpy_matrix(*np.radians(args.rpy))
+    facets = mesh.facets().transformed(rot, position)
+    ref = position if args.ref is None else np.asarray(args.ref, dtype=float)
+    body = BuriedBody(facets, model, ref=ref)
+    w = body.wrench(twist)
+    result = {'force_N': w[:3].tolist(), 'moment_Nm': w[3:].tolist(),
+              'facets_total': body.facets_total, 'facets_active': body.facets_active,
+              'model': model.name, 'medium': medium.name}
+    if args.json:
+        print_json(result)
+    else:
+        print(f"force  [N]   {w[0]: .6g} {w[1]: .6g} {w[2]: .6g}")
+        print(f"moment [N m] {w[3]: .6g} {w[4]: .6g} {w[5]: .6g}  about {ref.tolist()}")
+        print(f"facets: {body.facets_active} buried of {body.facets_total}; "
+              f"model {model.name}, medium {medium.name}")
+    return 0

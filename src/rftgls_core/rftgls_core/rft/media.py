@@ -1,0 +1,85 @@
+"""Granular media: named presets and user parameters for the RFT models.
+
+Agarwal 3D-RFT takes two parameters: the depth-scaled stress scale xi_n (N/m^3) and the
+intruder-surface friction mu_surf. Li 2013 takes one scale zeta (N/m^3 here; the literature
+quotes N/cm^3 = 1e6 N/m^3). Values and their sources: models-rft.md sections 2.4, 4.5, 8.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+G = 9.81  # m/s^2
+
+
+def xi_n_from_friction(rho_c: float, mu_int: float) -> float:
+    """Agarwal's media scale xi_n = rho_c g (894 mu^3 - 386 mu^2 + 89 mu), N/m^3."""
+    return rho_c * G * (894.0 * mu_int ** 3 - 386.0 * mu_int ** 2 + 89.0 * mu_int)
+
+
+@dataclass(frozen=True)
+class Medium:
+    """A granular medium as the RFT models see it.
+
+    xi_n: Agarwal stress scale, N/m^3 (horizontal plate pushed down: 0.875 xi_n per m depth).
+    mu_surf: intruder-surface friction (inf = fully rough).
+    zeta: Li 2013 scale, N/m^3 (horizontal plate pushed down: zeta per m depth).
+    li_coefficients: which Li coefficient set ('generic' is scaled by zeta).
+    """
+
+    name: str
+    xi_n: float
+    mu_surf: float
+    zeta: float
+    li_coefficients: str = 'generic'
+    note: str = ''
+
+    def __post_init__(self) -> None:
+        for field, value in (('xi_n', self.xi_n), ('zeta', self.zeta)):
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f'medium {self.name!r}: {field} must be a positive number, got {value}')
+        if not (self.mu_surf >= 0.0):  # also rejects NaN; inf is allowed
+            raise ValueError(f'medium {self.name!r}: mu_surf must be >= 0, got {self.mu_surf}')
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+# zeta = 0.875 xi_n makes the two models agree on a horizontal plate pushed down (4.5).
+PRESETS: dict[str, Medium] = {
+    'glass_beads': Medium(
+        'glass_beads', xi_n=3.8e5, mu_surf=0.4, zeta=0.33e6,
+        note='0.8 mm glass beads (paper sec. IV); zeta = 0.33 N/cm^3 from Treers 2021; '
+             'xi_n = zeta / 0.875; mu_surf from public 3D-RFT code (models-rft.md 8a)'),
+    'm90_sand': Medium(
+        'm90_sand', xi_n=6.8e5, mu_surf=0.4, zeta=0.6e6,
+        note='M90 silver sand simulant (paper sec. VI); rho_c = 1600, mu_int = 0.45 '
+             '(models-rft.md 8b), equivalent to Li zeta ~ 0.6 N/cm^3'),
+    'poppy_lp': Medium(
+        'poppy_lp', xi_n=2.9e5, mu_surf=0.4, zeta=1.0e6, li_coefficients='poppy_lp',
+        note='loosely packed poppy seeds; Li LP coefficient set is already in N/cm^3 '
+             '(zeta = 1 N/cm^3 multiplies it unchanged); xi_n = 0.254 N/cm^3 / 0.875'),
+    'poppy_cp': Medium(
+        'poppy_cp', xi_n=5.3e5, mu_surf=0.4, zeta=1.0e6, li_coefficients='poppy_cp',
+        note='closely packed poppy seeds; Li CP set in N/cm^3; xi_n = 0.464 N/cm^3 / 0.875'),
+}
+
+
+def get_medium(name: str) -> Medium:
+    key = name.strip().lower().replace('-', '_').replace(' ', '_')
+    if key not in PRESETS:
+        raise ValueError(f'unknown medium {name!r}; known media: {", ".join(sorted(PRESETS))}')
+    return PRESETS[key]
+
+
+def custom_medium(xi_n: float | None = None, mu_surf: float | None = None,
+                  zeta: float | None = None) -> Medium:
+    """A user medium. Missing values follow from the given ones (zeta = 0.875 xi_n)."""
+    if xi_n is None and zeta is None:
+        raise ValueError('give xi_n (Agarwal) or zeta (Li)')
+    if xi_n is None:
+        xi_n = zeta / 0.875
+    if zeta is None:
+        zeta = 0.875 * xi_n
+    return Medium('custom', xi_n=float(xi_n), mu_surf=float(0.4 if mu_surf is None else mu_surf),
+                  zeta=float(zeta))

@@ -1,0 +1,108 @@
+"""Sagittal robot models: legs on two axles posed from an anchor state (h, thetaB, thetaL1, thetaL2).
+
+Frames (architecture page, section 3). World W: z up, free surface z = 0. Body B: origin at the
+winch point p, x_B along the body from p toward the axles, z_B up out of the body plate,
+y_B = z_B x x_B. At thetaB = 0, B is aligned with W and p sits at (0, 0, h).
+
+Legs: each axle carries a left and a right C-leg at y_B = +-lateral offset. A leg's own frame
+has the hip (axle) at its origin, the axle along y and, at leg angle 0, the chord of the C
+along -z_B. Positive leg angles swing the toe toward +x_B (away from p), so a larger thetaL1
+puts the proximal contact further from p, as the paper states. The right leg is the exact
+mirror image of the left one, which is what lets the engine halve the work.
+
+Pull orientation: the paper flips the C-legs to test forward and backward pulls. Assumption
+(documented, overridable): the C bulges toward the robot's walking direction. In a forward
+pull the robot is pulled along its walking direction (p at its front, walking toward -x_B),
+so the C bulges toward -x_B; in a backward pull it bulges toward +x_B.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..geometry.mesh import Facets, TriMesh
+from ..geometry.transforms import rot_y
+from ..types import AnchorState, Pull
+
+G = 9.81  # m/s^2
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    """Every dimension the RFT-GLS model needs; SI units, body frame B (see module doc).
+
+    Numbers the paper does not give are assumptions, marked in the presets.
+    """
+
+    name: str
+    mass: float                         # kg
+    com: tuple[float, float]            # (x_B, z_B) of the centre of mass, m
+    axle_x: tuple[float, float]         # proximal, distal axle distance from p along x_B, m
+    axle_z: float                       # axle height above p along z_B, m
+    leg_y: tuple[float, float]          # lateral offsets of proximal, distal legs (|y_B|), m
+    leg_mesh: TriMesh                   # one C-leg in its own frame (bulge toward +x), m
+    plate_length: float                 # body plate from x_B = 0 to plate_length, m
+    char_length: float                  # lever arm that makes rotation comparable to translation, m
+    notes: dict = field(default_factory=dict, compare=False)
+
+    def with_leg_mesh(self, mesh: TriMesh) -> 'RobotModel':
+        """The same robot with another leg (e.g. an STL file), in the leg frame above."""
+        return replace(self, leg_mesh=mesh)
+
+    def describe(self) -> dict:
+        return {'name': self.name, 'mass_kg': self.mass, 'com_m': list(self.com),
+                'axle_x_m': list(self.axle_x), 'axle_z_m': self.axle_z, 'leg_y_m': list(self.leg_y),
+                'leg_facets': int(len(self.leg_mesh.faces)), 'plate_length_m': self.plate_length,
+                'char_length_m': self.char_length, 'assumptions': dict(self.notes)}
+
+    def pose(self, state: AnchorState, pull: Pull | str = Pull.BACKWARD) -> 'PosedRobot':
+        """World-frame facets of all four legs and the gravity wrench about p."""
+        pull = Pull(pull)
+        body_rot = rot_y(-state.theta_b)          # x_B tilts up for positive thetaB
+        p = np.array([0.0, 0.0, state.h])
+        # Bulge toward walking direction: -x_B for forward pulls (see module doc).
+        leg_flip = np.diag([-1.0, 1.0, 1.0]) if pull is Pull.FORWARD else np.eye(3)
+        base = self.leg_mesh.facets()
+        if pull is Pull.FORWARD:  # reflection reverses handedness: normals stay outward
+            base = Facets(base.centroids @ leg_flip, base.normals @ leg_flip, base.areas)
+        left = []
+        for axle, (ax, ly, angle) in enumerate(zip(self.axle_x, self.leg_y,
+                                                   (state.theta_l1, state.theta_l2))):
+            rot = body_rot @ rot_y(-angle)
+            hip = p + body_rot @ np.array([ax, ly, self.axle_z])
+            left.append(base.transformed(rot, hip))
+        left_f = Facets.concatenate(left)
+        mirror = np.array([1.0, -1.0, 1.0])
+        right_f = Facets(left_f.centroids * mirror, left_f.normals * mirror, left_f.areas)
+        facets = Facets.concatenate([left_f, right_f])
+        com_w = body_rot @ np.array([self.com[0], 0.0, self.com[1]])
+        weight = self.mass * G
+        # Gravity (0, -mg) at the COM, moment about p: My = r_z Fx - r_x Fz = m g r_x.
+        gravity = np.array([0.0, -weight, weight * com_w[0]])
+        plate_end = p + body_rot @ np.array([self.plate_length, 0.0, 0.0])
+        return PosedRobot(robot=self, state=state, pull=pull, facets=facets, ref=p,
+                          gravity_wrench=gravity, plate_min_z=float(min(p[2], plate_end[2])))
+
+
+@dataclass(frozen=True)
+class PosedRobot:
+    """A robot placed in the world: facets (world, m), reference point p, gravity wrench.
+
+    gravity_wrench: planar (Fx, Fz, My) of gravity about p, N and N m.
+    plate_min_z: lowest point of the body plate, m (the plate touches the sand at 0).
+    The body is symmetric about the plane y = 0.
+    """
+
+    robot: RobotModel
+    state: AnchorState
+    pull: Pull
+    facets: Facets
+    ref: np.ndarray
+    gravity_wrench: np.ndarray
+    plate_min_z: float
+    mirror_y: float = 0.0
+
+    @property
+    def buried_facets(self) -> int:
+        return int(np.count_nonzero(self.facets.centroids[:, 2] < 0.0))
