@@ -62,8 +62,8 @@ def test_right_legs_mirror_left_legs_and_pull_flips_the_c():
     back = minirquad().pose(AnchorState.from_degrees(0.02, 0, 0, 0), Pull.BACKWARD)
     fwd = minirquad().pose(AnchorState.from_degrees(0.02, 0, 0, 0), Pull.FORWARD)
     hip_x = minirquad().axle_x[0]
-    # the C bulges toward +x_B for backward pulls and toward -x_B for forward pulls
-    assert leg_facets(back, 0, +1)[:, 0].mean() > hip_x > leg_facets(fwd, 0, +1)[:, 0].mean()
+    # the C bulges away from p (+x_B) for forward pulls and toward p for backward pulls
+    assert leg_facets(fwd, 0, +1)[:, 0].mean() > hip_x > leg_facets(back, 0, +1)[:, 0].mean()
 
 
 def test_unknown_robot_is_a_clear_error():

@@ -10,10 +10,12 @@ along -z_B. Positive leg angles swing the toe toward +x_B (away from p), so a la
 puts the proximal contact further from p, as the paper states. The right leg is the exact
 mirror image of the left one, which is what lets the engine halve the work.
 
-Pull orientation: the paper flips the C-legs to test forward and backward pulls. Assumption
-(documented, overridable): the C bulges toward the robot's walking direction. In a forward
-pull the robot is pulled along its walking direction (p at its front, walking toward -x_B),
-so the C bulges toward -x_B; in a backward pull it bulges toward +x_B.
+Pull orientation: the paper flips the C-legs to test forward and backward pulls, and does not
+draw which way the C opens. Assumption: in a forward pull the C bulges away from p (+x_B), in
+a backward pull toward p (-x_B). This is the orientation whose capacity map reproduces the
+paper's Fig. 9 trends: forward capacity saddle-shaped and rising for negative thetaL1 with
+the weight barely held near (40, 40) deg; backward capacity rising with thetaL2 while thetaL1
+matters little. The opposite choice swaps the two maps (checked, see README).
 """
 from __future__ import annotations
 
@@ -61,10 +63,10 @@ class RobotModel:
         pull = Pull(pull)
         body_rot = rot_y(-state.theta_b)          # x_B tilts up for positive thetaB
         p = np.array([0.0, 0.0, state.h])
-        # Bulge toward walking direction: -x_B for forward pulls (see module doc).
-        leg_flip = np.diag([-1.0, 1.0, 1.0]) if pull is Pull.FORWARD else np.eye(3)
+        # The leg mesh bulges toward +x (forward pulls); mirror it for backward pulls.
+        leg_flip = np.diag([-1.0, 1.0, 1.0])
         base = self.leg_mesh.facets()
-        if pull is Pull.FORWARD:  # reflection reverses handedness: normals stay outward
+        if pull is Pull.BACKWARD:  # reflected facets: normals reflect too and stay outward
             base = Facets(base.centroids @ leg_flip, base.normals @ leg_flip, base.areas)
         left = []
         for axle, (ax, ly, angle) in enumerate(zip(self.axle_x, self.leg_y,

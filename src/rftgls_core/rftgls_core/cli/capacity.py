@@ -1,0 +1,85 @@
+"""`rftgls capacity`: load capacity and slip twist of one anchor state (the paper's F and G)."""
+from __future__ import annotations
+
+import math
+import time
+
+from ..anchor import DEFAULT_TWISTS, METHODS, AnchorModel
+from ..robots.presets import ROBOTS, get_robot
+from ..types import AnchorState, Pull
+from .common import add_medium_args, finite_float, medium_from_args, print_json
+
+DEFAULT_MEDIUM = {'prototype': 'glass_beads', 'minirquad': 'm90_sand'}
+
+
+def add_state_args(p) -> None:
+    p.add_argument('--robot', choices=sorted(ROBOTS), default='minirquad')
+    p.add_argument('--h', type=finite_float, required=True,
+                   help='height of the winch point p above the free surface, m')
+    p.add_argument('--theta-b', type=finite_float, required=True, help='body pitch, deg')
+    p.add_argument('--theta-l1', type=finite_float, required=True, help='proximal legs, deg')
+    p.add_argument('--theta-l2', type=finite_float, required=True, help='distal legs, deg')
+    p.add_argument('--phi', type=finite_float, default=0.0,
+                   help='tether angle, deg (0 horizontal, negative pulls down)')
+    p.add_argument('--pull', choices=[x.value for x in Pull], default='backward')
+    add_medium_args(p)
+
+
+def state_from_args(args) -> AnchorState:
+    return AnchorState.from_degrees(args.h, args.theta_b, args.theta_l1, args.theta_l2)
+
+
+def model_from_args(args, method: str | None = None) -> AnchorModel:
+    args.default_medium = DEFAULT_MEDIUM[args.robot]
+    return AnchorModel(get_robot(args.robot), medium_from_args(args), model=args.model,
+                       method=method or args.method, n_twists=args.twists)
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser('capacity', help='load capacity and slip twist of one anchor state',
+                       description='Load capacity along the tether and slip twist beyond it. '
+                       'slip_twist is a unit vector in the scaled metric (vx, vz, wy*L_c), '
+                       'L_c = char_length_m of the robot; slip_twist_raw is (vx, vz, wy) in '
+                       'm/s and rad/s scaled to unit Euclidean norm.')
+    add_state_args(p)
+    p.add_argument('--method', choices=list(METHODS) + ['map'], default='twist-mesh')
+    p.add_argument('--twists', type=int, default=DEFAULT_TWISTS, help='sampled unit twists')
+    p.add_argument('--map', help='HDF5 map file (with --method map)')
+    p.add_argument('--json', action='store_true')
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    state = state_from_args(args)
+    phi = math.radians(args.phi)
+    t0 = time.perf_counter()
+    if args.method == 'map':
+        if not args.map:
+            raise ValueError('--method map needs --map FILE.h5')
+        from ..maps import CapacityMap  # the map layer; imported only when asked for
+        cmap = CapacityMap.load(args.map)
+        t0 = time.perf_counter()
+        result = cmap.query(state, phi, args.pull)
+        char_length = get_robot(cmap.robot_name).char_length
+    else:
+        model = model_from_args(args)
+        result = model.predict(state, phi, args.pull)
+        char_length = model.robot.char_length
+    elapsed = time.perf_counter() - t0
+    out = {'capacity_N': result.capacity_N,
+           'slip_twist': list(result.slip_twist_scaled) if result.slip_twist_scaled else None,
+           'slip_twist_raw': list(result.slip_twist) if result.slip_twist else None,
+           'status': result.status.value, 'method': result.method, 'elapsed_s': elapsed,
+           'reason': result.reason, 'detail': result.detail, 'char_length_m': char_length}
+    if args.json:
+        print_json(out)
+    else:
+        cap = 'none' if result.capacity_N is None else f'{result.capacity_N:.3f} N'
+        print(f'capacity {cap}  status {result.status.value}  method {result.method}  '
+              f'({1e3 * elapsed:.1f} ms)')
+        if result.slip_twist_scaled:
+            print('slip twist (scaled vx, vz, wy*L_c): '
+                  + ' '.join(f'{v:+.4f}' for v in result.slip_twist_scaled))
+        if result.reason:
+            print(f'reason: {result.reason}: {result.detail}')
+    return 0
