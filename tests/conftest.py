@@ -92,3 +92,8 @@ def spawn():
 @pytest.fixture(scope='session')
 def python_exe() -> str:
     return sys.executable
+
+
+def pytest_unconfigure(config):
+    if _domain_socket is not None:
+        _domain_socket.close()

@@ -68,3 +68,14 @@ def test_malformed_stl_exits_2(tmp_path):
     missing = run('wrench', '--mesh', str(tmp_path / 'nope.stl'), '--twist', '1', '0', '0', '0',
                   '0', '0')
     assert missing.returncode == 2 and 'Traceback' not in missing.stderr
+
+
+def test_inward_wound_stl_is_repaired(plate_stl, tmp_path):
+    flipped = tmp_path / 'flipped.stl'
+    write_stl(flipped, plate(0.02, 0.02, 0.002).flipped(), units='mm')
+    common = ['--position', '0', '0', '-0.05', '--twist', '0.2', '0', '-1', '0', '0', '0',
+              '--medium', 'glass_beads', '--json']
+    good = json.loads(run('wrench', '--mesh', str(plate_stl), *common).stdout)
+    fixed = run('wrench', '--mesh', str(flipped), *common)
+    assert fixed.returncode == 0, fixed.stderr
+    assert np.allclose(json.loads(fixed.stdout)['force_N'], good['force_N'], rtol=1e-9)

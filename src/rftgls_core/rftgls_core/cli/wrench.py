@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.stl import read_stl
+from ..geometry.validate import clean_mesh
 from ..geometry.transforms import rpy_matrix
 from ..rft.engine import BuriedBody
 from ..rft.models import make_model
@@ -37,7 +38,9 @@ def run(args) -> int:
     twist = np.asarray(args.twist, dtype=float)
     if not np.any(twist != 0.0):
         raise ValueError('zero twist: RFT needs a direction of motion')
-    mesh = read_stl(args.mesh, units=args.units)
+    # Repair what a CAD export gets wrong: degenerate facets (dropped with a warning) and
+    # inconsistent or inward winding (RFT needs outward normals).
+    mesh, report = clean_mesh(read_stl(args.mesh, units=args.units))
     position = np.asarray(args.position, dtype=float)
     rot = rpy_matrix(*np.radians(args.rpy))
     facets = mesh.facets().transformed(rot, position)

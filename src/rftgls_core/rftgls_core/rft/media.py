@@ -23,8 +23,11 @@ class Medium:
 
     xi_n: Agarwal stress scale, N/m^3 (horizontal plate pushed down: 0.875 xi_n per m depth).
     mu_surf: intruder-surface friction (inf = fully rough).
-    zeta: Li 2013 scale, N/m^3 (horizontal plate pushed down: zeta per m depth).
-    li_coefficients: which Li coefficient set ('generic' is scaled by zeta).
+    zeta: Li 2013 scale, N/m^3; stress = zeta x the coefficient set. For the 'generic' set
+        (normalised to 1 for a horizontal plate pushed down) zeta is that plate's stress per
+        m of depth; the poppy-seed sets are already in N/cm^3, so their presets use
+        zeta = 1 N/cm^3 = 1e6 N/m^3 and the plate value is 0.254e6 (LP) or 0.464e6 (CP).
+    li_coefficients: which Li coefficient set ('generic', 'poppy_lp', 'poppy_cp').
     """
 
     name: str
