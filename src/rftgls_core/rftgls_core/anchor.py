@@ -26,7 +26,7 @@ from .types import AnchorState, Pull, Status
 
 # method name -> (module in rftgls_core.surfaces, class)
 METHODS = {
-    'direct': ('direct', 'DirectSolver'),
+    'direct': ('direct', 'DirectSurface'),
     'twist-mesh': ('twist_mesh', 'TwistMeshSurface'),
     'alpha': ('alpha_shape', 'AlphaShapeSurface'),
     'ellipsoid': ('ellipsoid', 'EllipsoidSurface'),

@@ -1,0 +1,199 @@
+"""Direct capacity: no surface, solve W_ext(t) = s d(phi), s > 0, for the unit twist t.
+
+The reference every representation is measured against. Working in the scaled spaces, with
+d the unit load direction, e1 = (-d_z, d_x, 0) and e2 = (0, 0, 1) spanning the plane normal to
+d, a twist t is on the load ray when the two residuals
+
+    r(t) = (e1 . Ws(t), e2 . Ws(t))
+
+vanish (My = 0 and (Fx, Fz) parallel to d), with s = d . Ws(t) > 0.
+
+1. Fit: one batched wrench_fn call on a coarse twist sphere mesh (default 400 twists, the
+   twist-mesh connectivity) and its winding number about the origin (origin outside ->
+   UNSUPPORTED).
+2. Query: cast the ray on the coarse mesh; every crossing is a bracket whose barycentric twist
+   seeds a Newton solve on the sphere (2 unknowns: steps in the tangent plane, re-centred each
+   iteration). All seeds advance together; each iteration is ONE wrench_fn call on 3 twists
+   per seed (the point and two forward differences), so a query costs about 5-10 batched calls.
+   Steps that do not reduce the residual are halved (backtracking).
+3. First-exit rule: every crossing seeds its barycentric twist and its face's three vertex
+   twists (close crossings of a fold can swap roots); the capacity is the smallest positive
+   root found. If no seed of the first coarse crossing converges, that crossing is unresolved
+   (a jump or pinch of the map) and the result is DEGENERATE: no later root is reported in
+   its place. Several distinct twists at the same first-exit distance, or a
+   singular 2x2 Jacobian there, mean the twist-wrench pair is not unique: DEGENERATE.
+   Several crossings at different distances: the smallest is the capacity (reported in n_hits
+   and detail, status ok: the load ramps from zero, so the first crossing starts the slip).
+
+Limit: a crossing that the coarse mesh misses entirely (a feature thinner than its triangles)
+is not seeded. Raise n_twists when the surface has fine folds.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..types import Status
+from .base import CapacityResult, FitInfo, GLSProblem, LimitSurface, evaluate_wrenches
+from .raycast import all_hits, prepare_mesh, winding_number
+from .twist_mesh import TwistSphere
+
+
+def _tangent_basis(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Orthonormal (U, V) (K, 3) spanning the tangent planes of unit vectors t (K, 3)."""
+    helper = np.zeros_like(t)
+    helper[np.arange(len(t)), np.argmin(np.abs(t), axis=1)] = 1.0
+    u = np.cross(t, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    return u, np.cross(t, u)
+
+
+def _unit(x: np.ndarray) -> np.ndarray:
+    return x / np.linalg.norm(x, axis=-1, keepdims=True)
+
+
+class DirectSurface(LimitSurface):
+    """Root-finding reference. n_twists: coarse bracketing sphere (default 400).
+
+    rtol: residual tolerance relative to the first-exit distance (scaled units).
+    fd_step: forward-difference step on the twist sphere, rad.
+    """
+
+    method = 'direct'
+
+    def __init__(self, n_twists: int = 400, rtol: float = 1e-12, fd_step: float = 1e-7,
+                 max_iter: int = 40) -> None:
+        super().__init__(n_twists)
+        self.rtol, self.fd_step, self.max_iter = float(rtol), float(fd_step), int(max_iter)
+        self.n_wrench_calls = 0
+
+    def fit(self, problem: GLSProblem, n_twists: int | None = None) -> 'DirectSurface':
+        self.problem = problem
+        if n_twists is not None:
+            self.n_twists = int(n_twists)
+        if self.n_twists < 8:
+            return self._fail_fit(Status.DEGENERATE, 'too_few_twists',
+                                  f'{self.n_twists} bracketing twists cannot triangulate a '
+                                  'sphere (need >= 8; 400 recommended)')
+        self.sphere = TwistSphere.build(self.n_twists)
+        w, why = evaluate_wrenches(problem, self.sphere.twists_raw(problem))
+        if w is None:
+            return self._fail_fit(Status.INVALID_INPUT, 'non_finite_wrench', why)
+        ws = problem.scaling.wrench_to_scaled(w)
+        self._ws = ws
+        self._mesh = prepare_mesh(ws, self.sphere.faces)
+        wind = winding_number(ws, self.sphere.faces)
+        self.fit_info = FitInfo(diagnostics={'n_twists': self.n_twists, 'winding_number': wind})
+        if abs(wind) < 0.5:
+            return self._fail_fit(Status.UNSUPPORTED, 'origin_outside',
+                                  f'origin outside the limit surface (winding {wind:.3f}): the '
+                                  'legs cannot hold the robot in this pose')
+        return self
+
+    # -- the solver ------------------------------------------------------------------------
+    def _eval_scaled(self, ts: np.ndarray) -> np.ndarray:
+        self.n_wrench_calls += 1
+        sc = self.problem.scaling
+        return sc.wrench_to_scaled(self.problem.wrenches(sc.twist_from_scaled(ts)))
+
+    def solve(self, d: np.ndarray, seeds: np.ndarray):
+        """Newton on the sphere from seeds (K, 3). Returns (t, s, resid, J, converged, iters)."""
+        e1 = np.array([-d[1], d[0], 0.0])
+        e2 = np.array([0.0, 0.0, 1.0])
+        proj = np.stack([e1, e2])                          # (2, 3)
+        k = len(seeds)
+        t = _unit(np.asarray(seeds, dtype=float))
+        h = self.fd_step
+        best_t = t.copy()
+        best_r = np.full(k, np.inf)
+        best_step = np.zeros((k, 2))
+        best_uv = (np.zeros((k, 3)), np.zeros((k, 3)))
+        lam = np.ones(k)
+        jac = np.zeros((k, 2, 2))
+        s = np.zeros(k)
+        conv = np.zeros(k, dtype=bool)
+        it = 0
+        for it in range(1, self.max_iter + 1):
+            u, v = _tangent_basis(t)
+            batch = np.concatenate([t, _unit(t + h * u), _unit(t + h * v)])
+            w = self._eval_scaled(batch).reshape(3, k, 3)
+            r = w[0] @ proj.T                              # (k, 2)
+            s_now = w[0] @ d
+            rn = np.linalg.norm(r, axis=1)
+            j_now = np.stack([(w[1] - w[0]) @ proj.T, (w[2] - w[0]) @ proj.T], axis=2) / h
+            improved = rn < best_r
+            # Accept improving points; for the others, halve the last step from the best point.
+            best_r = np.where(improved, rn, best_r)
+            best_t[improved] = t[improved]
+            jac[improved] = j_now[improved]
+            s[improved] = s_now[improved]
+            conv = best_r <= self.rtol * np.maximum(np.abs(s), 1e-3)
+            if np.all(conv):
+                break
+            step = np.zeros((k, 2))
+            for_new = improved & ~conv
+            if np.any(for_new):
+                try:
+                    step_n = -np.linalg.solve(jac[for_new], r[for_new][..., None])[..., 0]
+                except np.linalg.LinAlgError:
+                    step_n = -np.einsum('kij,kj->ki', np.linalg.pinv(jac[for_new]), r[for_new])
+                nrm = np.linalg.norm(step_n, axis=1, keepdims=True)
+                step_n *= np.minimum(1.0, 0.3 / np.maximum(nrm, 1e-300))  # trust region, rad
+                step[for_new] = step_n
+                best_step[for_new] = step_n
+                bu, bv = best_uv
+                bu[for_new], bv[for_new] = u[for_new], v[for_new]
+                lam[for_new] = 1.0
+            back = ~improved & ~conv
+            lam[back] *= 0.5
+            bu, bv = best_uv
+            full = lam[:, None] * best_step
+            t_next = _unit(best_t + full[:, :1] * bu + full[:, 1:] * bv)
+            t = np.where(conv[:, None], best_t, t_next)
+            if np.all(conv | (lam < 1e-6)):
+                break
+        return best_t, s, best_r, jac, conv, it
+
+    def _capacity(self, phi: float) -> CapacityResult:
+        pr = self.problem
+        d = pr.load_direction_scaled(phi)
+        s_c, faces, bary = all_hits(self._mesh, d)
+        calls0 = self.n_wrench_calls
+        if len(s_c) == 0:
+            return CapacityResult.make(phi, Status.DEGENERATE, self.method, None, n_hits=0,
+                                       reason='no_hit', detail='coarse mesh: ray never exits')
+        ts = self.sphere.twists_scaled
+        tri = self.sphere.faces[faces]                                 # (H, 3)
+        # Seeds: the barycentric twist of every coarse crossing plus the three vertex twists
+        # of its face (close crossings of a fold can swap roots; extra seeds find them all).
+        seeds = np.concatenate([_unit(np.einsum('hk,hkj->hj', bary, ts[tri])),
+                                ts[tri].reshape(-1, 3)])
+        group = np.concatenate([np.arange(len(s_c)), np.repeat(np.arange(len(s_c)), 3)])
+        t, s, res, jac, conv, iters = self.solve(d, seeds)
+        sf = pr.scaling.force_N
+        valid = conv & (s > 0.0)
+        calls = self.n_wrench_calls - calls0
+        roots = np.unique(np.round(s[valid] / (1e-7 * max(float(s_c[-1]), 1e-300))))
+        base = (f'coarse crossings {len(s_c)}, distinct roots {len(roots)}, iterations {iters}, '
+                f'wrench calls {calls}')
+        if not np.any(valid & (group == 0)) or not np.any(valid):
+            return CapacityResult.make(
+                phi, Status.DEGENERATE, self.method, float(s_c[0]) * sf, n_hits=len(s_c),
+                reason='no_root',
+                detail=base + '; no twist maps onto the ray at the first crossing (a jump or '
+                       'pinch in the twist-wrench map); unchecked value from the coarse mesh')
+        # First exit: the smallest root found from any seed.
+        k0 = int(np.flatnonzero(valid)[np.argmin(s[valid])])
+        s0, t0 = float(s[k0]), t[k0]
+        sv = np.linalg.svd(jac[k0], compute_uv=False)
+        detail = (base + f'; residual {res[k0]:.1e}, Jacobian singular values {sv[0]:.3g}, '
+                  f'{sv[1]:.3g}')
+        # Other roots at the same distance with a different twist: not one-to-one.
+        same = valid & (np.abs(s - s0) <= 1e-7 * s0)
+        ang = np.arccos(np.clip(t[same] @ t0, -1.0, 1.0))
+        if np.any(ang > 1e-4) or sv[1] < 1e-6 * max(sv[0], 1e-300):
+            return CapacityResult.make(
+                phi, Status.DEGENERATE, self.method, s0 * sf, t0, pr.scaling,
+                n_hits=len(roots), reason='non_unique_twist',
+                detail=detail + '; several twists give the first-exit wrench')
+        return CapacityResult.make(phi, Status.OK, self.method, s0 * sf, t0, pr.scaling,
+                                   n_hits=len(roots), detail=detail)
