@@ -33,6 +33,8 @@ METHODS = {
 }
 DEFAULT_METHOD = 'twist-mesh'
 DEFAULT_TWISTS = 1000
+# direct needs the sphere only to bracket the ray (Newton does the rest): fewer twists.
+DEFAULT_TWISTS_BY_METHOD = {'direct': 400}
 
 
 def surface_class(method: str) -> type[LimitSurface]:
@@ -56,25 +58,30 @@ class AnchorModel:
 
     robot, medium: what is anchored where. model: RFT stress model name. method: limit
     surface representation ('twist-mesh' default; 'direct' is the reference). n_twists:
-    sampled unit twists per state. backend: RFT engine backend ('auto', 'numpy', 'numba').
+    sampled unit twists per state (default 1000; 400 for direct, which only brackets with
+    them). backend: RFT engine backend ('auto', 'numpy', 'numba').
     """
 
     def __init__(self, robot: RobotModel, medium: Medium, model: str = 'agarwal',
-                 method: str = DEFAULT_METHOD, n_twists: int = DEFAULT_TWISTS,
-                 backend: str = 'auto'):
+                 method: str = DEFAULT_METHOD, n_twists: int | None = None,
+                 backend: str = 'auto', surface_options: dict | None = None):
         self.robot = robot
         self.medium = medium
         self.stress_model = make_model(model, medium)
         self.method = method
         self.surface_cls = surface_class(method)
+        if n_twists is None:
+            n_twists = DEFAULT_TWISTS_BY_METHOD.get(method, DEFAULT_TWISTS)
         self.n_twists = int(n_twists)
         self.backend = backend
+        self.surface_options = dict(surface_options or {})
         self.scaling = Scaling(force_N=robot.mass * G, length_m=robot.char_length)
 
     def describe(self) -> dict:
         return {'robot': self.robot.describe(), 'medium': self.medium.to_dict(),
                 'rft_model': self.stress_model.describe(), 'method': self.method,
-                'n_twists': self.n_twists, 'scaling': {'force_N': self.scaling.force_N,
+                'n_twists': self.n_twists, 'surface_options': self.surface_options,
+                'scaling': {'force_N': self.scaling.force_N,
                                                        'length_m': self.scaling.length_m}}
 
     def pose(self, state: AnchorState, pull: Pull | str) -> PosedAnchor:
@@ -90,7 +97,7 @@ class AnchorModel:
 
     def new_surface(self) -> LimitSurface:
         # The twist-sphere connectivity is cached per twist count, so every state reuses it.
-        return self.surface_cls(n_twists=self.n_twists)
+        return self.surface_cls(n_twists=self.n_twists, **self.surface_options)
 
     def fit(self, state: AnchorState, pull: Pull | str) -> tuple[LimitSurface | None,
                                                                  CapacityResult | None]:
@@ -102,7 +109,31 @@ class AnchorModel:
         if anchor.body.facets_active == 0:
             return None, self._fail(Status.UNSUPPORTED, 'no_buried_leg',
                                     f'no leg facet is below the surface (h = {state.h:.4f} m)')
-        return self.new_surface().fit(anchor.problem), None
+        surface = self.new_surface()
+        if self.method in ('alpha', 'ellipsoid') and self.n_twists >= 8:
+            return self._fit_on_sphere_samples(surface, anchor.problem)
+        return surface.fit(anchor.problem), None
+
+    def _fit_on_sphere_samples(self, surface: LimitSurface, problem: GLSProblem):
+        """Alpha shapes and ellipsoids smooth over the cloud, and both can swallow the origin
+        when the legs cannot carry the robot (seen: the paper's median alpha fills the dent
+        the origin sits in). Whether the weight is held is decided on the samples themselves:
+        the winding number of the twist-sphere mesh about the origin, as twist-mesh does."""
+        from .surfaces.raycast import winding_number
+        from .surfaces.twist_mesh import TwistSphere
+
+        sphere = TwistSphere.build(self.n_twists)
+        wrenches = problem.wrenches(sphere.twists_raw(problem))
+        if not np.all(np.isfinite(wrenches)):
+            return surface.fit(problem), None  # the surface reports the non-finite wrenches
+        wind = winding_number(problem.scaling.wrench_to_scaled(wrenches), sphere.faces)
+        if abs(wind) < 0.5:
+            return None, self._fail(Status.UNSUPPORTED, 'origin_outside',
+                                    f'origin outside the sampled limit surface (winding '
+                                    f'{wind:.3f}): the legs cannot hold the robot in this pose')
+        if self.method == 'alpha':
+            return surface.fit_samples(problem, sphere.twists_scaled, wrenches), None
+        return surface.fit_wrenches(problem, wrenches), None
 
     def predict_many(self, state: AnchorState, phis, pull: Pull | str) -> list[CapacityResult]:
         """Capacity and slip twist for several pull angles (rad) of one state."""

@@ -84,8 +84,31 @@ def bench_rft() -> list[Figure]:
     return figures
 
 
-# Later sections register themselves here (surfaces, maps, nodes).
-SECTIONS: dict[str, Callable[[], list[Figure]]] = {'rft': bench_rft}
+def bench_capacity() -> list[Figure]:
+    """Per limit-surface method on the MiniRQuad DH pose: from scratch (pose, RFT, fit, one
+    query) and the query alone on a fitted surface."""
+    from .anchor import METHODS, AnchorModel
+
+    robot, medium = minirquad(), get_medium('m90_sand')
+    figures = []
+    for method in METHODS:
+        model = AnchorModel(robot, medium, method=method)
+        scratch = best_time(lambda: model.predict(TYPICAL_STATE, 0.0, Pull.BACKWARD), repeats=5)
+        surface, _ = model.fit(TYPICAL_STATE, Pull.BACKWARD)
+        query = best_time(lambda: surface.capacity(0.0), repeats=5)
+        key = method.replace('-', '_')
+        budget = '<= 10' if method == 'direct' else ''
+        name = 'capacity_direct_ms' if method == 'direct' else f'capacity_{key}_ms'
+        figures.append(Figure(name, 1e3 * scratch, 'ms', budget=budget,
+                              note=f'from scratch, {model.n_twists} twists'))
+        figures.append(Figure(f'fit_{key}_ms', 1e3 * (scratch - query), 'ms',
+                              note='pose + RFT + fit'))
+        figures.append(Figure(f'query_{key}_us', 1e6 * query, 'us', note='one tether angle'))
+    return figures
+
+
+# Sections in run order; maps and nodes register theirs where they live.
+SECTIONS: dict[str, Callable[[], list[Figure]]] = {'rft': bench_rft, 'capacity': bench_capacity}
 
 
 def run_all(only: list[str] | None = None, progress: Callable[[str], None] | None = None

@@ -43,7 +43,8 @@ def add_parser(sub) -> None:
                        'm/s and rad/s scaled to unit Euclidean norm.')
     add_state_args(p)
     p.add_argument('--method', choices=list(METHODS) + ['map'], default='twist-mesh')
-    p.add_argument('--twists', type=int, default=DEFAULT_TWISTS, help='sampled unit twists')
+    p.add_argument('--twists', type=int, default=None,
+                   help=f'sampled unit twists (default {DEFAULT_TWISTS}; 400 for direct)')
     p.add_argument('--map', help='HDF5 map file (with --method map)')
     p.add_argument('--json', action='store_true')
     p.set_defaults(run=run)

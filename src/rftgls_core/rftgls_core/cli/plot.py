@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 
-from ..anchor import DEFAULT_TWISTS, METHODS
+from ..anchor import METHODS
 from ..charts.limit_surface import plot_limit_surface
 from .capacity import add_state_args, model_from_args, state_from_args
 
@@ -12,7 +12,7 @@ def add_parser(sub) -> None:
     p = sub.add_parser('plot', help='plot the limit surface and capacity of one pose (PNG)')
     add_state_args(p)
     p.add_argument('--method', choices=list(METHODS), default='twist-mesh')
-    p.add_argument('--twists', type=int, default=DEFAULT_TWISTS)
+    p.add_argument('--twists', type=int, default=None)
     p.add_argument('--out', required=True, help='PNG file to write')
     p.set_defaults(run=run)
 

@@ -102,6 +102,29 @@ class AlphaCriteria:
         return float(np.median(p)) if len(p) else float('nan')
 
 
+def _absorb_slivers(radii: np.ndarray, neighbors: np.ndarray) -> np.ndarray:
+    """Give each flat tetrahedron (R = inf) the smallest radius of its neighbours.
+
+    A sliver has no volume, so it joins the solid together with a neighbour; left at
+    R = inf it would stay outside at every alpha and count as an enclosed void forever (seen
+    on real RFT clouds: one sliver made the paper's rule find no passing alpha at all).
+    """
+    r = radii.copy()
+    bad = np.flatnonzero(~np.isfinite(r))
+    if len(bad) == 0:
+        return r
+    finite_max = float(np.max(r[np.isfinite(r)], initial=1.0))
+    for _ in range(4):  # slivers next to slivers: propagate a few times
+        nb = neighbors[bad]
+        nb_r = np.where(nb >= 0, r[np.maximum(nb, 0)], np.inf)
+        r[bad] = nb_r.min(axis=1)
+        bad = np.flatnonzero(~np.isfinite(r))
+        if len(bad) == 0:
+            break
+    r[bad] = finite_max
+    return r
+
+
 class AlphaComplex:
     """Delaunay tetrahedra of a (scaled, de-duplicated) point cloud and their circumradii."""
 
@@ -120,7 +143,7 @@ class AlphaComplex:
             self.tri = Delaunay(self.points, qhull_options='QJ')
         self.simplices = self.tri.simplices
         self.neighbors = self.tri.neighbors
-        self.radii = circumradii(self.points, self.simplices)
+        self.radii = _absorb_slivers(circumradii(self.points, self.simplices), self.tri.neighbors)
         t = len(self.simplices)
         i = np.repeat(np.arange(t), 4)
         j = self.neighbors.ravel()

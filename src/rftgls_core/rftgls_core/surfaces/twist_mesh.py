@@ -26,6 +26,7 @@ from ..types import Status
 from .base import (CapacityResult, FitInfo, GLSProblem, LimitSurface, evaluate_wrenches,
                    phis_array)
 from .diagnostics import collapsed_vertices, face_normals, fold_mask
+from .newton import newton_on_sphere
 from .raycast import PreparedMesh, cast_rays, prepare_mesh, winding_number
 from .sampling import fibonacci_sphere
 
@@ -89,10 +90,12 @@ class TwistMeshSurface(LimitSurface):
     method = 'twist-mesh'
 
     def __init__(self, n_twists: int = 2000, sphere: TwistSphere | None = None,
-                 pinch_ratio: float = 1e-3) -> None:
+                 pinch_ratio: float = 1e-3, polish: bool = True, gap_tol: float = 2e-3) -> None:
         super().__init__(n_twists if sphere is None else sphere.n)
         self.sphere = sphere
         self.pinch_ratio = float(pinch_ratio)
+        self.polish = bool(polish)
+        self.gap_tol = float(gap_tol)
         self.wrenches_scaled: np.ndarray | None = None
         self._mesh: PreparedMesh | None = None
 
@@ -189,6 +192,33 @@ class TwistMeshSurface(LimitSurface):
                 status, reason = Status.DEGENERATE, 'non_unique_twist'
                 detail += ('; the hit face touches a pinch where many twists give one wrench: '
                            'the slip twist is not determined')
+            if status is Status.OK and self.polish:
+                cap, tw, detail = self._polish(phi, f, tw, cap, detail)
             out.append(CapacityResult.make(phi, status, self.method, cap, tw, problem.scaling,
                                            n_hits=nh, reason=reason, detail=detail))
         return out
+
+    def _polish(self, phi: float, face: int, seed: np.ndarray, cap: float, detail: str):
+        """Move the hit from the flat facet onto the true surface (Newton from its twist).
+
+        Facets are chords: on real RFT surfaces, whose wrench density varies strongly over the
+        twist sphere, the chord sits up to ~20 % inside the surface at 1,000 twists. A few
+        Newton steps from the barycentric twist remove that error; a root is accepted only
+        near the hit face (the mesh keeps the topology decisions: first exit, folds).
+        """
+        problem = self.problem
+        sc = problem.scaling
+        d = problem.load_direction_scaled(phi)
+        eval_scaled = lambda ts: sc.wrench_to_scaled(problem.wrenches(sc.twist_from_scaled(ts)))
+        corners = self.sphere.twists_scaled[self.sphere.faces[face]]
+        seeds = np.vstack([seed, corners])  # the corners too: steep maps defeat a single seed
+        t, s, res, _, conv, iters = newton_on_sphere(eval_scaled, d, seeds, max_iter=40)
+        reach = 3.0 * float(np.arccos(np.clip(corners @ seed, -1.0, 1.0)).max()) + 1e-3
+        near = np.arccos(np.clip(t @ seed, -1.0, 1.0)) <= reach
+        ok = (conv | (res <= self.gap_tol * np.abs(s))) & (s > 0.0) & near
+        if not np.any(ok):
+            return cap, seed, detail + '; not polished (no root near the hit face: mesh value)'
+        k = int(np.flatnonzero(ok)[np.argmin(s[ok])])  # first exit among the local roots
+        cap_polished = float(s[k]) * sc.force_N
+        return cap_polished, t[k], detail + (f'; polished in {iters} steps (mesh chord '
+                                             f'{cap:.4g} N, residual {res[k]:.1e})')

@@ -1,0 +1,169 @@
+"""Speed against accuracy: every method measured against `direct` over a spread of states.
+
+A *configuration* is (method, twist count, leg mesh resolution). For each state (random but
+seeded, inside the robot's map ranges), both pull orientations and a few tether angles, it
+records the capacity, slip twist, status and the time to answer from scratch (pose, RFT,
+fit, query). Errors are taken against `direct` on the finest leg mesh (the reference), and,
+for the acceptance numbers of each method, against `direct` on the same mesh.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from .anchor import AnchorModel
+from .rft.media import get_medium
+from .robots.presets import LEG_ARC_SEGMENTS, get_robot
+from .types import AnchorState, Pull
+
+# Ranges the states are drawn from (SI): the prototype's paper grid and a box around the
+# MiniRQuad anchors of Table II.
+STATE_RANGES = {
+    'prototype': {'h': (0.005, 0.030), 'theta_b': (-20, 20), 'theta_l1': (-40, 40),
+                  'theta_l2': (-40, 40)},
+    'minirquad': {'h': (0.025, 0.055), 'theta_b': (-5, 15), 'theta_l1': (-60, 0),
+                  'theta_l2': (-20, 40)},
+}
+MEDIUM = {'prototype': 'glass_beads', 'minirquad': 'm90_sand'}
+PHIS_DEG = (0.0, -20.0)
+REFERENCE_ARC = 48
+
+
+@dataclass(frozen=True)
+class Config:
+    method: str
+    n_twists: int
+    n_arc: int = LEG_ARC_SEGMENTS
+    polish: bool = True     # twist-mesh only: Newton polish of the facet hit
+
+    @property
+    def label(self) -> str:
+        raw = '' if self.polish or self.method != 'twist-mesh' else ' mesh-only'
+        return f'{self.method}{raw} N={self.n_twists} arc={self.n_arc}'
+
+    @property
+    def options(self) -> dict:
+        return {'polish': self.polish} if self.method == 'twist-mesh' else {}
+
+
+DEFAULT_CONFIGS = (
+    [Config('twist-mesh', n) for n in (100, 250, 500, 1000, 2000)]
+    + [Config('twist-mesh', n, polish=False) for n in (500, 1000, 2000, 4000)]
+    + [Config('twist-mesh', 1000, a) for a in (8, 12, 16)]
+    + [Config('direct', 1000, a) for a in (8, 12, 16, LEG_ARC_SEGMENTS)]
+    + [Config('ellipsoid', n) for n in (500, 2000)]
+    + [Config('alpha', n) for n in (1000, 2000)]
+)
+
+
+def sample_states(robot: str, n: int, seed: int = 0) -> list[AnchorState]:
+    rng = np.random.default_rng(seed)
+    r = STATE_RANGES[robot]
+    out = []
+    for _ in range(n):
+        out.append(AnchorState(rng.uniform(*r['h']),
+                               *(math.radians(rng.uniform(*r[k]))
+                                 for k in ('theta_b', 'theta_l1', 'theta_l2'))))
+    return out
+
+
+@dataclass(frozen=True)
+class Record:
+    robot: str
+    config: str
+    method: str
+    n_twists: int
+    n_arc: int
+    state: tuple
+    pull: str
+    phi_deg: float
+    status: str
+    capacity_N: float | None
+    twist: tuple | None
+    seconds: float          # pose + RFT + fit + one query, from scratch
+
+
+def run_config(robot: str, config: Config, states, phis_deg=PHIS_DEG) -> list[Record]:
+    model = AnchorModel(get_robot(robot, config.n_arc), get_medium(MEDIUM[robot]),
+                        method=config.method, n_twists=config.n_twists,
+                        surface_options=config.options)
+    model.predict(states[0], 0.0, Pull.BACKWARD)  # warm caches (JIT, twist sphere)
+    out = []
+    for state in states:
+        for pull in Pull:
+            for phi in phis_deg:
+                t0 = time.perf_counter()
+                res = model.predict(state, math.radians(phi), pull)
+                dt = time.perf_counter() - t0
+                out.append(Record(robot, config.label, config.method, config.n_twists,
+                                  config.n_arc, state.as_tuple(), pull.value, phi,
+                                  res.status.value, res.capacity_N, res.slip_twist_scaled, dt))
+    return out
+
+
+def twist_angle_deg(a, b) -> float:
+    c = float(np.clip(np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b)), -1.0, 1.0))
+    return math.degrees(math.acos(c))
+
+
+@dataclass(frozen=True)
+class Summary:
+    config: str
+    method: str
+    n_twists: int
+    n_arc: int
+    time_ms_median: float
+    compared: int            # queries where both sides carry a value
+    status_mismatch: int     # queries where only one side carries a value
+    cap_err_pct_mean: float
+    cap_err_pct_p95: float
+    cap_err_pct_worst: float
+    cap_err_N_worst: float
+    cap_over_pct_worst: float    # largest overestimate (positive = above the reference)
+    twist_err_deg_mean: float
+    twist_err_deg_p95: float
+    twist_err_deg_worst: float
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def summarise(records: list[Record], reference: list[Record]) -> Summary:
+    """Errors of `records` against `reference` (same states, pulls and angles, same order)."""
+    cap_pct, cap_n, over, tw = [], [], [], []
+    mismatch = 0
+    for r, ref in zip(records, reference, strict=True):
+        assert (r.state, r.pull, r.phi_deg) == (ref.state, ref.pull, ref.phi_deg)
+        if (r.capacity_N is None) != (ref.capacity_N is None):
+            mismatch += 1
+            continue
+        if r.capacity_N is None:
+            continue
+        diff = r.capacity_N - ref.capacity_N
+        scale = max(ref.capacity_N, 1e-9)
+        cap_pct.append(100 * abs(diff) / scale)
+        over.append(100 * diff / scale)
+        cap_n.append(abs(diff))
+        tw.append(twist_angle_deg(r.twist, ref.twist))
+    stat = lambda a, f: float(f(a)) if a else math.nan
+    times = [r.seconds for r in records]
+    r0 = records[0]
+    return Summary(r0.config, r0.method, r0.n_twists, r0.n_arc,
+                   1e3 * float(np.median(times)), len(cap_pct), mismatch,
+                   stat(cap_pct, np.mean), stat(cap_pct, lambda a: np.percentile(a, 95)),
+                   stat(cap_pct, np.max), stat(cap_n, np.max), stat(over, np.max),
+                   stat(tw, np.mean), stat(tw, lambda a: np.percentile(a, 95)), stat(tw, np.max))
+
+
+def pareto_front(points: list[tuple[float, float]]) -> list[int]:
+    """Indices of points no other point beats in both time and error (lower is better)."""
+    order = sorted(range(len(points)), key=lambda i: (points[i][0], points[i][1]))
+    front, best = [], math.inf
+    for i in order:
+        if points[i][1] < best:
+            front.append(i)
+            best = points[i][1]
+    return front

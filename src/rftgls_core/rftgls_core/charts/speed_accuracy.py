@@ -1,0 +1,48 @@
+"""The speed/accuracy chart: time per query against error, one point per configuration."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from ..accuracy import Summary, pareto_front
+
+COLORS = {'twist-mesh': 'tab:blue', 'direct': 'tab:green', 'alpha': 'tab:purple',
+          'ellipsoid': 'tab:orange', 'map': 'tab:red'}
+
+
+def plot_speed_accuracy(summaries: list[Summary], out: str | Path, title: str = '') -> None:
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(13, 5.5))
+    panels = (('cap_err_pct_p95', 'capacity error, 95th percentile [%]'),
+              ('twist_err_deg_p95', 'slip-twist error, 95th percentile [deg, scaled metric]'))
+    for ax, (key, label) in zip(axes, panels):
+        pts = [(s.time_ms_median, getattr(s, key)) for s in summaries]
+        ok = [i for i, p in enumerate(pts) if math.isfinite(p[1])]
+        floor = 1e-4
+        for i in ok:
+            s = summaries[i]
+            y = max(pts[i][1], floor)
+            ax.scatter(pts[i][0], y, color=COLORS.get(s.method, 'k'), s=36, zorder=3)
+            ax.annotate(f'{s.method}\nN={s.n_twists} arc={s.n_arc}', (pts[i][0], y),
+                        fontsize=6, xytext=(3, 3), textcoords='offset points')
+        front = [ok[j] for j in pareto_front([pts[i] for i in ok])]
+        fx = [pts[i][0] for i in front]
+        fy = [max(pts[i][1], floor) for i in front]
+        ax.step(fx, fy, where='post', color='k', lw=1, ls='--', label='Pareto front')
+        ax.set_xscale('log')
+        ax.set_yscale('log')
+        ax.set_xlabel('time per query from scratch [ms] (pose + RFT + fit + query)')
+        ax.set_ylabel(label)
+        ax.grid(True, which='both', alpha=0.3)
+        for m, c in COLORS.items():
+            if any(s.method == m for s in summaries):
+                ax.scatter([], [], color=c, label=m)
+        ax.legend(fontsize=8)
+    fig.suptitle(title or 'speed against accuracy (reference: direct on the finest leg mesh)')
+    fig.tight_layout()
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,67 @@
+"""`rftgls chart speed-accuracy`: time per query against error for every method and resolution."""
+from __future__ import annotations
+
+import csv
+import json
+import sys
+from pathlib import Path
+
+from .. import accuracy as acc
+from ..charts.speed_accuracy import plot_speed_accuracy
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser('chart', help='charts: speed-accuracy')
+    p.add_argument('kind', choices=['speed-accuracy'])
+    p.add_argument('--out', required=True, help='PNG file; the numbers go next to it (.csv, .json)')
+    p.add_argument('--states', type=int, default=10, help='random states per robot')
+    p.add_argument('--robots', nargs='+', default=['prototype', 'minirquad'],
+                   choices=sorted(acc.STATE_RANGES))
+    p.add_argument('--seed', type=int, default=0)
+    p.add_argument('--quick', action='store_true', help='fewer configurations (for tests)')
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    from tqdm import tqdm
+
+    configs = list(acc.DEFAULT_CONFIGS)
+    if args.quick:
+        configs = [acc.Config('twist-mesh', 500), acc.Config('twist-mesh', 1000),
+                   acc.Config('ellipsoid', 500), acc.Config('direct', 1000, 12)]
+    reference_cfg = acc.Config('direct', 1000, acc.REFERENCE_ARC)
+    same_mesh_ref = acc.Config('direct', 1000)
+    records: dict = {}
+    jobs = [(r, c) for r in args.robots for c in [reference_cfg, same_mesh_ref] + configs]
+    jobs = list(dict.fromkeys(jobs))
+    states = {r: acc.sample_states(r, args.states, args.seed) for r in args.robots}
+    for robot, cfg in tqdm(jobs, desc='speed/accuracy', unit='config', file=sys.stderr):
+        records[(robot, cfg)] = acc.run_config(robot, cfg, states[robot])
+    summaries, rows = [], []
+    for cfg in configs:
+        recs = [x for r in args.robots for x in records[(r, cfg)]]
+        ref = [x for r in args.robots for x in records[(r, reference_cfg)]]
+        same = [x for r in args.robots for x in records[(r, same_mesh_ref)]]
+        s = acc.summarise(recs, ref)
+        s_same = acc.summarise(recs, same)
+        summaries.append(s)
+        rows.append({**s.to_dict(), **{f'same_mesh_{k}': v for k, v in s_same.to_dict().items()
+                                       if k.startswith(('cap_', 'twist_', 'status_', 'compared'))}})
+    out = Path(args.out)
+    plot_speed_accuracy(summaries, out)
+    with open(out.with_suffix('.csv'), 'w', newline='') as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    out.with_suffix('.json').write_text(json.dumps(
+        {'states_per_robot': args.states, 'robots': args.robots, 'seed': args.seed,
+         'reference': reference_cfg.label, 'rows': rows}, indent=2))
+    print(f'{"configuration":<34}{"ms":>8}{"cap p95 %":>11}{"cap worst %":>12}'
+          f'{"over %":>8}{"twist p95":>10}{"worst":>8}{"n/mis":>8}')
+    for r in rows:
+        print(f'{r["config"]:<34}{r["time_ms_median"]:>8.2f}{r["cap_err_pct_p95"]:>11.3f}'
+              f'{r["cap_err_pct_worst"]:>12.3f}{r["cap_over_pct_worst"]:>8.2f}'
+              f'{r["twist_err_deg_p95"]:>10.2f}{r["twist_err_deg_worst"]:>8.2f}'
+              f'{r["compared"]:>5}/{r["status_mismatch"]}')
+    print(f'wrote {out}, {out.with_suffix(".csv")}, {out.with_suffix(".json")}')
+    return 0

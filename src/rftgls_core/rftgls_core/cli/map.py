@@ -1,0 +1,200 @@
+"""`rftgls map`: build, inspect and check precomputed capacity maps (HDF5, see maps/hdf5.py).
+
+    rftgls map build --robot NAME --medium NAME --out FILE.h5 [grid options] [--workers N]
+                     [--scheduler ADDRESS]
+    rftgls map info FILE [--json]
+    rftgls map accuracy FILE [--samples N] [--reference direct] [--json]
+
+Grid options take mm (h) and degrees (angles) as 'start:step:stop' (inclusive) or 'a,b,c';
+write negative values with '=' (--theta-l1=-40:20:40). Missing axes come from the robot's
+default grid (maps/grid.py).
+"""
+from __future__ import annotations
+
+import math
+import os
+import shlex
+
+import numpy as np
+
+from ..anchor import DEFAULT_METHOD, DEFAULT_TWISTS, METHODS
+from ..robots.presets import ROBOTS
+from .common import add_medium_args, medium_from_args, print_json
+
+GRID_FLAGS = (('h', 'h_mm', 'MM'), ('theta_b', 'theta_b_deg', 'DEG'),
+              ('theta_l1', 'theta_l1_deg', 'DEG'), ('theta_l2', 'theta_l2_deg', 'DEG'),
+              ('phi', 'phi_deg', 'DEG'))
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser('map', help='build / inspect precomputed capacity maps',
+                       description='State-space maps of load capacity and slip twist over '
+                       '(h, thetaB, thetaL1, thetaL2) and pull angles (HDF5).')
+    msub = p.add_subparsers(dest='map_command', required=True, metavar='ACTION')
+
+    b = msub.add_parser('build', help='compute a map and write it to an HDF5 file')
+    b.add_argument('--robot', required=True, choices=sorted(ROBOTS))
+    add_medium_args(b)
+    b.add_argument('--method', default=DEFAULT_METHOD, choices=sorted(METHODS),
+                   help='limit-surface method (default: %(default)s)')
+    b.add_argument('--n-twists', type=int, default=DEFAULT_TWISTS,
+                   help='twists sampled per state (default: %(default)s)')
+    b.add_argument('--out', required=True, help='output .h5 file (overwritten)')
+    g = b.add_argument_group('grid (mm and degrees; default: the robot\'s grid)')
+    g.add_argument('--h', dest='h_mm', metavar='MM', help="winch-point height, e.g. 5:5:30")
+    g.add_argument('--theta-b', dest='theta_b_deg', metavar='DEG', help='body pitch, e.g. -20:10:20')
+    g.add_argument('--theta-l1', dest='theta_l1_deg', metavar='DEG', help='proximal leg angle')
+    g.add_argument('--theta-l2', dest='theta_l2_deg', metavar='DEG', help='distal leg angle')
+    g.add_argument('--phi', dest='phi_deg', metavar='DEG',
+                   help='pull angles (default -30:10:10)')
+    g.add_argument('--pulls', default='forward,backward',
+                   help='pull orientations, comma separated (default: %(default)s)')
+    r = b.add_argument_group('execution (does not change the result)')
+    r.add_argument('--workers', type=int, default=None,
+                   help='local worker processes (default: all cores; 1 = no pool)')
+    r.add_argument('--scheduler', default=None, metavar='ADDRESS',
+                   help='Dask distributed scheduler, e.g. tcp://127.0.0.1:8786')
+    r.add_argument('--quiet', action='store_true', help='no progress bar')
+    b.set_defaults(run=run_build)
+
+    i = msub.add_parser('info', help='print the schema summary of a map file')
+    i.add_argument('file')
+    i.add_argument('--json', action='store_true', help='print JSON')
+    i.set_defaults(run=run_info)
+
+    a = msub.add_parser('accuracy', help='map vs. the direct method between nodes')
+    a.add_argument('file')
+    a.add_argument('--samples', type=int, default=20,
+                   help='cell centres and as many random states (default: %(default)s)')
+    a.add_argument('--reference', default='direct', choices=sorted(METHODS),
+                   help='reference method (default: %(default)s)')
+    a.add_argument('--seed', type=int, default=0)
+    a.add_argument('--json', action='store_true', help='print JSON')
+    a.add_argument('--quiet', action='store_true', help='no progress bar')
+    a.set_defaults(run=run_accuracy)
+
+
+def grid_from_args(args):
+    """The robot's default grid with the axes given on the command line replaced."""
+    from ..maps.grid import MapGrid, default_grid, parse_range
+    base = default_grid(args.robot)
+    given = {a: parse_range(getattr(args, d)) for a, d, _ in GRID_FLAGS
+             if getattr(args, d) is not None}
+    # mm and degrees -> SI only for the given axes; default axes stay bit-exact.
+    conv = {a: (v * 1e-3 if a == 'h' else np.radians(v)) for a, v in given.items()}
+    pulls = tuple(p.strip() for p in args.pulls.split(',') if p.strip())
+    return MapGrid(**{a: conv.get(a, getattr(base, a)) for a, _, _ in GRID_FLAGS}, pulls=pulls)
+
+
+def canonical_command(args, medium_name: str) -> str:
+    """A command line that rebuilds the same contents (execution options and --out left out)."""
+    parts = ['rftgls', 'map', 'build', '--robot', args.robot]
+    if args.xi_n is not None or args.mu_surf is not None or args.zeta is not None:
+        for flag, v in (('--xi-n', args.xi_n), ('--mu-surf', args.mu_surf), ('--zeta', args.zeta)):
+            if v is not None:
+                parts += [flag, repr(v)]
+    else:
+        parts += ['--medium', medium_name]
+    parts += ['--model', args.model, '--method', args.method, '--n-twists', str(args.n_twists)]
+    for axis, dest, _ in GRID_FLAGS:
+        if getattr(args, dest) is not None:
+            # '=' form: values like -40:20:40 would otherwise parse as options.
+            parts += [f'--{axis.replace("_", "-")}={getattr(args, dest)}']
+    if args.pulls != 'forward,backward':
+        parts += ['--pulls', args.pulls]
+    return shlex.join(parts)
+
+
+def run_build(args) -> int:
+    from ..maps.build import build_map, status_counts
+    from ..maps.hdf5 import save_map
+    medium = medium_from_args(args)
+    if args.n_twists < 8:
+        raise ValueError(f'--n-twists must be >= 8, got {args.n_twists}')
+    grid = grid_from_args(args)
+    out = os.fspath(args.out)
+    if not out.endswith(('.h5', '.hdf5')):
+        raise ValueError(f'--out must end with .h5 or .hdf5, got {out!r}')
+    data = build_map(args.robot, medium, grid, method=args.method, model=args.model,
+                     n_twists=args.n_twists, workers=args.workers, scheduler=args.scheduler,
+                     progress=not args.quiet, command=canonical_command(args, medium.name))
+    path = save_map(out, data)
+    counts = ', '.join(f'{k} {v}' for k, v in status_counts(data).items())
+    print(f'{path}: {grid.describe()}; answers: {counts}; {path.stat().st_size / 1e3:.0f} kB')
+    return 0
+
+
+def info_dict(path: str) -> dict:
+    from ..maps.build import status_counts
+    from ..maps.grid import AXIS_HUMAN, AXIS_UNITS
+    from ..maps.hdf5 import SCHEMA, SCHEMA_VERSION, load_map
+    data = load_map(path)
+    g = data.grid
+    axes = {}
+    for name in ('h', 'theta_b', 'theta_l1', 'theta_l2', 'phi'):
+        unit, f = AXIS_HUMAN[name]
+        v = getattr(g, name)
+        axes[name] = {'n': int(len(v)), 'units': AXIS_UNITS[name], 'min': float(v[0]),
+                      'max': float(v[-1]), f'values_{unit}': [round(float(x) * f, 6) for x in v]}
+    prov = data.provenance
+    return {'file': str(path), 'size_bytes': os.path.getsize(path), 'schema': SCHEMA,
+            'schema_version': SCHEMA_VERSION, 'robot': data.attrs['robot'],
+            'medium': data.attrs['medium'], 'method': data.attrs['method'],
+            'rft_model': data.attrs['rft_model'], 'n_twists': data.attrs['n_twists'],
+            'scaling': {'force_N': data.attrs['scaling_force_N'],
+                        'length_m': data.attrs['scaling_length_m']},
+            'pulls': list(g.pulls), 'axes': axes, 'n_states': g.n_states,
+            'shape': list(g.shape), 'status_counts': status_counts(data),
+            'reasons': [r for r in data.reason_names if r],
+            'package_version': data.attrs['package_version'],
+            'build_command': data.attrs['build_command'],
+            'build_time_utc': data.attrs.get('build_time_utc', ''),
+            'robot_params': prov.get('robot', {}), 'medium_params': prov.get('medium', {})}
+
+
+def run_info(args) -> int:
+    info = info_dict(args.file)
+    if args.json:
+        print_json(info)
+        return 0
+    print(f"{info['file']}: {info['schema']} v{info['schema_version']}, "
+          f"{info['size_bytes'] / 1e3:.0f} kB")
+    print(f"robot {info['robot']}, medium {info['medium']}, RFT {info['rft_model']}, "
+          f"method {info['method']}, {info['n_twists']} twists, scaling s_F "
+          f"{info['scaling']['force_N']:.4g} N, L_c {info['scaling']['length_m']:.4g} m")
+    for name, ax in info['axes'].items():
+        human = next(k for k in ax if k.startswith('values_'))
+        vals = ' '.join(f'{v:g}' for v in ax[human])
+        print(f"  {name:9s} [{ax['units']}] {ax['n']:2d} nodes: {vals} {human[7:]}")
+    print(f"pulls {', '.join(info['pulls'])}; {info['n_states']} states; array shape "
+          f"{tuple(info['shape'])} (pull, h, theta_b, theta_l1, theta_l2, phi)")
+    print('answers: ' + ', '.join(f'{k} {v}' for k, v in info['status_counts'].items())
+          + (f"; reasons: {', '.join(info['reasons'])}" if info['reasons'] else ''))
+    print(f"built {info['build_time_utc']} by rftgls_core {info['package_version']}: "
+          f"{info['build_command']}")
+    return 0
+
+
+def run_accuracy(args) -> int:
+    from ..maps.accuracy import accuracy_report
+    from ..maps.query import CapacityMap
+    if args.samples < 1:
+        raise ValueError(f'--samples must be >= 1, got {args.samples}')
+    rep = accuracy_report(CapacityMap.load(args.file), samples=args.samples, seed=args.seed,
+                          reference=args.reference, progress=not args.quiet)
+    if args.json:
+        d = rep.to_dict()
+        for k in ('capacity_N', 'capacity_pct', 'twist_deg'):
+            d[k] = {kk: (None if not math.isfinite(v) else v) for kk, v in d[k].items()}
+        print_json(d)
+        return 0
+    print(f'{args.file} vs {rep.reference}: {rep.n_states} states, {rep.n_compared} answers '
+          f'compared, {rep.status_mismatch} status mismatches '
+          f'({rep.map_conservative} where only the reference has a value)')
+    for label, s in (('capacity error [N]', rep.capacity_N), ('capacity error [%]',
+                     rep.capacity_pct), ('slip-twist angle [deg]', rep.twist_deg)):
+        print(f'  {label:24s} mean {s.mean:8.3g}   p95 {s.p95:8.3g}   worst {s.worst:8.3g}')
+    if rep.note:
+        print(f'note: {rep.note}')
+    return 0
+

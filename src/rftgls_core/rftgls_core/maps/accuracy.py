@@ -1,0 +1,122 @@
+"""How well a map reproduces the model between its nodes: map answers vs. a reference method.
+
+Sample states (SI): `samples` cell centres (chosen at random, seeded, among all cells) and
+`samples` uniformly random states inside the grid; pull angles are the midpoints between the
+stored angles (the worst place for linear interpolation in phi). Each state is solved by the
+reference AnchorModel for every pull orientation of the map.
+
+Reference: 'direct' (root-finding, the project's ground truth). If that method cannot be
+built (not finished yet), the report falls back to the map's own method at the map's twist
+count, which measures the interpolation error alone, and says so in `note`.
+
+Errors over answers where BOTH have a value: capacity |map - ref| in N and in % of ref (ref
+> 1e-9 N), slip-twist angle between the unit scaled twists in deg. Answers where exactly one
+side has a value are counted in `status_mismatch` (the map is conservative when it is the
+side without a value).
+"""
+from __future__ import annotations
+
+import sys
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from tqdm import tqdm
+
+from ..anchor import AnchorModel
+from ..robots.presets import get_robot
+from ..types import AnchorState
+from .build import spec_from_map
+from .query import CapacityMap
+
+
+@dataclass(frozen=True)
+class ErrorStats:
+    mean: float
+    p95: float
+    worst: float
+
+    @classmethod
+    def of(cls, x: np.ndarray) -> 'ErrorStats':
+        x = np.asarray(x, dtype=float)
+        if x.size == 0:
+            return cls(float('nan'), float('nan'), float('nan'))
+        return cls(float(np.mean(x)), float(np.percentile(x, 95)), float(np.max(x)))
+
+
+@dataclass(frozen=True)
+class AccuracyReport:
+    reference: str
+    n_states: int
+    n_compared: int
+    status_mismatch: int
+    map_conservative: int          # mismatches where the map has no value and the ref has one
+    capacity_N: ErrorStats
+    capacity_pct: ErrorStats
+    twist_deg: ErrorStats
+    note: str = ''
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def sample_states(grid, samples: int, seed: int = 0) -> np.ndarray:
+    """(M, 4) states: up to `samples` random cell centres, then `samples` random states."""
+    rng = np.random.default_rng(seed)
+    axes = grid.axes
+    n_cells = [len(a) - 1 for a in axes]
+    total = int(np.prod(n_cells))
+    pick = rng.choice(total, size=min(samples, total), replace=False)
+    idx = np.stack(np.unravel_index(np.sort(pick), n_cells), axis=1)
+    centres = np.column_stack([0.5 * (a[idx[:, d]] + a[idx[:, d] + 1])
+                               for d, a in enumerate(axes)])
+    lo = np.array([a[0] for a in axes])
+    hi = np.array([a[-1] for a in axes])
+    randoms = lo + (hi - lo) * rng.random((samples, 4))
+    return np.vstack([centres, randoms])
+
+
+def reference_model(cmap: CapacityMap, reference: str = 'direct') -> tuple[AnchorModel, str]:
+    spec = spec_from_map(cmap.data)
+    kwargs = dict(model=spec.model, n_twists=spec.n_twists, backend=spec.backend)
+    robot = get_robot(spec.robot)
+    try:
+        return AnchorModel(robot, spec.medium, method=reference, **kwargs), ''
+    except (ImportError, AttributeError, ValueError) as exc:
+        note = (f'reference method {reference!r} unavailable ({type(exc).__name__}: {exc}); '
+                f'compared against {spec.method!r} at n_twists={spec.n_twists} instead '
+                '(interpolation error only)')
+        return AnchorModel(robot, spec.medium, method=spec.method, **kwargs), note
+
+
+def accuracy_report(cmap: CapacityMap, samples: int = 20, seed: int = 0,
+                    reference: str = 'direct', progress: bool = False) -> AccuracyReport:
+    """Compare `cmap` with a reference method at 2 x `samples` states (see module doc)."""
+    model, note = reference_model(cmap, reference)
+    states = sample_states(cmap.grid, samples, seed)
+    ph = cmap.phis
+    phis = 0.5 * (ph[:-1] + ph[1:])
+    cap_err, pct_err, ang_err = [], [], []
+    mismatch = conservative = 0
+    for s in tqdm(states, unit='state', file=sys.stderr, desc='accuracy', disable=not progress):
+        state = AnchorState(*map(float, s))
+        for pull in cmap.pulls:
+            refs = model.predict_many(state, phis, pull)
+            for phi, r in zip(phis, refs):
+                m = cmap.query(state, float(phi), pull)
+                if m.ok != r.ok:
+                    mismatch += 1
+                    conservative += int(r.ok and not m.ok)
+                    continue
+                if not m.ok:
+                    continue
+                d = abs(m.capacity_N - r.capacity_N)
+                cap_err.append(d)
+                if r.capacity_N > 1e-9:
+                    pct_err.append(100.0 * d / r.capacity_N)
+                cosang = float(np.clip(np.dot(m.slip_twist_scaled, r.slip_twist_scaled), -1, 1))
+                ang_err.append(float(np.degrees(np.arccos(cosang))))
+    return AccuracyReport(reference=model.method, n_states=len(states),
+                          n_compared=len(cap_err), status_mismatch=mismatch,
+                          map_conservative=conservative, capacity_N=ErrorStats.of(cap_err),
+                          capacity_pct=ErrorStats.of(pct_err), twist_deg=ErrorStats.of(ang_err),
+                          note=note)

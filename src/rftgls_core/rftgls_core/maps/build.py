@@ -1,0 +1,242 @@
+"""Building a capacity map: run the AnchorModel at every grid node, in parallel, deterministically.
+
+Work unit: a chunk of flat state indices (grid.py order). For each state, each pull
+orientation is fitted once and queried at every stored pull angle (predict_many), so a node
+costs P surface fits. Each worker process (or Dask worker thread) builds its AnchorModel once
+and keeps it (`_anchor_model` cache), because the twist sphere and the numba kernels are the
+expensive part to set up.
+
+Determinism: chunks are fixed by the grid and chunk size, results are placed by state index
+(never by completion order), the RFT kernels are serial, and nothing random is drawn, so the
+same inputs give the same arrays on 1 worker, N local workers or a Dask cluster. Only the
+build_time_utc attribute differs between builds.
+
+Executors: workers == 1 runs in this process; workers > 1 uses a 'spawn' process pool (no
+fork of a parent that may hold threads: tqdm's monitor, Dask, ROS); `scheduler` sends the
+same chunks to a Dask distributed scheduler at that address.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import threading
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from typing import Iterator, Sequence
+
+import multiprocessing
+import numpy as np
+
+from .. import __version__
+from ..anchor import DEFAULT_METHOD, DEFAULT_TWISTS, AnchorModel
+from ..rft.media import Medium, get_medium
+from ..robots.presets import get_robot
+from ..types import Status
+from .grid import MapGrid, default_grid
+from .hdf5 import STATUS_NAMES, MapData
+
+
+@dataclass(frozen=True)
+class BuildSpec:
+    """What a worker needs to rebuild the AnchorModel: names and settings only (picklable)."""
+
+    robot: str
+    medium: Medium
+    model: str = 'agarwal'
+    method: str = DEFAULT_METHOD
+    n_twists: int = DEFAULT_TWISTS
+    backend: str = 'auto'
+
+    def anchor_model(self) -> AnchorModel:
+        return AnchorModel(get_robot(self.robot), self.medium, model=self.model,
+                           method=self.method, n_twists=self.n_twists, backend=self.backend)
+
+
+@dataclass(frozen=True)
+class ChunkResult:
+    """Answers for the states `ks`: arrays (len(ks), P, K) (+ (3,)); reasons as strings."""
+
+    ks: np.ndarray
+    capacity_N: np.ndarray
+    slip_twist_scaled: np.ndarray
+    slip_twist: np.ndarray
+    status: np.ndarray
+    reason: list
+
+
+_local = threading.local()   # per thread (Dask runs tasks on threads), per process
+
+
+def _anchor_model(spec: BuildSpec) -> AnchorModel:
+    cache = getattr(_local, 'models', None)
+    if cache is None:
+        cache = _local.models = {}
+    if spec not in cache:
+        cache[spec] = spec.anchor_model()
+    return cache[spec]
+
+
+def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResult:
+    """Run the AnchorModel at the flat state indices ks for every pull and pull angle."""
+    model = _anchor_model(spec)
+    ks = np.asarray(ks, dtype=np.intp)
+    n, P, K = len(ks), len(grid.pulls), len(grid.phi)
+    cap = np.full((n, P, K), np.nan)
+    ts = np.full((n, P, K, 3), np.nan)
+    tr = np.full((n, P, K, 3), np.nan)
+    status = np.zeros((n, P, K), dtype=np.uint8)
+    reason = [[[''] * K for _ in range(P)] for _ in range(n)]
+    for a, k in enumerate(ks.tolist()):
+        state = grid.state(k)
+        for p, pull in enumerate(grid.pulls):
+            for j, r in enumerate(model.predict_many(state, grid.phi, pull)):
+                status[a, p, j] = STATUS_NAMES.index(r.status.value)
+                reason[a][p][j] = r.reason
+                if r.status.has_value:
+                    cap[a, p, j] = r.capacity_N
+                    ts[a, p, j] = r.slip_twist_scaled
+                    tr[a, p, j] = r.slip_twist
+    return ChunkResult(ks, cap, ts, tr, status, reason)
+
+
+def chunk_indices(n_states: int, workers: int, per_worker: int = 8) -> list[np.ndarray]:
+    """Contiguous chunks, about `per_worker` per worker (load balance vs. task overhead)."""
+    size = max(1, math.ceil(n_states / max(1, workers * per_worker)))
+    return [np.arange(s, min(s + size, n_states)) for s in range(0, n_states, size)]
+
+
+def _run_inline(spec, grid, chunks) -> Iterator[ChunkResult]:
+    for c in chunks:
+        yield solve_chunk(spec, grid, c)
+
+
+def _run_pool(spec, grid, chunks, workers) -> Iterator[ChunkResult]:
+    ctx = multiprocessing.get_context('spawn')
+    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+        futures = [pool.submit(solve_chunk, spec, grid, c) for c in chunks]
+        try:
+            for fut in as_completed(futures):
+                yield fut.result()
+        finally:
+            for fut in futures:
+                fut.cancel()
+
+
+def _run_dask(spec, grid, chunks, address: str, timeout_s: float) -> Iterator[ChunkResult]:
+    try:
+        from dask.distributed import Client
+        from dask.distributed import as_completed as dask_completed
+    except ImportError as exc:  # pragma: no cover - dask is in the venv
+        raise ValueError(f'--scheduler needs dask[distributed]: {exc}') from None
+    try:
+        client = Client(address, timeout=timeout_s, set_as_default=False)
+    except (OSError, TimeoutError) as exc:
+        raise OSError(f'cannot reach Dask scheduler {address}: {exc}') from None
+    try:
+        futures = [client.submit(solve_chunk, spec, grid, c, pure=False) for c in chunks]
+        try:
+            for fut in dask_completed(futures):
+                yield fut.result()
+        finally:
+            client.cancel(futures)
+    finally:
+        client.close()
+
+
+def default_workers() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - non-Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
+              method: str = DEFAULT_METHOD, model: str = 'agarwal',
+              n_twists: int = DEFAULT_TWISTS, workers: int | None = None,
+              scheduler: str | None = None, progress: bool = False, command: str = '',
+              backend: str = 'auto', scheduler_timeout_s: float = 30.0) -> MapData:
+    """Compute a map in memory (save it with hdf5.save_map).
+
+    robot: preset name (robots.presets); medium: preset name or a Medium; grid: default_grid
+    for the robot when None; method/model/n_twists/backend: AnchorModel settings;
+    workers: local processes (default: all usable cores; 1 = in this process);
+    scheduler: Dask scheduler address ('tcp://host:port'), overrides workers;
+    progress: tqdm bar on stderr; command: recorded in the file's build_command.
+    """
+    med = get_medium(medium) if isinstance(medium, str) else medium
+    grid = default_grid(robot) if grid is None else grid
+    spec = BuildSpec(robot=get_robot(robot).name, medium=med, model=model, method=method,
+                     n_twists=int(n_twists), backend=backend)
+    probe = spec.anchor_model()   # fail fast (unknown method/model) before any worker starts
+    workers = default_workers() if workers is None else int(workers)
+    if workers < 1:
+        raise ValueError(f'workers must be >= 1, got {workers}')
+    chunks = chunk_indices(grid.n_states, 4 if scheduler else workers)
+    if scheduler:
+        results = _run_dask(spec, grid, chunks, scheduler, scheduler_timeout_s)
+    elif workers == 1 or len(chunks) == 1:
+        results = _run_inline(spec, grid, chunks)
+    else:
+        results = _run_pool(spec, grid, chunks, min(workers, len(chunks)))
+
+    P, K, S = len(grid.pulls), len(grid.phi), grid.n_states
+    cap = np.full((S, P, K), np.nan)
+    ts = np.full((S, P, K, 3), np.nan)
+    tr = np.full((S, P, K, 3), np.nan)
+    status = np.zeros((S, P, K), dtype=np.uint8)
+    reasons = np.empty((S, P, K), dtype=object)
+    from tqdm import tqdm
+    with tqdm(total=S, unit='state', file=sys.stderr, disable=not progress,
+              desc=f'map {spec.robot}/{med.name}', dynamic_ncols=True) as bar:
+        for r in results:
+            cap[r.ks], ts[r.ks], tr[r.ks], status[r.ks] = (r.capacity_N, r.slip_twist_scaled,
+                                                           r.slip_twist, r.status)
+            for a, k in enumerate(r.ks.tolist()):
+                for p in range(P):
+                    reasons[k, p, :] = r.reason[a][p]
+            bar.update(len(r.ks))
+
+    # Sorted table: the reason codes do not depend on completion order.
+    names = tuple(sorted(set(reasons.reshape(-1).tolist()) | {''}))
+    code_of = {n: i for i, n in enumerate(names)}
+    reason = np.vectorize(code_of.__getitem__, otypes=[np.uint8])(reasons)
+
+    def arrange(a: np.ndarray) -> np.ndarray:
+        # (S, P, K, ...) -> (P, Nh, Nb, N1, N2, K, ...)
+        a = np.moveaxis(a, 1, 0)
+        return a.reshape((P,) + grid.state_shape + a.shape[2:])
+
+    describe = probe.describe()
+    attrs = {'robot': spec.robot, 'medium': med.name, 'method': method,
+             'rft_model': probe.stress_model.name, 'n_twists': int(n_twists),
+             'scaling_force_N': float(probe.scaling.force_N),
+             'scaling_length_m': float(probe.scaling.length_m),
+             'package_version': __version__, 'build_command': command,
+             'provenance_json': json.dumps({**describe, 'backend': backend}, sort_keys=True),
+             'build_time_utc': datetime.now(timezone.utc).isoformat(timespec='seconds')}
+    return MapData(grid=grid, capacity_N=arrange(cap).astype(np.float32),
+                   slip_twist_scaled=arrange(ts).astype(np.float32),
+                   slip_twist=arrange(tr).astype(np.float32),
+                   status=arrange(status), reason=arrange(reason), reason_names=names,
+                   attrs=attrs)
+
+
+def spec_from_map(data: MapData) -> BuildSpec:
+    """The BuildSpec recorded in a map's provenance (to rebuild nodes for checking)."""
+    prov = json.loads(data.attrs['provenance_json'])
+    return BuildSpec(robot=data.attrs['robot'], medium=Medium(**prov['medium']),
+                     model=data.attrs['rft_model'], method=data.attrs['method'],
+                     n_twists=int(data.attrs['n_twists']), backend=prov.get('backend', 'auto'))
+
+
+def status_counts(data: MapData) -> dict[str, int]:
+    """How many answers have each status (for `map info` and build summaries)."""
+    counts = np.bincount(data.status.reshape(-1), minlength=len(STATUS_NAMES))
+    return {STATUS_NAMES[i]: int(c) for i, c in enumerate(counts) if c}
+
+
+__all__ = ['BuildSpec', 'ChunkResult', 'build_map', 'solve_chunk', 'chunk_indices',
+           'spec_from_map', 'status_counts', 'default_workers', 'Status']

@@ -1,0 +1,326 @@
+"""`CapacityMap`: capacity and slip twist at any anchor state from a precomputed map.
+
+Interpolation (5-linear): over the four state axes (h, theta_b, theta_l1, theta_l2) AND the
+pull angle phi, i.e. up to 32 corners (16 state corners x 2 stored pull angles). Linear in phi
+because capacity and twist vary smoothly with the load direction; a phi equal to a stored angle
+uses that angle only. The pull orientation is not interpolated: it selects a sub-map.
+
+Policies (architecture.md section 5, limit-surfaces.md section 10):
+- Out of grid (any state axis or phi): the coordinate is clamped to the end node and the
+  result is EXTRAPOLATED, reason 'out_of_grid', with the axes named in `detail`.
+- Non-finite state or phi, unknown pull, or a pull orientation the map does not hold:
+  INVALID_INPUT, no value.
+- Conservative cell rule: if ANY corner with nonzero weight has no value (unsupported,
+  degenerate, ...), the answer has no value. Its status is the most conservative status among
+  those corners, in the order UNSUPPORTED > DEGENERATE > INVALID_INPUT > STALE; reason
+  'cell_<status>', and `detail` counts the corners and quotes the node's own reason.
+  A query exactly on a valued node or face never looks at zero-weight neighbours.
+- Twists: the scaled-metric components are blended, then renormalised. The pre-normalisation
+  norm (1 when all corners agree, -> 0 when they oppose) is the twist confidence, always
+  reported in `detail` as 'twist_confidence=0.xxx'; below LOW_CONFIDENCE (0.5) the detail says
+  the neighbouring nodes disagree (a slip-mode switch inside the cell). A norm below 1e-9
+  (twists cancel) gives DEGENERATE 'twist_cancels'.
+- Capacity is clamped at >= 0 (it already is: a convex blend of non-negative node values).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..surfaces.base import CapacityResult
+from ..types import AnchorState, Pull, Status
+from .grid import AXIS_HUMAN, MapGrid, STATE_AXES
+from .hdf5 import STATUS_NAMES, MapData, load_map
+from .interpolate import corner_offsets, flat_strides, locate, locate_many, weights4
+
+METHOD = 'map'
+LOW_CONFIDENCE = 0.5
+CANCEL_NORM = 1e-9        # below this the blended twist has no direction
+# Most conservative first: a cell touching an unsupported node is reported unsupported.
+BAD_PRIORITY = (Status.UNSUPPORTED, Status.DEGENERATE, Status.INVALID_INPUT, Status.STALE)
+AXIS_NAMES = STATE_AXES + ('phi',)
+_CODE = {s: STATUS_NAMES.index(s.value) for s in Status}
+_STATUS_OF = [Status(n) for n in STATUS_NAMES]
+_RANK = {_CODE[s]: r for r, s in enumerate(BAD_PRIORITY)}
+_RANK_OF_CODE = np.array([_RANK.get(c, len(_RANK)) for c in range(len(STATUS_NAMES))])
+
+
+@dataclass(frozen=True)
+class BatchAnswer:
+    """Vectorised answers for N queries (one pull orientation).
+
+    capacity_N (N,), NaN without value; slip_twist_scaled / slip_twist (N, 3), NaN without
+    value; confidence (N,) pre-normalisation twist norm (NaN without value); status (N,)
+    uint8 codes into hdf5.STATUS_NAMES; out_of_grid (N, 5) bool per axis (h, theta_b,
+    theta_l1, theta_l2, phi).
+    """
+
+    capacity_N: np.ndarray
+    slip_twist_scaled: np.ndarray
+    slip_twist: np.ndarray
+    confidence: np.ndarray
+    status: np.ndarray
+    out_of_grid: np.ndarray
+
+    def statuses(self) -> list[Status]:
+        return [_STATUS_OF[c] for c in self.status]
+
+
+def _describe_side(name: str, x: float, lo: float, hi: float, side: int) -> str:
+    unit, f = AXIS_HUMAN[name]
+    edge = lo if side < 0 else hi
+    word = 'below' if side < 0 else 'above'
+    return f'{name} {x * f:.4g} {unit} {word} grid, clamped to {edge * f:.4g}'
+
+
+class CapacityMap:
+    """A loaded capacity map; `query` is the onboard hot path (pure Python, ~10 us)."""
+
+    def __init__(self, data: MapData, source: str = '') -> None:
+        self.data = data
+        self.source = source
+        g = data.grid
+        self._axes = [list(map(float, getattr(g, n))) for n in AXIS_NAMES]
+        n_pull = len(g.pulls)
+        per_pull = g.shape[1:]
+        self._strides = flat_strides(per_pull)
+        n_phi = per_pull[-1]
+        # Single-query path: flat offsets (in answers, node * K + k) of the 16 state corners,
+        # ordered like weights4.
+        self._offs16 = [int(o) for o in corner_offsets(self._strides[:4])[0]]
+        self._state_strides = self._strides[:4]
+        self._n_phi = n_phi
+        self._pull_index = {p: i for i, p in enumerate(g.pulls)}
+        prov = data.attrs
+        self._s_lc = float(prov['scaling_length_m'])
+        # Per pull: node tuple (cap, tsx, tsz, tsw) or None, plus status/reason codes.
+        cap = data.capacity_N.astype(np.float64).reshape(n_pull, -1)
+        ts = data.slip_twist_scaled.astype(np.float64).reshape(n_pull, -1, 3)
+        status = data.status.reshape(n_pull, -1)
+        reason = data.reason.reshape(n_pull, -1)
+        valued = np.isin(status, [_CODE[s] for s in Status if s.has_value])
+        self._values, self._codes, self._reasons = [], [], []
+        for p in range(n_pull):
+            vals = [None] * cap.shape[1]
+            for j in np.flatnonzero(valued[p]).tolist():
+                vals[j] = (float(cap[p, j]), float(ts[p, j, 0]), float(ts[p, j, 1]),
+                           float(ts[p, j, 2]))
+            self._values.append(vals)
+            self._codes.append(status[p].tolist())
+            self._reasons.append(reason[p].tolist())
+        # Batch path: flat numpy arrays, NaN-free (zeros) where no value + a validity mask.
+        self._cap_flat = np.where(valued, cap, 0.0)
+        self._ts_flat = np.where(valued[..., None], ts, 0.0)
+        self._valued = valued
+        self._status_flat = status
+        self._offsets, self._bits = corner_offsets(self._strides)
+
+    # -- construction and metadata ---------------------------------------------------------
+    @classmethod
+    def load(cls, path: str | Path) -> 'CapacityMap':
+        """Read and validate a map file (MapFileError, a ValueError, on any problem)."""
+        return cls(load_map(path), source=str(path))
+
+    @property
+    def grid(self) -> MapGrid:
+        return self.data.grid
+
+    @property
+    def axes(self) -> dict[str, np.ndarray]:
+        """State axes in SI: {'h': m, 'theta_b', 'theta_l1', 'theta_l2': rad}."""
+        return {n: getattr(self.grid, n) for n in STATE_AXES}
+
+    @property
+    def phis(self) -> np.ndarray:
+        """Stored pull angles, rad."""
+        return self.grid.phi
+
+    @property
+    def pulls(self) -> tuple[str, ...]:
+        return self.grid.pulls
+
+    @property
+    def robot_name(self) -> str:
+        return str(self.data.attrs['robot'])
+
+    @property
+    def medium_name(self) -> str:
+        return str(self.data.attrs['medium'])
+
+    @property
+    def method(self) -> str:
+        """The limit-surface method the map was built with (query results say 'map')."""
+        return str(self.data.attrs['method'])
+
+    @property
+    def provenance(self) -> dict:
+        return self.data.provenance
+
+    # -- single query (hot path) -----------------------------------------------------------
+    def _invalid(self, phi, reason: str, detail: str) -> CapacityResult:
+        try:
+            phi = float(phi)
+        except (TypeError, ValueError):
+            phi = math.nan
+        return CapacityResult(phi=phi, status=Status.INVALID_INPUT, method=METHOD,
+                              reason=reason, detail=detail)
+
+    def query(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
+        """Capacity (N) along d(phi) and slip twist at `state` (SI), pull angle phi (rad)."""
+        p = self._pull_index.get(pull.value if isinstance(pull, Pull) else str(pull))
+        if p is None:
+            return self._invalid(phi, 'pull_not_in_map',
+                                 f'pull {pull!r} not in this map (has {", ".join(self.pulls)})')
+        try:
+            coords = (float(state.h), float(state.theta_b), float(state.theta_l1),
+                      float(state.theta_l2), float(phi))
+        except (AttributeError, TypeError, ValueError):
+            return self._invalid(phi, 'invalid_state', f'not an anchor state: {state!r}')
+        if not all(map(math.isfinite, coords)):
+            return self._invalid(phi, 'invalid_state',
+                                 f'state and phi must be finite, got {coords}')
+        base, out = 0, None
+        fr = [0.0, 0.0, 0.0, 0.0]
+        axes = self._axes
+        for a in range(4):
+            i, t, side = locate(axes[a], coords[a])
+            base += i * self._state_strides[a]
+            fr[a] = t
+            if side:
+                out = (out or []) + [(a, side)]
+        k, tp, side = locate(axes[4], coords[4])
+        if side:
+            out = (out or []) + [(4, side)]
+        up = 1.0 - tp
+        dk = 1 if tp != 0.0 else 0   # on a stored angle: read that angle only
+        flat = self._values[p]
+        c = x0 = x1 = x2 = 0.0
+        bad = None
+        n_terms = 0
+        b0 = base + k
+        for off, w in zip(self._offs16, weights4(*fr)):
+            if w == 0.0:
+                continue   # before indexing: zero-weight corners may lie past the axis end
+            n_terms += 1
+            j = b0 + off
+            va, vb = flat[j], flat[j + dk]
+            if va is None or vb is None:
+                bad = ((bad or []) + ([j] if va is None else [])
+                       + ([j + dk] if dk and vb is None else []))
+                continue
+            wa, wb = w * up, w * tp
+            c += wa * va[0] + wb * vb[0]
+            x0 += wa * va[1] + wb * vb[1]
+            x1 += wa * va[2] + wb * vb[2]
+            x2 += wa * va[3] + wb * vb[3]
+        n_corners = n_terms * (1 + dk)
+        if bad is not None:
+            return self._bad_cell(p, coords[4], bad, n_corners)
+        norm = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+        if norm < CANCEL_NORM:
+            return CapacityResult(phi=coords[4], status=Status.DEGENERATE, method=METHOD,
+                                  reason='twist_cancels',
+                                  detail='the corner slip twists cancel exactly')
+        ts = (x0 / norm, x1 / norm, x2 / norm)
+        # Raw direction S^-1 ts: the common force scale cancels in the normalisation.
+        r2 = x2 / self._s_lc
+        rn = math.sqrt(x0 * x0 + x1 * x1 + r2 * r2)
+        raw = (x0 / rn, x1 / rn, r2 / rn)
+        detail = f'twist_confidence={norm:.3f}; corners {n_corners}'
+        if norm < LOW_CONFIDENCE:
+            detail += (f'; LOW twist confidence (< {LOW_CONFIDENCE}): neighbouring nodes '
+                       'disagree on the slip twist')
+        status, reason = Status.OK, ''
+        if out is not None:
+            status, reason = Status.EXTRAPOLATED, 'out_of_grid'
+            detail += '; ' + '; '.join(
+                _describe_side(AXIS_NAMES[a], coords[a], self._axes[a][0], self._axes[a][-1], s)
+                for a, s in out)
+        return CapacityResult(phi=coords[4], status=status, method=METHOD,
+                              capacity_N=max(c, 0.0), slip_twist=raw, slip_twist_scaled=ts,
+                              unchecked_capacity_N=max(c, 0.0),
+                              reason=reason, detail=detail)
+
+    def _bad_cell(self, p: int, phi: float, bad: list[int], n_terms: int) -> CapacityResult:
+        codes = self._codes[p]
+        worst = min((codes[k] for k in bad), key=lambda c: _RANK.get(c, len(_RANK)))
+        status = _STATUS_OF[worst]
+        first = next(k for k in bad if codes[k] == worst)
+        names = self.data.reason_names
+        node_reason = names[self._reasons[p][first]] if names else ''
+        node = self._node_text(p, first)
+        return CapacityResult(
+            phi=phi, status=status, method=METHOD, reason=f'cell_{status.value}',
+            detail=f'{len(bad)} of {n_terms} weighted cell corners have no value; '
+                   f'e.g. node {node} is {status.value}'
+                   + (f' ({node_reason})' if node_reason else ''))
+
+    def _node_text(self, p: int, k: int) -> str:
+        idx = np.unravel_index(k, self.grid.shape[1:])
+        parts = []
+        for name, xs, i in zip(AXIS_NAMES, self._axes, idx):
+            unit, f = AXIS_HUMAN[name]
+            parts.append(f'{name}={xs[i] * f:.4g}{unit}')
+        return '(' + ', '.join(parts) + f', {self.pulls[p]})'
+
+    # -- batch query -----------------------------------------------------------------------
+    def query_batch(self, states, phis, pull: Pull | str) -> BatchAnswer:
+        """Vectorised query: states (N, 4) SI (h, theta_b, theta_l1, theta_l2), phis (N,) or
+        scalar, rad; one pull orientation. Same policies as `query` (status codes, NaN values).
+        """
+        key = pull.value if isinstance(pull, Pull) else str(pull)
+        if key not in self._pull_index:
+            raise ValueError(f'pull {pull!r} not in this map (has {", ".join(self.pulls)})')
+        p = self._pull_index[key]
+        s = np.atleast_2d(np.asarray(states, dtype=np.float64))
+        if s.shape[1] != 4:
+            raise ValueError(f'states must be (N, 4), got {s.shape}')
+        n = len(s)
+        ph = np.broadcast_to(np.asarray(phis, dtype=np.float64), (n,))
+        coords = np.column_stack([s, ph])
+        finite = np.all(np.isfinite(coords), axis=1)
+        coords = np.where(finite[:, None], coords, 0.0)
+        base = np.zeros(n, dtype=np.intp)
+        frac = np.empty((n, 5))
+        out = np.zeros((n, 5), dtype=bool)
+        for a, (xs, stride) in enumerate(zip(self._axes, self._strides)):
+            i, t, side = locate_many(np.asarray(xs), coords[:, a])
+            base += i * stride
+            frac[:, a] = t
+            out[:, a] = side != 0
+        cap = np.zeros(n)
+        tw = np.zeros((n, 3))
+        worst = np.full(n, len(_RANK), dtype=np.intp)     # rank of the worst bad corner
+        worst_code = np.zeros(n, dtype=np.intp)
+        for off, bits in zip(self._offsets, self._bits):
+            w = np.prod(np.where(bits == 1, frac, 1.0 - frac), axis=1)
+            k = base + off
+            use = w > 0.0
+            good = self._valued[p, k]
+            cap += np.where(use & good, w * self._cap_flat[p, k], 0.0)
+            tw += np.where((use & good)[:, None], w[:, None] * self._ts_flat[p, k], 0.0)
+            code = self._status_flat[p, k].astype(np.intp)
+            rank = _RANK_OF_CODE[code]
+            hit = use & ~good & (rank < worst)
+            worst = np.where(hit, rank, worst)
+            worst_code = np.where(hit, code, worst_code)
+        norm = np.linalg.norm(tw, axis=1)
+        has_bad = worst < len(_RANK)
+        status = np.where(out.any(axis=1), _CODE[Status.EXTRAPOLATED], _CODE[Status.OK])
+        status = np.where(norm < CANCEL_NORM, _CODE[Status.DEGENERATE], status)
+        status = np.where(has_bad, worst_code, status)
+        status = np.where(finite, status, _CODE[Status.INVALID_INPUT]).astype(np.uint8)
+        ok = np.isin(status, [_CODE[Status.OK], _CODE[Status.EXTRAPOLATED]])
+        safe = np.where(norm >= CANCEL_NORM, norm, 1.0)
+        ts = tw / safe[:, None]
+        raw = ts * np.array([1.0, 1.0, 1.0 / self._s_lc])
+        raw /= np.where(ok, np.linalg.norm(raw, axis=1), 1.0)[:, None]
+        nan = np.nan
+        return BatchAnswer(capacity_N=np.where(ok, np.maximum(cap, 0.0), nan),
+                           slip_twist_scaled=np.where(ok[:, None], ts, nan),
+                           slip_twist=np.where(ok[:, None], raw, nan),
+                           confidence=np.where(ok, norm, nan), status=status,
+                           out_of_grid=out & finite[:, None])

@@ -1,0 +1,82 @@
+"""AnchorModel on the real robots: statuses every caller relies on, and the acceptance of the
+default method against the `direct` reference over a small harness of random states."""
+import math
+
+import numpy as np
+import pytest
+
+from rftgls_core import accuracy as acc
+from rftgls_core.anchor import AnchorModel
+from rftgls_core.rft.media import get_medium
+from rftgls_core.robots.presets import get_robot
+from rftgls_core.types import AnchorState, Status
+
+METHODS = ['direct', 'twist-mesh', 'alpha', 'ellipsoid']
+
+
+def model(robot='prototype', method='twist-mesh', **kw):
+    medium = 'glass_beads' if robot == 'prototype' else 'm90_sand'
+    return AnchorModel(get_robot(robot), get_medium(medium), method=method, **kw)
+
+
+@pytest.mark.parametrize('method', METHODS)
+def test_no_buried_leg_is_unsupported(method):
+    r = model(method=method).predict(AnchorState.from_degrees(0.25, 0, 0, 0), 0.0, 'forward')
+    assert r.status is Status.UNSUPPORTED and r.reason == 'no_buried_leg'
+    assert r.capacity_N is None and r.slip_twist is None
+
+
+@pytest.mark.parametrize('method', METHODS)
+def test_weight_not_carried_is_unsupported(method):
+    # Forward pull, proximal legs swung far from p (40 deg), distal legs vertical: in our model
+    # the buried legs cannot carry the prototype's weight (the origin is outside the GLS).
+    r = model(method=method).predict(AnchorState.from_degrees(0.02, 0, 40, 0), 0.0, 'forward')
+    assert r.status is Status.UNSUPPORTED and r.capacity_N is None
+
+
+def test_paper_forward_40_40_is_marginal():
+    # The paper finds no balance at (40, 40) deg for forward pulls; our model holds the weight
+    # there but with a capacity far below the neighbouring poses (README explains).
+    m = model(method='direct')
+    weak = m.predict(AnchorState.from_degrees(0.02, 0, 40, 40), 0.0, 'forward')
+    strong = m.predict(AnchorState.from_degrees(0.02, 0, -40, 0), 0.0, 'forward')
+    assert weak.capacity_N is not None and weak.capacity_N < 0.1 * strong.capacity_N
+
+
+@pytest.mark.parametrize('bad_state', [AnchorState(math.nan, 0, 0, 0),
+                                       AnchorState(0.02, 0, math.inf, 0)])
+def test_non_finite_state_is_invalid_input(bad_state):
+    r = model().predict(bad_state, 0.0, 'forward')
+    assert r.status is Status.INVALID_INPUT and r.capacity_N is None
+
+
+def test_non_finite_phi_and_too_few_twists():
+    m = model()
+    r = m.predict(AnchorState.from_degrees(0.02, 0, -40, 0), math.nan, 'forward')
+    assert r.status is Status.INVALID_INPUT
+    few = model(n_twists=5).predict(AnchorState.from_degrees(0.02, 0, -40, 0), 0.0, 'forward')
+    assert few.status is Status.DEGENERATE and few.reason == 'too_few_twists'
+
+
+def test_default_method_matches_direct_over_a_harness():
+    """Issue 3 acceptance: twist-mesh within 1 % and 2 deg of direct (same leg mesh), never
+    more than 1 % above it, on random states of both robots, both pulls, phi = 0 and -20."""
+    compared = mismatched = 0
+    for robot in ('prototype', 'minirquad'):
+        states = acc.sample_states(robot, 4, seed=7)
+        tm = acc.run_config(robot, acc.Config('twist-mesh', 1000), states)
+        ref = acc.run_config(robot, acc.Config('direct', 1000), states)
+        s = acc.summarise(tm, ref)
+        if s.compared:
+            assert s.cap_err_pct_worst <= 1.0, s
+            assert s.cap_over_pct_worst <= 1.0, s
+            assert s.twist_err_deg_worst <= 2.0, s
+        compared += s.compared
+        mismatched += s.status_mismatch
+    assert compared >= 20
+    assert mismatched <= compared // 3  # unresolved jumps of the RFT map; reported, not hidden
+
+
+def test_pareto_front():
+    pts = [(1.0, 5.0), (2.0, 1.0), (3.0, 2.0), (0.5, 10.0), (4.0, 0.5)]
+    assert acc.pareto_front(pts) == [3, 0, 1, 4]
