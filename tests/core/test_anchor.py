@@ -34,13 +34,16 @@ def test_weight_not_carried_is_unsupported(method):
     assert r.status is Status.UNSUPPORTED and r.capacity_N is None
 
 
-def test_paper_forward_40_40_is_marginal():
-    # The paper finds no balance at (40, 40) deg for forward pulls; our model holds the weight
-    # there but with a capacity far below the neighbouring poses (README explains).
-    m = model(method='direct')
+@pytest.mark.parametrize('n_twists', [400, 1000])
+def test_paper_forward_40_40_is_marginal(n_twists):
+    # The paper finds no balance at (40, 40) deg for forward pulls. In our model the origin
+    # sits on the limit surface there: unsupported at some sampling densities, a capacity
+    # below 10 % of a good pose's at others; never a healthy-looking number (README).
+    m = model(method='direct', n_twists=n_twists)
     weak = m.predict(AnchorState.from_degrees(0.02, 0, 40, 40), 0.0, 'forward')
     strong = m.predict(AnchorState.from_degrees(0.02, 0, -40, 0), 0.0, 'forward')
-    assert weak.capacity_N is not None and weak.capacity_N < 0.1 * strong.capacity_N
+    assert (weak.status is Status.UNSUPPORTED and weak.capacity_N is None) or \
+        weak.capacity_N < 0.1 * strong.capacity_N
 
 
 @pytest.mark.parametrize('bad_state', [AnchorState(math.nan, 0, 0, 0),
