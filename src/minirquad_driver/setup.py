@@ -12,13 +12,14 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
     ],
-    install_requires=['setuptools'],
+    install_requires=['setuptools', 'pyserial', 'numpy'],
     zip_safe=False,
     description='MiniRQuad serial bridge (COBS + CRC-16 protocol) and a simulated microcontroller on a pty.',
     license='BSD-3-Clause',
     entry_points={
         'console_scripts': [
-
+            'bridge_node = minirquad_driver.bridge_node:main',
+            'minirquad_sim = minirquad_driver.sim.main:main',
         ],
     },
 )

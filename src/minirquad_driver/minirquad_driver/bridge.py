@@ -1,0 +1,404 @@
+"""The bridge's logic, without ROS: decoded frames in, typed samples and diagnostics out.
+
+``BridgeCore`` is fed raw serial bytes (from any thread) and returns samples ready to
+publish; it builds command and heartbeat frames, tracks acks and retries, maps MCU time to
+host time, integrates energy, and keeps the link statistics. The ROS node only converts
+its outputs to messages.
+
+Time: ``stamp`` values are host wall-clock seconds (ROS time) computed from the MCU
+timestamp: stamp = t_mcu + offset, where offset tracks the smallest observed
+(arrival - t_mcu), i.e. the least-delayed frame, with a slow upward leak for clock drift.
+"""
+from __future__ import annotations
+
+import math
+import statistics
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+
+from . import ina219
+from .energy import EnergyIntegrator
+from .mcu_clock import McuClock
+from .protocol import messages as m
+from .protocol.codec import FrameDecoder, encode_frame
+
+MAX_TENSION_N = 200.0   # beyond this a reading is a fault, not a rope
+
+
+@dataclass(frozen=True)
+class BridgeConfig:
+    """r_shunt: INA219 shunt, ohm. stale_timeout: s without telemetry before outputs are
+    stale. ack_timeout: s before a command is resent; max_retries: resends before giving
+    up. energy_max_gap: s; never integrate across a longer hole. clock_leak: s/s the
+    MCU-to-host offset may rise per second (crystal drift allowance)."""
+
+    r_shunt: float = ina219.DEFAULT_SHUNT_OHM
+    stale_timeout: float = 0.25
+    ack_timeout: float = 0.15
+    max_retries: int = 3
+    energy_max_gap: float = 0.5
+    clock_leak: float = 2e-4
+
+
+@dataclass(frozen=True)
+class TelemetrySample:
+    """stamp: host time s; t_mcu_ms: raw MCU stamp; telemetry: SI values (see messages);
+    leg_turns: whole revolutions of each leg since the link came up (unwrapped odometry)."""
+
+    stamp: float
+    t_mcu_ms: int
+    telemetry: m.Telemetry
+    leg_turns: tuple[int, int, int, int]
+
+
+@dataclass(frozen=True)
+class PowerSample:
+    """stamp: host time s; reading: SI INA219 values; energy: J integrated since start."""
+
+    stamp: float
+    t_mcu_ms: int
+    reading: ina219.PowerReading
+    energy: float
+
+
+@dataclass(frozen=True)
+class CommandResult:
+    """Outcome of a host command: acked with ``result`` or timed out (result None)."""
+
+    seq: int
+    type: int
+    result: int | None
+
+
+@dataclass(frozen=True)
+class DiagStatus:
+    name: str
+    level: int          # 0 OK, 1 WARN, 2 ERROR, 3 STALE (diagnostic_msgs/DiagnosticStatus)
+    message: str
+    values: dict
+
+
+@dataclass
+class _Pending:
+    frame: bytes
+    type: int
+    sent_at: float
+    tries: int = 1
+
+
+@dataclass
+class LinkCounters:
+    telemetry: int = 0
+    power: int = 0
+    dropped_frames: int = 0       # MCU seq gaps (frames that never arrived intact)
+    gap_events: int = 0
+    resets: int = 0
+    reset_notices: int = 0
+    invalid_values: int = 0
+    mcu_errors: int = 0
+    commands_sent: int = 0
+    commands_acked: int = 0
+    commands_rejected: int = 0
+    command_retries: int = 0
+    command_timeouts: int = 0
+    heartbeats: int = 0
+    unmatched_acks: int = 0
+    rtt: deque = field(default_factory=lambda: deque(maxlen=200))
+
+
+class BridgeCore:
+    def __init__(self, config: BridgeConfig | None = None, mono=time.monotonic):
+        self.config = config or BridgeConfig()
+        self.mono = mono
+        self.decoder = FrameDecoder()
+        self.clock = McuClock()
+        self.energy = EnergyIntegrator(max_gap_s=self.config.energy_max_gap)
+        self.counters = LinkCounters()
+        self.connected = False
+        self.last_telemetry: m.Telemetry | None = None
+        self.last_telemetry_at: float | None = None     # monotonic
+        self.last_power: ina219.PowerReading | None = None
+        self.about: m.ResetNotice | m.Info | None = None
+        self.last_error: m.Error | None = None
+        self.ina219_resets = 0
+        self._lock = threading.RLock()
+        self._host_seq = 0
+        self._pending: dict[int, _Pending] = {}
+        self._hb_sent: dict[int, float] = {}
+        self._last_seq: int | None = None
+        self._offset: float | None = None
+        self._offset_at = 0.0
+        self._prev_angles: list[float] | None = None
+        self._turns = [0, 0, 0, 0]
+        self._rate_window: deque = deque(maxlen=400)
+
+    # ------------------------------------------------------------------ link events
+    def on_connection(self, connected: bool) -> None:
+        """Called by the transport. Everything tied to the old byte stream is forgotten."""
+        with self._lock:
+            self.connected = connected
+            self.decoder.reset()
+            self._last_seq = None
+            self.clock.restart()
+            self.energy.mark_discontinuity()
+            self._offset = None
+            self._hb_sent.clear()
+
+    def is_stale(self) -> bool:
+        with self._lock:
+            if not self.connected or self.last_telemetry_at is None:
+                return True
+            return self.mono() - self.last_telemetry_at > self.config.stale_timeout
+
+    # ------------------------------------------------------------------ MCU -> host
+    def on_bytes(self, data: bytes, host_time: float) -> list:
+        """Decode ``data`` (arrived at wall time ``host_time``); return samples to publish
+        (TelemetrySample, PowerSample, CommandResult) in arrival order."""
+        out = []
+        with self._lock:
+            for frame in self.decoder.feed(data):
+                out.extend(self._on_frame(frame, host_time))
+        return out
+
+    def _on_frame(self, frame, host_time: float) -> list:
+        msg = frame.message
+        c = self.counters
+        if isinstance(msg, m.ResetNotice):
+            c.reset_notices += 1
+            if self._last_seq is not None:
+                c.resets += 1
+            self.about = msg
+            self.clock.restart()
+            self.clock.update(frame.t_mcu_ms)
+            self._restart_baselines()
+            self._last_seq = frame.seq
+            return []
+        had_base = self.clock.last_raw is not None
+        _, new_base = self.clock.update(frame.t_mcu_ms)
+        if had_base and new_base:
+            # The MCU clock went backwards without a reset notice (the notice was lost):
+            # a reset all the same. Its sequence numbers restarted too, so no gap count.
+            c.resets += 1
+            self._restart_baselines()
+        elif self._last_seq is not None:
+            # Sequence gaps: frames that never arrived intact.
+            gap = (frame.seq - self._last_seq - 1) & 0xFF
+            if gap:
+                c.dropped_frames += gap
+                c.gap_events += 1
+        self._last_seq = frame.seq
+        stamp = self._stamp(frame.t_mcu_ms, host_time)
+        if isinstance(msg, m.Telemetry):
+            if not self._valid(msg):
+                c.invalid_values += 1
+                return []
+            c.telemetry += 1
+            self.last_telemetry = msg
+            self.last_telemetry_at = self.mono()
+            self._rate_window.append(self.last_telemetry_at)
+            self._count_turns(msg.leg_angles)
+            return [TelemetrySample(stamp, frame.t_mcu_ms, msg, tuple(self._turns))]
+        if isinstance(msg, m.Power):
+            reading = ina219.reading_from(msg, self.config.r_shunt)
+            if reading.chip_reset:
+                self.ina219_resets += 1
+            c.power += 1
+            self.last_power = reading
+            energy = self.energy.add(frame.t_mcu_ms, reading.power)
+            return [PowerSample(stamp, frame.t_mcu_ms, reading, energy)]
+        if isinstance(msg, m.Ack):
+            return self._on_ack(msg)
+        if isinstance(msg, m.Info):
+            self.about = msg
+        elif isinstance(msg, m.Error):
+            c.mcu_errors += 1
+            self.last_error = msg
+        return []
+
+    def _restart_baselines(self) -> None:
+        """A new MCU time base: keep the energy, restart every baseline built on time."""
+        self.energy.mark_discontinuity()
+        self._offset = None
+        self._prev_angles = None
+
+    def _valid(self, tel: m.Telemetry) -> bool:
+        try:
+            m.Mode(tel.mode)
+        except ValueError:
+            return False
+        return abs(tel.tension) <= MAX_TENSION_N and all(
+            math.isfinite(v) for v in (*tel.leg_angles, *tel.leg_velocities, tel.pitch))
+
+    def _count_turns(self, angles) -> None:
+        if self._prev_angles is not None:
+            for i, (a, b) in enumerate(zip(self._prev_angles, angles)):
+                d = b - a
+                if d < -math.pi:
+                    self._turns[i] += 1
+                elif d > math.pi:
+                    self._turns[i] -= 1
+        self._prev_angles = list(angles)
+
+    def _stamp(self, t_mcu_ms: int, host_time: float) -> float:
+        mcu_s = self.clock.unwrapped_ms * 1e-3
+        obs = host_time - mcu_s
+        now = self.mono()
+        if self._offset is None:
+            self._offset = obs
+        else:
+            leaked = self._offset + self.config.clock_leak * (now - self._offset_at)
+            self._offset = min(obs, leaked)
+        self._offset_at = now
+        return mcu_s + self._offset
+
+    def _on_ack(self, ack: m.Ack) -> list:
+        c = self.counters
+        now = self.mono()
+        if ack.acked_type == m.MsgType.HEARTBEAT:
+            sent = self._hb_sent.pop(ack.acked_seq, None)
+            if sent is None:
+                c.unmatched_acks += 1
+            else:
+                c.rtt.append(now - sent)
+            return []
+        pend = self._pending.get(ack.acked_seq)
+        if pend is None or pend.type != ack.acked_type:
+            c.unmatched_acks += 1     # a late ack for a command already resolved
+            return []
+        del self._pending[ack.acked_seq]
+        if pend.tries == 1:
+            c.rtt.append(now - pend.sent_at)
+        if ack.result == m.AckResult.OK:
+            c.commands_acked += 1
+        else:
+            c.commands_rejected += 1
+        return [CommandResult(ack.acked_seq, ack.acked_type, ack.result)]
+
+    # ------------------------------------------------------------------ host -> MCU
+    def _next_seq(self) -> int:
+        s = self._host_seq
+        self._host_seq = (s + 1) & 0xFF
+        return s
+
+    def heartbeat(self) -> bytes:
+        with self._lock:
+            seq = self._next_seq()
+            self._hb_sent[seq] = self.mono()
+            # Forget heartbeats that were never answered, keeping the table small.
+            if len(self._hb_sent) > 64:
+                for k in sorted(self._hb_sent, key=self._hb_sent.get)[:32]:
+                    del self._hb_sent[k]
+            self.counters.heartbeats += 1
+            return encode_frame(m.Heartbeat(), seq, self._host_ms())
+
+    def command(self, msg) -> bytes:
+        """Frame for a host command; raises ValueError for values the wire cannot carry."""
+        with self._lock:
+            msg.pack()   # raises ValueError before a sequence number is spent
+            seq = self._next_seq()
+            frame = encode_frame(msg, seq, self._host_ms())
+            self._pending[seq] = _Pending(frame, int(msg.TYPE), self.mono())
+            self.counters.commands_sent += 1
+            return frame
+
+    def due_retries(self) -> tuple[list[bytes], list[CommandResult]]:
+        """Frames to resend now, and commands given up on (result None)."""
+        resend, failed = [], []
+        with self._lock:
+            now = self.mono()
+            for seq, p in list(self._pending.items()):
+                if now - p.sent_at < self.config.ack_timeout:
+                    continue
+                if p.tries > self.config.max_retries or p.type not in m.IDEMPOTENT_COMMANDS:
+                    del self._pending[seq]
+                    self.counters.command_timeouts += 1
+                    failed.append(CommandResult(seq, p.type, None))
+                    continue
+                p.tries += 1
+                p.sent_at = now
+                self.counters.command_retries += 1
+                resend.append(p.frame)   # same seq: the MCU re-acks without re-executing
+        return resend, failed
+
+    def _host_ms(self) -> int:
+        return int(self.mono() * 1000.0) & 0xFFFFFFFF
+
+    # ------------------------------------------------------------------ diagnostics
+    def telemetry_rate(self, window: float = 1.0) -> float:
+        with self._lock:
+            now = self.mono()
+            n = sum(1 for t in self._rate_window if now - t <= window)
+            return n / window
+
+    def diagnostics(self, port: str = '', transport=None) -> list[DiagStatus]:
+        with self._lock:
+            c, d = self.counters, self.decoder.stats
+            stale = self.is_stale()
+            rtt = list(c.rtt)
+            link_values = {
+                'port': port, 'connected': self.connected,
+                'frames': d.frames, 'bytes_in': d.bytes_in,
+                'telemetry_frames': c.telemetry, 'power_frames': c.power,
+                'telemetry_rate_hz': round(self.telemetry_rate(), 1),
+                'crc_errors': d.crc_errors, 'cobs_errors': d.cobs_errors,
+                'other_rejected': d.rejected - d.crc_errors - d.cobs_errors,
+                'dropped_frames': c.dropped_frames, 'gap_events': c.gap_events,
+                'invalid_values': c.invalid_values,
+                'mcu_resets': c.resets, 'reset_notices': c.reset_notices,
+                'clock_wraps': self.clock.wraps,
+                'rtt_median_ms': round(1e3 * statistics.median(rtt), 3) if rtt else None,
+                'rtt_max_ms': round(1e3 * max(rtt), 3) if rtt else None,
+            }
+            if transport is not None:
+                s = transport.stats
+                link_values.update(reconnects=s.reconnects, disconnects=s.disconnects,
+                                   open_failures=s.open_failures,
+                                   silence_reconnects=s.silence_reconnects,
+                                   write_errors=s.write_errors)
+            if not self.connected:
+                link = DiagStatus('minirquad_driver: link', 3, 'disconnected', link_values)
+            elif stale:
+                link = DiagStatus('minirquad_driver: link', 3, 'stale: no telemetry',
+                                  link_values)
+            else:
+                link = DiagStatus('minirquad_driver: link', 0, 'ok', link_values)
+            cmd = DiagStatus('minirquad_driver: commands',
+                             1 if c.command_timeouts else 0,
+                             'ok' if not c.command_timeouts else 'command timeouts', {
+                                 'sent': c.commands_sent, 'acked': c.commands_acked,
+                                 'rejected': c.commands_rejected,
+                                 'retries': c.command_retries,
+                                 'timeouts': c.command_timeouts,
+                                 'heartbeats': c.heartbeats,
+                                 'unmatched_acks': c.unmatched_acks})
+            e = self.energy
+            p = self.last_power
+            power = DiagStatus('minirquad_driver: power', 3 if stale else 0,
+                               'stale' if stale else 'ok', {
+                                   'energy_j': round(e.energy_j, 6),
+                                   'integrated_s': round(e.integrated_s, 3),
+                                   'missing_s': round(e.missing_s, 3),
+                                   'energy_gaps': e.gaps, 'energy_resets': e.resets,
+                                   'ina219_chip_resets': self.ina219_resets,
+                                   'bus_voltage_v': p.bus_voltage if p else None,
+                                   'current_a': p.current if p else None})
+            tel = self.last_telemetry
+            flags = m.Flag(tel.flags) if tel else m.Flag(0)
+            watchdog = bool(flags & m.Flag.WATCHDOG_TRIPPED)
+            mcu_level = 3 if stale else (1 if watchdog or flags & m.Flag.ESTOP else 0)
+            mcu = DiagStatus('minirquad_driver: mcu', mcu_level,
+                             'stale' if stale else ('watchdog tripped' if watchdog else 'ok'), {
+                                 'mode': m.Mode(tel.mode).name if tel else None,
+                                 'flags': str(flags.name) if flags else '',
+                                 'firmware_version': self.about.firmware_version
+                                 if self.about else None,
+                                 'protocol_version': self.about.protocol_version
+                                 if self.about else None,
+                                 'mcu_errors': c.mcu_errors,
+                                 'last_error': m.ErrorCode(self.last_error.code).name
+                                 if self.last_error and self.last_error.code
+                                 in tuple(m.ErrorCode) else None,
+                                 'leg_turns': list(self._turns)})
+            return [link, cmd, power, mcu]

@@ -1,0 +1,1 @@
+"""Simulated MiniRQuad microcontroller: robot physics, protocol endpoint, pty, fault injection."""

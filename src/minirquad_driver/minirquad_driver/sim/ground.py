@@ -1,0 +1,76 @@
+"""The ground as the simulator sees it: anchor capacity and slip direction for a pose.
+
+``AnchorModel`` is the injection point for the real RFT-GLS prediction from rftgls_core
+(not wired yet: the capacity code is being written). ``TableAnchorModel`` is a clearly
+labelled PLACEHOLDER: per-mode capacities chosen to reproduce the paper's qualitative result
+(Fig. 10(b): DH holds a 600 g sled at phi = 0 and -20 deg, DL and SH do not; SH suffices for
+400 g) for the sled friction in ``winch.py``. Its numbers are not predictions.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple, Protocol
+
+from rftgls_core.types import AnchorState, Status
+
+from .burrow import TABLE_II
+
+
+class AnchorPrediction(NamedTuple):
+    """capacity: largest tension T (N) the anchor holds along d(phi), None without a value.
+    slip_twist: direction of motion of p when it fails, (vx, vz, wy) in world axes with
+    |(vx, vz)| = 1 (wy in rad per m of travel). status: see architecture section 5."""
+
+    capacity: float | None
+    slip_twist: tuple[float, float, float]
+    status: Status
+
+
+class AnchorModel(Protocol):
+    def predict(self, state: AnchorState, phi: float) -> AnchorPrediction:
+        """Capacity and slip twist for anchor state ``state`` under pull angle ``phi`` (rad)."""
+        ...
+
+
+class TableAnchorModel:
+    """PLACEHOLDER ground: capacity from the nearest Table II final pose (see module doc).
+
+    C = C_mode * depth_factor * (1 + k_down * max(0, -phi)), where depth_factor falls
+    linearly from 1 at the mode's final depth to 0 at ``h_free`` (legs pulled out), and a
+    pose more than ``pose_window`` from every final pose gets body friction only
+    (mu_body * m * g). The slip twist points along the pull with an upward pull-out part.
+    """
+
+    CAPACITY_N = {'DH': 4.6, 'DL': 2.6, 'SH': 2.7}   # at phi = 0, placeholder values
+
+    def __init__(self, mass_kg: float = 0.296, mu_body: float = 0.4, h_free: float = 0.060,
+                 k_down: float = 0.8, pose_window: float = math.radians(15.0)):
+        self.mass_kg = mass_kg
+        self.mu_body = mu_body
+        self.h_free = h_free
+        self.k_down = k_down
+        self.pose_window = pose_window
+
+    def predict(self, state: AnchorState, phi: float) -> AnchorPrediction:
+        if not (state.is_finite() and math.isfinite(phi)):
+            return AnchorPrediction(None, (0.0, 0.0, 0.0), Status.INVALID_INPUT)
+        slip = _unit_slip(phi)
+        friction = self.mu_body * self.mass_kg * 9.81
+        best, dist = None, float('inf')
+        for name, seq in TABLE_II.items():
+            d = math.hypot(state.theta_l1 - seq.final[0], state.theta_l2 - seq.final[1])
+            if d < dist:
+                best, dist = name, d
+        if dist > self.pose_window or state.h >= self.h_free:
+            return AnchorPrediction(friction, slip, Status.OK)
+        h_final = TABLE_II[best].h
+        depth = min(1.0, max(0.0, (self.h_free - state.h) / (self.h_free - h_final)))
+        cap = self.CAPACITY_N[best] * depth * (1.0 + self.k_down * max(0.0, -phi))
+        return AnchorPrediction(max(friction, cap), slip, Status.OK)
+
+
+def _unit_slip(phi: float) -> tuple[float, float, float]:
+    vx, vz = -math.cos(phi), 0.35
+    n = math.hypot(vx, vz)
+    # Pulled backwards, the body pitches nose-down about p's side: a small negative wy.
+    return (vx / n, vz / n, -2.0)

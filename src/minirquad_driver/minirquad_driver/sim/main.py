@@ -1,0 +1,189 @@
+"""``minirquad_sim``: a simulated MiniRQuad microcontroller on a pseudo-terminal.
+
+    minirquad_sim --link-file /tmp/mcu.path --symlink /tmp/minirquad_tty [faults...]
+
+prints the slave path it opened (first line on stdout, then flushes) and speaks the
+protocol in PROTOCOL.md on it until SIGINT/SIGTERM. Fault options are in ``--help``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import select
+import signal
+import sys
+import time
+from collections import deque
+
+from ..protocol import messages as m
+from ..protocol.codec import encode_frame
+from .faults import FaultConfig, FaultInjector
+from .mcu import McuConfig, SimMcu
+from .pty_link import PtyLink
+from .robot import SimRobot
+from .winch import WinchSled
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog='minirquad_sim', description=__doc__.split('\n\n')[0])
+    p.add_argument('--link-file', help='write the slave pty path to this file')
+    p.add_argument('--symlink', help='keep this symlink pointing at the current slave pty')
+    p.add_argument('--telemetry-hz', type=int, default=100)
+    p.add_argument('--power-hz', type=int, default=50)
+    p.add_argument('--watchdog', type=float, default=0.5, help='host watchdog timeout, s')
+    p.add_argument('--clock-start-ms', type=lambda s: int(s, 0), default=0,
+                   help='initial MCU clock (e.g. 0xFFFFF000 to cross the uint32 wrap)')
+    p.add_argument('--sled-mass', type=float, default=0.400, help='kg')
+    p.add_argument('--pace-baud', type=int, default=0,
+                   help='emulate a UART: write at most baud/10 bytes per second (0: off)')
+    p.add_argument('--record', help='append one JSON line per telemetry frame built')
+    p.add_argument('--duration', type=float, default=0.0, help='exit after this many s')
+    g = p.add_argument_group('fault injection')
+    g.add_argument('--garbage-rate', type=float, default=0.0)
+    g.add_argument('--drop-rate', type=float, default=0.0)
+    g.add_argument('--corrupt-rate', type=float, default=0.0)
+    g.add_argument('--latency-ms', type=float, default=0.0)
+    g.add_argument('--jitter-ms', type=float, default=0.0)
+    g.add_argument('--disconnect-at', type=float, help='unplug at this time, s')
+    g.add_argument('--disconnect-for', type=float, default=1.0, help='s')
+    g.add_argument('--reset-at', type=float, help='MCU reset at this time, s')
+    g.add_argument('--seed', type=int, default=1)
+    return p
+
+
+class _Recorder:
+    """JSON lines of what each telemetry frame carried, in wire integers, plus its fate."""
+
+    def __init__(self, path: str | None):
+        self.file = open(path, 'a', buffering=1) if path else None
+
+    def telemetry(self, seq: int, t_ms: int, tel: m.Telemetry, fault: str | None) -> None:
+        if not self.file:
+            return
+        self.file.write(json.dumps({
+            'seq': seq, 't_ms': t_ms, 'fault': fault,
+            'legs': [round(a * m.MICRORAD) for a in tel.leg_angles],
+            'pitch': round(tel.pitch * m.MICRORAD),
+            'tension': round(tel.tension * m.MILLINEWTON)}) + '\n')
+
+    def close(self) -> None:
+        if self.file:
+            self.file.close()
+
+
+def run(args: argparse.Namespace) -> int:
+    stop = False
+
+    def _stop(_sig, _frm):
+        nonlocal stop
+        stop = True
+
+    signal.signal(signal.SIGINT, _stop)
+    signal.signal(signal.SIGTERM, _stop)
+
+    faults = FaultInjector(FaultConfig(
+        garbage_rate=args.garbage_rate, drop_rate=args.drop_rate,
+        corrupt_rate=args.corrupt_rate, latency_ms=args.latency_ms, jitter_ms=args.jitter_ms,
+        disconnect_at=args.disconnect_at, disconnect_for=args.disconnect_for,
+        reset_at=args.reset_at, seed=args.seed))
+    recorder = _Recorder(args.record)
+    pending_tel: list = []
+    link = PtyLink(args.symlink, args.link_file)
+    print(link.open(), flush=True)
+
+    start = time.monotonic()
+    mcu = SimMcu(robot_factory=lambda: SimRobot(winch=WinchSled(sled_mass=args.sled_mass)),
+                 config=McuConfig(telemetry_hz=args.telemetry_hz, power_hz=args.power_hz,
+                                  watchdog_s=args.watchdog, clock_start_ms=args.clock_start_ms),
+                 on_telemetry=lambda s, t, tel: pending_tel.append((s, t, tel)), now=start)
+    queue: deque[tuple[float, bytes]] = deque()    # (release time, bytes), in order
+    line_free_at = 0.0                             # UART pacing
+    byte_time = 10.0 / args.pace_baud if args.pace_baud else 0.0
+    reconnect_at: float | None = None
+    reset_done = False
+
+    def emit(data: bytes, now: float) -> str | None:
+        release, wire, fault = faults.outgoing(data, now)
+        if wire:
+            queue.append((release, wire))
+        return fault
+
+    emit(mcu.notice(start), start)
+    while not stop:
+        now = time.monotonic()
+        t = now - start
+        if args.duration and t >= args.duration:
+            break
+        # Scheduled faults.
+        if (args.disconnect_at is not None and reconnect_at is None and link.master is not None
+                and t >= args.disconnect_at):
+            link.close()
+            queue.clear()
+            reconnect_at = now + args.disconnect_for
+            faults.counts['disconnect'] += 1
+        if reconnect_at is not None and now >= reconnect_at and link.master is None:
+            link.open()
+            args.disconnect_at = None
+        if args.reset_at is not None and not reset_done and t >= args.reset_at:
+            reset_done = True
+            # A reset cuts the frame in flight: half a frame with no closing delimiter.
+            cut = encode_frame(mcu.telemetry(), mcu.seq, mcu.clock_ms(now))
+            queue.append((now, cut[:len(cut) // 2]))
+            queue.append((now, mcu.reset(now, m.ResetCause.WATCHDOG)))
+            faults.counts['reset'] += 1
+        # Host bytes.
+        data = link.read()
+        if data:
+            for frame_bytes in _split(mcu.receive(data, now)):
+                emit(frame_bytes, now)
+        # MCU loop.
+        for kind, frame_bytes, _tel in mcu.tick(now):
+            fault = emit(frame_bytes, now)
+            if kind == 'telemetry':
+                for s, tm, tel in pending_tel:
+                    recorder.telemetry(s, tm, tel, fault if link.master is not None
+                                       else 'disconnected')
+                pending_tel.clear()
+        # Release due bytes, paced like a UART if asked.
+        while queue and queue[0][0] <= now and now >= line_free_at:
+            _, wire = queue.popleft()
+            if link.master is not None:
+                link.write(wire)
+            if byte_time:
+                line_free_at = max(now, line_free_at) + len(wire) * byte_time
+        wake = mcu.next_due()
+        if queue:
+            wake = min(wake, max(queue[0][0], line_free_at))
+        if reconnect_at is not None and link.master is None:
+            wake = min(wake, reconnect_at)
+        timeout = max(0.0, min(wake - time.monotonic(), 0.05))
+        if link.master is not None:
+            try:
+                select.select([link.master], [], [], timeout)
+            except (OSError, ValueError):
+                time.sleep(timeout)
+        else:
+            time.sleep(timeout)
+    link.close()
+    link.remove_links()
+    recorder.close()
+    print(json.dumps({'faults': dict(faults.counts), 'resets': mcu.resets,
+                      'rx_crc_errors': mcu.rx_crc_errors}), flush=True)
+    return 0
+
+
+def _split(data: bytes) -> list[bytes]:
+    """Replies come back concatenated; split them into frames so faults hit one frame each."""
+    parts = []
+    for seg in data.split(b'\x00'):
+        if seg:
+            parts.append(b'\x00' + seg + b'\x00')
+    return parts
+
+
+def main(argv: list[str] | None = None) -> int:
+    return run(build_parser().parse_args(argv))
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,190 @@
+"""The simulated microcontroller firmware: protocol endpoint around a ``SimRobot``.
+
+Pure logic with an injected time: ``receive`` takes host bytes and returns reply bytes,
+``tick`` advances the robot and returns the telemetry and power frames that are due. The
+pty, the loop timing and the fault injection live in ``main.py`` and ``faults.py``.
+
+Firmware behaviour it models:
+- one sequence counter for every frame the MCU sends (the host counts gaps in it);
+- a uint32 millisecond clock (``clock_start_ms`` lets tests start it just before the wrap);
+- every host command is acked with its own seq; a repeated (seq, type) is re-acked but not
+  executed again, so the host may retry;
+- the watchdog: no valid host frame for ``watchdog_s`` stops legs and winch, sends an ERROR
+  once; a later heartbeat clears the flag but does not restart motion;
+- after a reset it sends a RESET_NOTICE before anything else.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+from .. import ina219
+from ..protocol import messages as m
+from ..protocol.codec import FrameDecoder, encode_frame
+from .robot import SimRobot
+
+FIRMWARE_VERSION = 100
+
+
+@dataclass
+class McuConfig:
+    telemetry_hz: int = 100
+    power_hz: int = 50
+    watchdog_s: float = 0.5
+    clock_start_ms: int = 0
+    physics_dt: float = 0.002   # s; the robot is stepped in substeps of at most this
+
+
+class SimMcu:
+    """Frames in, frames out. ``on_telemetry(seq, t_ms, Telemetry)`` is called for every
+    telemetry frame built (before any fault injection), for test records."""
+
+    def __init__(self, robot_factory: Callable[[], SimRobot] = SimRobot,
+                 config: McuConfig | None = None,
+                 on_telemetry: Callable[[int, int, m.Telemetry], None] | None = None,
+                 now: float = 0.0):
+        """``now``: the caller's clock (s) at power-on; all later times use the same clock."""
+        self.robot_factory = robot_factory
+        self.config = config or McuConfig()
+        self.on_telemetry = on_telemetry
+        self.resets = 0
+        self._boot(now, self.config.clock_start_ms)
+
+    # ------------------------------------------------------------------ lifecycle
+    def _boot(self, now: float, clock_start_ms: int) -> None:
+        self.robot = self.robot_factory()
+        self.decoder = FrameDecoder()
+        self.seq = 0
+        self._t0 = now
+        self._clock0 = clock_start_ms
+        self._last_step = now
+        self._last_host_frame = now
+        self._next_tel = now
+        self._next_pow = now
+        self._last_cmd: tuple[int, int] | None = None
+        self._watchdog_reported = False
+        self.rx_crc_errors = 0
+
+    def reset(self, now: float, cause: int = m.ResetCause.WATCHDOG) -> bytes:
+        """Reboot: state and clock restart from zero; returns the RESET_NOTICE frame."""
+        self.resets += 1
+        self._boot(now, 0)
+        return self.notice(now, cause)
+
+    def notice(self, now: float, cause: int = m.ResetCause.POWER_ON) -> bytes:
+        return self._frame(m.ResetNotice(m.PROTOCOL_VERSION, FIRMWARE_VERSION, int(cause),
+                                         self.config.telemetry_hz, self.config.power_hz), now)
+
+    def clock_ms(self, now: float) -> int:
+        return (self._clock0 + int((now - self._t0) * 1000.0)) & 0xFFFFFFFF
+
+    def _frame(self, msg, now: float) -> bytes:
+        data = encode_frame(msg, self.seq, self.clock_ms(now))
+        self.seq = (self.seq + 1) & 0xFF
+        return data
+
+    # ------------------------------------------------------------------ host -> MCU
+    def receive(self, data: bytes, now: float) -> bytes:
+        out = b''
+        before = self.decoder.stats.crc_errors
+        for frame in self.decoder.feed(data):
+            self._last_host_frame = now
+            out += self._handle(frame, now)
+        if self.decoder.stats.crc_errors != before:
+            self.rx_crc_errors = self.decoder.stats.crc_errors
+        return out
+
+    def _handle(self, frame, now: float) -> bytes:
+        msg = frame.message
+        robot = self.robot
+        if isinstance(msg, m.Heartbeat):
+            if robot.watchdog:
+                robot.set_watchdog(False)
+                self._watchdog_reported = False
+            return self._frame(m.Ack(frame.seq, msg.TYPE, m.AckResult.OK), now)
+        key = (frame.seq, int(msg.TYPE))
+        if key == self._last_cmd:     # a host retry of a command already executed
+            return self._frame(m.Ack(frame.seq, msg.TYPE, m.AckResult.OK), now)
+        result = m.AckResult.OK
+        if isinstance(msg, m.GetInfo):
+            self._last_cmd = key
+            info = m.Info(m.PROTOCOL_VERSION, FIRMWARE_VERSION, m.ResetCause.UNKNOWN,
+                          self.config.telemetry_hz, self.config.power_hz)
+            return self._frame(m.Ack(frame.seq, msg.TYPE), now) + self._frame(info, now)
+        if isinstance(msg, m.EStop):
+            robot.set_estop(msg.engage)
+        elif robot.estop and isinstance(msg, (m.SetLegs, m.SetGait, m.Burrow, m.Winch)):
+            result = m.AckResult.ESTOPPED
+        elif isinstance(msg, m.SetLegs):
+            robot.set_legs(msg.targets, msg.mask)
+        elif isinstance(msg, m.SetGait):
+            robot.set_gait(msg.kind, msg.period, msg.duty, msg.sweep, msg.down, msg.phases,
+                           msg.direction)
+        elif isinstance(msg, m.Burrow):
+            robot.burrow(msg.mode)
+        elif isinstance(msg, m.Winch):
+            robot.set_winch(msg.speed)
+        else:
+            result = m.AckResult.UNSUPPORTED   # an MCU -> host type sent the wrong way
+        if result == m.AckResult.OK and robot.watchdog and not isinstance(msg, m.EStop):
+            robot.set_watchdog(False)
+            self._watchdog_reported = False
+        self._last_cmd = key
+        return self._frame(m.Ack(frame.seq, msg.TYPE, result), now)
+
+    # ------------------------------------------------------------------ MCU loop
+    def tick(self, now: float) -> list[tuple[str, bytes, m.Telemetry | None]]:
+        """Advance to ``now``; return due frames as (kind, bytes, telemetry-or-None)."""
+        out: list[tuple[str, bytes, m.Telemetry | None]] = []
+        # A stalled loop (debugger, overloaded host) must not turn into millions of steps.
+        dt = min(now - self._last_step, 0.1)
+        n = max(1, math.ceil(dt / self.config.physics_dt)) if dt > 0 else 0
+        for _ in range(n):
+            self.robot.step(dt / n)
+        self._last_step = now
+        if now - self._last_host_frame > self.config.watchdog_s and not self.robot.watchdog:
+            self.robot.set_watchdog(True)
+        if self.robot.watchdog and not self._watchdog_reported:
+            self._watchdog_reported = True
+            out.append(('error', self._frame(m.Error(m.ErrorCode.HOST_WATCHDOG, 0), now), None))
+        if now >= self._next_tel:
+            self._next_tel = _next_due(self._next_tel, now, 1.0 / self.config.telemetry_hz)
+            tel = self.telemetry()
+            seq, t_ms = self.seq, self.clock_ms(now)
+            out.append(('telemetry', self._frame(tel, now), tel))
+            if self.on_telemetry:
+                self.on_telemetry(seq, t_ms, tel)
+        if self.config.power_hz > 0 and now >= self._next_pow:
+            self._next_pow = _next_due(self._next_pow, now, 1.0 / self.config.power_hz)
+            v, i = self.robot.power_model.bus(self.robot.power)
+            out.append(('power', self._frame(ina219.registers_from(v, i), now), None))
+        return out
+
+    def telemetry(self) -> m.Telemetry:
+        r = self.robot
+        flags = r.flags()
+        vel = []
+        for s in r.servos:
+            v = s.velocity
+            if abs(v) > 32.767:
+                flags |= m.Flag.VELOCITY_SATURATED
+                v = math.copysign(32.767, v)
+            vel.append(v)
+        rate = max(-32.767, min(32.767, r.pitch_rate))
+        return m.Telemetry(
+            leg_angles=tuple(r.leg_angles()), leg_velocities=tuple(vel),
+            pitch=r.theta_b, pitch_rate=rate, tension=r.winch.tension,
+            spool_position=r.winch.spool_position, spool_velocity=r.winch.spool_velocity,
+            mode=int(r.reported_mode()), flags=int(flags))
+
+    def next_due(self) -> float:
+        return min(self._next_tel, self._next_pow if self.config.power_hz > 0 else math.inf)
+
+
+def _next_due(due: float, now: float, period: float) -> float:
+    """Keep a fixed cadence; if the loop fell more than two periods behind, restart it."""
+    due += period
+    if due < now - 2 * period:
+        due = now + period
+    return due

@@ -1,0 +1,301 @@
+"""The simulated MiniRQuad: four leg servos, body pose, winch and sled, ground, power.
+
+Sagittal model in the architecture's frames: world z up, surface z = 0; p (the winch point,
+at the rear of the body) at (x_p, h); body pitch theta_b positive nose up; legs measured from
+-z_B, positive forward. Quasi-static: no body dynamics beyond the prescribed burrow motion
+and the anchor slip.
+
+Geometry numbers the paper does not give are assumptions, named in ``Geometry``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from rftgls_core.types import AnchorState
+
+from ..protocol.messages import BurrowMode, Flag, GaitKind, Mode
+from .burrow import TABLE_II
+from .gait import BuehlerClock, wrap_angle
+from .ground import AnchorModel, TableAnchorModel
+from .power import PowerModel
+from .servo import Servo
+from .winch import WinchSled
+
+PROXIMAL = (0, 1)
+DISTAL = (2, 3)
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """axle_x: proximal and distal axle positions along x_B from p, m (wheelbase 0.090 m from
+    the paper; the 0.03 m offset is an assumption); axle_z: axle height above p along z_B
+    (assumption); leg_reach: hub-to-tip distance of the C-leg, m (0.09 m arc diameter);
+    h_walk: height of p while walking and standing, m (assumption)."""
+
+    axle_x: tuple[float, float] = (0.03, 0.12)
+    axle_z: float = 0.02
+    leg_reach: float = 0.09
+    h_walk: float = 0.060
+    walk_speed: float = 0.03      # m/s of body travel while walking (assumption)
+    walk_leg_speed: float = 8.0   # servo speed limit in the air / walking, rad/s
+    burrow_leg_speed: float = 1.0 # servo speed limit while burrowing in sand, rad/s
+    settle_time: float = 0.5      # s held at the retracting pose before the final move
+
+    def tip_depth(self, leg: int, h: float, theta_b: float, theta_l: float) -> float:
+        """Depth (m, >= 0) of a leg tip below the surface; straight hub-to-tip model."""
+        ax = self.axle_x[0 if leg in PROXIMAL else 1]
+        z_axle = h + ax * math.sin(theta_b) + self.axle_z * math.cos(theta_b)
+        z_tip = z_axle - self.leg_reach * math.cos(theta_l + theta_b)
+        return max(0.0, -z_tip)
+
+
+@dataclass
+class SimRobot:
+    """State and one ``step(dt)`` of the simulated robot. Commands arrive as method calls."""
+
+    geometry: Geometry = field(default_factory=Geometry)
+    ground: AnchorModel = field(default_factory=TableAnchorModel)
+    power_model: PowerModel = field(default_factory=PowerModel)
+    winch: WinchSled = field(default_factory=WinchSled)
+    mass: float = 0.296
+
+    def __post_init__(self) -> None:
+        self.servos = [Servo(max_speed=self.geometry.walk_leg_speed) for _ in range(4)]
+        self.x_p = 0.0
+        self.h = self.geometry.h_walk
+        self.theta_b = 0.0
+        self.pitch_rate = 0.0
+        self.mode = Mode.IDLE
+        self.estop = False
+        self.watchdog = False
+        self.slipping = False
+        self.time = 0.0
+        self.clocks: list[BuehlerClock] | None = None
+        self._gait_t0 = 0.0
+        self._gait_offsets = [0.0] * 4
+        self._burrow: str | None = None
+        self._phase_t = 0.0
+        self._body_from = (self.h, self.theta_b)
+        self.power = self.power_model.p_idle
+        self.last_prediction = None
+        self._span = 0.0             # leg distance to go when the current burrow phase began
+        self._reached_at: float | None = None   # phase time the retract pose was reached
+        self._unburrowing = False
+
+    # ------------------------------------------------------------------ commands
+    def set_legs(self, targets, mask: int = 0x0F) -> None:
+        self.mode = Mode.IDLE
+        self.clocks = None
+        for i, s in enumerate(self.servos):
+            if mask & (1 << i):
+                s.max_speed = self.geometry.walk_leg_speed
+                s.target = _nearest(s.angle, targets[i])
+
+    def set_gait(self, kind: int, period: float, duty: float, sweep: float, down: float,
+                 phases, direction: int) -> None:
+        for s in self.servos:
+            s.max_speed = self.geometry.walk_leg_speed
+        if kind == GaitKind.STAND:
+            self.clocks = None
+            self.mode = Mode.IDLE
+            for s in self.servos:
+                s.target = _nearest(s.angle, down)
+            return
+        self.clocks = [BuehlerClock(period, duty, sweep, down, ph, direction) for ph in phases]
+        self._gait_t0 = self.time
+        # Start each clock on the revolution nearest the leg so no leg spins a full turn.
+        self._gait_offsets = [
+            _nearest(s.angle, c.angle(0.0)) - c.angle(0.0)
+            for s, c in zip(self.servos, self.clocks)]
+        self.mode = Mode.WALKING
+        self._body_from = (self.h, self.theta_b)
+        self._phase_t = 0.0
+
+    def burrow(self, mode: int) -> None:
+        self.clocks = None
+        self._phase_t = 0.0
+        self._body_from = (self.h, self.theta_b)
+        for s in self.servos:
+            s.max_speed = self.geometry.burrow_leg_speed
+        if mode == BurrowMode.UNBURROW:
+            self._burrow = None
+            self.mode = Mode.IDLE
+            self._aim((0.0, 0.0))
+            self._unburrowing = True
+            return
+        self._burrow = BurrowMode(mode).name
+        self.mode = Mode.BURROW_RETRACT
+        self._aim(TABLE_II[self._burrow].retract)
+
+    def set_winch(self, speed: float) -> None:
+        self.winch.command = speed
+
+    def set_estop(self, engage: bool) -> None:
+        self.estop = engage
+        if engage:
+            self._stop_motion()
+
+    def set_watchdog(self, tripped: bool) -> None:
+        if tripped and not self.watchdog:
+            self._stop_motion()
+        self.watchdog = tripped
+
+    def _stop_motion(self) -> None:
+        self.clocks = None
+        self._burrow = None
+        self._unburrowing = False
+        if self.mode in (Mode.WALKING, Mode.BURROW_RETRACT, Mode.BURROW_FINAL):
+            self.mode = Mode.IDLE
+        for s in self.servos:
+            s.hold()
+        self.winch.command = 0.0
+
+    def _aim(self, pose: tuple[float, float]) -> None:
+        for i, s in enumerate(self.servos):
+            s.target = _nearest(s.angle, pose[0] if i in PROXIMAL else pose[1])
+        self._span = max(abs(s.target - s.angle) for s in self.servos)
+        self._reached_at = None
+
+    # ------------------------------------------------------------------ physics
+    def leg_angles(self) -> list[float]:
+        return [wrap_angle(s.angle) for s in self.servos]
+
+    def anchor_state(self) -> AnchorState:
+        a = self.leg_angles()
+        return AnchorState(self.h, self.theta_b, 0.5 * (a[0] + a[1]), 0.5 * (a[2] + a[3]))
+
+    def depths(self) -> list[float]:
+        return [self.geometry.tip_depth(i, self.h, self.theta_b, s.angle)
+                for i, s in enumerate(self.servos)]
+
+    def step(self, dt: float) -> None:
+        if dt <= 0.0:
+            return
+        self.time += dt
+        self._phase_t += dt
+        theta_b0 = self.theta_b
+        self._drive_legs()
+        for s in self.servos:
+            s.step(dt)
+        self._move_body(dt)
+        self._resolve_rope(dt)
+        self.pitch_rate = (self.theta_b - theta_b0) / dt
+        legs = self.power_model.leg_power([s.velocity for s in self.servos], self.depths())
+        winch = self.power_model.winch_power(self.winch.tension, self.winch.spool_velocity,
+                                             self.winch.stalled)
+        self.power = self.power_model.p_idle + legs + winch
+
+    def _drive_legs(self) -> None:
+        if self.mode == Mode.WALKING and self.clocks:
+            t = self.time - self._gait_t0
+            for s, c, off in zip(self.servos, self.clocks, self._gait_offsets):
+                s.target = c.angle(t) + off
+        elif self.mode == Mode.BURROW_RETRACT and self._burrow:
+            if all(abs(s.target - s.angle) < math.radians(0.5) for s in self.servos):
+                if self._reached_at is None:
+                    self._reached_at = self._phase_t
+                if self._phase_t - self._reached_at >= self.geometry.settle_time:
+                    self.mode = Mode.BURROW_FINAL
+                    self._phase_t = 0.0
+                    self._body_from = (self.h, self.theta_b)
+                    self._aim(TABLE_II[self._burrow].final)
+        elif self.mode == Mode.BURROW_FINAL and self._burrow:
+            if all(abs(s.target - s.angle) < math.radians(0.5) for s in self.servos):
+                self.mode = Mode.ANCHORED
+
+    def _leg_progress(self) -> float:
+        """Fraction of the current leg move completed (0..1), for the body's settling."""
+        worst = max(abs(s.target - s.angle) for s in self.servos)
+        if self._span < 1e-9:
+            return 1.0
+        return max(0.0, 1.0 - worst / self._span)
+
+    def _move_body(self, dt: float) -> None:
+        g = self.geometry
+        if self.mode == Mode.WALKING:
+            self.x_p += g.walk_speed * dt * (self.clocks[0].direction if self.clocks else 1)
+            self._relax(g.h_walk, 0.0, dt)
+        elif self.mode in (Mode.BURROW_RETRACT, Mode.BURROW_FINAL) and self._burrow:
+            seq = TABLE_II[self._burrow]
+            h0, b0 = self._body_from
+            if self.mode == Mode.BURROW_RETRACT:
+                h1 = h0 + 0.6 * (seq.h - h0)
+                b1 = 0.5 * seq.theta_b
+            else:
+                h1, b1 = seq.h, seq.theta_b
+            k = self._leg_progress()
+            self.h = h0 + (h1 - h0) * k
+            self.theta_b = b0 + (b1 - b0) * k
+        elif self._unburrowing:
+            self._relax(g.h_walk, 0.0, dt)
+            if abs(self.h - g.h_walk) < 1e-4 and all(abs(s.target - s.angle) < 1e-3
+                                                     for s in self.servos):
+                self._unburrowing = False
+
+    def _relax(self, h: float, theta_b: float, dt: float, rate: float = 2.0) -> None:
+        a = min(1.0, rate * dt)
+        self.h += (h - self.h) * a
+        self.theta_b += (theta_b - self.theta_b) * a
+
+    def _resolve_rope(self, dt: float) -> None:
+        w = self.winch
+        if self.estop or self.watchdog:
+            w.command = 0.0
+        w.reel(dt)
+        dist, phi = w.geometry(self.x_p, self.h)
+        demand = w.rope_k * max(0.0, dist - w.free_length())
+        pred = self.ground.predict(self.anchor_state(), phi)
+        self.last_prediction = pred
+        friction = 0.4 * self.mass * 9.81
+        cap = pred.capacity if (pred.status.has_value and pred.capacity is not None) \
+            else friction
+        self.slipping = False
+        w.sled_moving = False
+        if demand <= min(cap, w.sled_friction):
+            w.tension = demand
+        elif w.sled_friction <= cap:
+            # The sled slides toward p until the rope stretch matches its friction.
+            excess = (demand - w.sled_friction) / w.rope_k
+            dx, dz = self.x_p - w.sled_x, self.h - w.sled_z
+            w.sled_x += excess * dx / max(math.hypot(dx, dz), 1e-9)
+            w.tension = w.sled_friction
+            w.sled_moving = True
+        else:
+            # The anchor fails first: p slips along the predicted twist; the sled stays.
+            vx, vz, wy = pred.slip_twist
+            ux, uz = -math.cos(phi), math.sin(phi)          # unit pull direction on p
+            along = max(vx * ux + vz * uz, 0.2)
+            s = (demand - cap) / w.rope_k / along
+            self.x_p += vx * s
+            self.h += vz * s
+            self.theta_b += wy * s
+            w.tension = cap
+            self.slipping = True
+
+    def flags(self) -> int:
+        f = 0
+        if self.estop:
+            f |= Flag.ESTOP
+        if self.watchdog:
+            f |= Flag.WATCHDOG_TRIPPED
+        if self.winch.stalled:
+            f |= Flag.WINCH_STALLED
+        if self.slipping:
+            f |= Flag.ANCHOR_SLIPPING
+        if self.winch.sled_moving:
+            f |= Flag.SLED_MOVING
+        return f
+
+    def reported_mode(self) -> Mode:
+        if self.estop:
+            return Mode.ESTOPPED
+        if self.watchdog:
+            return Mode.WATCHDOG
+        return self.mode
+
+
+def _nearest(current: float, target: float) -> float:
+    """The unwrapped equivalent of ``target`` nearest to ``current`` (shortest path)."""
+    return current + wrap_angle(target - current)
+

@@ -1,0 +1,38 @@
+"""Driver test helpers: start the simulated MCU on a pty, run the bridge node in-process."""
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))   # strategies.py
+
+
+@pytest.fixture
+def sim(spawn, python_exe, tmp_path):
+    """Start ``minirquad_sim`` (as ``python -m``) with extra args; returns a handle with the
+    symlink path, the record file and a reader for its telemetry records."""
+
+    class Sim:
+        def start(self, *args: str):
+            self.link = tmp_path / 'tty'
+            self.path_file = tmp_path / 'tty.path'
+            self.record = tmp_path / 'record.jsonl'
+            self.proc = spawn([python_exe, '-m', 'minirquad_driver.sim.main',
+                               '--symlink', str(self.link), '--link-file', str(self.path_file),
+                               '--record', str(self.record), *args])
+            deadline = time.monotonic() + 10.0
+            while not self.path_file.exists():
+                assert self.proc.poll() is None, 'simulator exited'
+                assert time.monotonic() < deadline, 'simulator did not open its pty'
+                time.sleep(0.02)
+            return self
+
+        def records(self) -> list[dict]:
+            return [json.loads(line) for line in self.record.read_text().splitlines()
+                    if line.strip()]
+
+    return Sim()
