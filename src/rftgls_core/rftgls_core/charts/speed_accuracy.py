@@ -26,8 +26,9 @@ def plot_speed_accuracy(summaries: list[Summary], out: str | Path, title: str = 
             s = summaries[i]
             y = max(pts[i][1], floor)
             ax.scatter(pts[i][0], y, color=COLORS.get(s.method, 'k'), s=36, zorder=3)
-            ax.annotate(f'{s.method}\nN={s.n_twists} arc={s.n_arc}', (pts[i][0], y),
-                        fontsize=6, xytext=(3, 3), textcoords='offset points')
+            name, _, res = s.config.partition(' N=')
+            ax.annotate(f'{name}\nN={res}', (pts[i][0], y), fontsize=6, xytext=(3, 3),
+                        textcoords='offset points')
         front = [ok[j] for j in pareto_front([pts[i] for i in ok])]
         fx = [pts[i][0] for i in front]
         fy = [max(pts[i][1], floor) for i in front]
