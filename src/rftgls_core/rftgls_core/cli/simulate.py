@@ -1,0 +1,76 @@
+"""`rftgls simulate pull`: quasi-static trajectory of a failing anchor under a steady pull."""
+from __future__ import annotations
+
+import csv
+import math
+import sys
+from pathlib import Path
+
+from ..sim.trajectory import simulate_pull
+from .capacity import add_state_args, model_from_args, state_from_args
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser('simulate', help='quasi-static trajectories (simulate pull ...)')
+    sub2 = p.add_subparsers(dest='what', required=True)
+    q = sub2.add_parser('pull', help='slip of an anchor held at its capacity by a steady pull')
+    add_state_args(q)
+    q.add_argument('--method', choices=['direct', 'twist-mesh', 'map'], default='direct')
+    q.add_argument('--map', help='HDF5 map (with --method map)')
+    q.add_argument('--twists', type=int, default=None)
+    q.add_argument('--integrator', choices=['euler', 'heun'], default='heun')
+    q.add_argument('--step', type=float, default=0.001, help='path of p per step, m')
+    q.add_argument('--max-travel', type=float, default=0.08, help='m')
+    q.add_argument('--speed', type=float, default=0.001,
+                   help='pull speed that turns path length into time, m/s (default 1 mm/s)')
+    q.add_argument('--out', required=True, help='CSV file')
+    q.add_argument('--plot', help='PNG file (force, z and thetaB against x, like Fig. 8)')
+    q.set_defaults(run=run)
+
+
+class _MapPredictor:
+    def __init__(self, cmap):
+        self.cmap = cmap
+
+    def predict(self, state, phi, pull):
+        return self.cmap.query(state, phi, pull)
+
+
+def run(args) -> int:
+    from tqdm import tqdm
+
+    state = state_from_args(args)
+    phi = math.radians(args.phi)
+    if args.method == 'map':
+        if not args.map:
+            raise ValueError('--method map needs --map FILE.h5')
+        from ..maps import CapacityMap
+        cmap = CapacityMap.load(args.map)
+        predictor = _MapPredictor(cmap)
+        from ..robots.presets import get_robot
+        robot = get_robot(cmap.robot_name)
+    else:
+        model = model_from_args(args)
+        predictor, robot = model, model.robot
+    plate = lambda st: robot.pose(st, args.pull).plate_min_z
+    bar = tqdm(total=int(args.max_travel / args.step), unit='step', file=sys.stderr,
+               desc='slip', leave=False)
+    traj = simulate_pull(predictor, state, phi, args.pull, plate, step=args.step,
+                         integrator=args.integrator, max_travel=args.max_travel,
+                         progress=lambda k: bar.update(1))
+    bar.close()
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with open(out, 'w', newline='') as fh:
+        w = csv.writer(fh)
+        w.writerow(['t_s', 's_m', 'x_m', 'z_m', 'theta_b_rad', 'force_N', 'status'])
+        for p in traj.points:
+            w.writerow([p.s_m / args.speed, p.s_m, p.x_m, p.z_m, p.theta_b,
+                        '' if p.force_N is None else p.force_N, p.status])
+    print(f'{len(traj.points)} points, stopped: {traj.stop_reason}; wrote {out}')
+    if args.plot:
+        from ..charts.trajectory import plot_trajectories
+        plot_trajectories({f'{args.method}, {args.integrator}': traj}, args.plot,
+                          title=f'{robot.name}, {args.pull} pull, phi = {args.phi:.0f} deg')
+        print(f'wrote {args.plot}')
+    return 0
