@@ -108,7 +108,13 @@ def bench_capacity() -> list[Figure]:
 
 
 # Sections in run order; maps and nodes register theirs where they live.
-SECTIONS: dict[str, Callable[[], list[Figure]]] = {'rft': bench_rft, 'capacity': bench_capacity}
+def bench_maps() -> list[Figure]:
+    from .maps.bench import bench_maps as run
+    return run()
+
+
+SECTIONS: dict[str, Callable[[], list[Figure]]] = {'rft': bench_rft, 'capacity': bench_capacity,
+                                                  'maps': bench_maps}
 
 
 def run_all(only: list[str] | None = None, progress: Callable[[str], None] | None = None

@@ -34,7 +34,6 @@ from .. import __version__
 from ..anchor import DEFAULT_METHOD, DEFAULT_TWISTS, AnchorModel
 from ..rft.media import Medium, get_medium
 from ..robots.presets import get_robot
-from ..types import Status
 from .grid import MapGrid, default_grid
 from .hdf5 import STATUS_NAMES, MapData
 
@@ -138,7 +137,8 @@ def _run_dask(spec, grid, chunks, address: str, timeout_s: float) -> Iterator[Ch
     try:
         futures = [client.submit(solve_chunk, spec, grid, c, pure=False) for c in chunks]
         try:
-            for fut in dask_completed(futures):
+            # loop= explicitly: the client is not made the process-wide default.
+            for fut in dask_completed(futures, loop=client.loop):
                 yield fut.result()
         finally:
             client.cancel(futures)
@@ -239,4 +239,4 @@ def status_counts(data: MapData) -> dict[str, int]:
 
 
 __all__ = ['BuildSpec', 'ChunkResult', 'build_map', 'solve_chunk', 'chunk_indices',
-           'spec_from_map', 'status_counts', 'default_workers', 'Status']
+           'spec_from_map', 'status_counts', 'default_workers']

@@ -1,0 +1,72 @@
+"""`rftgls figure fig8|fig9|fig10b`: the paper's views recomputed from our model."""
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+from ..anchor import AnchorModel
+from ..rft.media import get_medium
+from ..robots.model import G
+from ..robots.presets import get_robot
+from ..types import AnchorState, Pull
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser('figure', help="the paper's figures from our model (fig8, fig9, fig10b)")
+    p.add_argument('which', choices=['fig8', 'fig9', 'fig10b'])
+    p.add_argument('--out', required=True, help='PNG file (numbers go next to it as .json)')
+    p.add_argument('--method', default='twist-mesh',
+                   help='limit-surface method for fig9/fig10b (default twist-mesh: it keeps a '
+                        'conservative value where the RFT map jumps and direct has no root)')
+    p.add_argument('--sled-friction', type=float, default=0.5,
+                   help='fig10b: sled force = mu * m * g (assumed mu, default 0.5)')
+    p.add_argument('--l1', type=float, default=-40.0, help='fig8: thetaL1, deg')
+    p.add_argument('--l2', type=float, default=0.0, help='fig8: thetaL2, deg')
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    from tqdm import tqdm
+
+    from ..charts import paper_figures as pf
+    out = Path(args.out)
+    if args.which == 'fig9':
+        model = AnchorModel(get_robot('prototype'), get_medium('glass_beads'), method=args.method)
+        bar = tqdm(total=50, desc='fig9 poses', file=sys.stderr)
+        maps = pf.leg_angle_maps(model, progress=bar.update)
+        bar.close()
+        pf.plot_leg_angle_maps(maps, out, f'prototype in glass beads, h = 20 mm, thetaB = 0, '
+                                          f'phi = 0, method {args.method}')
+        data = {pull: {k: v.tolist() for k, v in g.items()} for pull, g in maps.items()}
+    elif args.which == 'fig8':
+        from ..charts.trajectory import plot_trajectories
+        robot, medium = get_robot('prototype'), get_medium('glass_beads')
+        state = AnchorState.from_degrees(0.02, 0.0, args.l1, args.l2)
+        data = {}
+        for pull in Pull:
+            runs = {}
+            for method in ('direct', 'twist-mesh', 'alpha', 'ellipsoid'):
+                model = AnchorModel(robot, medium, method=method)
+                summary, traj = pf.slip_summary(model, state, pull, travel=0.04, step=0.001)
+                runs[method] = traj
+                data[f'{pull.value}/{method}'] = summary.__dict__
+            plot_trajectories(runs, out.with_name(f'{out.stem}_{pull.value}{out.suffix}'),
+                              title=f'prototype, ({args.l1:.0f}, {args.l2:.0f}) deg, '
+                                    f'{pull.value} pull, phi = 0')
+    else:
+        from .demo import ANCHOR_MODES
+        model = AnchorModel(get_robot('minirquad'), get_medium('m90_sand'), method=args.method)
+        caps = {}
+        for mode, state in ANCHOR_MODES.items():
+            res = model.predict_many(state, [0.0, math.radians(-20.0)], Pull.BACKWARD)
+            caps[mode] = {0.0: res[0].capacity_N, -20.0: res[1].capacity_N}
+        needs = {f'{int(m * 1e3)} g': args.sled_friction * m * G for m in (0.4, 0.6)}
+        pf.plot_anchor_modes(caps, needs, out, f'MiniRQuad anchors in M90 sand (backward pull), '
+                                               f'sled mu = {args.sled_friction}')
+        data = {'capacity_N': {m: {str(k): v for k, v in c.items()} for m, c in caps.items()},
+                'sled_force_N': needs}
+    out.with_suffix('.json').write_text(json.dumps(data, indent=2, default=float))
+    print(f'wrote {out} (and .json)')
+    return 0

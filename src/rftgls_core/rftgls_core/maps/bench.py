@@ -1,0 +1,61 @@
+"""Map benchmarks for `rftgls bench` (register `bench_maps` in rftgls_core.bench.SECTIONS).
+
+map_query_us: one CapacityMap.query on the shipped prototype map (paper grid) at random
+    in-grid states and pull angles; best time per query over repeated batches.
+map_build_s: the full prototype paper grid (750 states x 2 pulls x 5 angles, twist-mesh,
+    1000 twists) on 2 local worker processes, including pool start-up; one run.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..bench import Figure, best_time
+from ..types import AnchorState
+from .grid import prototype_grid
+
+SHIPPED_PROTOTYPE = Path(__file__).resolve().parents[4] / 'maps' / 'prototype_glass_beads.h5'
+
+
+def _prototype_map():
+    from .query import CapacityMap
+    if SHIPPED_PROTOTYPE.exists():
+        return CapacityMap.load(SHIPPED_PROTOTYPE), 'shipped prototype map'
+    from .build import build_map
+    return CapacityMap(build_map('prototype', 'glass_beads', workers=2)), 'fresh prototype map'
+
+
+def bench_map_query(n: int = 200, seed: int = 0) -> list[Figure]:
+    cmap, what = _prototype_map()
+    g = cmap.grid
+    rng = np.random.default_rng(seed)
+    lo = np.array([a[0] for a in g.axes])
+    hi = np.array([a[-1] for a in g.axes])
+    states = [AnchorState(*map(float, x)) for x in lo + (hi - lo) * rng.random((n, 4))]
+    phis = (g.phi[0] + (g.phi[-1] - g.phi[0]) * rng.random(n)).tolist()
+
+    def batch():
+        for s, p in zip(states, phis):
+            cmap.query(s, p, 'backward')
+
+    t = best_time(batch, repeats=7) / n
+    return [Figure('map_query_us', 1e6 * t, 'us', budget='<= 20 (paper: 20000)',
+                   note=f'{what}, pure-Python 32-corner blend, random in-grid states')]
+
+
+def bench_map_build(workers: int = 2) -> list[Figure]:
+    from .build import build_map
+    grid = prototype_grid()
+    t0 = time.perf_counter()
+    build_map('prototype', 'glass_beads', grid, workers=workers)
+    dt = time.perf_counter() - t0
+    return [Figure('map_build_s', dt, 's', budget='<= 60 on 2 cores',
+                   note=f'prototype paper grid, {grid.n_states} states x {len(grid.pulls)} '
+                        f'pulls x {len(grid.phi)} angles, twist-mesh 1000 twists, '
+                        f'{workers} processes incl. start-up')]
+
+
+def bench_maps() -> list[Figure]:
+    return bench_map_query() + bench_map_build()
