@@ -1,10 +1,12 @@
 """The ground as the simulator sees it: anchor capacity and slip direction for a pose.
 
-``AnchorModel`` is the injection point for the real RFT-GLS prediction from rftgls_core
-(not wired yet: the capacity code is being written). ``TableAnchorModel`` is a clearly
-labelled PLACEHOLDER: per-mode capacities chosen to reproduce the paper's qualitative result
-(Fig. 10(b): DH holds a 600 g sled at phi = 0 and -20 deg, DL and SH do not; SH suffices for
-400 g) for the sled friction in ``winch.py``. Its numbers are not predictions.
+``MapAnchorModel`` (default) answers from an rftgls_core state-space map (the shipped
+MiniRQuad map in M90 sand), i.e. the same RFT-GLS prediction capacity_node makes, at ~20 us
+per query. ``TableAnchorModel`` is a clearly labelled PLACEHOLDER kept for tests that want
+hand-set capacities: per-mode values chosen to reproduce the paper's Fig. 10(b) outcome.
+
+Slip twists here follow rftgls_core: (vx, vz, wy) at p in world axes, wy about +y (so the
+body pitch thetaB changes by -wy per unit of travel), scaled so |(vx, vz)| = 1.
 """
 from __future__ import annotations
 
@@ -72,5 +74,37 @@ class TableAnchorModel:
 def _unit_slip(phi: float) -> tuple[float, float, float]:
     vx, vz = -math.cos(phi), 0.35
     n = math.hypot(vx, vz)
-    # Pulled backwards, the body pitches nose-down about p's side: a small negative wy.
-    return (vx / n, vz / n, -2.0)
+    # Pulled backwards, the axle end pitches down: positive wy (thetaB falls).
+    return (vx / n, vz / n, 2.0)
+
+
+class MapAnchorModel:
+    """RFT-GLS ground from an rftgls_core capacity map (backward pulls: the winch is on the
+    MiniRQuad's back). Outside the map the answer is clamped ('extrapolated'); where the map
+    has no value the simulator falls back to body friction."""
+
+    def __init__(self, path=None, pull: str = 'backward'):
+        from rftgls_core.maps import CapacityMap, shipped_map_path
+        self.path = str(path) if path else str(shipped_map_path('minirquad'))
+        self.map = CapacityMap.load(self.path)
+        self.pull = pull
+
+    def predict(self, state: AnchorState, phi: float) -> AnchorPrediction:
+        res = self.map.query(state, phi, self.pull)
+        if not res.status.has_value or res.slip_twist is None:
+            return AnchorPrediction(None, (0.0, 0.0, 0.0), res.status)
+        vx, vz, wy = res.slip_twist
+        n = math.hypot(vx, vz)
+        if n < 1e-9:  # pure rotation about p: move p a little along the pull instead
+            return AnchorPrediction(res.capacity_N, _unit_slip(phi), res.status)
+        return AnchorPrediction(res.capacity_N, (vx / n, vz / n, wy / n), res.status)
+
+
+def default_ground() -> AnchorModel:
+    """The RFT-GLS map ground when the shipped map is found, else the placeholder table."""
+    try:
+        return MapAnchorModel()
+    except (OSError, ValueError) as exc:
+        import warnings
+        warnings.warn(f'RFT-GLS map not available ({exc}); using the placeholder ground table')
+        return TableAnchorModel()

@@ -17,7 +17,7 @@ from rftgls_core.types import AnchorState
 from ..protocol.messages import BurrowMode, Flag, GaitKind, Mode
 from .burrow import TABLE_II
 from .gait import BuehlerClock, wrap_angle
-from .ground import AnchorModel, TableAnchorModel
+from .ground import AnchorModel, default_ground
 from .power import PowerModel
 from .servo import Servo
 from .winch import WinchSled
@@ -55,7 +55,7 @@ class SimRobot:
     """State and one ``step(dt)`` of the simulated robot. Commands arrive as method calls."""
 
     geometry: Geometry = field(default_factory=Geometry)
-    ground: AnchorModel = field(default_factory=TableAnchorModel)
+    ground: AnchorModel = field(default_factory=default_ground)
     power_model: PowerModel = field(default_factory=PowerModel)
     winch: WinchSled = field(default_factory=WinchSled)
     mass: float = 0.296
@@ -269,7 +269,7 @@ class SimRobot:
             s = (demand - cap) / w.rope_k / along
             self.x_p += vx * s
             self.h += vz * s
-            self.theta_b += wy * s
+            self.theta_b -= wy * s   # wy about +y tilts the axle end down
             w.tension = cap
             self.slipping = True
 

@@ -26,7 +26,7 @@ class WinchSled:
     sled_z: float = 0.01        # rope attachment height on the sled
     rope_length: float = 0.50   # rope paid out at start (free length)
     sled_mass: float = 0.400
-    sled_mu: float = 0.6
+    sled_mu: float = 0.5   # assumed sled-on-sand friction (same as `rftgls demo`)
     rope_k: float = 400.0
     stall_tension: float = 8.0
     max_speed: float = 0.05

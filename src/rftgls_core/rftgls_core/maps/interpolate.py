@@ -20,6 +20,11 @@ from typing import Sequence
 import numpy as np
 
 
+# Coordinates within this fraction of a cell of a node ARE on the node: a leg angle of
+# -40.00000000000001 deg (degrees -> radians -> degrees) must not pull in the next node.
+SNAP = 1e-9
+
+
 def locate(xs: Sequence[float], x: float) -> tuple[int, float, int]:
     """Cell of x on the increasing axis xs (len >= 2): (lower node i, fraction t, side).
 
@@ -30,13 +35,19 @@ def locate(xs: Sequence[float], x: float) -> tuple[int, float, int]:
     which also keeps index i + 1 == n from being touched).
     """
     n = len(xs)
+    tol = SNAP * (xs[1] - xs[0])
     if x <= xs[0]:
-        return 0, 0.0, (-1 if x < xs[0] else 0)
+        return 0, 0.0, (-1 if x < xs[0] - tol else 0)
     if x >= xs[n - 1]:
-        return n - 1, 0.0, (1 if x > xs[n - 1] else 0)
+        return n - 1, 0.0, (1 if x > xs[n - 1] + tol else 0)
     i = bisect_right(xs, x) - 1
     x0 = xs[i]
-    return i, (x - x0) / (xs[i + 1] - x0), 0
+    t = (x - x0) / (xs[i + 1] - x0)
+    if t < SNAP:
+        return i, 0.0, 0
+    if t > 1.0 - SNAP:
+        return i + 1, 0.0, 0
+    return i, t, 0
 
 
 def weights4(t0: float, t1: float, t2: float, t3: float) -> list[float]:
@@ -59,7 +70,9 @@ def locate_many(axis: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray
     xc = np.clip(x, axis[0], axis[-1])
     i = np.clip(np.searchsorted(axis, xc, side='right') - 1, 0, n - 2)
     t = (xc - axis[i]) / (axis[i + 1] - axis[i])
-    side = np.where(x < axis[0], -1, np.where(x > axis[-1], 1, 0)).astype(np.int8)
+    t = np.where(t < SNAP, 0.0, np.where(t > 1.0 - SNAP, 1.0, t))
+    tol = SNAP * (axis[1] - axis[0])
+    side = np.where(x < axis[0] - tol, -1, np.where(x > axis[-1] + tol, 1, 0)).astype(np.int8)
     return i, t, side
 
 
