@@ -18,7 +18,8 @@ setup(
     license='BSD-3-Clause',
     entry_points={
         'console_scripts': [
-
+            'capacity_node = rftgls_ros.capacity_node:main',
+            'capacity_bench = rftgls_ros.capacity_bench:main',
         ],
     },
 )

@@ -1,0 +1,9 @@
+"""ROS-free parts of capacity_node: predictors, the estimator, and message-free conversions.
+
+Nothing in this sub-package imports rclpy, so tests (and other tools) can drive it directly.
+"""
+from .estimator import CapacityEstimator, Estimate, EstimatorConfig, INPUTS
+from .predictor import ConfigError, LivePredictor, MapPredictor, Predictor, make_predictor
+
+__all__ = ['CapacityEstimator', 'ConfigError', 'Estimate', 'EstimatorConfig', 'INPUTS',
+           'LivePredictor', 'MapPredictor', 'Predictor', 'make_predictor']

@@ -1,0 +1,124 @@
+"""Predictors behind capacity_node: a precomputed HDF5 map (default) or the live core model.
+
+Both answer the same question, `predict(state, phi, pull) -> CapacityResult`:
+  state: rftgls_core AnchorState (h m, theta_b rad, theta_l1 rad, theta_l2 rad),
+  phi:   tether angle, rad (tension along (-cos phi, 0, sin phi) in world axes),
+  pull:  'forward' | 'backward' (C-leg orientation relative to the pull).
+The result carries a status (ok / extrapolated / unsupported / ...) and values only when the
+status has one (rftgls_core.surfaces.base.CapacityResult).
+"""
+from __future__ import annotations
+
+import importlib
+import os
+from pathlib import Path
+from typing import Protocol, runtime_checkable
+
+from rftgls_core.surfaces.base import CapacityResult
+from rftgls_core.types import AnchorState, Pull
+
+# Relative to the repository root (or the current directory, or $RFTGLS_MAPS_DIR).
+DEFAULT_MAP = 'maps/minirquad_m90_sand.h5'
+LIVE_METHODS = ('direct', 'twist-mesh', 'alpha', 'ellipsoid')
+
+
+class ConfigError(ValueError):
+    """A bad node parameter or map file; the node reports it in one line and exits."""
+
+
+@runtime_checkable
+class Predictor(Protocol):
+    """Anything that turns (state, phi, pull) into a CapacityResult. `name` is for diagnostics."""
+
+    name: str
+
+    def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
+        ...
+
+
+class LivePredictor:
+    """rftgls_core.anchor.AnchorModel computed per call (about 10 ms for twist-mesh)."""
+
+    def __init__(self, robot: str = 'minirquad', medium: str = 'm90_sand',
+                 method: str = 'direct', n_twists: int | None = None):
+        from rftgls_core.anchor import DEFAULT_TWISTS, AnchorModel
+        from rftgls_core.rft.media import get_medium
+        from rftgls_core.robots.presets import get_robot
+        self.model = AnchorModel(get_robot(robot), get_medium(medium), method=method,
+                                 n_twists=n_twists or DEFAULT_TWISTS)
+        self.name = f'live:{method}'
+
+    def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
+        return self.model.predict(state, phi, pull)
+
+
+def resolve_map_path(path: str) -> Path:
+    """Absolute path of a map file: as given, else under the current directory, else under
+    $RFTGLS_MAPS_DIR, else under the repository root (where `maps/` is shipped)."""
+    p = Path(path).expanduser()
+    if p.is_absolute():
+        return p
+    candidates = [Path.cwd() / p]
+    if os.environ.get('RFTGLS_MAPS_DIR'):
+        candidates += [Path(os.environ['RFTGLS_MAPS_DIR']) / p,
+                       Path(os.environ['RFTGLS_MAPS_DIR']) / p.name]
+    core = importlib.import_module('rftgls_core')
+    # src/rftgls_core/rftgls_core/__init__.py -> repository root (symlink installs resolve).
+    candidates.append(Path(core.__file__).resolve().parents[3] / p)
+    for c in candidates:
+        if c.is_file():
+            return c
+    return candidates[0]
+
+
+class MapPredictor:
+    """Interpolation in a precomputed state-space map (about 20 us per query).
+
+    robot, medium, pull: what the node is configured for; a map made for something else is
+    refused at start-up rather than answering questions about another robot.
+    """
+
+    def __init__(self, path: str | os.PathLike, robot: str | None = None,
+                 medium: str | None = None, pull: str | None = None):
+        from rftgls_core.maps import CapacityMap, MapFileError
+        self.path = resolve_map_path(str(path))
+        if not self.path.is_file():
+            raise ConfigError(f'map file not found: {path} (looked for {self.path}); build it '
+                              'with `rftgls map build` or set map_file to "" for live '
+                              'computation')
+        try:
+            self.map = CapacityMap.load(self.path)
+        except MapFileError as exc:  # wrong schema, truncated file, ...
+            raise ConfigError(f'bad map file {self.path}: {exc}') from exc
+        except OSError as exc:  # not HDF5 at all
+            raise ConfigError(f'cannot read map file {self.path}: {exc}') from exc
+        checks = (('robot', robot, self.map.robot_name), ('medium', medium, self.map.medium_name))
+        for what, want, have in checks:
+            if want is not None and want.strip().lower() != str(have).lower():
+                raise ConfigError(f'map file {self.path} is for {what} {have!r}, '
+                                  f'the node is configured for {want!r}')
+        if pull is not None and str(pull) not in self.map.pulls:
+            raise ConfigError(f'map file {self.path} holds pulls {list(self.map.pulls)}, '
+                              f'not {str(pull)!r}')
+        self.name = f'map:{self.path.name}'
+
+    def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
+        return self.map.query(state, phi, pull)
+
+
+def make_predictor(map_file: str, live_method: str = 'direct', robot: str = 'minirquad',
+                   medium: str = 'm90_sand', n_twists: int = 0,
+                   pull: str | None = None) -> Predictor:
+    """The map predictor when map_file is set, else the live one. Raises ConfigError."""
+    if map_file.strip():
+        return MapPredictor(map_file.strip(), robot, medium, pull)
+    if live_method not in LIVE_METHODS:
+        raise ConfigError(f'live_method must be one of {", ".join(LIVE_METHODS)}, '
+                          f'got {live_method!r}')
+    if n_twists < 0:
+        raise ConfigError(f'live_n_twists must be >= 0 (0 = core default), got {n_twists}')
+    try:
+        return LivePredictor(robot, medium, live_method, n_twists or None)
+    except (ValueError, ImportError, AttributeError) as exc:
+        # AttributeError: a surface class the core names but does not (yet) provide.
+        raise ConfigError(f'cannot build the live {live_method!r} predictor: {exc}') from exc

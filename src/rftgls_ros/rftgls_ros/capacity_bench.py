@@ -1,0 +1,253 @@
+"""capacity_bench: input message -> published prediction latency of capacity_node, in process.
+
+    ros2 run rftgls_ros capacity_bench [--map PATH | --live] [--n 2000] [--json]
+
+One process, real rclpy and DDS on loopback (the ROS_DOMAIN_ID of the environment). The node
+is triggered by /joint_states in this benchmark and every message carries a slightly
+different leg angle, so each output pays a real predictor query (no cache hit).
+
+Figures:
+  node_latency_ms_median, node_latency_ms_p99: lock-step (publish one input, wait for its
+      output), from the input message's DDS source timestamp to the moment the node has
+      published all outputs for it (measured by the node: DDS hop in, executor wake-up,
+      parsing, estimate, five publishes). The node spins its own executor in its own thread.
+  node_processing_ms_median: the node's callback alone (parse, estimate, publish).
+  probe_roundtrip_ms_median/_p99: input published -> output received by the probe (both DDS
+      hops plus the probe's executor), for comparison.
+  node_sustained_rate_hz: the highest tried input rate (100 .. 1000 Hz, free running, node
+      and probe in their own threads) at which >= 99 % of the inputs produced an output.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import statistics
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter
+
+from .capacity.predictor import DEFAULT_MAP, resolve_map_path
+from .capacity_node import CapacityNode
+
+JOINTS = ('leg_proximal_left', 'leg_proximal_right', 'leg_distal_left', 'leg_distal_right')
+# The DH anchor of the paper's Table II; the bench wiggles theta_L1 around it.
+DH = (0.034, math.radians(5.0), math.radians(-40.0), math.radians(30.0))
+PHI = math.radians(-20.0)
+RATES_HZ = (100, 200, 500, 1000)
+
+
+def small_map(directory: Path) -> Path:
+    """A tiny real map around DH, for machines where the shipped map is not built yet."""
+    from rftgls_core.maps import MapGrid, build_map, save_map
+    grid = MapGrid.from_degrees([30.0, 40.0], [0.0, 10.0], [-50.0, -30.0], [20.0, 40.0],
+                                [-20.0, 0.0], pulls=('backward',))
+    data = build_map('minirquad', 'm90_sand', grid, method='twist-mesh', workers=1)
+    return save_map(directory / 'bench_minirquad.h5', data)
+
+
+class Rig:
+    """capacity_node plus a probe node that publishes the inputs and records the outputs."""
+
+    def __init__(self, context, map_file: str):
+        from geometry_msgs.msg import WrenchStamped
+        from sensor_msgs.msg import Imu, JointState
+        from std_msgs.msg import Float64
+        params = {'map_file': map_file, 'live_method': 'twist-mesh', 'phi_rad': PHI,
+                  'trigger_inputs': ['joint_states'], 'publish_rate_hz': 1.0,
+                  **{f'{n}_timeout_s': 30.0 for n in ('joint_states', 'pitch', 'tension',
+                                                      'height', 'phi')}}
+        self.node = CapacityNode(context=context, parameter_overrides=[
+            Parameter(k, value=v) for k, v in params.items()])
+        self.probe = rclpy.create_node('capacity_bench_probe', context=context)
+        self.pub_joints = self.probe.create_publisher(JointState, '/joint_states', 100)
+        self.pub_imu = self.probe.create_publisher(Imu, '/imu', 10)
+        self.pub_tension = self.probe.create_publisher(WrenchStamped, '/winch/tension', 10)
+        self.pub_height = self.probe.create_publisher(Float64, '/winch/height', 10)
+        self.sent: dict[int, float] = {}    # stamp ns -> perf_counter at publish
+        self.latency: dict[int, float] = {}  # stamp ns -> s
+        self.statuses: set[str] = set()
+        self.probe.create_subscription(WrenchStamped, '/capacity_node/capacity', self.on_out,
+                                       1000)
+        self.msg = JointState(name=list(JOINTS))
+        self.Float64 = Float64
+
+    def on_out(self, msg) -> None:
+        t = time.perf_counter()
+        key = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+        if key in self.sent:
+            self.latency[key] = t - self.sent[key]
+
+    def static_inputs(self) -> None:
+        from geometry_msgs.msg import WrenchStamped
+        from sensor_msgs.msg import Imu
+        imu = Imu()
+        imu.orientation.y, imu.orientation.w = math.sin(-DH[1] / 2), math.cos(-DH[1] / 2)
+        self.pub_imu.publish(imu)
+        self.pub_height.publish(self.Float64(data=DH[0]))
+        w = WrenchStamped()
+        w.wrench.force.x = 1.0
+        self.pub_tension.publish(w)
+
+    def send(self, k: int) -> int:
+        """Publish joint_states number k (stamp = k ms + 1 s, theta_L1 wiggled by k)."""
+        ns = 10**9 + k * 10**6
+        self.msg.header.stamp.sec, self.msg.header.stamp.nanosec = divmod(ns, 10**9)
+        l1 = DH[2] + math.radians(2.0) * math.sin(0.37 * k)
+        self.msg.position = [l1, l1, DH[3], DH[3]]
+        self.sent[ns] = time.perf_counter()
+        self.pub_joints.publish(self.msg)
+        return ns
+
+
+def spin_until(executor, cond, timeout: float) -> bool:
+    end = time.monotonic() + timeout
+    while not cond() and time.monotonic() < end:
+        executor.spin_once(timeout_sec=0.005)
+    return cond()
+
+
+def run(map_file: str, n: int) -> dict:
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx, domain_id=int(os.environ.get('ROS_DOMAIN_ID', '0')))
+    rig = Rig(ctx, map_file)
+    # The node spins in its own thread with its own executor, as it would in its own process;
+    # the probe spins in this thread.
+    node_ex = SingleThreadedExecutor(context=ctx)
+    node_ex.add_node(rig.node)
+    stop = threading.Event()
+
+    def spin_node():
+        while not stop.is_set():
+            node_ex.spin_once(timeout_sec=0.05)
+
+    th = threading.Thread(target=spin_node, daemon=True)
+    th.start()
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(rig.probe)
+    out = {'predictor': rig.node.estimator.predictor.name}
+    try:
+        pubs = (rig.pub_joints, rig.pub_imu, rig.pub_tension, rig.pub_height)
+        if not spin_until(ex, lambda: all(p.get_subscription_count() for p in pubs), 10.0):
+            raise RuntimeError('capacity_node subscriptions were not discovered')
+        if not spin_until(ex, lambda: rig.probe.count_publishers('/capacity_node/capacity'),
+                          10.0):
+            raise RuntimeError('capacity_node publisher was not discovered')
+        rig.static_inputs()
+        spin_until(ex, lambda: len(rig.node.estimator._inputs) >= 3, 5.0)
+        # Lock-step: one input, wait for its output, next input.
+        processing = []
+        for k in range(n):
+            key = rig.send(k)
+            if not spin_until(ex, lambda: key in rig.latency, 2.0):
+                raise RuntimeError(f'no output for input {k}')
+            processing.append(rig.node.processing_s)
+        node_lat = sorted(v * 1e3 for v in list(rig.node.latency_s)[-n:])
+        rtt = sorted(v * 1e3 for v in rig.latency.values())
+        out['node_latency_ms_median'] = statistics.median(node_lat)
+        out['node_latency_ms_p99'] = percentile(node_lat, 0.99)
+        out['node_processing_ms_median'] = statistics.median(processing) * 1e3
+        out['probe_roundtrip_ms_median'] = statistics.median(rtt)
+        out['probe_roundtrip_ms_p99'] = percentile(rtt, 0.99)
+        out['status_last'] = str(rig.node.last_estimate.status)
+        # Sustained rate: free-running inputs at a fixed rate; the probe spins in a thread.
+        stop_probe = threading.Event()
+
+        def spin_probe():
+            while not stop_probe.is_set():
+                ex.spin_once(timeout_sec=0.01)
+
+        tp = threading.Thread(target=spin_probe, daemon=True)
+        tp.start()
+        best = 0
+        k0 = n + 10
+        try:
+            for rate in RATES_HZ:
+                rig.latency.clear()
+                rig.sent.clear()
+                count = max(100, int(rate * 1.0))
+                t0 = time.perf_counter()
+                keys = []
+                for i in range(count):
+                    target = t0 + i / rate
+                    while time.perf_counter() < target:
+                        time.sleep(min(0.0005, max(0.0, target - time.perf_counter())))
+                    keys.append(rig.send(k0 + i))
+                k0 += count + 10
+                time.sleep(0.3)
+                got = sum(1 for key in keys if key in rig.latency)
+                lags = sorted(rig.latency[key] * 1e3 for key in keys if key in rig.latency)
+                out[f'rate_{rate}hz_delivered'] = got / count
+                out[f'rate_{rate}hz_roundtrip_ms_median'] = (statistics.median(lags) if lags
+                                                             else math.nan)
+                if got >= 0.99 * count:
+                    best = rate
+                else:
+                    break
+        finally:
+            stop_probe.set()
+            tp.join(2.0)
+        out['node_sustained_rate_hz'] = best
+    finally:
+        stop.set()
+        th.join(2.0)
+        ex.shutdown()
+        node_ex.shutdown()
+        rig.node.destroy_node()
+        rig.probe.destroy_node()
+        rclpy.try_shutdown(context=ctx)
+    return out
+
+
+def percentile(sorted_values: list[float], q: float) -> float:
+    return sorted_values[min(len(sorted_values) - 1, int(math.ceil(q * len(sorted_values))) - 1)]
+
+
+def main(args=None) -> int:
+    ap = argparse.ArgumentParser(prog='capacity_bench', description=__doc__.split('\n')[0])
+    ap.add_argument('--map', default='', help=f'map file (default: {DEFAULT_MAP} if built, '
+                    'else a small map built for the bench)')
+    ap.add_argument('--live', action='store_true', help='live twist-mesh predictor, no map')
+    ap.add_argument('--n', type=int, default=1000, help='lock-step messages (default 1000)')
+    ap.add_argument('--json', action='store_true', help='print JSON')
+    ns = ap.parse_args(args if args is not None else sys.argv[1:])
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    note = ''
+    with tempfile.TemporaryDirectory() as tmp:
+        if ns.live:
+            map_file, note = '', 'live twist-mesh predictor (no map)'
+        elif ns.map:
+            map_file = ns.map
+        elif resolve_map_path(DEFAULT_MAP).is_file():
+            map_file = DEFAULT_MAP
+        else:
+            map_file = str(small_map(Path(tmp)))
+            note = f'{DEFAULT_MAP} not built: small map built for the bench'
+        res = run(map_file, ns.n)
+    res['note'] = note
+    if ns.json:
+        print(json.dumps(res, indent=2, sort_keys=True))
+        return 0
+    units = {'node_latency_ms_median': ('ms', '<= 1 ms'), 'node_latency_ms_p99': ('ms', ''),
+             'node_processing_ms_median': ('ms', ''),
+             'probe_roundtrip_ms_median': ('ms', ''), 'probe_roundtrip_ms_p99': ('ms', ''),
+             'node_sustained_rate_hz': ('Hz', '>= 100 Hz')}
+    for name, (unit, budget) in units.items():
+        line = f'{name:<27} {res[name]:>9.3f} {unit:<3}'
+        print(line + (f'  budget {budget}' if budget else ''))
+    print(f'predictor: {res["predictor"]}' + (f' ({note})' if note else ''))
+    for k in sorted(res):
+        if k.startswith('rate_'):
+            print(f'  {k:<32} {res[k]:.3f}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,166 @@
+"""CapacityEstimator without ROS: every status, leg averaging, caching, config checks."""
+from __future__ import annotations
+
+import math
+
+import pytest
+from _capacity_common import DH, IN_AIR, PHI
+
+from rftgls_core.types import Pull, Status
+from rftgls_ros.capacity.estimator import (CapacityEstimator, EstimatorConfig,
+                                           pitch_from_quaternion)
+from rftgls_ros.capacity.predictor import ConfigError, make_predictor
+
+
+def feed(est: CapacityEstimator, t: float, state=DH, tension=1.0, phi=PHI, spread=(0.0, 0.0)):
+    est.update_joints(t, {'proximal_left': state.theta_l1 + spread[0] / 2,
+                          'proximal_right': state.theta_l1 - spread[0] / 2,
+                          'distal_left': state.theta_l2 + spread[1] / 2,
+                          'distal_right': state.theta_l2 - spread[1] / 2})
+    est.update('pitch', t, state.theta_b)
+    est.update('height', t, state.h)
+    est.update('phi', t, phi)
+    est.update('tension', t, tension)
+
+
+@pytest.fixture
+def est(live_predictor):
+    return CapacityEstimator(live_predictor, EstimatorConfig(pull='backward'))
+
+
+def test_ok_matches_core_and_margin(est, live_predictor):
+    feed(est, 10.0, tension=1.5)
+    e = est.estimate(10.01)
+    core = live_predictor.model.predict(DH, PHI, Pull.BACKWARD)
+    assert e.status is Status.OK and e.has_value
+    assert e.capacity_N == pytest.approx(core.capacity_N, rel=1e-12)
+    assert e.margin_N == pytest.approx(core.capacity_N - 1.5)
+    assert e.slip_twist == pytest.approx(core.slip_twist)
+    assert not e.slipping and e.warnings == ()
+    assert e.state == DH and e.phi_rad == PHI
+
+
+def test_tension_above_capacity_predicts_slip(est):
+    feed(est, 0.0, tension=50.0)
+    e = est.estimate(0.0)
+    assert e.status is Status.OK and e.slipping and e.margin_N < 0
+    assert math.hypot(*e.slip_twist) == pytest.approx(1.0)
+
+
+def test_new_tension_reuses_the_prediction(est):
+    feed(est, 0.0, tension=1.0)
+    est.estimate(0.0)
+    n = est.predictions
+    est.update('tension', 0.05, 2.0)
+    e = est.estimate(0.05)
+    assert est.predictions == n and e.tension_N == 2.0
+
+
+@pytest.mark.parametrize('late', ['tension', 'pitch', 'height', 'phi', 'joint_states'])
+def test_stale_input(est, late):
+    feed(est, 0.0)
+    # every input fresh at t = 2 except `late`, last seen at t = 0 (timeouts <= 1 s)
+    if late != 'joint_states':
+        est.update_joints(2.0, {k: v.value for k, v in est._joints.items()})
+    for name in ('pitch', 'tension', 'height', 'phi'):
+        if name != late:
+            est.update(name, 2.0, est._inputs[name].value)
+    e = est.estimate(2.0)
+    assert e.status is Status.STALE and not e.has_value
+    assert late in e.detail
+    assert e.capacity_N is None and e.margin_N is None and e.slip_twist is None
+
+
+def test_never_received_is_stale_but_height_and_phi_fall_back(live_predictor):
+    est = CapacityEstimator(live_predictor, EstimatorConfig(height_m=DH.h, phi_rad=PHI))
+    assert est.estimate(0.0).status is Status.STALE
+    est.update_joints(0.0, {'proximal_left': DH.theta_l1, 'proximal_right': DH.theta_l1,
+                            'distal_left': DH.theta_l2, 'distal_right': DH.theta_l2})
+    est.update('pitch', 0.0, DH.theta_b)
+    e = est.estimate(0.0)
+    assert e.status is Status.STALE and 'tension (no data)' in e.detail
+    est.update('tension', 0.0, 1.0)
+    e = est.estimate(0.0)
+    assert e.status is Status.OK and e.state == DH and e.phi_rad == PHI
+
+
+@pytest.mark.parametrize('name, value, words', [
+    ('tension', math.nan, 'tension not finite'),
+    ('tension', -1.0, 'tension = -1'),
+    ('height', 0.5, 'height = 0.5'),
+    ('pitch', math.inf, 'pitch not finite'),
+    ('phi', 2.0, 'phi = 2'),
+])
+def test_invalid_scalar_input(est, name, value, words):
+    feed(est, 0.0)
+    est.update(name, 0.0, value)
+    e = est.estimate(0.0)
+    assert e.status is Status.INVALID_INPUT and words in e.detail
+    assert e.capacity_N is None and e.margin_N is None and e.slip_twist is None
+
+
+def test_invalid_joint_and_malformed(est):
+    feed(est, 0.0)
+    est.update_joints(0.0, {'distal_right': math.nan})
+    e = est.estimate(0.0)
+    assert e.status is Status.INVALID_INPUT and 'distal_right' in e.detail
+    feed(est, 0.1)
+    assert est.estimate(0.1).status is Status.OK
+    est.mark_malformed('pitch', 0.1, 'IMU publishes no orientation')
+    e = est.estimate(0.1)
+    assert e.status is Status.INVALID_INPUT and 'no orientation' in e.detail
+    est.update('pitch', 0.2, DH.theta_b)  # a good message clears it
+    assert est.estimate(0.2).status is Status.OK
+
+
+def test_leg_disagreement_is_reported_and_legs_are_averaged(est):
+    spread = (math.radians(10.0), math.radians(1.0))
+    feed(est, 0.0, spread=spread)
+    e = est.estimate(0.0)
+    assert e.status is Status.OK and e.warnings == ('leg_disagreement',)
+    assert e.leg_spread_rad == pytest.approx(spread)
+    assert e.state.theta_l1 == pytest.approx(DH.theta_l1)
+    assert e.state.theta_l2 == pytest.approx(DH.theta_l2)
+
+
+def test_unsupported_reports_zero_capacity(est):
+    feed(est, 0.0, state=IN_AIR, tension=0.7)
+    e = est.estimate(0.0)
+    assert e.status is Status.UNSUPPORTED and not e.has_value
+    assert e.capacity_N == 0.0 and e.margin_N == -0.7 and e.slipping
+    assert e.slip_twist is None
+
+
+@pytest.mark.parametrize('kwargs, words', [
+    ({'timeouts_s': {'joint_states': -1.0, 'pitch': 1, 'tension': 1, 'height': 1, 'phi': 1}},
+     'joint_states'),
+    ({'pull': 'sideways'}, 'pull'),
+    ({'height_m': 1.0}, 'height_m'),
+    ({'leg_tolerance_rad': -0.1}, 'leg_tolerance_rad'),
+])
+def test_bad_config(live_predictor, kwargs, words):
+    with pytest.raises(ConfigError, match=words):
+        CapacityEstimator(live_predictor, EstimatorConfig(**kwargs))
+
+
+def test_make_predictor_errors(tmp_path):
+    with pytest.raises(ConfigError, match='live_method'):
+        make_predictor('', live_method='bogus')
+    with pytest.raises(ConfigError, match='not found|no CapacityMap'):
+        make_predictor(str(tmp_path / 'missing.h5'))
+
+
+def test_pitch_from_quaternion_sign_and_yaw_invariance():
+    beta = math.radians(12.0)  # REP-103 pitch: nose down
+    q = (0.0, math.sin(beta / 2), 0.0, math.cos(beta / 2))
+    assert pitch_from_quaternion(*q) == pytest.approx(-beta)
+    # add a yaw of 70 deg (q_yaw * q_pitch): elevation of the x axis is unchanged
+    cy, sy = math.cos(math.radians(35)), math.sin(math.radians(35))
+    w1, x1, y1, z1 = cy, 0.0, 0.0, sy
+    w2, x2, y2, z2 = q[3], q[0], q[1], q[2]
+    qq = (w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2, w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+          w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2, w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2)
+    assert pitch_from_quaternion(*qq) == pytest.approx(-beta)
+    assert pitch_from_quaternion(0, 0, 0, 2.0) == 0.0  # normalised first
+    with pytest.raises(ValueError):
+        pitch_from_quaternion(0, 0, 0, 0)

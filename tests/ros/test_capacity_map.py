@@ -1,0 +1,91 @@
+"""capacity_node and its estimator with a real (small) HDF5 map: ok, extrapolated, unsupported,
+and the start-up errors of bad map files."""
+from __future__ import annotations
+
+import math
+
+import pytest
+from _capacity_common import DH, PHI, Probe
+
+from rftgls_core.maps import CapacityMap
+from rftgls_core.types import AnchorState, Status
+from rftgls_ros.capacity.estimator import CapacityEstimator, EstimatorConfig
+from rftgls_ros.capacity.predictor import ConfigError, MapPredictor, make_predictor
+
+OUTSIDE = AnchorState(DH.h, math.radians(15.0), DH.theta_l1, DH.theta_l2)   # theta_b > 10 deg
+HIGH = AnchorState(0.10, DH.theta_b, DH.theta_l1, DH.theta_l2)             # cell touches 200 mm
+
+
+def estimator_for(path, state, tension=1.0):
+    est = CapacityEstimator(MapPredictor(path, 'minirquad', 'm90_sand', 'backward'),
+                            EstimatorConfig(pull='backward', phi_rad=PHI))
+    est.update_joints(0.0, {'proximal_left': state.theta_l1, 'proximal_right': state.theta_l1,
+                            'distal_left': state.theta_l2, 'distal_right': state.theta_l2})
+    for name, v in (('pitch', state.theta_b), ('height', state.h), ('tension', tension)):
+        est.update(name, 0.0, v)
+    return est.estimate(0.0)
+
+
+@pytest.mark.parametrize('state, status', [(DH, Status.OK), (OUTSIDE, Status.EXTRAPOLATED),
+                                           (HIGH, Status.UNSUPPORTED)])
+def test_estimator_statuses_from_the_map(small_map, state, status):
+    e = estimator_for(small_map, state)
+    direct = CapacityMap.load(small_map).query(state, PHI, 'backward')
+    assert e.status is status and direct.status is status
+    if status.has_value:
+        assert e.capacity_N == direct.capacity_N and e.slip_twist == direct.slip_twist
+    else:
+        assert e.capacity_N == 0.0 and e.margin_N == -1.0 and e.slip_twist is None
+
+
+def test_bad_map_files(tmp_path, small_map):
+    import h5py
+    wrong = tmp_path / 'wrong_schema.h5'
+    with h5py.File(wrong, 'w') as f:
+        f['something'] = [1, 2, 3]
+    with pytest.raises(ConfigError, match='bad map file'):
+        make_predictor(str(wrong))
+    text = tmp_path / 'not_hdf5.h5'
+    text.write_text('hello\n')
+    with pytest.raises(ConfigError, match='map file'):
+        make_predictor(str(text))
+    with pytest.raises(ConfigError, match='not found'):
+        make_predictor(str(tmp_path / 'missing.h5'))
+    with pytest.raises(ConfigError, match="not 'forward'"):
+        make_predictor(str(small_map), pull='forward')
+    with pytest.raises(ConfigError, match='robot'):
+        make_predictor(str(small_map), robot='prototype')
+
+
+def test_node_with_map_extrapolated_and_ok(ros_context, small_map):
+    pytest.importorskip('rclpy')
+    from diagnostic_msgs.msg import DiagnosticStatus
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+    from test_capacity_node import f_along, send
+
+    from rftgls_ros.capacity_node import CapacityNode
+    node = CapacityNode(context=ros_context, parameter_overrides=[
+        Parameter('map_file', value=str(small_map)), Parameter('phi_rad', value=PHI)])
+    ex = SingleThreadedExecutor(context=ros_context)
+    probe = Probe(ros_context, ex)
+    ex.add_node(node)
+    ex.add_node(probe.node)
+    try:
+        probe.wait_matched()
+        cmap = CapacityMap.load(small_map)
+        cap = send(probe, node, DH, 1.0)
+        assert probe.wait_status('ok')
+        assert f_along(cap) == pytest.approx(cmap.query(DH, PHI, 'backward').capacity_N)
+        cap = send(probe, node, OUTSIDE, 1.0)
+        assert probe.wait_status('extrapolated')
+        assert f_along(cap) == pytest.approx(cmap.query(OUTSIDE, PHI, 'backward').capacity_N)
+        assert probe.wait_diag_level(DiagnosticStatus.WARN)
+        assert 'out_of_grid' in probe.last_diag().message
+        cap = send(probe, node, HIGH, 1.0)
+        assert probe.wait_status('unsupported')
+        assert (cap.wrench.force.x, cap.wrench.force.z) == (0.0, 0.0)
+    finally:
+        ex.shutdown()
+        node.destroy_node()
+        probe.node.destroy_node()

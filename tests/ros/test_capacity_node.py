@@ -1,0 +1,171 @@
+"""capacity_node in process, real rclpy and DDS on loopback: a probe feeds inputs and checks
+every output for every status (extrapolated: see test_capacity_map.py)."""
+from __future__ import annotations
+
+import math
+
+import pytest
+
+rclpy = pytest.importorskip('rclpy')
+
+from _capacity_common import DH, IN_AIR, PHI, Probe  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+
+from rftgls_core.types import Pull, pull_direction  # noqa: E402
+from rftgls_ros.capacity.predictor import ConfigError  # noqa: E402
+from rftgls_ros.capacity_node import CapacityNode  # noqa: E402
+
+LIVE = {'map_file': '', 'live_method': 'twist-mesh', 'phi_rad': PHI}
+
+
+@pytest.fixture
+def make(ros_context):
+    made = []
+
+    def _make(**params):
+        params = {**LIVE, **params}
+        node = CapacityNode(context=ros_context, parameter_overrides=[
+            Parameter(k, value=v) for k, v in params.items()])
+        ex = SingleThreadedExecutor(context=ros_context)
+        probe = Probe(ros_context, ex)
+        ex.add_node(node)
+        ex.add_node(probe.node)
+        made.append((ex, node, probe))
+        probe.wait_matched()
+        return node, probe
+
+    yield _make
+    for ex, node, probe in made:
+        ex.shutdown()
+        node.destroy_node()
+        probe.node.destroy_node()
+
+
+def send(probe, node, state, tension, spread=(0.0, 0.0)):
+    """Lock-step: state inputs, wait until the node holds them, then the triggering tension."""
+    probe.state(state, spread)
+    est = node.estimator
+    assert probe.spin_until(lambda: est._inputs.get('height') is not None
+                            and est._inputs['height'].value == state.h
+                            and 'pitch' in est._inputs
+                            and abs(est._inputs['pitch'].value - state.theta_b) < 1e-12
+                            and len(est._joints) == 4
+                            and est._joints['distal_right'].value
+                            == state.theta_l2 - spread[1] / 2)
+    m = probe.tension(tension)
+    return probe.output_for(m.header.stamp)
+
+
+def f_along(w, phi=PHI):
+    d = pull_direction(phi)
+    return w.wrench.force.x * d[0] + w.wrench.force.z * d[1]
+
+
+def test_ok_and_holding(make, live_predictor):
+    node, probe = make()
+    cap = send(probe, node, DH, 1.0)
+    core = live_predictor.model.predict(DH, PHI, Pull.BACKWARD)
+    assert probe.wait_status('ok')
+    assert cap.header.frame_id == 'anchor'
+    assert f_along(cap) == pytest.approx(core.capacity_N, rel=1e-9)
+    assert cap.wrench.force.y == 0.0 and cap.wrench.torque.y == 0.0
+    margin = probe.output_for(cap.header.stamp, 'margin')
+    assert f_along(margin) == pytest.approx(core.capacity_N - 1.0, rel=1e-9)
+    tw = probe.output_for(cap.header.stamp, 'slip_twist').twist
+    assert (tw.linear.x, tw.linear.z, tw.angular.y) == (0.0, 0.0, 0.0)  # holds
+    assert probe.spin_until(lambda: probe.last_diag() is not None
+                            and probe.last_diag().message == 'ok')
+    diag = probe.last_diag()
+    assert diag.level == DiagnosticStatus.OK
+    values = {kv.key: kv.value for kv in diag.values}
+    assert float(values['capacity_N']) == pytest.approx(core.capacity_N, rel=1e-5)
+
+
+def test_slip_twist_when_tension_exceeds_capacity(make, live_predictor):
+    node, probe = make()
+    cap = send(probe, node, DH, 40.0)
+    core = live_predictor.model.predict(DH, PHI, Pull.BACKWARD)
+    assert f_along(probe.output_for(cap.header.stamp, 'margin')) < 0
+    tw = probe.output_for(cap.header.stamp, 'slip_twist').twist
+    assert (tw.linear.x, tw.linear.z, tw.angular.y) == pytest.approx(core.slip_twist)
+    assert tw.linear.y == 0.0 and tw.angular.x == 0.0
+
+
+def test_stale_when_an_input_stops(make):
+    node, probe = make(pitch_timeout_s=0.15, publish_rate_hz=50.0)
+    send(probe, node, DH, 1.0)
+    assert probe.wait_status('ok')
+    # Only the tension keeps coming: the IMU falls silent, the output turns stale.
+    stamp = None
+    for _ in range(30):
+        stamp = probe.tension(1.0).header.stamp
+        probe.spin_until(lambda: False, 0.01)
+    cap = probe.output_for(stamp)
+    assert probe.wait_status('stale')
+    assert all(math.isnan(v) for v in (cap.wrench.force.x, cap.wrench.force.z))
+    tw = probe.output_for(stamp, 'slip_twist').twist
+    assert math.isnan(tw.linear.x)
+    assert probe.wait_diag_level(DiagnosticStatus.STALE)
+    assert 'pitch' in {kv.key: kv.value for kv in
+                       probe.last_diag().values}['detail']
+
+
+def test_stale_heartbeat_without_any_input(make):
+    node, probe = make(publish_rate_hz=20.0)
+    assert probe.spin_until(lambda: len(probe.out['capacity']) >= 2, 3.0)
+    assert probe.wait_status('stale')
+    assert math.isnan(probe.out['capacity'][-1].wrench.force.x)
+
+
+def test_invalid_input_nan_joint(make):
+    node, probe = make()
+    send(probe, node, DH, 1.0)
+    probe.joints(math.nan, DH.theta_l2)
+    assert probe.spin_until(lambda: math.isnan(node.estimator._joints['proximal_left'].value))
+    cap = probe.output_for(probe.tension(1.0).header.stamp)
+    assert probe.wait_status('invalid_input')
+    assert math.isnan(cap.wrench.force.x) and math.isnan(f_along(
+        probe.output_for(cap.header.stamp, 'margin')))
+    assert probe.wait_diag_level(DiagnosticStatus.ERROR)
+
+
+def test_invalid_input_imu_without_orientation(make):
+    node, probe = make()
+    send(probe, node, DH, 1.0)
+    probe.imu(DH.theta_b, no_orientation=True)
+    assert probe.spin_until(lambda: 'pitch' in node.estimator._malformed)
+    cap = probe.output_for(probe.tension(1.0).header.stamp)
+    assert probe.wait_status('invalid_input') and math.isnan(cap.wrench.force.x)
+
+
+def test_unsupported_publishes_zero_capacity(make):
+    node, probe = make()
+    cap = send(probe, node, IN_AIR, 0.5)
+    assert probe.wait_status('unsupported')
+    assert (cap.wrench.force.x, cap.wrench.force.z) == (0.0, 0.0)
+    assert f_along(probe.output_for(cap.header.stamp, 'margin')) == pytest.approx(-0.5)
+    tw = probe.output_for(cap.header.stamp, 'slip_twist').twist
+    assert math.isnan(tw.linear.x)
+
+
+def test_leg_disagreement_in_diagnostics(make):
+    node, probe = make(leg_tolerance_rad=math.radians(2.0))
+    send(probe, node, DH, 1.0, spread=(math.radians(6.0), 0.0))
+    assert probe.wait_status('ok')
+    assert probe.wait_diag_level(DiagnosticStatus.WARN)
+    assert 'leg_disagreement' in probe.last_diag().message
+
+
+@pytest.mark.parametrize('params, words', [
+    ({'tension_timeout_s': -0.1}, 'tension'),
+    ({'map_file': '/nonexistent/minirquad.h5'}, 'map file not found|no CapacityMap'),
+    ({'pull': 'up'}, 'pull'),
+    ({'publish_rate_hz': 0.0}, 'publish_rate_hz'),
+    ({'trigger_inputs': ['nonsense']}, 'trigger_inputs'),
+])
+def test_bad_parameters_raise(ros_context, params, words):
+    with pytest.raises(ConfigError, match=words):
+        CapacityNode(context=ros_context, parameter_overrides=[
+            Parameter(k, value=v) for k, v in {**LIVE, **params}.items()])

@@ -1,0 +1,104 @@
+"""The installed executable, started the way `ros2 run` starts it (tools/ros2 stand-in, the
+colcon install's lib/rftgls_ros/capacity_node), with the shipped YAML parameter file."""
+from __future__ import annotations
+
+import shutil
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+rclpy = pytest.importorskip('rclpy')
+
+from _capacity_common import DH, PHI, Probe  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+
+from rftgls_core.maps import CapacityMap  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[2]
+PARAMS = REPO / 'ros2_ws' / 'params' / 'capacity_node.yaml'
+
+
+def ros2_run(*ros_args):
+    ros2 = shutil.which('ros2')
+    if ros2 is None:
+        pytest.skip('no ros2 on PATH (run `make setup` and source tools/env.sh)')
+    return [ros2, 'run', 'rftgls_ros', 'capacity_node', '--ros-args',
+            '--params-file', str(PARAMS), *ros_args]
+
+
+@pytest.fixture
+def probe(ros_context):
+    ex = SingleThreadedExecutor(context=ros_context)
+    p = Probe(ros_context, ex)
+    ex.add_node(p.node)
+    yield p
+    ex.shutdown()
+    p.node.destroy_node()
+
+
+def test_ros2_run_predicts_and_stops_on_sigterm(spawn, probe, small_map):
+    proc = spawn(ros2_run('-p', f'map_file:={small_map}'), stdout=subprocess.PIPE,
+                 stderr=subprocess.PIPE, text=True)
+    probe.wait_matched(timeout=15.0)
+    # Inputs at ~100 Hz until an ok output arrives for one of our tension stamps.
+    expected = CapacityMap.load(small_map).query(DH, PHI, 'backward').capacity_N
+    cap = None
+    end = time.monotonic() + 10.0
+    while cap is None and time.monotonic() < end:
+        probe.state(DH)
+        stamp = probe.tension(1.0).header.stamp
+        probe.spin_until(lambda: False, 0.01)
+        cap = next((m for m in probe.out['capacity'] if m.header.stamp == stamp
+                    and probe.last_status() == 'ok'), None)
+    assert cap is not None, 'no ok output from the node process'
+    d = (-0.9396926207859084, -0.3420201433256687)  # d(phi) for phi = -20 deg
+    assert cap.wrench.force.x * d[0] + cap.wrench.force.z * d[1] == pytest.approx(expected)
+    proc.send_signal(signal.SIGTERM)
+    try:
+        proc.wait(5.0)
+    except subprocess.TimeoutExpired:
+        pytest.fail('capacity_node ignored SIGTERM for 5 s')
+
+
+def test_ros2_run_stops_on_ctrl_c(spawn, small_map, probe):
+    proc = spawn(ros2_run('-p', f'map_file:={small_map}'), stdout=subprocess.PIPE,
+                 stderr=subprocess.PIPE, text=True)
+    # The heartbeat says stale (no inputs): the node is up and spinning.
+    assert probe.spin_until(lambda: probe.last_status() == 'stale', 15.0)
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(5.0)
+    except subprocess.TimeoutExpired:
+        pytest.fail('capacity_node ignored SIGINT for 5 s')
+
+
+@pytest.mark.parametrize('args, words', [
+    (['-p', 'map_file:=/nonexistent/minirquad.h5'], 'map file not found'),
+    (['-p', 'tension_timeout_s:=-1.0'], 'tension'),
+    (['-p', 'publish_rate_hz:=20'], 'publish_rate_hz'),  # an int for a double parameter
+])
+def test_bad_parameter_one_line_and_exit(spawn, args, words, tmp_path):
+    proc = spawn(ros2_run(*args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        out, err = proc.communicate(timeout=20.0)
+    except subprocess.TimeoutExpired:
+        pytest.fail('capacity_node did not exit on a bad parameter')
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert proc.returncode == 2
+    assert len(lines) == 1 and lines[0].startswith('capacity_node: error:'), err
+    assert words in lines[0]
+
+
+def test_bad_map_schema_one_line(spawn, tmp_path):
+    import h5py
+    wrong = tmp_path / 'wrong.h5'
+    with h5py.File(wrong, 'w') as f:
+        f['x'] = [1.0]
+    proc = spawn(ros2_run('-p', f'map_file:={wrong}'), stdout=subprocess.PIPE,
+                 stderr=subprocess.PIPE, text=True)
+    _, err = proc.communicate(timeout=20.0)
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert proc.returncode == 2 and len(lines) == 1 and 'bad map file' in lines[0], err
