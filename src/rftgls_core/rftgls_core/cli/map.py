@@ -4,6 +4,7 @@
                      [--scheduler ADDRESS]
     rftgls map info FILE [--json]
     rftgls map accuracy FILE [--samples N] [--reference direct] [--json]
+    rftgls map refine FILE --out NEW.h5 [--tol PCT] [--samples N]
 
 Grid options take mm (h) and degrees (angles) as 'start:step:stop' (inclusive) or 'a,b,c';
 write negative values with '=' (--theta-l1=-40:20:40). Missing axes come from the robot's
@@ -72,6 +73,19 @@ def add_parser(sub) -> None:
     a.add_argument('--json', action='store_true', help='print JSON')
     a.add_argument('--quiet', action='store_true', help='no progress bar')
     a.set_defaults(run=run_accuracy)
+
+
+    f = msub.add_parser('refine', help='add grid nodes where the map error exceeds a tolerance')
+    f.add_argument('file')
+    f.add_argument('--out', required=True, help='refined map (.h5)')
+    f.add_argument('--tol', type=float, default=5.0,
+                   help='p95 capacity error per axis interval, %% (default: %(default)s)')
+    f.add_argument('--samples', type=int, default=6, help='states per interval')
+    f.add_argument('--seed', type=int, default=0)
+    f.add_argument('--workers', type=int, default=None)
+    f.add_argument('--dry-run', action='store_true', help='report intervals, build nothing')
+    f.add_argument('--quiet', action='store_true', help='no progress bar')
+    f.set_defaults(run=run_refine)
 
 
 def grid_from_args(args):
@@ -198,3 +212,36 @@ def run_accuracy(args) -> int:
         print(f'note: {rep.note}')
     return 0
 
+
+
+def run_refine(args) -> int:
+    from ..maps.build import build_map, spec_from_map
+    from ..maps.grid import AXIS_HUMAN
+    from ..maps.hdf5 import save_map
+    from ..maps.query import CapacityMap
+    from ..maps.refine import interval_errors, refined_grid
+    cmap = CapacityMap.load(args.file)
+    errors = interval_errors(cmap, samples=args.samples, seed=args.seed,
+                             progress=not args.quiet)
+    grid = refined_grid(cmap.grid, errors, args.tol)
+    for e in errors:
+        unit, fac = AXIS_HUMAN[e.axis]
+        flag = '  <- refine' if math.isfinite(e.p95_pct) and e.p95_pct > args.tol else ''
+        print(f'{e.axis:9s} {e.lo * fac:7.2f} .. {e.hi * fac:7.2f} {unit:3s}  p95 '
+              f'{e.p95_pct:6.2f} %  ({e.compared} compared, {e.mismatched} status differ){flag}')
+    added = grid.n_states - cmap.grid.n_states
+    print(f'{cmap.grid.n_states} -> {grid.n_states} states (+{added})')
+    if args.dry_run or added == 0:
+        return 0
+    spec = spec_from_map(cmap.data)
+    parts = [f'rftgls map build --robot {spec.robot} --medium {spec.medium.name} --method '
+             f'{spec.method} --n-twists {spec.n_twists}']
+    for axis in ('h', 'theta_b', 'theta_l1', 'theta_l2', 'phi'):
+        unit, fac = AXIS_HUMAN[axis]
+        vals = ','.join(f'{v * fac:.6g}' for v in getattr(grid, axis))
+        parts.append(f'--{axis.replace("_", "-")}={vals}')
+    data = build_map(spec.robot, spec.medium, grid, method=spec.method, model=spec.model,
+                     n_twists=spec.n_twists, workers=args.workers, progress=not args.quiet,
+                     command=' '.join(parts))
+    print(f'wrote {save_map(args.out, data)}')
+    return 0
