@@ -47,14 +47,16 @@ def unique_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def collapsed_vertices(wrenches_s: np.ndarray, twists_s: np.ndarray, faces: np.ndarray,
-                       ratio: float = 1e-3) -> np.ndarray:
+                       ratio: float = 1e-3, edges: np.ndarray | None = None) -> np.ndarray:
     """(N,) True for vertices on an edge where distinct twists give (almost) one wrench.
 
     Edge stretch = |W_i - W_j| / angle(t_i, t_j). An edge is collapsed when its stretch is
     below `ratio` times the median stretch: the unique twist-wrench pair assumption fails
     there (e.g. a thin plate sliding in its own plane), so no slip twist can be read off.
+    edges: the mesh's unique edges when the caller has them (a fixed connectivity).
     """
-    edges, _ = unique_edges(faces)
+    if edges is None:
+        edges, _ = unique_edges(faces)
     w = np.asarray(wrenches_s, dtype=float)
     t = np.asarray(twists_s, dtype=float)
     dw = np.linalg.norm(w[edges[:, 0]] - w[edges[:, 1]], axis=1)

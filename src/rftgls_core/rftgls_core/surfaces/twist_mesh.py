@@ -17,7 +17,7 @@ Per-pose checks, in the scaled wrench space:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 from scipy.spatial import ConvexHull
@@ -25,7 +25,7 @@ from scipy.spatial import ConvexHull
 from ..types import Status
 from .base import (CapacityResult, FitInfo, GLSProblem, LimitSurface, evaluate_wrenches,
                    phis_array)
-from .diagnostics import collapsed_vertices, face_normals, fold_mask
+from .diagnostics import collapsed_vertices, face_normals, fold_mask, unique_edges
 from .newton import newton_on_sphere
 from .raycast import PreparedMesh, cast_rays, prepare_mesh, winding_number
 from .sampling import fibonacci_sphere
@@ -64,6 +64,11 @@ class TwistSphere:
 
     def twists_raw(self, problem: GLSProblem) -> np.ndarray:
         return problem.scaling.twist_from_scaled(self.twists_scaled)
+
+    @cached_property
+    def edges(self) -> np.ndarray:
+        """Unique undirected edges (E, 2): the same for every pose, so computed once."""
+        return unique_edges(self.faces)[0]
 
 
 @lru_cache(maxsize=8)
@@ -132,7 +137,7 @@ class TwistMeshSurface(LimitSurface):
         folds = fold_mask(ws, faces)
         self._folded = folds
         self._pinched = collapsed_vertices(ws, self.sphere.twists_scaled, faces,
-                                           self.pinch_ratio)
+                                           self.pinch_ratio, edges=self.sphere.edges)
         wind = winding_number(ws, faces)
         diag = {'n_twists': self.sphere.n, 'n_faces': len(faces), 'folds': int(folds.sum()),
                 'winding_number': wind, 'pinched_vertices': int(self._pinched.sum())}
