@@ -1,6 +1,7 @@
 """Speed against accuracy: every method measured against `direct` over a spread of states.
 
-A *configuration* is (method, twist count, leg mesh resolution). For each state (random but
+A *configuration* is (method, twist count, leg mesh resolution); 'map' is the shipped map of
+the robot (its states are drawn inside the map's grid). For each state (random but
 seeded, inside the robot's map ranges), both pull orientations and a few tether angles, it
 records the capacity, slip twist, status and the time to answer from scratch (pose, RFT,
 fit, query). Errors are taken against `direct` on the finest leg mesh (the reference), and,
@@ -41,6 +42,8 @@ class Config:
 
     @property
     def label(self) -> str:
+        if self.method == 'map':
+            return 'map (shipped grid) N=1000 arc=24'
         raw = '' if self.polish or self.method != 'twist-mesh' else ' mesh-only'
         return f'{self.method}{raw} N={self.n_twists} arc={self.n_arc}'
 
@@ -56,6 +59,7 @@ DEFAULT_CONFIGS = (
     + [Config('direct', 1000, a) for a in (8, 12, 16, LEG_ARC_SEGMENTS)]
     + [Config('ellipsoid', n) for n in (500, 2000)]
     + [Config('alpha', n) for n in (1000, 2000)]
+    + [Config('map', 1000)]     # the shipped maps (twist-mesh, 1000 twists, 24 arc segments)
 )
 
 
@@ -86,10 +90,24 @@ class Record:
     seconds: float          # pose + RFT + fit + one query, from scratch
 
 
+class _ShippedMap:
+    """The shipped map of a robot behind the predict() interface (method 'map')."""
+
+    def __init__(self, robot: str):
+        from .maps import CapacityMap, shipped_map_path
+        self.map = CapacityMap.load(shipped_map_path(robot))
+
+    def predict(self, state, phi, pull):
+        return self.map.query(state, phi, pull)
+
+
 def run_config(robot: str, config: Config, states, phis_deg=PHIS_DEG) -> list[Record]:
-    model = AnchorModel(get_robot(robot, config.n_arc), get_medium(MEDIUM[robot]),
-                        method=config.method, n_twists=config.n_twists,
-                        surface_options=config.options)
+    if config.method == 'map':
+        model = _ShippedMap(robot)
+    else:
+        model = AnchorModel(get_robot(robot, config.n_arc), get_medium(MEDIUM[robot]),
+                            method=config.method, n_twists=config.n_twists,
+                            surface_options=config.options)
     model.predict(states[0], 0.0, Pull.BACKWARD)  # warm caches (JIT, twist sphere)
     out = []
     for state in states:

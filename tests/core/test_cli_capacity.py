@@ -1,0 +1,76 @@
+"""`rftgls capacity`, `plot`, `simulate pull` and `figure`: JSON contract, agreement with the
+library, map answers, clean errors."""
+import csv
+import json
+import math
+import subprocess
+import sys
+
+import pytest
+
+from rftgls_core.anchor import AnchorModel
+from rftgls_core.maps import CapacityMap, shipped_map_path
+from rftgls_core.rft.media import get_medium
+from rftgls_core.robots.presets import get_robot
+from rftgls_core.types import AnchorState
+
+CLI = [sys.executable, '-m', 'rftgls_core.cli.main']
+DH = ['--robot', 'minirquad', '--h', '0.034', '--theta-b', '5', '--theta-l1', '-40',
+      '--theta-l2', '30', '--phi', '0', '--pull', 'backward']
+DH_STATE = AnchorState.from_degrees(0.034, 5, -40, 30)
+
+
+def run(*args):
+    return subprocess.run(CLI + list(args), capture_output=True, text=True, timeout=120)
+
+
+def test_capacity_json_matches_the_library():
+    out = run('capacity', *DH, '--method', 'direct', '--json')
+    assert out.returncode == 0, out.stderr
+    res = json.loads(out.stdout)
+    assert {'capacity_N', 'slip_twist', 'status', 'method', 'elapsed_s'} <= set(res)
+    ref = AnchorModel(get_robot('minirquad'), get_medium('m90_sand'), method='direct')
+    expect = ref.predict(DH_STATE, 0.0, 'backward')
+    assert res['status'] == 'ok' and res['method'] == 'direct'
+    assert res['capacity_N'] == pytest.approx(expect.capacity_N, rel=1e-9)
+    assert math.hypot(*res['slip_twist']) == pytest.approx(1.0)
+
+
+def test_capacity_from_the_shipped_map():
+    path = shipped_map_path('minirquad')
+    out = run('capacity', *DH, '--method', 'map', '--map', str(path), '--json')
+    assert out.returncode == 0, out.stderr
+    res = json.loads(out.stdout)
+    expect = CapacityMap.load(path).query(DH_STATE, 0.0, 'backward')
+    assert res['method'] == 'map' and res['status'] == expect.status.value
+    assert res['capacity_N'] == pytest.approx(expect.capacity_N, rel=1e-12)
+
+
+def test_no_value_is_null_and_errors_exit_2():
+    up = json.loads(run('capacity', '--robot', 'minirquad', '--h', '0.3', '--theta-b', '0',
+                        '--theta-l1', '0', '--theta-l2', '0', '--json').stdout)
+    assert up['status'] == 'unsupported' and up['capacity_N'] is None and up['slip_twist'] is None
+    for args, msg in ((['--method', 'map'], 'needs --map'),
+                      (['--theta-b', 'nan'], 'must be finite')):
+        out = run('capacity', *DH, *args)
+        assert out.returncode == 2 and msg in out.stderr and 'Traceback' not in out.stderr
+
+
+def test_simulate_pull_writes_a_trajectory(tmp_path):
+    csv_path, png = tmp_path / 'slip.csv', tmp_path / 'slip.png'
+    out = run('simulate', 'pull', '--robot', 'prototype', '--h', '0.02', '--theta-b', '0',
+              '--theta-l1', '-40', '--theta-l2', '0', '--phi', '0', '--pull', 'backward',
+              '--max-travel', '0.01', '--step', '0.002', '--out', str(csv_path),
+              '--plot', str(png))
+    assert out.returncode == 0, out.stderr
+    rows = list(csv.DictReader(open(csv_path)))
+    assert len(rows) == 6 and float(rows[-1]['s_m']) == pytest.approx(0.01)
+    assert all(r['status'] == 'ok' and float(r['force_N']) > 0 for r in rows)
+    assert png.stat().st_size > 10_000
+
+
+def test_plot_writes_a_png(tmp_path):
+    png = tmp_path / 'gls.png'
+    out = run('plot', *DH, '--out', str(png))
+    assert out.returncode == 0, out.stderr
+    assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
