@@ -2,7 +2,6 @@
 default method against the `direct` reference over a small harness of random states."""
 import math
 
-import numpy as np
 import pytest
 
 from rftgls_core import accuracy as acc

@@ -14,13 +14,13 @@ quasi-static balance exists (the predictor's status says which).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Callable, Protocol
 
 import numpy as np
 
 from ..surfaces.base import CapacityResult
-from ..types import AnchorState, Pull, Status
+from ..types import AnchorState, Pull
 
 MAX_TURN_PER_STEP = math.radians(1.0)   # rad per step when p hardly translates
 

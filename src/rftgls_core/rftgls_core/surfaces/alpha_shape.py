@@ -27,7 +27,7 @@ from scipy.sparse.csgraph import connected_components, minimum_spanning_tree
 from scipy.spatial import Delaunay, QhullError
 
 from ..types import Status
-from .base import CapacityResult, FitInfo, GLSProblem, LimitSurface, evaluate_wrenches, phis_array
+from .base import CapacityResult, FitInfo, GLSProblem, LimitSurface, evaluate_wrenches
 from .diagnostics import MeshTopology, mesh_topology
 from .raycast import cast_rays, prepare_mesh, winding_number
 from .sampling import sample_twists
@@ -347,13 +347,7 @@ class AlphaShapeSurface(LimitSurface):
                                 f'{len(crit.spectrum)}), {len(shp.faces)} boundary faces')
         return self
 
-    def _capacity(self, phi: float) -> CapacityResult:
-        return self.capacity_many([phi])[0]
-
-    def capacity_many(self, phis) -> list[CapacityResult]:
-        ph = phis_array(phis)
-        if not self.fit_info.status.has_value or not np.all(np.isfinite(ph)):
-            return [LimitSurface.capacity(self, p) for p in ph]
+    def _capacity_many(self, ph: np.ndarray) -> list[CapacityResult]:
         d = np.stack([self.problem.load_direction_scaled(p) for p in ph])
         hits = cast_rays(self._mesh, d)
         sf = self.problem.scaling.force_N

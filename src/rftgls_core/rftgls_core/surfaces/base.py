@@ -147,9 +147,13 @@ class LimitSurface(ABC):
     def fit(self, problem: GLSProblem, n_twists: int | None = None) -> 'LimitSurface':
         ...
 
-    @abstractmethod
     def _capacity(self, phi: float) -> CapacityResult:
-        ...
+        """One finite angle on a fitted surface (override this or `_capacity_many`)."""
+        return self._capacity_many(np.array([phi]))[0]
+
+    def _capacity_many(self, phis: np.ndarray) -> list[CapacityResult]:
+        """Finite angles on a fitted surface; representations that vectorise override it."""
+        return [self._capacity(float(p)) for p in phis]
 
     def capacity(self, phi: float) -> CapacityResult:
         """Capacity and slip twist for pull angle phi (rad, see types.pull_direction)."""
@@ -163,8 +167,11 @@ class LimitSurface(ABC):
         return self._capacity(float(phi))
 
     def capacity_many(self, phis: Iterable[float] | np.ndarray) -> list[CapacityResult]:
-        """capacity() for several angles (representations override this when it vectorises)."""
-        return [self.capacity(p) for p in np.atleast_1d(np.asarray(phis, dtype=float))]
+        """capacity() for several angles, in one vectorised query when the surface allows."""
+        ph = phis_array(phis)
+        if not self.fit_info.status.has_value or not np.all(np.isfinite(ph)):
+            return [self.capacity(p) for p in ph]
+        return self._capacity_many(ph)
 
     def _fail_fit(self, status: Status, reason: str, detail: str) -> 'LimitSurface':
         self.fit_info = FitInfo(status=status, reason=reason, detail=detail,

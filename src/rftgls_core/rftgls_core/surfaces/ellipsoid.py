@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..types import Status
-from .base import CapacityResult, FitInfo, GLSProblem, LimitSurface, evaluate_wrenches, phis_array
+from .base import CapacityResult, FitInfo, GLSProblem, LimitSurface, evaluate_wrenches
 from .sampling import sample_twists
 
 
@@ -155,13 +155,7 @@ class EllipsoidSurface(LimitSurface):
                                 f'{self.model.rms_residual:.3g}')
         return self
 
-    def _capacity(self, phi: float) -> CapacityResult:
-        return self.capacity_many([phi])[0]
-
-    def capacity_many(self, phis) -> list[CapacityResult]:
-        ph = phis_array(phis)
-        if not self.fit_info.status.has_value or not np.all(np.isfinite(ph)):
-            return [LimitSurface.capacity(self, p) for p in ph]
+    def _capacity_many(self, ph: np.ndarray) -> list[CapacityResult]:
         A, c = self.model.A, self.model.centre
         d = np.stack([self.problem.load_direction_scaled(p) for p in ph])   # (K, 3)
         a2 = np.einsum('ki,ij,kj->k', d, A, d)

@@ -23,8 +23,7 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from ..types import Status
-from .base import (CapacityResult, FitInfo, GLSProblem, LimitSurface, evaluate_wrenches,
-                   phis_array)
+from .base import CapacityResult, FitInfo, GLSProblem, LimitSurface, evaluate_wrenches
 from .diagnostics import collapsed_vertices, face_normals, fold_mask, unique_edges
 from .newton import newton_on_sphere
 from .raycast import PreparedMesh, cast_rays, prepare_mesh, winding_number
@@ -155,17 +154,7 @@ class TwistMeshSurface(LimitSurface):
         return self
 
     # -- queries ---------------------------------------------------------------------------
-    def _capacity(self, phi: float) -> CapacityResult:
-        return self._query(np.array([phi]))[0]
-
-    def capacity_many(self, phis) -> list[CapacityResult]:
-        ph = phis_array(phis)
-        good = np.isfinite(ph)
-        if not self.fit_info.status.has_value or not np.all(good):
-            return [self.capacity(p) for p in ph]
-        return self._query(ph)
-
-    def _query(self, phis: np.ndarray) -> list[CapacityResult]:
+    def _capacity_many(self, phis: np.ndarray) -> list[CapacityResult]:
         problem = self.problem
         dirs = np.stack([problem.load_direction_scaled(p) for p in phis])
         hits = cast_rays(self._mesh, dirs)
