@@ -63,13 +63,24 @@ def make_predictor(method: str, robot: str, medium: Medium, map_path: str | Path
     return AnchorModel(get_robot(robot), medium, method=method, n_twists=n_twists)
 
 
+def initial_pose(test: PullTest) -> np.ndarray | None:
+    """Measured (x0, z0, thetaB0) of p: the median of the tracked poses up to the peak pull
+    force (the anchor has not slipped yet, so the median beats one noisy frame), or None."""
+    if not len(test.pose):
+        return None
+    t_peak = test.force_t[int(np.argmax(test.tension_N))] if len(test.tension_N) else -np.inf
+    still = test.pose[test.pose_t <= t_peak]
+    return np.median(still if len(still) else test.pose[:1], axis=0)
+
+
 def measured_initial_state(test: PullTest) -> AnchorState:
-    """[h, thetaB]_0 from the first tracked pose (the paper starts from the measured pose),
-    legs from the median joint angles; metadata where a series is missing."""
+    """[h, thetaB]_0 from the tracked poses before breakaway (the paper starts from the
+    measured pose), legs from the median joint angles; metadata where a series is missing."""
     s0 = test.meta.initial_state
     h, tb = s0.h, s0.theta_b
-    if len(test.pose):
-        h, tb = float(test.pose[0, 1]), float(test.pose[0, 2])
+    p0 = initial_pose(test)
+    if p0 is not None:
+        h, tb = float(p0[1]), float(p0[2])
     l1, l2 = s0.theta_l1, s0.theta_l2
     if len(test.legs):
         l1, l2 = (float(v) for v in np.median(test.legs, axis=0))
@@ -109,8 +120,9 @@ def predict_pull(predictor, test: PullTest, method: str, step: float = 1e-3,
                          lambda st: robot.pose(st, meta.pull).plate_min_z, step=step,
                          integrator=integrator, max_travel=max_travel)
     arr = traj.as_array()
-    if len(test.pose):
-        arr[:, 1] += test.pose[0, 0]     # the simulation starts at x = 0; the test at x0
+    p0 = initial_pose(test)
+    if p0 is not None:
+        arr[:, 1] += p0[0]               # the simulation starts at x = 0; the test at x0
     cap = res.capacity_N if res.status.has_value and res.capacity_N is not None else math.nan
     return PredictedPull(method, state, float(cap), res.slip_twist if res.status.has_value
                          else None, arr, traj.stop_reason, res.status.value)

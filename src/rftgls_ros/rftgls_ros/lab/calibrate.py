@@ -1,0 +1,223 @@
+"""Fit the medium's two Agarwal parameters (xi_n, mu_surf) to pull tests and plate penetration.
+
+Observations (each a residual in N, divided by its sigma):
+  - pull tests: the breakaway force, the largest load-cell reading (5-sample running median)
+    before p has moved BREAKAWAY_TRAVEL_M, against the capacity at the test's measured initial
+    state (predict.measured_initial_state) for the candidate medium;
+  - plate penetration (optional, CSV depth_m,force_N of a horizontal plate of area A pushed
+    down): F = 0.875 xi_n A depth (models-rft.md 8), which pins xi_n alone.
+The capacity is nearly linear in xi_n (RFT stress ~ xi_n; the weight is not scaled), and
+mu_surf moves it only a few percent, so several leg poses are needed and mu_surf stays the
+less certain parameter: the confidence intervals say how much.
+
+Least squares: scipy.optimize.least_squares (trf, bounds) on u = (xi_n / 1e5, mu_surf).
+Covariance: s^2 (J^T J)^-1 at the solution, s^2 = chi^2 / dof (the residual scatter sets the
+noise level, so sigma only weights the two kinds of data). 95 % intervals: Student t (dof).
+
+    python -m rftgls_ros.lab.calibrate BAG [BAG ...] [--penetration trace.csv --plate-area A]
+        [--method twist-mesh] [--out medium.json] [--name my_sand]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import shlex
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from rftgls_core.rft.media import Medium
+from rftgls_core.types import AnchorState
+
+from .bag_layout import PullTest, read_pull_test
+from .evaluate import running_median
+from .predict import initial_pose, make_predictor, measured_initial_state
+
+BREAKAWAY_TRAVEL_M = 2e-3
+XI_SCALE = 1e5              # N/m^3 per unit of the fitted variable (conditioning)
+PLATE_FACTOR = 0.875        # horizontal plate pushed down: stress = 0.875 xi_n per m of depth
+
+
+@dataclass(frozen=True)
+class PullObservation:
+    """One pull test reduced to what the fit needs (SI)."""
+
+    test_id: str
+    robot: str
+    state: AnchorState
+    phi: float
+    pull: str
+    breakaway_N: float
+
+    @classmethod
+    def from_test(cls, test: PullTest) -> 'PullObservation':
+        f = running_median(test.tension_N)
+        if len(test.pose):
+            dx = initial_pose(test)[0] - np.interp(test.force_t, test.pose_t, test.pose[:, 0])
+            f = f[dx <= BREAKAWAY_TRAVEL_M]
+        m = test.meta
+        return cls(m.test_id, m.robot, measured_initial_state(test), m.phi_rad, m.pull,
+                   float(f.max()))
+
+
+@dataclass(frozen=True)
+class PenetrationTrace:
+    depth_m: np.ndarray
+    force_N: np.ndarray
+    plate_area_m2: float
+
+    @classmethod
+    def load(cls, path: str | Path, plate_area_m2: float) -> 'PenetrationTrace':
+        a = np.loadtxt(path, delimiter=',', skiprows=1, ndmin=2)
+        return cls(a[:, 0], a[:, 1], float(plate_area_m2))
+
+
+@dataclass
+class Calibration:
+    xi_n: float
+    mu_surf: float
+    cov: np.ndarray              # 2x2, SI: (xi_n N/m^3, mu_surf)
+    ci95: dict                   # name -> (low, high)
+    dof: int
+    residual_rms: dict           # 'pull_N', 'penetration_N'
+    n_pull: int
+    n_penetration: int
+    method: str
+    sources: list = field(default_factory=list)
+
+    @property
+    def std(self) -> np.ndarray:
+        return np.sqrt(np.diag(self.cov))
+
+    def medium(self, name: str = 'calibrated') -> Medium:
+        return Medium(name, xi_n=self.xi_n, mu_surf=self.mu_surf, zeta=PLATE_FACTOR * self.xi_n,
+                      note=f'calibrated ({self.method}) on {self.n_pull} pull tests and '
+                           f'{self.n_penetration} penetration samples')
+
+    def to_json(self, name: str = 'calibrated', command: str = '') -> str:
+        d = self.medium(name).to_dict()
+        d['calibration'] = {
+            'covariance': self.cov.tolist(), 'covariance_order': ['xi_n', 'mu_surf'],
+            'std': {'xi_n': self.std[0], 'mu_surf': self.std[1]},
+            'ci95': {k: list(v) for k, v in self.ci95.items()}, 'dof': self.dof,
+            'residual_rms': self.residual_rms, 'n_pull_tests': self.n_pull,
+            'n_penetration_samples': self.n_penetration, 'surface_method': self.method,
+            'sources': self.sources, 'command': command}
+        return json.dumps(d, indent=2, allow_nan=False)
+
+
+def calibrate(pulls: list[PullObservation], penetration: PenetrationTrace | None = None,
+              method: str = 'twist-mesh', x0: tuple[float, float] = (3.8e5, 0.4),
+              sigma_pull_N: float = 0.05, sigma_penetration_N: float = 0.05,
+              progress: bool = False) -> Calibration:
+    from scipy import optimize, stats
+
+    from rftgls_core.rft.media import custom_medium
+
+    n_pen = 0 if penetration is None else len(penetration.depth_m)
+    if len(pulls) + n_pen < 3:
+        raise ValueError('need at least 3 observations for 2 parameters and an error estimate')
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(unit='eval', desc='calibrate', file=sys.stderr)
+
+    def pull_forces(u: np.ndarray) -> np.ndarray:
+        med = custom_medium(xi_n=u[0] * XI_SCALE, mu_surf=u[1])
+        models = {}
+        out = np.empty(len(pulls))
+        for i, ob in enumerate(pulls):
+            if ob.robot not in models:
+                models[ob.robot] = make_predictor(method, ob.robot, med)
+            r = models[ob.robot].predict(ob.state, ob.phi, ob.pull)
+            # No balance at this medium: the anchor holds nothing; the residual says so
+            # (a NaN would stop the solver).
+            out[i] = r.capacity_N if r.status.has_value and r.capacity_N is not None else 0.0
+        if bar is not None:
+            bar.update(1)
+        return out
+
+    meas = np.array([ob.breakaway_N for ob in pulls])
+
+    def residuals(u: np.ndarray) -> np.ndarray:
+        r = [(pull_forces(u) - meas) / sigma_pull_N] if pulls else []
+        if penetration is not None:
+            model = PLATE_FACTOR * u[0] * XI_SCALE * penetration.plate_area_m2 * penetration.depth_m
+            r.append((model - penetration.force_N) / sigma_penetration_N)
+        return np.concatenate(r)
+
+    u0 = np.array([x0[0] / XI_SCALE, x0[1]])
+    # diff_step: relative; 1e-3 keeps the finite differences above the solver's round-off
+    sol = optimize.least_squares(residuals, u0, bounds=([0.1, 0.0], [100.0, 3.0]),
+                                 diff_step=1e-3, x_scale=np.array([1.0, 0.1]), xtol=1e-10,
+                                 ftol=1e-10)
+    if bar is not None:
+        bar.close()
+    J = sol.jac
+    n = J.shape[0]
+    dof = n - 2
+    chi2 = float(sol.fun @ sol.fun)
+    s2 = chi2 / dof if dof > 0 else 1.0
+    cov_u = s2 * np.linalg.pinv(J.T @ J)
+    S = np.diag([XI_SCALE, 1.0])
+    cov = S @ cov_u @ S
+    xi, mu = sol.x[0] * XI_SCALE, sol.x[1]
+    t = stats.t.ppf(0.975, max(dof, 1))
+    sd = np.sqrt(np.diag(cov))
+    rms = {}
+    res = sol.fun
+    if pulls:
+        rms['pull_N'] = float(np.sqrt(np.mean((res[:len(pulls)] * sigma_pull_N) ** 2)))
+    if n_pen:
+        rms['penetration_N'] = float(np.sqrt(np.mean((res[len(pulls):] * sigma_penetration_N) ** 2)))
+    return Calibration(xi_n=float(xi), mu_surf=float(mu), cov=cov,
+                       ci95={'xi_n': (float(xi - t * sd[0]), float(xi + t * sd[0])),
+                             'mu_surf': (float(mu - t * sd[1]), float(mu + t * sd[1]))},
+                       dof=dof, residual_rms=rms, n_pull=len(pulls), n_penetration=n_pen,
+                       method=method)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog='python -m rftgls_ros.lab.calibrate',
+                                 description='fit (xi_n, mu_surf) with 95%% confidence intervals')
+    ap.add_argument('bags', nargs='*', help='pull-test bags')
+    ap.add_argument('--penetration', help='CSV with header, columns depth_m,force_N')
+    ap.add_argument('--plate-area', type=float, help='penetration plate area, m^2')
+    ap.add_argument('--method', default='twist-mesh',
+                    choices=['twist-mesh', 'direct', 'alpha', 'ellipsoid'])
+    ap.add_argument('--sigma-pull', type=float, default=0.05, help='N (relative weighting)')
+    ap.add_argument('--sigma-penetration', type=float, default=0.05, help='N')
+    ap.add_argument('--name', default='calibrated')
+    ap.add_argument('--out', default='medium_calibrated.json')
+    args = ap.parse_args(argv)
+    try:
+        tests = [read_pull_test(b) for b in args.bags]
+        pulls = [PullObservation.from_test(t) for t in tests]
+        pen = None
+        if args.penetration:
+            if not args.plate_area:
+                raise ValueError('--penetration needs --plate-area (m^2)')
+            pen = PenetrationTrace.load(args.penetration, args.plate_area)
+        cal = calibrate(pulls, pen, method=args.method, sigma_pull_N=args.sigma_pull,
+                        sigma_penetration_N=args.sigma_penetration, progress=True)
+    except (ValueError, OSError) as exc:
+        print(f'calibrate: error: {exc}', file=sys.stderr)
+        return 2
+    cal.sources = [str(b) for b in args.bags] + ([args.penetration] if args.penetration else [])
+    command = 'python -m rftgls_ros.lab.calibrate ' + shlex.join(
+        sys.argv[1:] if argv is None else argv)
+    Path(args.out).write_text(cal.to_json(args.name, command))
+    lo, hi = cal.ci95['xi_n']
+    mlo, mhi = cal.ci95['mu_surf']
+    print(f'xi_n    = {cal.xi_n:.4g} N/m^3  (95% CI {lo:.4g} .. {hi:.4g})')
+    print(f'mu_surf = {cal.mu_surf:.3f}        (95% CI {mlo:.3f} .. {mhi:.3f})')
+    print(f'residual rms: ' + ', '.join(f'{k} {v:.3g}' for k, v in cal.residual_rms.items())
+          + f'; dof {cal.dof}; wrote {args.out}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

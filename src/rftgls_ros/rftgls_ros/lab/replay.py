@@ -1,0 +1,134 @@
+"""Replay a pull-test bag into a running ROS 2 graph: the recorded bytes, published with rclpy.
+
+Like `ros2 bag play` (not available from pip): every connection gets a publisher of its type,
+and each message's recorded CDR bytes go out unchanged (Publisher.publish accepts bytes,
+ros2-from-pip.md 5.2). Timing: the original rate (rate=1), faster (rate=k), as fast as
+possible (rate=0), or lock-step (step() one message at a time, for tests). /lab/metadata is
+published reliable + transient-local so a late joiner still gets it; everything else reliable
+with a deep queue, so a fast replay does not drop (a best-effort subscriber still may).
+
+Feed capacity_node (its own defaults read /joint_states, /winch/tension, /winch/height):
+
+    python -m rftgls_ros.capacity_node --ros-args -p robot:=prototype -p medium:=glass_beads \
+        -p map_file:=maps/prototype_glass_beads.h5 -p pull:=forward \
+        -p pitch_topic:=/lab/theta_b -p phi_topic:=/winch/phi &
+    python -m rftgls_ros.lab.replay BAG [--rate 1 | --rate 4 | --rate 0]
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import time
+from pathlib import Path
+
+import rclpy
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
+LATCHED_TOPICS = ('/lab/metadata',)
+
+
+def message_class(msgtype: str):
+    """'pkg/msg/Name' -> the rclpy message class (rosidl_runtime_py is not in the wheels)."""
+    pkg, _, name = msgtype.split('/')
+    return getattr(importlib.import_module(f'{pkg}.msg'), name)
+
+
+class BagReplayer:
+    """Publishes a bag's messages from `node`. Use step() for lock-step or run() for timing."""
+
+    def __init__(self, node: Node, bag: str | Path, topics: list[str] | None = None,
+                 skip_images: bool = False):
+        from rosbags.rosbag2 import Reader
+        self.node = node
+        self.reader = Reader(bag)
+        self.reader.open()
+        conns = [c for c in self.reader.connections
+                 if (topics is None or c.topic in topics)
+                 and not (skip_images and 'image' in c.topic)]
+        self.publishers = {}
+        for c in conns:
+            if c.topic not in self.publishers:
+                qos = LATCHED if c.topic in LATCHED_TOPICS else 100
+                self.publishers[c.topic] = node.create_publisher(message_class(c.msgtype),
+                                                                 c.topic, qos)
+        self._it = self.reader.messages(connections=conns)
+        self.count = 0
+
+    def step(self) -> tuple[str, int] | None:
+        """Publish the next message; (topic, log time ns), or None at the end."""
+        try:
+            conn, t_ns, raw = next(self._it)
+        except StopIteration:
+            return None
+        # bytes(): rclpy wants bytes, not the memoryview rosbags may hand out.
+        self.publishers[conn.topic].publish(bytes(raw))
+        self.count += 1
+        return conn.topic, t_ns
+
+    def run(self, rate: float = 1.0, spin=None) -> int:
+        """Publish everything with the recorded spacing divided by `rate` (0: no waiting).
+        spin(timeout_s) is called while waiting (e.g. an executor's spin_once)."""
+        t_first = None
+        wall0 = time.monotonic()
+        while True:
+            item = self.step()
+            if item is None:
+                break
+            _, t_ns = item
+            if t_first is None:
+                t_first = t_ns
+            if rate > 0:
+                due = wall0 + (t_ns - t_first) * 1e-9 / rate
+                while (left := due - time.monotonic()) > 0:
+                    if spin:
+                        spin(min(left, 0.05))
+                    else:
+                        time.sleep(min(left, 0.05))
+            elif spin:
+                spin(0.0)
+        return self.count
+
+    def close(self) -> None:
+        self.reader.close()
+        for p in self.publishers.values():
+            self.node.destroy_publisher(p)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog='python -m rftgls_ros.lab.replay',
+                                 description='publish a pull-test bag (recorded bytes)')
+    ap.add_argument('bag')
+    ap.add_argument('--rate', type=float, default=1.0,
+                    help='speed factor (1 = original timing, 0 = as fast as possible)')
+    ap.add_argument('--topics', nargs='*', help='only these topics')
+    ap.add_argument('--skip-images', action='store_true')
+    ap.add_argument('--wait-subscribers', type=float, default=1.0,
+                    help='s to wait for discovery before the first message')
+    args = ap.parse_args(argv)
+    rclpy.init()
+    node = Node('lab_replay')
+    try:
+        rep = BagReplayer(node, args.bag, args.topics, args.skip_images)
+        # Give DDS discovery a moment, or the first messages go to nobody.
+        end = time.monotonic() + args.wait_subscribers
+        while time.monotonic() < end:
+            rclpy.spin_once(node, timeout_sec=0.05)
+        n = rep.run(args.rate, spin=lambda t: rclpy.spin_once(node, timeout_sec=t))
+        print(f'replayed {n} messages from {args.bag}')
+        # keep the latched metadata alive a little for late joiners
+        rclpy.spin_once(node, timeout_sec=0.2)
+        rep.close()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
