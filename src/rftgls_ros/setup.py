@@ -7,7 +7,7 @@ setup(
     name=PACKAGE,
     version='0.1.0',
     packages=find_packages(exclude=['test', 'tests']),
-    package_data={PACKAGE: []},
+    package_data={PACKAGE: ['lab/samples/*', 'lab/samples/*/*']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
@@ -17,9 +17,21 @@ setup(
     description='ROS 2 nodes of the RFT-GLS anchoring stack: capacity_node, behavior_node, teleop, bag replay.',
     license='BSD-3-Clause',
     entry_points={
+        'rftgls.commands': [
+            'calibrate = rftgls_ros.lab.calibrate:add_parser',
+        ],
         'console_scripts': [
+            'rftgls_lab_track = rftgls_ros.lab.aruco_tracking:main',
+            'rftgls_lab_tracking_accuracy = rftgls_ros.lab.tracking_accuracy:main',
+            'rftgls_lab_synthetic = rftgls_ros.lab.synthetic:main',
+            'rftgls_lab_eval = rftgls_ros.lab.evaluate:main',
+            'rftgls_lab_calibrate = rftgls_ros.lab.calibrate:main',
+            'rftgls_lab_replay = rftgls_ros.lab.replay:main',
             'capacity_node = rftgls_ros.capacity_node:main',
             'capacity_bench = rftgls_ros.capacity_bench:main',
+            'behavior_node = rftgls_ros.behavior_node:main',
+            'behavior_demo = rftgls_ros.demo:main',
+            'teleop = rftgls_ros.teleop.main:main',
         ],
     },
 )

@@ -6,7 +6,6 @@ from dataclasses import asdict, replace
 
 import cv2
 import numpy as np
-import pytest
 
 from rftgls_core.types import AnchorState
 from rftgls_ros.lab.aruco_tracking import ArucoTracker, main as tracking_main

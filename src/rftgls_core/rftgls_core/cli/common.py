@@ -5,7 +5,7 @@ import argparse
 import json
 import math
 
-from ..rft.media import Medium, custom_medium, get_medium
+from ..rft.media import Medium, custom_medium, load_medium
 from ..rft.models import DEFAULT_MODEL, MODELS
 
 
@@ -24,7 +24,8 @@ def add_medium_args(p: argparse.ArgumentParser, default: str | None = None) -> N
     g.add_argument('--model', default=DEFAULT_MODEL, choices=MODELS,
                    help='RFT model (default: %(default)s)')
     g.add_argument('--medium', default=None,
-                   help='preset: glass_beads, m90_sand, poppy_lp, poppy_cp'
+                   help='preset (glass_beads, m90_sand, poppy_lp, poppy_cp) or a medium JSON '
+                        'file written by `rftgls calibrate`'
                         + (f' (default: {default})' if default else ''))
     g.add_argument('--xi-n', type=finite_float, help='Agarwal stress scale xi_n, N/m^3')
     g.add_argument('--mu-surf', type=float, help='Agarwal intruder-surface friction (inf allowed)')
@@ -41,7 +42,7 @@ def medium_from_args(args) -> Medium:
     name = args.medium or args.default_medium
     if name is None:
         raise ValueError('give --medium NAME or --xi-n/--mu-surf or --zeta')
-    return get_medium(name)
+    return load_medium(name)
 
 
 def print_json(obj) -> None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from importlib.metadata import entry_points
 
 # sub-command -> module in rftgls_core.cli; each has add_parser(subparsers) and run(args).
 COMMANDS = ('wrench', 'capacity', 'plot', 'bench', 'demo', 'chart', 'map', 'simulate', 'figure')
@@ -26,6 +27,13 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # not written yet
             raise
         module.add_parser(sub)
+    # Other packages add sub-commands through entry points (e.g. rftgls_ros adds
+    # `calibrate`), so the core never imports them.
+    for ep in entry_points(group='rftgls.commands'):
+        try:
+            ep.load()(sub)
+        except Exception as exc:  # a broken plugin must not take the core CLI down
+            print(f'rftgls: warning: command {ep.name!r} unavailable: {exc}', file=sys.stderr)
     return parser
 
 

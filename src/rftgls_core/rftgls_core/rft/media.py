@@ -6,8 +6,10 @@ quotes N/cm^3 = 1e6 N/m^3). Values and their sources: models-rft.md sections 2.4
 """
 from __future__ import annotations
 
+import json
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
 
 G = 9.81  # m/s^2
 
@@ -86,3 +88,25 @@ def custom_medium(xi_n: float | None = None, mu_surf: float | None = None,
         zeta = 0.875 * xi_n
     return Medium('custom', xi_n=float(xi_n), mu_surf=float(0.4 if mu_surf is None else mu_surf),
                   zeta=float(zeta))
+
+
+def medium_from_dict(d: dict) -> Medium:
+    """A Medium from a dict with its field names (extra keys, e.g. confidence intervals of a
+    calibration, are ignored)."""
+    names = {f.name for f in fields(Medium)}
+    missing = {'name', 'xi_n', 'mu_surf', 'zeta'} - set(d)
+    if missing:
+        raise ValueError(f'medium description lacks {", ".join(sorted(missing))}')
+    return Medium(**{k: d[k] for k in names if k in d})
+
+
+def load_medium(spec: str) -> Medium:
+    """A preset name, or a medium JSON file (as `rftgls calibrate` writes)."""
+    path = Path(spec)
+    if path.suffix == '.json' or path.is_file():
+        try:
+            data = json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ValueError(f'cannot read medium file {spec}: {exc}') from None
+        return medium_from_dict(data)
+    return get_medium(spec)

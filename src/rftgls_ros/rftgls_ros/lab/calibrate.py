@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import shlex
 import sys
 from dataclasses import dataclass, field
@@ -180,9 +179,7 @@ def calibrate(pulls: list[PullObservation], penetration: PenetrationTrace | None
                        method=method)
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog='python -m rftgls_ros.lab.calibrate',
-                                 description='fit (xi_n, mu_surf) with 95%% confidence intervals')
+def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument('bags', nargs='*', help='pull-test bags')
     ap.add_argument('--penetration', help='CSV with header, columns depth_m,force_N')
     ap.add_argument('--plate-area', type=float, help='penetration plate area, m^2')
@@ -192,31 +189,51 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument('--sigma-penetration', type=float, default=0.05, help='N')
     ap.add_argument('--name', default='calibrated')
     ap.add_argument('--out', default='medium_calibrated.json')
-    args = ap.parse_args(argv)
-    try:
-        tests = [read_pull_test(b) for b in args.bags]
-        pulls = [PullObservation.from_test(t) for t in tests]
-        pen = None
-        if args.penetration:
-            if not args.plate_area:
-                raise ValueError('--penetration needs --plate-area (m^2)')
-            pen = PenetrationTrace.load(args.penetration, args.plate_area)
-        cal = calibrate(pulls, pen, method=args.method, sigma_pull_N=args.sigma_pull,
-                        sigma_penetration_N=args.sigma_penetration, progress=True)
-    except (ValueError, OSError) as exc:
-        print(f'calibrate: error: {exc}', file=sys.stderr)
-        return 2
+
+
+def add_parser(sub) -> None:
+    """`rftgls calibrate` (registered through the rftgls.commands entry point)."""
+    ap = sub.add_parser('calibrate', help='fit the medium (xi_n, mu_surf) to pull-test bags',
+                        description='fit (xi_n, mu_surf) with 95%% confidence intervals and '
+                                    'write a medium file the other commands accept (--medium)')
+    add_arguments(ap)
+    ap.set_defaults(run=lambda args: run(args, 'rftgls calibrate ' + shlex.join(sys.argv[2:])))
+
+
+def run(args, command: str) -> int:
+    """Errors propagate as ValueError/OSError (the rftgls CLI prints them in one line)."""
+    tests = [read_pull_test(b) for b in args.bags]
+    pulls = [PullObservation.from_test(t) for t in tests]
+    pen = None
+    if args.penetration:
+        if not args.plate_area:
+            raise ValueError('--penetration needs --plate-area (m^2)')
+        pen = PenetrationTrace.load(args.penetration, args.plate_area)
+    cal = calibrate(pulls, pen, method=args.method, sigma_pull_N=args.sigma_pull,
+                    sigma_penetration_N=args.sigma_penetration, progress=True)
     cal.sources = [str(b) for b in args.bags] + ([args.penetration] if args.penetration else [])
-    command = 'python -m rftgls_ros.lab.calibrate ' + shlex.join(
-        sys.argv[1:] if argv is None else argv)
     Path(args.out).write_text(cal.to_json(args.name, command))
     lo, hi = cal.ci95['xi_n']
     mlo, mhi = cal.ci95['mu_surf']
     print(f'xi_n    = {cal.xi_n:.4g} N/m^3  (95% CI {lo:.4g} .. {hi:.4g})')
     print(f'mu_surf = {cal.mu_surf:.3f}        (95% CI {mlo:.3f} .. {mhi:.3f})')
-    print(f'residual rms: ' + ', '.join(f'{k} {v:.3g}' for k, v in cal.residual_rms.items())
+    print('residual rms: ' + ', '.join(f'{k} {v:.3g}' for k, v in cal.residual_rms.items())
           + f'; dof {cal.dof}; wrote {args.out}')
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog='python -m rftgls_ros.lab.calibrate',
+                                 description='fit (xi_n, mu_surf) with 95%% confidence intervals')
+    add_arguments(ap)
+    args = ap.parse_args(argv)
+    command = 'python -m rftgls_ros.lab.calibrate ' + shlex.join(
+        sys.argv[1:] if argv is None else argv)
+    try:
+        return run(args, command)
+    except (ValueError, OSError) as exc:
+        print(f'calibrate: error: {exc}', file=sys.stderr)
+        return 2
 
 
 if __name__ == '__main__':
