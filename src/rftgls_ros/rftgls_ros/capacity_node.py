@@ -65,6 +65,11 @@ PARAMETERS = {
     'h_min_m': -0.05,
     'h_max_m': 0.30,
     'tension_max_N': 200.0,
+    # conservative lower bound on ~/capacity_lower (0 = off; e.g. 0.95)
+    'lower_bound_level': 0.0,
+    'h_sigma_m': 0.002,
+    'theta_b_sigma_rad': math.radians(1.0),
+    'capacity_rel_sigma': 0.0,        # e.g. sigma(xi_n)/xi_n from `rftgls calibrate`
     # timing
     **{f'{name}_timeout_s': t for name, t in DEFAULT_TIMEOUTS_S.items()},
     'publish_rate_hz': 20.0,          # minimum output rate (heartbeat when no trigger arrives)
@@ -108,6 +113,7 @@ class CapacityNode(Node):
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.pub_capacity = self.create_publisher(WrenchStamped, '~/capacity', 10)
         self.pub_margin = self.create_publisher(WrenchStamped, '~/margin', 10)
+        self.pub_lower = self.create_publisher(WrenchStamped, '~/capacity_lower', 10)
         self.pub_twist = self.create_publisher(TwistStamped, '~/slip_twist', 10)
         self.pub_status = self.create_publisher(String, '~/status', latched)
         self.pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
@@ -147,7 +153,9 @@ class CapacityNode(Node):
         config = EstimatorConfig(
             pull=p['pull'], timeouts_s=timeouts, leg_tolerance_rad=p['leg_tolerance_rad'],
             height_m=p['height_m'], phi_rad=p['phi_rad'], h_range_m=(p['h_min_m'], p['h_max_m']),
-            tension_max_N=p['tension_max_N']).check()
+            tension_max_N=p['tension_max_N'], lower_bound_level=p['lower_bound_level'],
+            h_sigma_m=p['h_sigma_m'], theta_b_sigma_rad=p['theta_b_sigma_rad'],
+            capacity_rel_sigma=p['capacity_rel_sigma']).check()
         predictor = make_predictor(p['map_file'], p['live_method'], p['robot'], p['medium'],
                                    p['live_n_twists'], p['pull'])
         return CapacityEstimator(predictor, config)
@@ -236,6 +244,10 @@ class CapacityNode(Node):
         margin.wrench.force.x, margin.wrench.force.z = m * d[0], m * d[1]
         if math.isnan(c):
             cap.wrench.force.y = margin.wrench.force.y = NAN
+        lower = WrenchStamped()
+        lower.header = cap.header
+        lo = est.capacity_lower_N if est.capacity_lower_N is not None else NAN
+        lower.wrench.force.x, lower.wrench.force.z = lo * d[0], lo * d[1]
 
         twist = TwistStamped()
         twist.header = cap.header
@@ -252,6 +264,8 @@ class CapacityNode(Node):
         self.pub_status.publish(String(data=str(est.status)))
         self.pub_capacity.publish(cap)
         self.pub_margin.publish(margin)
+        if self.estimator.config.lower_bound_level > 0.0:
+            self.pub_lower.publish(lower)
         self.pub_twist.publish(twist)
         self.last_estimate = est
         self.last_publish = time.monotonic()
@@ -285,7 +299,8 @@ class CapacityNode(Node):
         st = est.state
         values = {
             'status': str(est.status), 'detail': est.detail,
-            'capacity_N': fmt(est.capacity_N), 'tension_N': fmt(est.tension_N),
+            'capacity_N': fmt(est.capacity_N), 'capacity_lower_N': fmt(est.capacity_lower_N),
+            'tension_N': fmt(est.tension_N),
             'margin_N': fmt(est.margin_N), 'slipping': str(est.slipping).lower(),
             'phi_rad': fmt(est.phi_rad),
             'h_m': fmt(st.h if st else None), 'theta_b_rad': fmt(st.theta_b if st else None),

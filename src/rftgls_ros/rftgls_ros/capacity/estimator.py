@@ -25,6 +25,7 @@ from typing import Mapping
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull, Status
 
+from .lower_bound import capacity_lower_bound
 from .predictor import ConfigError, Predictor
 
 JOINTS = ('proximal_left', 'proximal_right', 'distal_left', 'distal_right')
@@ -49,6 +50,11 @@ class EstimatorConfig:
     phi_limit_rad: float = math.pi / 2
     tension_max_N: float = 200.0
     tension_deadband_N: float = 0.05  # a load cell reads slightly below 0 at zero load
+    # Conservative lower bound (capacity/lower_bound.py); level 0 switches it off.
+    lower_bound_level: float = 0.0
+    h_sigma_m: float = 0.002
+    theta_b_sigma_rad: float = math.radians(1.0)
+    capacity_rel_sigma: float = 0.0
 
     def check(self) -> 'EstimatorConfig':
         """Raise ConfigError on the first bad value; return self."""
@@ -70,6 +76,13 @@ class EstimatorConfig:
                 raise ConfigError(f'{name} must be positive, got {v!r}')
         if not (math.isfinite(self.tension_deadband_N) and self.tension_deadband_N >= 0):
             raise ConfigError(f'tension_deadband_N must be >= 0, got {self.tension_deadband_N!r}')
+        if not (self.lower_bound_level == 0.0 or 0.5 <= self.lower_bound_level < 1.0):
+            raise ConfigError(f'lower_bound_level must be 0 (off) or in [0.5, 1), got '
+                              f'{self.lower_bound_level!r}')
+        for name in ('h_sigma_m', 'theta_b_sigma_rad', 'capacity_rel_sigma'):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ConfigError(f'{name} must be >= 0, got {v!r}')
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
             raise ConfigError(f'h range must be finite with min < max, got {self.h_range_m!r}')
         if not (math.isfinite(self.height_m) and lo <= self.height_m <= hi):
@@ -92,6 +105,8 @@ class Estimate:
     except `unsupported`, which reports capacity_N = 0 and margin_N = -tension_N.
 
     capacity_N: load capacity along the tether direction d(phi), N.
+    capacity_lower_N: its one-sided lower confidence bound (config.lower_bound_level), N;
+        None when switched off or without a value.
     margin_N: capacity_N - tension_N, N (negative: the anchor is predicted to slip).
     slip_twist: unit direction (vx, vz, wy) of the predicted slip at p in world axes
         (m/s, m/s, rad/s per unit; RFT is rate independent so only the direction is known);
@@ -105,6 +120,7 @@ class Estimate:
     reason: str = ''
     detail: str = ''
     capacity_N: float | None = None
+    capacity_lower_N: float | None = None
     tension_N: float | None = None
     margin_N: float | None = None
     slip_twist: tuple[float, float, float] | None = None
@@ -138,6 +154,7 @@ class CapacityEstimator:
         self._malformed: dict[str, tuple[float, str]] = {}  # input -> (t, why)
         self._cache_key: tuple | None = None
         self._cache: CapacityResult | None = None
+        self._lower_cache: tuple | None = None
         self.predictions = 0  # predictor calls (cache misses), for diagnostics and tests
 
     # -- inputs -----------------------------------------------------------------------------
@@ -202,8 +219,9 @@ class CapacityEstimator:
                             result=result, **common)
         tension = max(tension, 0.0)  # inside the dead band
         margin = result.capacity_N - tension
+        lower = self._lower_bound(state, phi, result.capacity_N)
         return Estimate(now, result.status, result.reason, result.detail,
-                        capacity_N=result.capacity_N, margin_N=margin,
+                        capacity_N=result.capacity_N, capacity_lower_N=lower, margin_N=margin,
                         slip_twist=result.slip_twist, slipping=margin < 0.0, result=result,
                         **{**common, 'tension_N': tension})
 
@@ -259,6 +277,20 @@ class CapacityEstimator:
             elif not lo <= x <= hi:
                 out.append(f'{name} = {x:.4g} {unit} outside [{lo:.4g}, {hi:.4g}]')
         return out
+
+    def _lower_bound(self, state: AnchorState, phi: float, capacity_N: float) -> float | None:
+        """Lower confidence bound, cached with the prediction it belongs to."""
+        cfg = self.config
+        if cfg.lower_bound_level <= 0.0:
+            return None
+        key = (state.as_tuple(), phi)
+        if self._lower_cache is None or self._lower_cache[0] != key:
+            lower = capacity_lower_bound(
+                lambda st, ph: self.predictor.predict(st, ph, self.pull), state, phi,
+                capacity_N, cfg.lower_bound_level, cfg.h_sigma_m, cfg.theta_b_sigma_rad,
+                cfg.capacity_rel_sigma)
+            self._lower_cache = (key, lower)
+        return self._lower_cache[1]
 
     def _predict(self, state: AnchorState, phi: float) -> CapacityResult:
         key = (state.as_tuple(), phi)
