@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-TRUTH = (4.2e5, 0.3)     # xi_n N/m^3, mu_surf of the synthetic medium
+from _lab_common import TRUTH  # noqa: E402  (shared with the tests)
 CONFIGS = ((-40, 0, 'forward'), (-40, 20, 'backward'), (-20, 0, 'backward'),
            (-20, 20, 'backward'), (0, 40, 'backward'), (-20, 0, 'forward'))
 

@@ -94,8 +94,10 @@ def plot_leg_angle_maps(maps: dict, out: str | Path, title: str) -> None:
     plt.close(fig)
 
 
-def plot_anchor_modes(capacities: dict, needs: dict, out: str | Path, title: str) -> None:
-    """Fig. 10 b: capacities[mode][phi_deg] (N or None) against sled forces needs[label]."""
+def plot_anchor_modes(capacities: dict, needs: dict, out: str | Path, title: str,
+                      lower: dict | None = None) -> None:
+    """Fig. 10 b: capacities[mode][phi_deg] (N or None) against sled forces needs[label];
+    lower[mode][phi_deg]: one-sided 95 % lower bounds, drawn as error bars."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
@@ -106,8 +108,16 @@ def plot_anchor_modes(capacities: dict, needs: dict, out: str | Path, title: str
     width = 0.8 / len(phis)
     for k, phi in enumerate(phis):
         vals = [capacities[m][phi] or 0.0 for m in modes]
-        ax.bar(np.arange(len(modes)) + (k - (len(phis) - 1) / 2) * width, vals, width,
-               label=f'phi = {phi:.0f} deg')
+        xs = np.arange(len(modes)) + (k - (len(phis) - 1) / 2) * width
+        ax.bar(xs, vals, width, label=f'phi = {phi:.0f} deg')
+        if lower:
+            lo = [max(v - (lower[m][phi] if lower[m][phi] is not None else v), 0.0)
+                  for m, v in zip(modes, vals)]
+            ax.errorbar(xs, vals, yerr=[lo, [0.0] * len(lo)], fmt='none', ecolor='k',
+                        capsize=4, lw=1)
+    if lower:
+        ax.errorbar([], [], yerr=[], fmt='none', ecolor='k', capsize=4,
+                    label='95 % lower bound (medium uncertainty)')
     for (label, force), ls in zip(needs.items(), ('--', ':', '-.')):
         ax.axhline(force, color='k', ls=ls, lw=1, label=f'{label} sled: {force:.2f} N')
     ax.set_xticks(range(len(modes)))

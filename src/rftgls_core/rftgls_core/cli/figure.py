@@ -22,6 +22,13 @@ def add_parser(sub) -> None:
                         'conservative value where the RFT map jumps and direct has no root)')
     p.add_argument('--sled-friction', type=float, default=0.5,
                    help='fig10b: sled force = mu * m * g (assumed mu, default 0.5)')
+    p.add_argument('--medium', default=None,
+                   help='fig10b: medium preset or a `rftgls calibrate` JSON; its covariance '
+                        'gives the uncertainty band')
+    p.add_argument('--xi-rel-sigma', type=float, default=0.10,
+                   help='fig10b without a calibration: relative 1-sigma of xi_n (assumed 10 %%)')
+    p.add_argument('--mu-sigma', type=float, default=0.1,
+                   help='fig10b without a calibration: 1-sigma of mu_surf (assumed 0.1)')
     p.add_argument('--l1', type=float, default=-40.0, help='fig8: thetaL1, deg')
     p.add_argument('--l2', type=float, default=0.0, help='fig8: thetaL2, deg')
     p.set_defaults(run=run)
@@ -56,17 +63,45 @@ def run(args) -> int:
                               title=f'prototype, ({args.l1:.0f}, {args.l2:.0f}) deg, '
                                     f'{pull.value} pull, phi = 0')
     else:
+        import numpy as np
+
+        from ..rft.media import load_medium
+        from ..uncertainty import capacity_band
         from .demo import ANCHOR_MODES
-        model = AnchorModel(get_robot('minirquad'), get_medium('m90_sand'), method=args.method)
-        caps = {}
+        medium = load_medium(args.medium or 'm90_sand')
+        cov = _medium_covariance(args)
+        model = AnchorModel(get_robot('minirquad'), medium, method=args.method)
+        caps, lows = {}, {}
         for mode, state in ANCHOR_MODES.items():
-            res = model.predict_many(state, [0.0, math.radians(-20.0)], Pull.BACKWARD)
-            caps[mode] = {0.0: res[0].capacity_N, -20.0: res[1].capacity_N}
+            caps[mode], lows[mode] = {}, {}
+            for phi in (0.0, -20.0):
+                band = capacity_band('minirquad', medium.xi_n, medium.mu_surf, cov, state,
+                                     math.radians(phi), 'backward', method=args.method)
+                res = model.predict(state, math.radians(phi), Pull.BACKWARD)
+                caps[mode][phi] = res.capacity_N
+                lows[mode][phi] = band.lower_N if res.capacity_N is not None else None
         needs = {f'{int(m * 1e3)} g': args.sled_friction * m * G for m in (0.4, 0.6)}
-        pf.plot_anchor_modes(caps, needs, out, f'MiniRQuad anchors in M90 sand (backward pull), '
-                                               f'sled mu = {args.sled_friction}')
+        pf.plot_anchor_modes(caps, needs, out, f'MiniRQuad anchors in {medium.name} (backward '
+                                               f'pull), sled mu = {args.sled_friction}',
+                             lower=lows)
         data = {'capacity_N': {m: {str(k): v for k, v in c.items()} for m, c in caps.items()},
-                'sled_force_N': needs}
+                'lower_95_N': {m: {str(k): v for k, v in c.items()} for m, c in lows.items()},
+                'covariance_xi_mu': np.asarray(cov).tolist(), 'sled_force_N': needs}
     out.with_suffix('.json').write_text(json.dumps(data, indent=2, default=float))
     print(f'wrote {out} (and .json)')
     return 0
+
+
+def _medium_covariance(args):
+    """(xi_n, mu_surf) covariance: from a calibration file, else the assumed sigmas."""
+    import json
+
+    import numpy as np
+
+    from ..rft.media import load_medium
+    if args.medium and args.medium.endswith('.json'):
+        cal = json.loads(open(args.medium).read()).get('calibration', {})
+        if 'covariance' in cal:
+            return np.asarray(cal['covariance'], dtype=float)
+    xi = load_medium(args.medium or 'm90_sand').xi_n
+    return np.diag([(args.xi_rel_sigma * xi) ** 2, args.mu_sigma ** 2])

@@ -24,8 +24,8 @@ from typing import Mapping
 
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull, Status
+from rftgls_core.uncertainty import capacity_lower_bound
 
-from .lower_bound import capacity_lower_bound
 from .predictor import ConfigError, Predictor
 
 JOINTS = ('proximal_left', 'proximal_right', 'distal_left', 'distal_right')

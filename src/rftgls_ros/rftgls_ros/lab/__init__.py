@@ -11,6 +11,5 @@ the lab tools run on any machine with the venv and no ROS install:
     synthetic      sample pull-test bags made by the simulated robot (labelled synthetic)
     evaluate       measured vs. predicted peak force, dz/dx, dthetaB/|dx|: Table I, Fig. 8
     calibrate      least-squares (xi_n, mu_surf) with confidence intervals -> medium JSON
-    uncertainty    capacity band from the parameter covariance and state noise
     replay         recorded bytes -> rclpy publishers (original timing, faster, lock-step)
 """

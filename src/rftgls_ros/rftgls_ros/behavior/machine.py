@@ -1,0 +1,600 @@
+"""The walk-burrow-tug state machine (paper section VI-C), without ROS.
+
+    WAIT_INPUTS -> IDLE_MEASURE -> [ WALK -> CHOOSE -> BURROW -> CHECK -> TUG -> CYCLE_DONE ] x N
+                                                 |          ^        |     |
+                                                 v          +-SLACKEN<-HOLD (margin guard)
+                                              REFUSED                     |
+                                                                     FINISHED (no stronger mode)
+    any active state --link lost / inputs stale--> WAIT_LINK --back--> resume
+
+``step(obs)`` takes an ``Observation`` (SI values and their times, s) and returns the
+``Commands`` to publish. Every transition and decision is appended to ``events`` (dicts with a
+human ``text``), which the node logs and publishes.
+"""
+from __future__ import annotations
+
+import enum
+import math
+from collections import deque
+from dataclasses import dataclass, field
+
+from rftgls_core.types import AnchorState
+
+from .model import (ANCHOR_MODES, Decision, EnergyModel, ForceNeed, ModeChooser,
+                    TetherTracker)
+from .report import CycleRecord
+
+
+class State(str, enum.Enum):
+    WAIT_INPUTS = 'WAIT_INPUTS'
+    IDLE_MEASURE = 'IDLE_MEASURE'
+    WALK = 'WALK'
+    CHOOSE = 'CHOOSE'
+    BURROW = 'BURROW'
+    CHECK = 'CHECK'
+    TUG = 'TUG'
+    HOLD = 'HOLD'
+    SLACKEN = 'SLACKEN'
+    CYCLE_DONE = 'CYCLE_DONE'
+    WAIT_LINK = 'WAIT_LINK'
+    REFUSED = 'REFUSED'
+    FINISHED = 'FINISHED'
+
+    def __str__(self) -> str:
+        return self.value
+
+
+ACTIVE = {State.IDLE_MEASURE, State.WALK, State.CHOOSE, State.BURROW, State.CHECK, State.TUG,
+          State.HOLD, State.SLACKEN, State.CYCLE_DONE}
+TERMINAL = {State.REFUSED, State.FINISHED}
+
+
+@dataclass
+class BehaviorConfig:
+    """Parameters (SI). Times in s, speeds in m/s (winch reel-in positive), angles in rad.
+
+    cycles: walk-burrow-tug cycles; walk_time: walking per cycle (the paper: 8 s);
+    walk_speed: body speed while walking, used only to estimate the distance travelled
+    (no odometry on the robot); payout_speed: tether paid out while walking so the robot does
+    not drag the sled; burrow_timeout: give up waiting for the final pose (the paper's 8 s);
+    burrow_tolerance: leg angle error that counts as "at the final pose"; burrow_settle: time
+    held at the final pose before the check; tug_speed: reel-in speed; arrive_length: the tug
+    ends when this much tether remains (sled close behind the robot); slow_ratio / stop_ratio:
+    tension/capacity at which the tug slows down / stops (margin guard); min_speed_fraction:
+    slowest reel speed inside the slow band, as a fraction of tug_speed; capacity_timeout:
+    age after which a capacity is not used; input_timeout: joint_states/tension age that
+    counts as lost; link_settle: time the link must be back before resuming; reburrow: on a
+    guard stop, re-burrow into a stronger mode if one suffices; tug_energy_window: the paper
+    counts only the last 8 s of each tug.
+    """
+
+    cycles: int = 3
+    sled_mass: float = 0.4
+    sled_mu: float = 0.5
+    safety_factor: float = 1.0
+    phis: tuple[float, ...] = (0.0, math.radians(-20.0))
+    walk_time: float = 2.5
+    walk_speed: float = 0.03
+    payout_speed: float = 0.04
+    idle_measure_time: float = 1.0
+    idle_settle_time: float = 0.5
+    burrow_timeout: float = 8.0
+    burrow_tolerance: float = math.radians(3.0)
+    burrow_settle: float = 0.3
+    tug_speed: float = 0.05
+    tug_timeout: float = 40.0
+    arrive_length: float = 0.15
+    slow_ratio: float = 0.90
+    stop_ratio: float = 0.97
+    min_speed_fraction: float = 0.1
+    taut_tension: float = 0.3
+    capacity_timeout: float = 0.3
+    capacity_wait: float = 1.0
+    input_timeout: float = 0.6
+    link_settle: float = 0.5
+    reburrow: bool = True
+    max_burrows_per_cycle: int = 3
+    slacken_speed: float = 0.03
+    slacken_time: float = 0.3
+    rope_length: float = 0.50
+    attach_height: float = 0.01
+    h_walk: float = 0.060
+    tug_energy_window: float = 8.0
+    live_period: float = 1.0
+    need_alpha: float = 0.5
+    energy_prior_sh: float = 1.0
+    pose_snap: float = math.radians(0.5)
+    own_capacity_fallback: bool = True
+
+
+@dataclass
+class Observation:
+    """What the robot and capacity_node last said, with receive times t_* (s, node clock).
+
+    legs: (thetaL1, thetaL2) rad (left/right averaged); theta_b rad; tension N; spool m
+    reeled since MCU boot and spool_velocity m/s (reel-in positive); energy J since bridge
+    start; power W; link_ok from /minirquad/link_state; capacity N along the tether and its
+    status word from capacity_node; slip_twist (vx, vz, wy) unit direction in the anchor frame.
+    """
+
+    t: float
+    legs: tuple[float, float] | None = None
+    t_legs: float = -math.inf
+    theta_b: float | None = None
+    tension: float | None = None
+    t_tension: float = -math.inf
+    spool: float | None = None
+    spool_velocity: float = 0.0
+    energy: float | None = None
+    power: float | None = None
+    link_ok: bool = False
+    capacity: float | None = None
+    capacity_status: str = 'stale'
+    t_capacity: float = -math.inf
+    slip_twist: tuple[float, float, float] | None = None
+
+
+@dataclass
+class Commands:
+    """To publish after a step: one-shot ``gait``/``burrow`` commands (in order), the winch
+    reel-in set-point (m/s, 0 brakes), and h (m) and phi (rad) for capacity_node."""
+
+    oneshots: list[tuple[str, str]]
+    winch: float
+    height: float
+    phi: float
+
+
+@dataclass
+class _Cycle:
+    index: int
+    modes: list[str] = field(default_factory=list)
+    walk_j: float = 0.0
+    walk_s: float = 0.0
+    burrow_j: float = 0.0
+    burrow_s: float = 0.0
+    tug_j: float = 0.0
+    tug_total_j: float = 0.0
+    tug_s: float = 0.0
+    sled_distance: float = 0.0
+    outcome: str = ''
+    need_n: float = 0.0
+    min_margin: float = math.inf
+    tensions: list[float] = field(default_factory=list)
+
+
+class BehaviorMachine:
+    """The behaviour. ``chooser`` answers capacity predictions (map), the rest is owned here."""
+
+    def __init__(self, config: BehaviorConfig, chooser: ModeChooser):
+        self.cfg = config
+        self.chooser = chooser
+        self.need = ForceNeed(config.sled_mass, config.sled_mu, alpha=config.need_alpha)
+        self.energy = EnergyModel(prior_sh=config.energy_prior_sh)
+        self.tether = TetherTracker(config.rope_length, config.attach_height)
+        self.state = State.WAIT_INPUTS
+        self.events: list[dict] = []
+        self.records: list[CycleRecord] = []
+        self.decisions: list[Decision] = []
+        self.cycle: _Cycle | None = None
+        self.mode: str | None = None
+        self.reason = 'waiting for the robot and capacity_node'
+        self._oneshots: list[tuple[str, str]] = []
+        self._winch = 0.0
+        self._t_enter = 0.0
+        self._e_enter: float | None = None
+        self._resume: State | None = None
+        self._link_back_at: float | None = None
+        self._idle_power = 0.0
+        self._tug_hist: deque[tuple[float, float]] = deque()
+        self._cap_missing_since: float | None = None
+        self._last_live = -math.inf
+        self._weakest: float | None = None
+        self._burrows = 0
+        self._at_pose_since: float | None = None
+        self._last_spool: float | None = None
+        self._walk_elapsed = 0.0
+        self.obs = Observation(t=0.0)
+        self.capacity_source = ''
+        self._fallback_warned = False
+
+    # ------------------------------------------------------------------ helpers
+    def _event(self, kind: str, text: str, **extra) -> None:
+        self.events.append({'t': round(self.obs.t, 3), 'kind': kind, 'state': str(self.state),
+                            'text': text, **extra})
+
+    def _go(self, new: State, reason: str) -> None:
+        old = self.state
+        self.state = new
+        self.reason = reason
+        self._t_enter = self.obs.t
+        self._e_enter = self.obs.energy
+        self._event('transition', f'{old} -> {new}: {reason}', **{'from': str(old),
+                                                                 'to': str(new)})
+        enter = getattr(self, f'_enter_{new.value.lower()}', None)
+        if enter:
+            enter()
+
+    def _elapsed(self) -> float:
+        return self.obs.t - self._t_enter
+
+    def _energy_since_enter(self) -> float:
+        if self.obs.energy is None or self._e_enter is None:
+            return 0.0
+        return self.obs.energy - self._e_enter
+
+    @property
+    def height(self) -> float:
+        """Height of p (m): not measured on MiniRQuad; the burrowed mode's Table II mean."""
+        if self.mode and self.state in (State.BURROW, State.CHECK, State.TUG, State.HOLD,
+                                        State.SLACKEN, State.CYCLE_DONE, State.REFUSED,
+                                        State.FINISHED, State.WAIT_LINK):
+            return ANCHOR_MODES[self.mode].h
+        return self.cfg.h_walk
+
+    def _inputs_fresh(self) -> bool:
+        o = self.obs
+        return (o.link_ok and o.t - o.t_legs <= self.cfg.input_timeout
+                and o.t - o.t_tension <= self.cfg.input_timeout)
+
+    def capacity_valid(self) -> bool:
+        o = self.obs
+        return (o.capacity is not None and math.isfinite(o.capacity)
+                and o.capacity_status in ('ok', 'extrapolated')
+                and o.t - o.t_capacity <= self.cfg.capacity_timeout)
+
+    def measured_state(self) -> AnchorState | None:
+        if self.mode is None or self.obs.legs is None:
+            return None
+        m = ANCHOR_MODES[self.mode]
+        tb = self.obs.theta_b if self.obs.theta_b is not None else m.theta_b
+        l1, l2 = self.obs.legs
+        if abs(l1 - m.final[0]) <= self.cfg.pose_snap:
+            l1 = m.final[0]
+        if abs(l2 - m.final[1]) <= self.cfg.pose_snap:
+            l2 = m.final[1]
+        return AnchorState(m.h, tb, l1, l2)
+
+    def own_capacity(self) -> tuple[float | None, str]:
+        """This node's map prediction (N, status) at the measured pose and estimated phi."""
+        state = self.measured_state()
+        if state is None:
+            return None, 'stale'
+        cap, status = self.chooser.predictor(state, self.tether.phi(self.height))
+        return cap, str(status)
+
+    # ------------------------------------------------------------------ step
+    def step(self, obs: Observation) -> Commands:
+        self.obs = obs
+        if obs.spool is not None and obs.spool != self._last_spool:
+            if self._last_spool is not None and self.state == State.TUG and self.cycle \
+                    and (obs.tension or 0.0) > self.cfg.taut_tension:
+                d = obs.spool - self._last_spool
+                if 0.0 < d < 0.2:
+                    self.cycle.sled_distance += d
+            self.tether.update(obs.spool)
+            self._last_spool = obs.spool
+        if self.state in ACTIVE and not self._inputs_fresh():
+            if self.state == State.WALK:
+                self._walk_elapsed += self._elapsed()
+                self.cycle.walk_j += self._energy_since_enter()
+                self.cycle.walk_s += self._elapsed()
+            self._resume = self.state
+            self._winch = 0.0
+            what = 'link stale' if not obs.link_ok else 'joint_states/tension stale'
+            self._go(State.WAIT_LINK, f'{what} during {self._resume}: winch stopped, waiting')
+        handler = getattr(self, f'_do_{self.state.value.lower()}', None)
+        if handler:
+            handler()
+        out = Commands(self._oneshots, self._winch, self.height, self.tether.phi(self.height))
+        self._oneshots = []
+        return out
+
+    # ------------------------------------------------------------------ states
+    def _do_wait_inputs(self) -> None:
+        o = self.obs
+        if self._inputs_fresh() and o.energy is not None:
+            self._go(State.IDLE_MEASURE, 'robot link ok, sensors fresh')
+
+    def _enter_idle_measure(self) -> None:
+        self._idle_e0: tuple[float, float] | None = None
+        self._oneshots.append(('gait', 'stand'))
+        self._winch = 0.0
+
+    def _do_idle_measure(self) -> None:
+        if self._idle_e0 is None and self._elapsed() >= self.cfg.idle_settle_time:
+            self._idle_e0 = (self.obs.t, self.obs.energy)
+        if self._idle_e0 and self.obs.t - self._idle_e0[0] >= self.cfg.idle_measure_time:
+            dt = self.obs.t - self._idle_e0[0]
+            self._idle_power = max(0.0, (self.obs.energy - self._idle_e0[1]) / dt)
+            self._event('info', f'idle power {self._idle_power:.2f} W (removed from burrow '
+                                f'energies, as in the paper)')
+            self._new_cycle()
+            self._go(State.WALK, f'cycle 1/{self.cfg.cycles}: walk {self.cfg.walk_time:.1f} s')
+
+    def _new_cycle(self) -> None:
+        idx = 1 if self.cycle is None else self.cycle.index + 1
+        self.cycle = _Cycle(idx)
+        self._burrows = 0
+        self._walk_elapsed = 0.0
+
+    def _enter_walk(self) -> None:
+        self._oneshots.append(('gait', 'walk'))
+        self._winch = -self.cfg.payout_speed
+        self.mode = None
+
+    def _do_walk(self) -> None:
+        if self._walk_elapsed + self._elapsed() >= self.cfg.walk_time:
+            self._winch = 0.0
+            self.cycle.walk_j += self._energy_since_enter()
+            self.cycle.walk_s += self._elapsed()
+            self._go(State.CHOOSE, 'walk done')
+
+    def _do_choose(self) -> None:
+        d = self.chooser.choose(self.need.value, self.energy)
+        self._decide(d)
+        if d.mode is None:
+            self._refuse(d.reason)
+        else:
+            self._burrow(d.mode, d.reason)
+
+    def _decide(self, d: Decision) -> None:
+        self.decisions.append(d)
+        self._event('decision', f'decision ({d.pose} pose): {d.reason}\n{d.table()}',
+                    mode=d.mode, need_n=d.need_n,
+                    candidates=[{'mode': c.mode, 'capacities': c.capacities,
+                                 'statuses': c.statuses, 'energy_j': c.energy_j,
+                                 'sufficient': c.sufficient, 'why': c.why}
+                                for c in d.candidates])
+
+    def _refuse(self, reason: str) -> None:
+        self._winch = 0.0
+        self._oneshots.append(('gait', 'stand'))
+        if self.cycle:
+            self.cycle.outcome = 'refused'
+            self._record()
+        self._go(State.REFUSED, f'not tugging: {reason}')
+
+    def _burrow(self, mode: str, reason: str) -> None:
+        self.mode = mode
+        self._burrows += 1
+        self.cycle.modes.append(mode)
+        self._go(State.BURROW, f'burrow {mode}: {reason.split(";")[0]}')
+
+    def _enter_burrow(self) -> None:
+        self._winch = 0.0
+        self._at_pose_since = None
+        self._oneshots.append(('burrow', self.mode))
+
+    def _do_burrow(self) -> None:
+        m = ANCHOR_MODES[self.mode]
+        legs = self.obs.legs
+        at = legs is not None and max(abs(legs[0] - m.final[0]),
+                                      abs(legs[1] - m.final[1])) <= self.cfg.burrow_tolerance
+        if at and self._at_pose_since is None:
+            self._at_pose_since = self.obs.t
+        elif not at:
+            self._at_pose_since = None
+        done = at and self.obs.t - self._at_pose_since >= self.cfg.burrow_settle
+        timeout = self._elapsed() >= self.cfg.burrow_timeout
+        if done or timeout:
+            dt, de = self._elapsed(), self._energy_since_enter()
+            self.cycle.burrow_j += de
+            self.cycle.burrow_s += dt
+            above_idle = de - self._idle_power * dt
+            self.energy.update(self.mode, above_idle)
+            self._event('info', f'burrow {self.mode}: {de:.2f} J in {dt:.1f} s '
+                                f'({above_idle:.2f} J above idle); energy estimates now '
+                        + ', '.join(f'{k} {self.energy.estimate(k):.2f} J'
+                                    for k in ANCHOR_MODES))
+            self._go(State.CHECK, 'at the final pose' if done else
+                     f'burrow timeout ({self.cfg.burrow_timeout:.0f} s): checking the pose '
+                     'reached')
+
+    def _do_check(self) -> None:
+        state = self.measured_state()
+        if state is None:
+            return
+        c = self.chooser.evaluate(self.mode, state, self.need.value,
+                                  self.energy.estimate(self.mode))
+        self._weakest = c.weakest
+        pose = (f'measured pose thetaL1 {math.degrees(state.theta_l1):.1f}, thetaL2 '
+                f'{math.degrees(state.theta_l2):.1f}, thetaB {math.degrees(state.theta_b):.1f} '
+                f'deg, h {1e3 * state.h:.0f} mm (Table II mean, not measured)')
+        caps = '/'.join(f'{x:.2f}' if x is not None else s
+                        for x, s in zip(c.capacities, c.statuses))
+        self._event('decision', f'check {self.mode} at the {pose}: capacity {caps} N -> '
+                                f'{"sufficient" if c.sufficient else "insufficient"} '
+                                f'({c.why})', mode=self.mode, capacities=c.capacities)
+        if c.sufficient:
+            self._go(State.TUG, f'{self.mode} holds at the measured pose ({c.why})')
+            return
+        self._reselect(f'{self.mode} insufficient at the measured pose', c.weakest)
+
+    def _reselect(self, why: str, weakest: float | None) -> None:
+        if self._burrows >= self.cfg.max_burrows_per_cycle:
+            self._stop_cycle(f'{why}; {self._burrows} burrows this cycle, giving up')
+            return
+        d = self.chooser.choose(self.need.value, self.energy, exclude=[self.mode],
+                                stronger_than=weakest, pose='expected')
+        self._decide(d)
+        if d.mode is None:
+            self._stop_cycle(f'{why}; {d.reason}')
+        else:
+            self._next_mode = d.mode
+            self._next_reason = f'{why}; re-burrow: {d.reason}'
+            self._go(State.SLACKEN, f'{why}: slacken the tether, then re-burrow {d.mode}')
+
+    def _stop_cycle(self, reason: str) -> None:
+        self._winch = 0.0
+        self.cycle.outcome = 'stopped'
+        self._record()
+        self._go(State.FINISHED, f'stopped before slip, winch braked: {reason}')
+
+    def _enter_slacken(self) -> None:
+        self._winch = -self.cfg.slacken_speed
+
+    def _do_slacken(self) -> None:
+        if self._elapsed() >= self.cfg.slacken_time:
+            self._winch = 0.0
+            self._burrow(self._next_mode, self._next_reason)
+
+    def _enter_tug(self) -> None:
+        self._tug_hist.clear()
+        self._cap_missing_since = None
+        self._last_live = -math.inf
+        self._tug_tensions: list[float] = []
+        self._tug_start_t = self.obs.t
+        self._fallback_warned = False
+
+    def _do_tug(self) -> None:
+        cfg, o = self.cfg, self.obs
+        if o.energy is not None:
+            self._tug_hist.append((o.t, o.energy))
+        if self.tether.free_length <= cfg.arrive_length:
+            self._winch = 0.0
+            self._finish_tug('arrived')
+            self._go(State.CYCLE_DONE, f'sled arrived ({self.tether.free_length:.3f} m of '
+                                       'tether left)')
+            return
+        if self._elapsed() > cfg.tug_timeout:
+            self._winch = 0.0
+            self._finish_tug('timeout')
+            self._stop_cycle(f'tug timeout ({cfg.tug_timeout:.0f} s)')
+            return
+        capacity, source = o.capacity, 'capacity_node'
+        if not self.capacity_valid() and cfg.own_capacity_fallback:
+            cap, status = self.own_capacity()
+            if cap is not None:
+                if not self._fallback_warned:
+                    self._fallback_warned = True
+                    self._event('warn', f'capacity_node status {o.capacity_status}: using '
+                                        f'behavior_node\'s own map prediction ({status}) at the '
+                                        f'measured pose (snapped to Table II within '
+                                        f'{math.degrees(cfg.pose_snap):.1f} deg)')
+                capacity, source = cap, 'own map'
+        if capacity is None or not math.isfinite(capacity) or (
+                source == 'capacity_node' and not self.capacity_valid()):
+            self._winch = 0.0
+            if self._cap_missing_since is None:
+                self._cap_missing_since = o.t
+            if o.t - self._cap_missing_since >= cfg.capacity_wait:
+                self._finish_tug('no capacity')
+                self._go(State.HOLD, f'no valid capacity from capacity_node (status '
+                                     f'{o.capacity_status}): winch braked')
+            return
+        self._cap_missing_since = None
+        self.capacity_source = source
+        tension = o.tension or 0.0
+        ratio = tension / capacity if capacity > 0 else math.inf
+        self.cycle.min_margin = min(self.cycle.min_margin, capacity - tension)
+        if ratio >= cfg.stop_ratio:
+            self._winch = 0.0
+            self._finish_tug('guard stop')
+            self.need.raise_floor(tension)
+            twist = self._twist_text()
+            self._go(State.HOLD, f'margin guard: tension {tension:.2f} N >= {cfg.stop_ratio:.2f}'
+                                 f' x capacity {capacity:.2f} N ({source}), winch stopped before the '
+                                 f'predicted slip {twist}')
+            return
+        band = max(cfg.stop_ratio - cfg.slow_ratio, 1e-6)
+        frac = min(1.0, max(cfg.min_speed_fraction, (cfg.stop_ratio - ratio) / band))
+        self._winch = cfg.tug_speed * frac
+        if tension > cfg.taut_tension and o.spool_velocity > 0.5 * self._winch > 0:
+            self._tug_tensions.append(tension)
+        if o.t - self._last_live >= cfg.live_period:
+            self._last_live = o.t
+            self._event('live', f'tug {self.mode}: T {tension:.2f} N, C {capacity:.2f} N '
+                                f'({source}), margin {capacity - tension:+.2f} N '
+                                f'({100 * (1 - ratio):.0f}'
+                                f' %), phi {math.degrees(self.tether.phi(self.height)):.0f} deg,'
+                                f' slip twist {self._twist_text()}, status '
+                                f'{o.capacity_status}, reel {1e3 * self._winch:.0f} mm/s, '
+                                f'tether {self.tether.free_length:.3f} m',
+                        tension=tension, capacity=capacity, source=source)
+
+    def _twist_text(self) -> str:
+        tw = self.obs.slip_twist
+        if tw is None or not all(math.isfinite(x) for x in tw) or not any(tw):
+            return '(holds: no slip predicted)'
+        return f'(vx {tw[0]:+.2f}, vz {tw[1]:+.2f}, wy {tw[2]:+.2f})'
+
+    def _finish_tug(self, outcome: str) -> None:
+        c, o = self.cycle, self.obs
+        dt = o.t - self._tug_start_t
+        c.tug_s += dt
+        if self._tug_hist:
+            t_end, e_end = self._tug_hist[-1]
+            e_start = self._tug_hist[0][1]
+            win = [e for t, e in self._tug_hist if t >= t_end - self.cfg.tug_energy_window]
+            c.tug_total_j += e_end - e_start
+            c.tug_j += e_end - (win[0] if win else e_end)
+        c.tensions.extend(self._tug_tensions)
+        if outcome == 'arrived':
+            med = self.need.update(self._tug_tensions)
+            if med is not None:
+                self._event('info', f'measured sliding tension {med:.2f} N '
+                                    f'(nominal {self.need.nominal:.2f} N); required force now '
+                                    f'{self.need.value:.2f} N')
+
+    def _do_hold(self) -> None:
+        if self.reason.startswith('margin guard') and self.cfg.reburrow:
+            self._reselect('margin guard stop', self._weakest)
+        elif self._elapsed() > 0.5:
+            self._stop_cycle(self.reason)
+
+    def _do_cycle_done(self) -> None:
+        self.cycle.outcome = 'ok'
+        self._record()
+        if self.cycle.index >= self.cfg.cycles:
+            self._oneshots.append(('gait', 'stand'))
+            self._go(State.FINISHED, f'{self.cfg.cycles} cycles done')
+            return
+        self._new_cycle()
+        self._go(State.WALK, f'cycle {self.cycle.index}/{self.cfg.cycles}: unburrow by '
+                             f'walking {self.cfg.walk_time:.1f} s')
+
+    def _record(self) -> None:
+        c = self.cycle
+        xs = sorted(c.tensions)
+        self.records.append(CycleRecord(
+            sled_kg=self.cfg.sled_mass, cycle=c.index, mode='+'.join(c.modes) or '-',
+            outcome=c.outcome, walk_j=c.walk_j, burrow_j=c.burrow_j, tug_j=c.tug_j,
+            tug_total_j=c.tug_total_j, walk_s=c.walk_s, burrow_s=c.burrow_s, tug_s=c.tug_s,
+            distance_m=c.walk_s * self.cfg.walk_speed, sled_distance_m=c.sled_distance,
+            need_n=self.need.value,
+            tension_median_n=xs[len(xs) // 2] if xs else float('nan'),
+            min_margin_n=c.min_margin if math.isfinite(c.min_margin) else float('nan')))
+        self._event('cycle', self.records[-1].summary())
+
+    def _do_wait_link(self) -> None:
+        self._winch = 0.0
+        if not self._inputs_fresh():
+            self._link_back_at = None
+            return
+        if self._link_back_at is None:
+            self._link_back_at = self.obs.t
+            return
+        if self.obs.t - self._link_back_at < self.cfg.link_settle:
+            return
+        self._link_back_at = None
+        resume = self._resume or State.IDLE_MEASURE
+        if resume in (State.TUG, State.HOLD, State.CHECK, State.CYCLE_DONE):
+            if resume == State.TUG:
+                self._finish_tug('interrupted')
+            self._go(State.CHECK, f'link back after {self._elapsed():.1f} s: re-checking '
+                                  f'the {self.mode} anchor before resuming the tug')
+        elif resume == State.WALK:
+            self._go(State.WALK, f'link back after {self._elapsed():.1f} s: walking on')
+        elif resume == State.BURROW:
+            self._burrows -= 1
+            self.cycle.modes.pop()
+            self._burrow(self.mode, f'link back after {self._elapsed():.1f} s: burrow again')
+        elif resume == State.SLACKEN:
+            self._go(State.SLACKEN, 'link back: slacken again')
+        else:
+            self._go(resume, f'link back after {self._elapsed():.1f} s')
+
+    @property
+    def done(self) -> bool:
+        return self.state in TERMINAL

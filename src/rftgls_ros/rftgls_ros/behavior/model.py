@@ -1,0 +1,286 @@
+"""Anchor modes, required force, energy per mode, the mode chooser and the tether geometry.
+
+Units: SI (m, rad, N, J, s). Angles of legs and body follow the architecture page: leg angles
+from -z_B about the axle, body pitch thetaB positive nose up, h = height of the winch point p
+above the sand. Pull angle phi: 0 = horizontal tether, negative = tether going down from p to
+the sled (the paper's -20 deg when the sled is close).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Iterable, Sequence
+
+from rftgls_core.types import AnchorState, Status
+
+G = 9.81
+
+
+@dataclass(frozen=True)
+class AnchorMode:
+    """One burrowing mode of the paper's Table II.
+
+    retract, final: (thetaL1, thetaL2) in rad; h: mean final height of p, m; theta_b: mean
+    final body pitch, rad; energy_ratio: burrow energy relative to SH (paper Fig. 10(a)).
+    """
+
+    name: str
+    retract: tuple[float, float]
+    final: tuple[float, float]
+    h: float
+    theta_b: float
+    energy_ratio: float
+
+    def expected_state(self) -> AnchorState:
+        """The anchor state the paper measured after this burrow (Table II means)."""
+        return AnchorState(self.h, self.theta_b, self.final[0], self.final[1])
+
+
+def _rad(a: float, b: float) -> tuple[float, float]:
+    return (math.radians(a), math.radians(b))
+
+
+# Paper Table II and Fig. 10(a): DH and DL burrows use 1.32 and 1.26 times the energy of SH.
+ANCHOR_MODES: dict[str, AnchorMode] = {
+    'DH': AnchorMode('DH', _rad(-75, -50), _rad(-40, 30), 0.034, math.radians(5.0), 1.32),
+    'DL': AnchorMode('DL', _rad(-75, -50), _rad(-40, 0), 0.036, math.radians(8.9), 1.26),
+    'SH': AnchorMode('SH', _rad(-40, -20), _rad(-40, 30), 0.047, math.radians(2.4), 1.00),
+}
+
+
+# --------------------------------------------------------------------------- required force
+@dataclass
+class ForceNeed:
+    """Tension (N) the winch needs to drag the sled: mu * m * g until tugs have been measured,
+    then a running blend with the median tension measured while the sled was sliding.
+
+    sled_mass kg, mu the sled-on-sand Coulomb friction (0.5 assumed, as `rftgls demo` and the
+    simulator), alpha the weight of a new measurement (0..1).
+    """
+
+    sled_mass: float
+    mu: float = 0.5
+    alpha: float = 0.5
+    measured: float | None = None
+    history: list[float] = field(default_factory=list)
+
+    @property
+    def nominal(self) -> float:
+        return self.mu * self.sled_mass * G
+
+    @property
+    def value(self) -> float:
+        return self.measured if self.measured is not None else self.nominal
+
+    def update(self, tensions: Sequence[float]) -> float | None:
+        """Blend in the median of tension samples (N) taken while the sled slid."""
+        xs = sorted(t for t in tensions if math.isfinite(t))
+        if len(xs) < 5:
+            return None
+        med = xs[len(xs) // 2]
+        self.history.append(med)
+        self.measured = med if self.measured is None else \
+            (1.0 - self.alpha) * self.measured + self.alpha * med
+        return med
+
+    def raise_floor(self, tension: float) -> None:
+        """The sled did not move at ``tension`` (N): it needs more than that."""
+        self.measured = max(self.value, tension)
+
+
+# --------------------------------------------------------------------------- energy
+@dataclass
+class EnergyModel:
+    """Burrow energy above idle (J) per mode.
+
+    Before any measurement the estimates are the paper's ratios times ``prior_sh`` (J). Each
+    measured burrow updates its mode (running blend, weight ``alpha``); modes not measured yet
+    are scaled by the mean measured/ratio of the measured ones, so the ranking follows the
+    paper until the robot knows better.
+    """
+
+    prior_sh: float = 1.0
+    alpha: float = 0.5
+    ratios: dict[str, float] = field(
+        default_factory=lambda: {n: m.energy_ratio for n, m in ANCHOR_MODES.items()})
+    measured: dict[str, float] = field(default_factory=dict)
+
+    def scale(self) -> float:
+        if not self.measured:
+            return self.prior_sh
+        return sum(v / self.ratios[k] for k, v in self.measured.items()) / len(self.measured)
+
+    def estimate(self, mode: str) -> float:
+        if mode in self.measured:
+            return self.measured[mode]
+        return self.ratios[mode] * self.scale()
+
+    def update(self, mode: str, energy_j: float) -> None:
+        if not math.isfinite(energy_j) or energy_j <= 0.0:
+            return
+        old = self.measured.get(mode)
+        self.measured[mode] = energy_j if old is None else \
+            (1.0 - self.alpha) * old + self.alpha * energy_j
+
+    def source(self, mode: str) -> str:
+        return 'measured' if mode in self.measured else (
+            'paper ratio x measured scale' if self.measured else 'paper ratio')
+
+
+# --------------------------------------------------------------------------- predictions
+Prediction = tuple[float | None, Status]
+Predictor = Callable[[AnchorState, float], Prediction]
+
+
+class MapPredictor:
+    """RFT-GLS capacity (N along the tether) from an rftgls_core map: ``(state, phi) ->
+    (capacity | None, Status)``. Same map and pull as capacity_node and the simulator."""
+
+    def __init__(self, path: str | None = None, pull: str = 'backward'):
+        from rftgls_core.maps import CapacityMap, shipped_map_path
+        self.path = str(path) if path else str(shipped_map_path('minirquad'))
+        self.map = CapacityMap.load(self.path)
+        self.pull = pull
+
+    def __call__(self, state: AnchorState, phi: float) -> Prediction:
+        r = self.map.query(state, phi, self.pull)
+        return (r.capacity_N if r.status.has_value else None), r.status
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One mode as the chooser saw it: capacities (N) at each pull angle, statuses, the
+    weakest capacity, the energy estimate (J) and whether it is sufficient (and why not)."""
+
+    mode: str
+    capacities: tuple[float | None, ...]
+    statuses: tuple[str, ...]
+    weakest: float | None
+    energy_j: float
+    sufficient: bool
+    why: str
+
+
+@dataclass(frozen=True)
+class Decision:
+    """The chooser's answer: ``mode`` (None = do not tug), the required force and the safety
+    factor used, every candidate, and a one-line human reason."""
+
+    mode: str | None
+    need_n: float
+    safety_factor: float
+    phis: tuple[float, ...]
+    candidates: tuple[Candidate, ...]
+    reason: str
+    pose: str = 'expected'
+
+    def table(self) -> str:
+        phis = '/'.join(f'{math.degrees(p):.0f}' for p in self.phis)
+        lines = [f'  need {self.need_n:.2f} N x SF {self.safety_factor:.2f} = '
+                 f'{self.need_n * self.safety_factor:.2f} N; capacity at phi {phis} deg '
+                 f'({self.pose} pose):']
+        for c in self.candidates:
+            caps = '/'.join(f'{x:.2f}' if x is not None else s
+                            for x, s in zip(c.capacities, c.statuses))
+            lines.append(f'    {c.mode}: {caps} N, energy {c.energy_j:.2f} J -> '
+                         f'{"ok" if c.sufficient else "no"} ({c.why})')
+        return '\n'.join(lines)
+
+
+class ModeChooser:
+    """Cheapest sufficient mode: a mode is sufficient when every pull angle in ``phis`` has a
+    valid prediction with capacity >= safety_factor * need (N). Ties go to the stronger."""
+
+    def __init__(self, predictor: Predictor, safety_factor: float = 1.0,
+                 phis: Sequence[float] = (0.0, math.radians(-20.0)),
+                 modes: dict[str, AnchorMode] | None = None):
+        self.predictor = predictor
+        self.safety_factor = safety_factor
+        self.phis = tuple(phis)
+        self.modes = modes or ANCHOR_MODES
+
+    def evaluate(self, mode: str, state: AnchorState, need: float, energy: float) -> Candidate:
+        caps, stats = [], []
+        for phi in self.phis:
+            cap, status = self.predictor(state, phi)
+            caps.append(cap if status.has_value else None)
+            stats.append(str(status))
+        required = self.safety_factor * need
+        if any(c is None for c in caps):
+            bad = [s for c, s in zip(caps, stats) if c is None]
+            return Candidate(mode, tuple(caps), tuple(stats), None, energy, False,
+                             f'no valid prediction: {", ".join(bad)}')
+        weakest = min(caps)
+        ok = weakest >= required
+        why = (f'weakest {weakest:.2f} N >= {required:.2f} N' if ok
+               else f'weakest {weakest:.2f} N < {required:.2f} N')
+        return Candidate(mode, tuple(caps), tuple(stats), weakest, energy, ok, why)
+
+    def choose(self, need: float, energy: EnergyModel,
+               states: dict[str, AnchorState] | None = None,
+               exclude: Iterable[str] = (), stronger_than: float | None = None,
+               pose: str = 'expected') -> Decision:
+        """``states``: the pose to assess per mode (default: Table II means); ``exclude``:
+        modes not to consider; ``stronger_than``: only modes whose weakest capacity is above
+        this (N), used when re-burrowing after the guard stopped a tug."""
+        excluded = set(exclude)
+        cands = []
+        for name, mode in self.modes.items():
+            state = (states or {}).get(name, mode.expected_state())
+            c = self.evaluate(name, state, need, energy.estimate(name))
+            if name in excluded:
+                c = Candidate(c.mode, c.capacities, c.statuses, c.weakest, c.energy_j, False,
+                              'excluded: ' + c.why)
+            elif stronger_than is not None and c.sufficient and c.weakest <= stronger_than:
+                c = Candidate(c.mode, c.capacities, c.statuses, c.weakest, c.energy_j, False,
+                              f'not stronger than {stronger_than:.2f} N')
+            cands.append(c)
+        ok = [c for c in cands if c.sufficient]
+        if not ok:
+            best = max((c for c in cands if c.weakest is not None),
+                       key=lambda c: c.weakest, default=None)
+            reason = (f'no mode suffices: need {need:.2f} N x {self.safety_factor:.2f}'
+                      + (f', strongest {best.mode} holds {best.weakest:.2f} N' if best else
+                         ', no valid prediction'))
+            return Decision(None, need, self.safety_factor, self.phis, tuple(cands), reason,
+                            pose)
+        pick = min(ok, key=lambda c: (c.energy_j, -(c.weakest or 0.0)))
+        others = [c.mode for c in ok if c is not pick]
+        reason = (f'{pick.mode}: cheapest sufficient mode ({pick.energy_j:.2f} J, '
+                  f'{energy.source(pick.mode)}); weakest capacity {pick.weakest:.2f} N >= '
+                  f'{self.safety_factor:.2f} x {need:.2f} N'
+                  + (f'; also sufficient: {", ".join(others)}' if others else ''))
+        return Decision(pick.mode, need, self.safety_factor, self.phis, tuple(cands), reason,
+                        pose)
+
+
+# --------------------------------------------------------------------------- tether
+@dataclass
+class TetherTracker:
+    """Free tether length (m) from the winch encoder: rope_length (paid out at start) minus
+    what was reeled in since the first reading. Spool jumps larger than ``max_jump`` (an MCU
+    reset zeroes its counter) are ignored. The tether angle phi (rad) is estimated from the
+    height of p and of the sled attachment, assuming a taut straight tether."""
+
+    rope_length: float = 0.50
+    attach_height: float = 0.01
+    max_jump: float = 0.2
+    _last: float | None = None
+    reeled: float = 0.0
+
+    def update(self, spool_position: float) -> None:
+        if self._last is not None:
+            d = spool_position - self._last
+            if abs(d) <= self.max_jump:
+                self.reeled += d
+        self._last = spool_position
+
+    @property
+    def free_length(self) -> float:
+        return self.rope_length - self.reeled
+
+    def phi(self, h: float) -> float:
+        """Tether angle at p for height h (m) of p: negative when p is above the attachment."""
+        length = max(self.free_length, 1e-3)
+        s = (self.attach_height - h) / length
+        return math.asin(max(-1.0, min(1.0, s)))

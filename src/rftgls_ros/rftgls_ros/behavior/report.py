@@ -1,0 +1,125 @@
+"""Cycle report like the paper's Fig. 12: energy per phase and distance per cycle (CSV + PNG).
+
+Energies in J are the INA219 energy (bridge /energy, idle included) integrated over each phase:
+walk (including the unburrow-by-walking), burrow, and the tug's last ``tug_energy_window``
+seconds (the paper counts the last 8 s of a tug so that tugs of different lengths compare).
+distance_m is the walking time times the assumed walking speed (MiniRQuad has no odometry;
+the paper used an ArUco marker), sled_distance_m the tether reeled in while taut.
+"""
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+
+
+@dataclass
+class CycleRecord:
+    sled_kg: float
+    cycle: int
+    mode: str
+    outcome: str
+    walk_j: float
+    burrow_j: float
+    tug_j: float
+    tug_total_j: float
+    walk_s: float
+    burrow_s: float
+    tug_s: float
+    distance_m: float
+    sled_distance_m: float
+    need_n: float
+    tension_median_n: float
+    min_margin_n: float
+
+    @property
+    def energy_j(self) -> float:
+        return self.walk_j + self.burrow_j + self.tug_j
+
+    def summary(self) -> str:
+        return (f'cycle {self.cycle} ({1e3 * self.sled_kg:.0f} g sled): {self.mode} '
+                f'{self.outcome}; energy walk {self.walk_j:.2f} J, burrow {self.burrow_j:.2f} J'
+                f', tug {self.tug_j:.2f} J (last window; whole tug {self.tug_total_j:.2f} J); '
+                f'walked ~{self.distance_m:.3f} m, sled moved {self.sled_distance_m:.3f} m')
+
+
+def read_csv(path: str | Path) -> list[CycleRecord]:
+    out = []
+    with open(path, newline='') as f:
+        for row in csv.DictReader(f):
+            kw = {}
+            for fl in fields(CycleRecord):
+                v = row[fl.name]
+                kw[fl.name] = int(v) if fl.type in ('int', int) else (
+                    v if fl.type in ('str', str) else float(v))
+            out.append(CycleRecord(**kw))
+    return out
+
+
+def write_report(records: list[CycleRecord], out_dir: str | Path,
+                 stem: str = 'cycle_report') -> tuple[Path, Path]:
+    """Write ``stem``.csv and ``stem``.png in ``out_dir``; returns both paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    csv_path, png_path = out / f'{stem}.csv', out / f'{stem}.png'
+    names = [f.name for f in fields(CycleRecord)]
+    with open(csv_path, 'w', newline='') as f:
+        w = csv.DictWriter(f, fieldnames=names)
+        w.writeheader()
+        for r in records:
+            w.writerow({k: (f'{v:.4f}' if isinstance(v, float) else v)
+                        for k, v in asdict(r).items()})
+    plot_report(records, png_path)
+    return csv_path, png_path
+
+
+def plot_report(records: list[CycleRecord], path: str | Path) -> None:
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    sleds = sorted({r.sled_kg for r in records}) or [0.0]
+    fig, axes = plt.subplots(2, len(sleds), figsize=(5.5 * len(sleds), 6), squeeze=False,
+                             gridspec_kw={'height_ratios': [1, 2.2]}, sharex='col')
+    colors = {'walk': '#7fa7d9', 'burrow': '#e0a458', 'tug': '#8cc084'}
+    for k, sled in enumerate(sleds):
+        rows = [r for r in records if r.sled_kg == sled]
+        ax_d, ax_e = axes[0][k], axes[1][k]
+        dist = cum = 0.0
+        xs, ds = [0], [0.0]
+        for r in rows:
+            x = r.cycle
+            bottom = cum
+            if cum > 0:
+                ax_e.bar(x, cum, color='#dddddd', edgecolor='k', linewidth=0.4,
+                         label='earlier cycles' if x == rows[1].cycle else None)
+            for phase, val in (('walk', r.walk_j), ('burrow', r.burrow_j), ('tug', r.tug_j)):
+                ax_e.bar(x, val, bottom=bottom, color=colors[phase], edgecolor='k',
+                         linewidth=0.4, label=phase if x == rows[0].cycle else None)
+                bottom += val
+            cum = bottom
+            ax_e.text(x, cum, f'{r.mode}', ha='center', va='bottom', fontsize=9)
+            if r.outcome != 'ok':
+                ax_e.plot([x], [cum * 0.5], marker='x', color='red', markersize=14, mew=3)
+            dist += r.distance_m
+            xs.append(x)
+            ds.append(dist)
+        ax_d.plot(xs, ds, 'o-', color='k')
+        ax_d.set_ylabel('distance walked [m]\n(estimate)')
+        ax_d.set_title(f'{1e3 * sled:.0f} g sled')
+        ax_e.set_xlabel('cycle')
+        ax_e.set_ylabel('cumulated energy [J]')
+        ax_e.set_xticks([r.cycle for r in rows] or [1])
+        ax_e.legend(loc='upper left', fontsize=8)
+        if any(r.outcome != 'ok' for r in rows):
+            ax_e.annotate('X: anchor stopped / refused', xy=(0.98, 0.02),
+                          xycoords='axes fraction', ha='right', color='red', fontsize=8)
+    fig.suptitle('MiniRQuad walk-burrow-tug cycles (energy per phase, cf. paper Fig. 12)')
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def merged(*groups: list[CycleRecord]) -> list[CycleRecord]:
+    return [r for g in groups for r in g if not math.isnan(r.sled_kg)]

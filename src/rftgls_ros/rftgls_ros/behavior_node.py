@@ -1,0 +1,217 @@
+"""``behavior_node``: walk-burrow-tug with the DH/DL/SH choice (paper section VI), thin rclpy shell.
+
+The logic is ``rftgls_ros.behavior.BehaviorMachine``; this node converts messages into an
+``Observation``, steps the machine (50 Hz and on every capacity output, so the margin guard
+reacts at the tension rate), and publishes the commands, the state and every event.
+
+Subscribed: /joint_states (sensor_msgs/JointState: legs rad, ``winch_rope`` m / m/s),
+  /imu (sensor_msgs/Imu: thetaB = asin(2(qx qz - qw qy)), nose up positive),
+  /winch/tension (geometry_msgs/WrenchStamped, N), /energy (std_msgs/Float64, J),
+  /minirquad/link_state (std_msgs/String ok|stale), /capacity_node/capacity (WrenchStamped,
+  N along the tether: |force|), /capacity_node/slip_twist (TwistStamped), /capacity_node/status.
+Published: /gait, /burrow (std_msgs/String), /winch/speed (std_msgs/Float64, m/s reel-in
+  positive), /winch/height (Float64, m: h of p, the burrowed mode's Table II mean; MiniRQuad
+  does not measure it), /winch/phi (Float64, rad: tether angle from the tether length),
+  ~/state (String, transient local), ~/events (String, one JSON object per event).
+"""
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from dataclasses import fields
+
+import rclpy
+from geometry_msgs.msg import TwistStamped, WrenchStamped
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from sensor_msgs.msg import Imu, JointState
+from std_msgs.msg import Float64, String
+
+from .behavior import (BehaviorConfig, BehaviorMachine, MapPredictor, ModeChooser, Observation,
+                       write_report)
+
+LEGS_L1 = ('leg_proximal_left', 'leg_proximal_right')
+LEGS_L2 = ('leg_distal_left', 'leg_distal_right')
+ROPE = 'winch_rope'
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def theta_b_from_quaternion(x: float, y: float, z: float, w: float) -> float:
+    """Elevation of the body x axis (rad, nose up positive) from an orientation quaternion."""
+    return math.asin(max(-1.0, min(1.0, 2.0 * (x * z - w * y))))
+
+
+class BehaviorNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__('behavior_node', **kwargs)
+        defaults = BehaviorConfig()
+        values = {}
+        for f in fields(BehaviorConfig):
+            default = getattr(defaults, f.name)
+            if isinstance(default, tuple):
+                default = [float(v) for v in default]
+            elif isinstance(default, float):
+                default = float(default)
+            values[f.name] = self.declare_parameter(f.name, default).value
+        values['phis'] = tuple(values['phis'])
+        self.cfg = BehaviorConfig(**values)
+        self.map_file = self.declare_parameter('map_file', '').value
+        self.report_dir = self.declare_parameter('report_dir', '').value
+        self.report_stem = self.declare_parameter('report_stem', 'cycle_report').value
+        self.exit_when_done = self.declare_parameter('exit_when_done', False).value
+        rate = self.declare_parameter('step_rate_hz', 50.0).value
+        cap_ns = self.declare_parameter('capacity_ns', '/capacity_node').value.rstrip('/')
+
+        predictor = MapPredictor(self.map_file or None)
+        self.machine = BehaviorMachine(
+            self.cfg, ModeChooser(predictor, self.cfg.safety_factor, self.cfg.phis))
+        self.obs = Observation(t=self.now_s())
+        self.finished = False
+        self._last_winch: float | None = None
+        self._last_winch_t = -math.inf
+        self._state_sent: str | None = None
+
+        self.pub_gait = self.create_publisher(String, 'gait', 10)
+        self.pub_burrow = self.create_publisher(String, 'burrow', 10)
+        self.pub_winch = self.create_publisher(Float64, 'winch/speed', 10)
+        self.pub_height = self.create_publisher(Float64, 'winch/height', 10)
+        self.pub_phi = self.create_publisher(Float64, 'winch/phi', 10)
+        self.pub_state = self.create_publisher(String, '~/state', LATCHED)
+        self.pub_events = self.create_publisher(String, '~/events', 50)
+
+        sensor = qos_profile_sensor_data
+        self.create_subscription(JointState, 'joint_states', self.on_joints, sensor)
+        self.create_subscription(Imu, 'imu', self.on_imu, sensor)
+        self.create_subscription(WrenchStamped, 'winch/tension', self.on_tension, sensor)
+        self.create_subscription(Float64, 'energy', self.on_energy, 10)
+        self.create_subscription(String, 'minirquad/link_state', self.on_link, LATCHED)
+        self.create_subscription(WrenchStamped, f'{cap_ns}/capacity', self.on_capacity, 10)
+        self.create_subscription(TwistStamped, f'{cap_ns}/slip_twist', self.on_twist, 10)
+        self.create_subscription(String, f'{cap_ns}/status', self.on_status, LATCHED)
+        self.create_timer(1.0 / rate, self.step)
+        self.get_logger().info(
+            f'sled {1e3 * self.cfg.sled_mass:.0f} g (mu {self.cfg.sled_mu}), {self.cfg.cycles} '
+            f'cycles, safety factor {self.cfg.safety_factor}, map {predictor.path}')
+
+    def now_s(self) -> float:
+        return time.monotonic()
+
+    # ------------------------------------------------------------------ inputs
+    def on_joints(self, msg: JointState) -> None:
+        pos = dict(zip(msg.name, msg.position))
+        vel = dict(zip(msg.name, msg.velocity))
+        t = self.now_s()
+        if all(n in pos for n in LEGS_L1 + LEGS_L2):
+            l1 = 0.5 * (pos[LEGS_L1[0]] + pos[LEGS_L1[1]])
+            l2 = 0.5 * (pos[LEGS_L2[0]] + pos[LEGS_L2[1]])
+            if math.isfinite(l1) and math.isfinite(l2):
+                self.obs.legs, self.obs.t_legs = (l1, l2), t
+        if ROPE in pos and math.isfinite(pos[ROPE]):
+            self.obs.spool = pos[ROPE]
+            self.obs.spool_velocity = vel.get(ROPE, 0.0)
+
+    def on_imu(self, msg: Imu) -> None:
+        q = msg.orientation
+        if msg.orientation_covariance[0] != -1.0:
+            self.obs.theta_b = theta_b_from_quaternion(q.x, q.y, q.z, q.w)
+
+    def on_tension(self, msg: WrenchStamped) -> None:
+        if math.isfinite(msg.wrench.force.x):
+            self.obs.tension, self.obs.t_tension = msg.wrench.force.x, self.now_s()
+
+    def on_energy(self, msg: Float64) -> None:
+        self.obs.energy = msg.data
+
+    def on_link(self, msg: String) -> None:
+        self.obs.link_ok = msg.data == 'ok'
+        self.step()
+
+    def on_capacity(self, msg: WrenchStamped) -> None:
+        f = msg.wrench.force
+        self.obs.capacity = math.hypot(f.x, f.z)      # |C d(phi)| = C (NaN stays NaN)
+        self.obs.t_capacity = self.now_s()
+        self.step()
+
+    def on_twist(self, msg: TwistStamped) -> None:
+        self.obs.slip_twist = (msg.twist.linear.x, msg.twist.linear.z, msg.twist.angular.y)
+
+    def on_status(self, msg: String) -> None:
+        self.obs.capacity_status = msg.data
+
+    # ------------------------------------------------------------------ step
+    def step(self) -> None:
+        if self.finished:
+            return
+        self.obs.t = self.now_s()
+        cmd = self.machine.step(self.obs)
+        for topic, value in cmd.oneshots:
+            (self.pub_gait if topic == 'gait' else self.pub_burrow).publish(String(data=value))
+        t = self.obs.t
+        if (self._last_winch is None or abs(cmd.winch - self._last_winch) > 5e-4
+                or t - self._last_winch_t > 0.5):
+            self.pub_winch.publish(Float64(data=float(cmd.winch)))
+            self._last_winch, self._last_winch_t = cmd.winch, t
+        self.pub_height.publish(Float64(data=float(cmd.height)))
+        self.pub_phi.publish(Float64(data=float(cmd.phi)))
+        for ev in self.machine.events:
+            if ev['kind'] == 'warn':
+                self.get_logger().warning(f"[warn] {ev['text']}")
+            else:
+                self.get_logger().info(f"[{ev['kind']}] {ev['text']}")
+            self.pub_events.publish(String(data=json.dumps(ev, default=str)))
+        self.machine.events.clear()
+        state = str(self.machine.state)
+        if state != self._state_sent:
+            self.pub_state.publish(String(data=state))
+            self._state_sent = state
+        if self.machine.done:
+            self.finish()
+
+    def finish(self) -> None:
+        if self.finished:
+            return
+        self.finished = True
+        self.pub_winch.publish(Float64(data=0.0))
+        self.write_report()
+
+    def write_report(self) -> None:
+        if self.report_dir and self.machine.records:
+            csv_path, png_path = write_report(self.machine.records, self.report_dir,
+                                              self.report_stem)
+            self.get_logger().info(f'cycle report: {csv_path} and {png_path}')
+
+
+def main(args=None) -> int:
+    rclpy.init(args=args)
+    node = BehaviorNode()
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    done_at = None
+    try:
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)
+            if node.finished and node.exit_when_done:
+                done_at = done_at or time.monotonic()
+                if time.monotonic() - done_at > 0.5:   # let the last messages go out
+                    break
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if not node.finished:
+            try:
+                node.pub_winch.publish(Float64(data=0.0))
+                node.write_report()
+            except Exception:  # noqa: BLE001 - shutting down anyway
+                pass
+        executor.remove_node(node)
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

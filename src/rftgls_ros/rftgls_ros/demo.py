@@ -1,0 +1,225 @@
+"""``behavior_demo``: the whole stack without ``launch`` (``make demo``).
+
+For each sled mass it starts the simulated MiniRQuad (``minirquad_sim`` on a pseudo-terminal),
+``bridge_node``, ``capacity_node`` and ``behavior_node`` as ``ros2 run`` processes, prints
+the behaviour's decisions and live predictions, waits for its cycles to finish, stops every
+child (SIGINT -> timed wait -> SIGTERM -> kill), and writes the merged cycle report
+(CSV + PNG, like the paper's Fig. 12) under ``--out``.
+
+    behavior_demo --out out/demo                         # simulator, 3 cycles x 400 g, 600 g
+    behavior_demo --port /dev/ttyACM0 --sleds 0.4        # a real robot on a serial port
+
+DDS stays on loopback (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST unless set) and the demo uses
+its own ROS_DOMAIN_ID when none is set (reserved like ROS 2's domain_coordinator).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+from .behavior.report import read_csv, write_report
+
+_stop = threading.Event()
+
+
+def _reserve_domain() -> tuple[int, socket.socket]:
+    """A ROS domain id 1..100 nobody on this host holds (TCP port 32768 + id as the lock)."""
+    start = 1 + os.getpid() % 100
+    for k in range(100):
+        d = 1 + (start + k - 1) % 100
+        s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        try:
+            s.bind(('127.0.0.1', 32768 + d))
+            return d, s
+        except OSError:
+            s.close()
+    raise RuntimeError('no free ROS domain id')
+
+
+def _ros2_run(pkg: str, exe: str) -> list[str]:
+    ros2 = shutil.which('ros2')
+    if ros2:
+        return [ros2, 'run', pkg, exe]
+    return [sys.executable, '-m', {'minirquad_sim': 'minirquad_driver.sim.main',
+                                   'bridge_node': 'minirquad_driver.bridge_node',
+                                   'capacity_node': 'rftgls_ros.capacity_node',
+                                   'behavior_node': 'rftgls_ros.behavior_node'}[exe]]
+
+
+def stop_process(proc: subprocess.Popen, timeout: float = 3.0) -> None:
+    """SIGINT -> timed wait -> SIGTERM -> timed wait -> SIGKILL."""
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGKILL):
+        if proc.poll() is not None:
+            return
+        proc.send_signal(sig)
+        try:
+            proc.wait(timeout)
+            return
+        except subprocess.TimeoutExpired:
+            continue
+
+
+class Stack:
+    """The processes of one run; ``close()`` stops them in reverse order."""
+
+    def __init__(self, env: dict, log_dir: Path):
+        self.env = env
+        self.log_dir = log_dir
+        self.procs: list[tuple[str, subprocess.Popen]] = []
+        self._files = []
+
+    def start(self, name: str, argv: list[str], echo: bool = False) -> subprocess.Popen:
+        log = open(self.log_dir / f'{name}.log', 'w')
+        self._files.append(log)
+        if echo:
+            proc = subprocess.Popen(argv, env=self.env, stdout=subprocess.PIPE,
+                                    stderr=subprocess.STDOUT, text=True, bufsize=1)
+            threading.Thread(target=_tee, args=(proc.stdout, log), daemon=True).start()
+        else:
+            proc = subprocess.Popen(argv, env=self.env, stdout=log, stderr=subprocess.STDOUT)
+        self.procs.append((name, proc))
+        return proc
+
+    def close(self) -> None:
+        for _name, p in reversed(self.procs):
+            stop_process(p)
+        for f in self._files:
+            f.close()
+
+
+def _tee(stream, log) -> None:
+    for line in stream:
+        log.write(line)
+        log.flush()
+        sys.stdout.write('  ' + line if line.startswith(' ') else line)
+        sys.stdout.flush()
+
+
+def run_set(args, sled: float, env: dict, out: Path, params: Path | None) -> Path | None:
+    """One stack, ``args.cycles`` cycles with a ``sled`` kg sled; returns its report CSV."""
+    tag = f'sled_{round(1e3 * sled)}g'
+    log_dir = out / 'logs' / tag
+    log_dir.mkdir(parents=True, exist_ok=True)
+    (out / tag / 'cycle_report.csv').unlink(missing_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix='minirquad_'))
+    stack = Stack(env, log_dir)
+    try:
+        port = args.port
+        if not port:
+            link_file, port = tmp / 'link', str(tmp / 'tty')
+            sim = [*_ros2_run('minirquad_driver', 'minirquad_sim'), '--link-file',
+                   str(link_file), '--symlink', port, '--sled-mass', str(sled)]
+            sim += args.sim_arg or []
+            stack.start('minirquad_sim', sim)
+            deadline = time.monotonic() + 10.0
+            while not link_file.exists() and time.monotonic() < deadline and not _stop.is_set():
+                time.sleep(0.05)
+            if not link_file.exists():
+                print('demo: the simulator did not open its pty', file=sys.stderr)
+                return None
+        stack.start('bridge_node', [*_ros2_run('minirquad_driver', 'bridge_node'),
+                                    '--ros-args', '-p', f'port:={port}'])
+        cap = [*_ros2_run('rftgls_ros', 'capacity_node'), '--ros-args']
+        cap_params = Path('ros2_ws/params/capacity_node.yaml')
+        if cap_params.exists():
+            cap += ['--params-file', str(cap_params)]
+        cap += ['-p', 'phi_topic:=/winch/phi']
+        stack.start('capacity_node', cap)
+        beh = [*_ros2_run('rftgls_ros', 'behavior_node'), '--ros-args']
+        if params:
+            beh += ['--params-file', str(params)]
+        beh += ['-p', f'sled_mass:={sled}', '-p', f'cycles:={args.cycles}',
+                '-p', f'report_dir:={out / tag}', '-p', 'exit_when_done:=true']
+        for kv in args.param or []:
+            beh += ['-p', kv]
+        print(f'\n=== {1e3 * sled:.0f} g sled: {args.cycles} walk-burrow-tug cycles '
+              f'({"simulated MiniRQuad" if not args.port else args.port}) ===', flush=True)
+        proc = stack.start('behavior_node', beh, echo=True)
+        deadline = time.monotonic() + args.timeout
+        while proc.poll() is None and time.monotonic() < deadline and not _stop.is_set():
+            time.sleep(0.1)
+        if proc.poll() is None:
+            print(f'demo: behavior_node still running after {args.timeout:.0f} s; stopping',
+                  flush=True)
+    finally:
+        stack.close()
+        shutil.rmtree(tmp, ignore_errors=True)
+    csv_path = out / tag / 'cycle_report.csv'
+    return csv_path if csv_path.exists() else None
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog='behavior_demo', description=__doc__.split('\n\n')[0])
+    p.add_argument('--out', default='out/demo', help='report folder (default %(default)s)')
+    p.add_argument('--sleds', type=float, nargs='+', default=[0.4, 0.6], help='kg')
+    p.add_argument('--cycles', type=int, default=3)
+    p.add_argument('--params', default='ros2_ws/params/behavior_node.yaml',
+                   help='behavior_node parameter file (skipped if missing)')
+    p.add_argument('--param', action='append', metavar='NAME:=VALUE',
+                   help='extra behavior_node parameter (repeatable)')
+    p.add_argument('--port', help='serial port of a real MiniRQuad (no simulator)')
+    p.add_argument('--sim-arg', action='append', help='extra minirquad_sim argument')
+    p.add_argument('--timeout', type=float, default=75.0, help='per sled, s')
+    args = p.parse_args(argv)
+
+    env = dict(os.environ)
+    env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    lock = None
+    if not env.get('ROS_DOMAIN_ID'):
+        domain, lock = _reserve_domain()
+        env['ROS_DOMAIN_ID'] = str(domain)
+    env.setdefault('RCUTILS_LOGGING_USE_STDOUT', '1')
+    env.setdefault('RCUTILS_CONSOLE_OUTPUT_FORMAT', '[{name}] {message}')
+    env.setdefault('MPLBACKEND', 'Agg')
+    env['PYTHONUNBUFFERED'] = '1'
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    params = Path(args.params) if args.params and Path(args.params).exists() else None
+
+    def on_signal(_sig, _frm):
+        _stop.set()
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+
+    t0 = time.monotonic()
+    print(f'behavior_demo: ROS_DOMAIN_ID={env["ROS_DOMAIN_ID"]}, DDS discovery '
+          f'{env["ROS_AUTOMATIC_DISCOVERY_RANGE"]}, logs in {out / "logs"}', flush=True)
+    records = []
+    try:
+        for sled in args.sleds:
+            if _stop.is_set():
+                break
+            csv_path = run_set(args, sled, env, out, params)
+            if csv_path:
+                records += read_csv(csv_path)
+    finally:
+        if lock:
+            lock.close()
+    if not records:
+        print('behavior_demo: no cycle completed', file=sys.stderr)
+        return 1
+    csv_path, png_path = write_report(records, out)
+    print(f'\n=== summary ({time.monotonic() - t0:.0f} s) ===')
+    print(f'{"sled":>6} {"cycle":>5} {"mode":>8} {"outcome":>8} {"walk J":>7} {"burrow J":>8} '
+          f'{"tug J":>6} {"dist m":>7}')
+    for r in records:
+        print(f'{1e3 * r.sled_kg:>4.0f} g {r.cycle:>5} {r.mode:>8} {r.outcome:>8} '
+              f'{r.walk_j:>7.2f} {r.burrow_j:>8.2f} {r.tug_j:>6.2f} {r.distance_m:>7.3f}')
+    for sled in sorted({r.sled_kg for r in records}):
+        modes = sorted({r.mode for r in records if r.sled_kg == sled})
+        print(f'{1e3 * sled:.0f} g sled -> {", ".join(modes)}')
+    print(f'cycle report: {csv_path} and {png_path}')
+    return 130 if _stop.is_set() else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

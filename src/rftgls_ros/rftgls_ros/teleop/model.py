@@ -1,0 +1,193 @@
+"""Keys, guard and screen of the teleoperated tug, without ROS or a terminal.
+
+Guard: reeling in while tension >= ``limit_fraction`` x capacity needs a deliberate override
+(press ``!`` then reel in within ``override_window`` s); the screen shows it in red. When the
+capacity status is not valid (not ok/extrapolated, or older than ``stale_after``), reeling in
+is refused and a running reel-in is stopped; paying out and stopping always work.
+Units: N, m/s (reel-in positive), s.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ..behavior.model import ANCHOR_MODES, TetherTracker
+
+RED, GREEN, YELLOW, BOLD, RESET = '\x1b[1;31m', '\x1b[32m', '\x1b[33m', '\x1b[1m', '\x1b[0m'
+
+KEYS = {
+    'i': 'reel in faster', 'o': 'reel in slower / pay out', ' ': 'stop the winch',
+    '1': 'burrow DH', '2': 'burrow DL', '3': 'burrow SH', 'u': 'unburrow', 'w': 'walk',
+    's': 'stand', '!': 'arm override', 'x': 'STOP ALL (e-stop)', 'r': 'release e-stop',
+    'q': 'quit',
+}
+
+
+@dataclass
+class TeleopConfig:
+    step: float = 0.01            # m/s per key press
+    max_speed: float = 0.05       # m/s
+    limit_fraction: float = 0.8   # of capacity, beyond which pulling needs the override
+    override_window: float = 5.0  # s the override stays armed
+    stale_after: float = 0.5      # s without a capacity output -> not valid
+    rope_length: float = 0.50     # m, tether paid out at start (for phi)
+    attach_height: float = 0.01   # m
+    h_stand: float = 0.060        # m, height of p when not burrowed
+
+
+class TeleopModel:
+    """``key(ch, t)`` and ``update(t)`` return the commands to publish as (topic, value)."""
+
+    def __init__(self, config: TeleopConfig | None = None):
+        self.cfg = config or TeleopConfig()
+        self.winch = 0.0
+        self.tension = math.nan
+        self.capacity = math.nan
+        self.status = 'stale'
+        self.t_capacity = -math.inf
+        self.slip_twist = (math.nan, math.nan, math.nan)
+        self.mode: str | None = None
+        self.override_until = -math.inf
+        self.estop = False
+        self.message = 'press a key; q quits'
+        self.alert = False
+        self.quit = False
+        self.tether = TetherTracker(self.cfg.rope_length, self.cfg.attach_height)
+        self.t = 0.0
+
+    # ------------------------------------------------------------------ state
+    def valid(self) -> bool:
+        return (self.status in ('ok', 'extrapolated') and math.isfinite(self.capacity)
+                and self.t - self.t_capacity <= self.cfg.stale_after)
+
+    def ratio(self) -> float:
+        if not self.valid() or self.capacity <= 0 or not math.isfinite(self.tension):
+            return math.nan
+        return self.tension / self.capacity
+
+    def overridden(self) -> bool:
+        return self.t < self.override_until
+
+    @property
+    def height(self) -> float:
+        return ANCHOR_MODES[self.mode].h if self.mode else self.cfg.h_stand
+
+    # ------------------------------------------------------------------ inputs
+    def key(self, ch: str, t: float) -> list[tuple[str, object]]:
+        self.t = t
+        out: list[tuple[str, object]] = []
+        if ch == 'q':
+            self.quit = True
+            self.winch = 0.0
+            return [('winch', 0.0)]
+        if ch == 'x':
+            self.estop, self.winch = True, 0.0
+            self.message, self.alert = 'STOP ALL: e-stop engaged, winch braked (r releases)', True
+            return [('winch', 0.0), ('estop', True)]
+        if ch == 'r':
+            self.estop, self.alert = False, False
+            self.message = 'e-stop released'
+            return [('estop', False)]
+        if ch == ' ':
+            self.winch = 0.0
+            self.message, self.alert = 'winch stopped', False
+            return [('winch', 0.0)]
+        if ch == '!':
+            self.override_until = t + self.cfg.override_window
+            self.message, self.alert = (f'OVERRIDE armed for {self.cfg.override_window:.0f} s: '
+                                        'reel in past the limit at your own risk'), True
+            return []
+        if ch in '123':
+            self.mode = 'DH DL SH'.split()[int(ch) - 1]
+            self.winch = 0.0
+            self.message, self.alert = f'burrow {self.mode} requested', False
+            return [('winch', 0.0), ('burrow', self.mode)]
+        if ch == 'u':
+            self.mode = None
+            self.message, self.alert = 'unburrow requested', False
+            return [('burrow', 'UNBURROW')]
+        if ch in 'ws':
+            self.mode = None
+            gait = 'walk' if ch == 'w' else 'stand'
+            self.message, self.alert = f'gait {gait}', False
+            return [('gait', gait)]
+        if ch == 'o':
+            self.winch = max(-self.cfg.max_speed, self.winch - self.cfg.step)
+            self.message, self.alert = f'winch {1e3 * self.winch:+.0f} mm/s', False
+            return [('winch', self.winch)]
+        if ch == 'i':
+            if self.estop:
+                self.message, self.alert = 'e-stop engaged: release with r first', True
+                return out
+            if not self.valid():
+                self.message = (f'capacity status {self.status}: refusing to pull harder '
+                                '(no valid prediction)')
+                self.alert = True
+                return out
+            r = self.ratio()
+            if r >= self.cfg.limit_fraction and not self.overridden():
+                self.message = (f'tension {100 * r:.0f} % of capacity >= '
+                                f'{100 * self.cfg.limit_fraction:.0f} %: press ! then i to '
+                                'override')
+                self.alert = True
+                return out
+            self.winch = min(self.cfg.max_speed, max(0.0, self.winch) + self.cfg.step)
+            self.alert = self.overridden() and r >= self.cfg.limit_fraction
+            self.message = f'winch {1e3 * self.winch:+.0f} mm/s' + (
+                ' (OVERRIDE)' if self.alert else '')
+            return [('winch', self.winch)]
+        return out
+
+    def update(self, t: float) -> list[tuple[str, object]]:
+        """Apply the guard to the current reel-in; call on every new input."""
+        self.t = t
+        if self.winch <= 0.0:
+            return []
+        if not self.valid():
+            self.winch = 0.0
+            self.message, self.alert = (f'capacity status {self.status}: winch stopped, '
+                                        'refusing to pull'), True
+            return [('winch', 0.0)]
+        r = self.ratio()
+        if r >= self.cfg.limit_fraction and not self.overridden():
+            self.winch = 0.0
+            self.message = (f'tension {100 * r:.0f} % of capacity: winch stopped; '
+                            'press ! then i to override')
+            self.alert = True
+            return [('winch', 0.0)]
+        return []
+
+    # ------------------------------------------------------------------ screen
+    def screen(self) -> list[str]:
+        r = self.ratio()
+        limit = self.cfg.limit_fraction
+        over = math.isfinite(r) and r >= limit
+        color = RED if over or not self.valid() else GREEN
+        f = lambda x, u: f'{x:6.2f} {u}' if math.isfinite(x) else '   --  ' + u  # noqa: E731
+        margin = self.capacity - self.tension if self.valid() else math.nan
+        width = 30
+        fill = 0 if not math.isfinite(r) else min(width, int(round(r * width)))
+        bar = '#' * fill + '-' * (width - fill)
+        mark = int(limit * width)
+        bar = bar[:mark] + '|' + bar[mark:]
+        tw = self.slip_twist
+        twist = ('holds (no slip predicted)' if all(math.isfinite(x) for x in tw)
+                 and not any(tw) else
+                 f'vx {tw[0]:+.2f} vz {tw[1]:+.2f} wy {tw[2]:+.2f} (unit direction)'
+                 if all(math.isfinite(x) for x in tw) else '--')
+        ov = f'{RED}OVERRIDE{RESET}' if self.overridden() else 'guarded'
+        lines = [
+            f'{BOLD}MiniRQuad teleop tug{RESET}  i/o reel in/out  space stop  1/2/3 burrow '
+            'DH/DL/SH  u unburrow  w/s walk/stand  ! override  x STOP ALL  r release  q quit',
+            f'tension  {f(self.tension, "N")}   capacity {f(self.capacity, "N")}   margin '
+            f'{f(margin, "N")}   status {color}{self.status}{RESET}',
+            f'load     {color}[{bar}] '
+            f'{(100 * r if math.isfinite(r) else float("nan")):5.0f} %{RESET} of capacity '
+            f'(limit {100 * limit:.0f} %)',
+            f'slip twist {twist}',
+            f'winch {1e3 * self.winch:+5.0f} mm/s   anchor {self.mode or "-"}   {ov}   '
+            f'tether {self.tether.free_length:.3f} m'
+            + (f'   {RED}E-STOP{RESET}' if self.estop else ''),
+            (RED if self.alert else YELLOW) + self.message + RESET,
+        ]
+        return lines

@@ -1,0 +1,166 @@
+"""End to end over real DDS (loopback, this worker's domain): minirquad_sim on a pty,
+bridge_node, capacity_node and behavior_node as ``ros2 run`` processes.
+
+Run as a script, this file is a simulator whose sled becomes heavier once the spool has
+reeled in ``--heavier-at`` metres (mid-tug), and which reports how far the anchor slipped.
+"""
+from __future__ import annotations
+
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+FAST = ['walk_time:=1.0', 'idle_measure_time:=0.5', 'idle_settle_time:=0.3']
+
+
+def _ros2(pkg, exe):
+    return ['ros2', 'run', pkg, exe]
+
+
+def run_stack(tmp_path, spawn, sled, params=(), sim=None, sim_args=(), timeout=60.0,
+              until=None):
+    """Start the stack, wait for behavior_node to exit (or ``until(log)``), return logs."""
+    link, tty = tmp_path / 'link', str(tmp_path / 'tty')
+    sim_log = open(tmp_path / 'sim.log', 'w')
+    sim_argv = sim or _ros2('minirquad_driver', 'minirquad_sim')
+    sim_proc = spawn([*sim_argv, '--link-file', str(link), '--symlink', tty, '--sled-mass', str(sled),
+           *sim_args], stdout=sim_log, stderr=sim_log, cwd=REPO)
+    deadline = time.monotonic() + 10
+    while not link.exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert link.exists(), 'simulator did not start'
+    env = {'RCUTILS_LOGGING_USE_STDOUT': '1', 'RCUTILS_CONSOLE_OUTPUT_FORMAT': '{message}',
+           'PYTHONUNBUFFERED': '1'}
+    logs = {n: open(tmp_path / f'{n}.log', 'w') for n in ('bridge', 'capacity', 'behavior')}
+    spawn([*_ros2('minirquad_driver', 'bridge_node'), '--ros-args', '-p', f'port:={tty}'],
+          stdout=logs['bridge'], stderr=logs['bridge'], cwd=REPO, env=env)
+    spawn([*_ros2('rftgls_ros', 'capacity_node'), '--ros-args', '--params-file',
+           'ros2_ws/params/capacity_node.yaml', '-p', 'phi_topic:=/winch/phi'],
+          stdout=logs['capacity'], stderr=logs['capacity'], cwd=REPO, env=env)
+    argv = [*_ros2('rftgls_ros', 'behavior_node'), '--ros-args', '--params-file',
+            'ros2_ws/params/behavior_node.yaml', '-p', f'sled_mass:={sled}',
+            '-p', 'cycles:=1', '-p', 'exit_when_done:=true',
+            '-p', f'report_dir:={tmp_path / "report"}']
+    for kv in (*FAST, *params):
+        argv += ['-p', kv]
+    beh = spawn(argv, stdout=logs['behavior'], stderr=logs['behavior'], cwd=REPO, env=env)
+    deadline = time.monotonic() + timeout
+    text = ''
+    while time.monotonic() < deadline and beh.poll() is None:
+        text = (tmp_path / 'behavior.log').read_text()
+        if until and until(text):
+            break
+        time.sleep(0.2)
+    for f in logs.values():
+        f.flush()
+    run_stack.sim_proc = sim_proc
+    return (tmp_path / 'behavior.log').read_text()
+
+
+def _decisions(log):
+    return re.findall(r'decision \(expected pose\): (\w+):', log)
+
+
+@pytest.mark.slow
+def test_e2e_400g_chooses_sh_and_tugs(tmp_path, spawn):
+    log = run_stack(tmp_path, spawn, 0.4)
+    assert _decisions(log)[:1] == ['SH'], log
+    assert 'check SH at the measured pose' in log and 'sufficient' in log
+    assert re.search(r'\[live\] tug SH: T [\d.]+ N, C [\d.]+ N', log), log
+    assert 'cycle 1 (400 g sled): SH ok' in log, log
+    assert (tmp_path / 'report' / 'cycle_report.csv').exists()
+    assert (tmp_path / 'report' / 'cycle_report.png').exists()
+
+
+@pytest.mark.slow
+def test_e2e_600g_does_not_choose_sh(tmp_path, spawn):
+    log = run_stack(tmp_path, spawn, 0.6,
+                    until=lambda t: 'CHECK -> TUG' in t)
+    first = _decisions(log)[0]
+    assert first in ('DL', 'DH'), log
+    assert 'SH: ' in log and re.search(r'SH: [\d./]+ N, energy [\d.]+ J -> no', log), log
+
+
+@pytest.mark.slow
+def test_e2e_refuses_when_no_mode_suffices(tmp_path, spawn):
+    log = run_stack(tmp_path, spawn, 1.5, timeout=30)
+    assert 'not tugging: no mode suffices' in log, log
+    assert 'BURROW' not in log.split('not tugging')[0].split('decision')[-1]
+    assert '-> REFUSED' in log
+
+
+@pytest.mark.slow
+def test_e2e_heavier_sled_mid_tug_stops_before_slip(tmp_path, spawn):
+    sim = [sys.executable, __file__, '--heavier-at', '0.10', '--heavier-mass', '0.6']
+    log = run_stack(tmp_path, spawn, 0.4, sim=sim)
+    assert 'margin guard' in log and 'winch stopped before the predicted slip' in log, log
+    assert re.search(r're-burrow \w+|then re-burrow (DL|DH)', log), log
+    # stop the simulator (SIGINT) to read its slip report
+    proc = run_stack.sim_proc
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(5)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+    sim_out = (tmp_path / 'sim.log').read_text()
+    assert 'HEAVIER sled 0.4 -> 0.6 kg' in sim_out, sim_out
+    slip = float(re.search(r'SLIP_TOTAL ([\d.]+)', sim_out).group(1))
+    assert slip < 0.002, f'anchor slipped {slip * 1e3:.1f} mm\n{log}'
+
+
+@pytest.mark.slow
+def test_e2e_disconnect_mid_tug_stops_and_waits(tmp_path, spawn):
+    log = run_stack(tmp_path, spawn, 0.6,
+                    sim_args=['--disconnect-at', '12.0', '--disconnect-for', '1.5'])
+    assert 'link stale during TUG: winch stopped, waiting' in log \
+        or 'stale during TUG' in log, log
+    after = log.split('during TUG')[1]
+    assert 'WAIT_LINK -> CHECK' in after and 're-checking' in after, log
+    assert 'CHECK -> TUG' in after, log
+    assert re.search(r'cycle 1 \(600 g sled\): \w+ ok', log), log
+
+
+# --------------------------------------------------------------------- heavier-sled sim
+def _heavier_sim(argv):
+    import argparse
+    import atexit
+
+    from minirquad_driver.sim import main as sim_main
+    from minirquad_driver.sim.robot import SimRobot
+    from minirquad_driver.sim.winch import WinchSled
+
+    ap = argparse.ArgumentParser()
+    ap.add_argument('--heavier-at', type=float, required=True)
+    ap.add_argument('--heavier-mass', type=float, required=True)
+    own, rest = ap.parse_known_args(argv)
+    slip = {'m': 0.0}
+
+    class HeavierSled(WinchSled):
+        def reel(self, dt):
+            super().reel(dt)
+            if own.heavier_at is not None and self.spool_position >= own.heavier_at:
+                print(f'HEAVIER sled {self.sled_mass} -> {own.heavier_mass} kg', flush=True)
+                self.sled_mass = own.heavier_mass
+                own.heavier_at = None
+
+    class SlipRecorder(SimRobot):
+        def _resolve_rope(self, dt):
+            x0 = self.x_p
+            super()._resolve_rope(dt)
+            if self.slipping:
+                slip['m'] += abs(self.x_p - x0)
+
+    sim_main.WinchSled = HeavierSled
+    sim_main.SimRobot = SlipRecorder
+    atexit.register(lambda: print(f'SLIP_TOTAL {slip["m"]:.6f}', flush=True))
+    return sim_main.main(rest)
+
+
+if __name__ == '__main__':
+    sys.exit(_heavier_sim(sys.argv[1:]))

@@ -1,0 +1,257 @@
+"""Plain (no ROS) tests of the behaviour: required force, energy model, mode chooser, tether,
+and the state machine driven in closed loop by the simulator's robot model (SimRobot, the
+same physics minirquad_sim runs, stepped in-process)."""
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from rftgls_core.types import AnchorState, Status
+from rftgls_ros.behavior import (ANCHOR_MODES, BehaviorConfig, BehaviorMachine, EnergyModel,
+                                 ForceNeed, MapPredictor, ModeChooser, Observation, State,
+                                 TetherTracker, write_report)
+from rftgls_ros.behavior.report import read_csv
+
+G = 9.81
+
+
+@pytest.fixture(scope='module')
+def predictor():
+    return MapPredictor()
+
+
+def test_force_need_nominal_and_update():
+    need = ForceNeed(0.4, 0.5)
+    assert need.value == pytest.approx(0.5 * 0.4 * G)
+    assert need.update([1.0, 2.0]) is None           # too few samples
+    assert need.update([2.2] * 10) == pytest.approx(2.2)
+    assert need.value == pytest.approx(2.2)
+    need.update([1.8] * 10)
+    assert need.value == pytest.approx(2.0)          # blended, alpha 0.5
+    need.raise_floor(2.5)
+    assert need.value == 2.5
+
+
+def test_energy_model_prior_ratios_then_measured_scale():
+    e = EnergyModel(prior_sh=1.0)
+    assert [e.estimate(m) for m in ('DH', 'DL', 'SH')] == pytest.approx([1.32, 1.26, 1.0])
+    e.update('SH', 4.0)
+    assert e.estimate('SH') == 4.0
+    assert e.estimate('DH') == pytest.approx(1.32 * 4.0)
+    e.update('DH', 4.0)                              # measured DH as cheap as SH
+    assert e.estimate('DH') == 4.0
+    e.update('SH', float('nan'))                     # ignored
+    assert e.estimate('SH') == 4.0
+
+
+def test_chooser_paper_outcome_400g_sh(predictor):
+    d = ModeChooser(predictor, 1.0).choose(0.5 * 0.4 * G, EnergyModel())
+    assert d.mode == 'SH', d.table()
+    assert all(c.sufficient for c in d.candidates)
+    assert 'cheapest' in d.reason
+
+
+def test_chooser_600g_picks_dl_in_our_model(predictor):
+    # Our RFT-GLS map: DL holds 4.4 N, so it is the cheapest sufficient mode (the paper: DH).
+    d = ModeChooser(predictor, 1.0).choose(0.5 * 0.6 * G, EnergyModel())
+    assert d.mode == 'DL', d.table()
+    sh = next(c for c in d.candidates if c.mode == 'SH')
+    assert not sh.sufficient
+
+
+def test_chooser_safety_factor_rejects_marginal_sh(predictor):
+    d = ModeChooser(predictor, 1.1).choose(0.5 * 0.4 * G, EnergyModel())
+    assert d.mode == 'DL'
+
+
+def test_chooser_refuses_with_reason(predictor):
+    d = ModeChooser(predictor, 1.0).choose(0.5 * 1.5 * G, EnergyModel())
+    assert d.mode is None
+    assert 'no mode suffices' in d.reason and 'DH' in d.reason
+
+
+def test_chooser_invalid_prediction_is_not_sufficient():
+    def bad(state, phi):
+        return None, Status.UNSUPPORTED
+    d = ModeChooser(bad).choose(1.0, EnergyModel())
+    assert d.mode is None and 'unsupported' in d.table()
+
+
+def test_chooser_stronger_than(predictor):
+    d = ModeChooser(predictor).choose(0.5 * 0.4 * G, EnergyModel(), exclude=['SH'],
+                                      stronger_than=2.0)
+    assert d.mode == 'DL'
+
+
+def test_tether_length_and_phi():
+    t = TetherTracker(rope_length=0.5, attach_height=0.01)
+    t.update(0.0)
+    t.update(0.15)
+    t.update(0.3)
+    assert t.free_length == pytest.approx(0.2)
+    t.update(5.0)                                     # reset jump ignored
+    assert t.free_length == pytest.approx(0.2)
+    assert math.degrees(t.phi(0.01 + 0.2 * math.sin(math.radians(20)))) == pytest.approx(-20)
+
+
+# ------------------------------------------------------------------ closed loop, no ROS
+class Plant:
+    """SimRobot from minirquad_driver's simulator, with commands applied directly and the
+    observation (capacity from the same map, as capacity_node would give) built each step."""
+
+    def __init__(self, sled_mass: float, predictor, heavier_at: float | None = None,
+                 heavier_mass: float = 0.0):
+        from minirquad_driver.gaits import GAITS
+        from minirquad_driver.protocol.messages import BurrowMode
+        from minirquad_driver.sim.robot import SimRobot
+        from minirquad_driver.sim.winch import WinchSled
+        self.gaits, self.burrow_modes = GAITS, BurrowMode
+        self.robot = SimRobot(winch=WinchSled(sled_mass=sled_mass))
+        self.predictor = predictor
+        self.t = 0.0
+        self.energy = 0.0
+        self.slip = 0.0
+        self.heavier_at, self.heavier_mass = heavier_at, heavier_mass
+        self.link_ok = True
+
+    def apply(self, cmd) -> None:
+        r = self.robot
+        for topic, value in cmd.oneshots:
+            if topic == 'gait':
+                g = self.gaits[value]
+                r.set_gait(g.kind, g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
+            else:
+                r.burrow(int(getattr(self.burrow_modes, value)))
+        r.set_winch(cmd.winch)
+        self.h, self.phi = cmd.height, cmd.phi
+
+    def advance(self, dt: float) -> Observation:
+        r = self.robot
+        x0 = r.x_p
+        r.step(dt)
+        if r.slipping:
+            self.slip += abs(r.x_p - x0)
+        self.t += dt
+        self.energy += r.power * dt
+        if self.heavier_at is not None and r.winch.spool_position >= self.heavier_at:
+            r.winch.sled_mass, self.heavier_at = self.heavier_mass, None
+        a = r.leg_angles()
+        state = AnchorState(self.h, r.theta_b, 0.5 * (a[0] + a[1]), 0.5 * (a[2] + a[3]))
+        cap, status = self.predictor(state, self.phi)
+        return Observation(
+            t=self.t, legs=(state.theta_l1, state.theta_l2), t_legs=self.t,
+            theta_b=r.theta_b, tension=r.winch.tension, t_tension=self.t,
+            spool=r.winch.spool_position, spool_velocity=r.winch.spool_velocity,
+            energy=self.energy, link_ok=self.link_ok,
+            capacity=cap if cap is not None else float('nan'), capacity_status=str(status),
+            t_capacity=self.t, slip_twist=(0.0, 0.0, 0.0))
+
+
+def run_loop(machine, plant, t_max=120.0, dt=0.01, on_step=None):
+    obs = Observation(t=0.0)
+    while plant.t < t_max and not machine.done:
+        plant.apply(machine.step(obs))
+        for _ in range(int(round(dt / 0.002))):
+            obs = plant.advance(0.002)
+        if on_step:
+            on_step(plant, machine)
+    return machine
+
+
+def fast_config(**kw) -> BehaviorConfig:
+    base = dict(cycles=2, walk_time=1.5, idle_measure_time=0.3)
+    base.update(kw)
+    return BehaviorConfig(**base)
+
+
+def test_machine_400g_chooses_sh_and_completes_cycles(predictor):
+    cfg = fast_config(sled_mass=0.4)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    plant = Plant(0.4, predictor)
+    run_loop(m, plant)
+    assert m.state == State.FINISHED, m.reason
+    assert [r.mode for r in m.records] == ['SH', 'SH']
+    assert all(r.outcome == 'ok' for r in m.records)
+    assert plant.slip < 1e-3
+    assert all(r.burrow_j > 0 and r.walk_j > 0 and r.tug_j > 0 for r in m.records)
+    kinds = {e['kind'] for e in m.events}
+    assert {'transition', 'decision', 'live', 'cycle'} <= kinds
+
+
+def test_machine_600g_never_sh(predictor):
+    cfg = fast_config(sled_mass=0.6, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    plant = Plant(0.6, predictor)
+    run_loop(m, plant)
+    assert m.state == State.FINISHED, m.reason
+    assert m.records[0].mode == 'DL' and m.records[0].outcome == 'ok'
+    assert plant.slip < 1e-3
+
+
+def test_machine_refuses_too_heavy_sled(predictor):
+    cfg = fast_config(sled_mass=1.5, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    run_loop(m, Plant(1.5, predictor), t_max=20)
+    assert m.state == State.REFUSED
+    assert 'no mode suffices' in m.reason
+    assert m.records[0].outcome == 'refused'
+
+
+def test_machine_heavier_mid_tug_stops_then_reburrows(predictor):
+    cfg = fast_config(sled_mass=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    plant = Plant(0.4, predictor, heavier_at=0.05, heavier_mass=0.6)
+    run_loop(m, plant)
+    texts = [e['text'] for e in m.events]
+    assert any('margin guard' in t for t in texts), texts
+    assert plant.slip < 2e-3
+    assert m.records[0].mode.startswith('SH+')
+    assert m.state == State.FINISHED and m.records[0].outcome == 'ok'
+
+
+def test_machine_heavier_without_stronger_mode_holds(predictor):
+    cfg = fast_config(sled_mass=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    plant = Plant(0.4, predictor, heavier_at=0.05, heavier_mass=2.0)
+    run_loop(m, plant)
+    assert plant.slip < 2e-3
+    assert m.state == State.FINISHED and m.records[0].outcome == 'stopped', m.reason
+    assert 'stopped before slip' in m.reason
+
+
+def test_machine_link_loss_mid_tug_waits_then_resumes(predictor):
+    cfg = fast_config(sled_mass=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    plant = Plant(0.4, predictor)
+    seen = {}
+
+    def cut(p, mach):
+        if mach.state == State.TUG and 'cut' not in seen and mach._elapsed() > 1.0:
+            seen['cut'] = p.t
+            p.link_ok = False
+        if 'cut' in seen and p.link_ok is False:
+            assert mach._winch == 0.0 or mach.state == State.TUG
+            if p.t - seen['cut'] > 1.0:
+                seen['state_during'] = mach.state
+                p.link_ok = True
+    run_loop(m, plant, on_step=cut)
+    assert seen['state_during'] == State.WAIT_LINK
+    assert m.state == State.FINISHED and m.records[0].outcome == 'ok'
+    texts = ' '.join(e['text'] for e in m.events)
+    assert 'link stale during TUG' in texts and 're-checking' in texts
+
+
+def test_report_csv_and_png(tmp_path, predictor):
+    cfg = fast_config(sled_mass=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    run_loop(m, Plant(0.4, predictor))
+    csv_path, png_path = write_report(m.records, tmp_path)
+    rows = read_csv(csv_path)
+    assert rows[0].mode == 'SH' and rows[0].cycle == 1
+    assert png_path.stat().st_size > 10_000
+
+
+def test_modes_match_table_ii():
+    assert ANCHOR_MODES['DH'].expected_state().h == 0.034
+    assert math.degrees(ANCHOR_MODES['SH'].retract[1]) == pytest.approx(-20)
