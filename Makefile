@@ -34,8 +34,11 @@ $(WS)/install/.built-stamp: $(STAMP) $(PKG_FILES)
 
 build: setup
 
+# The simulated MiniRQuad, the serial bridge, capacity_node and behavior_node: three
+# walk-burrow-tug cycles with a 400 g sled and three with a 600 g sled (picks its own
+# ROS_DOMAIN_ID; DDS on loopback). `rftgls demo` is the ROS-free capacity table.
 demo: setup
-	$(ENV) && ROS_DOMAIN_ID=$${ROS_DOMAIN_ID_DEMO:-43} rftgls demo --out out/demo
+	$(ENV) && unset ROS_DOMAIN_ID && ros2 run rftgls_ros behavior_demo --out out/demo
 
 test: setup
 	$(ENV) && python -m pytest tests $(PYTEST_ARGS)

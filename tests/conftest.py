@@ -17,6 +17,13 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
+
+try:  # the machines are shared and noisy: no per-example time limit on property tests
+    from hypothesis import settings as _hypothesis_settings
+    _hypothesis_settings.register_profile('rftgls', deadline=None)
+    _hypothesis_settings.load_profile('rftgls')
+except ImportError:  # pragma: no cover
+    pass
 _domain_socket: socket.socket | None = None
 
 
