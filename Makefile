@@ -14,14 +14,14 @@ export MPLBACKEND := Agg
 ENV := source tools/env.sh
 PYTEST_ARGS ?= -n 2
 
-.PHONY: setup build demo test bench freeze clean
+.PHONY: setup build demo test bench lock clean
 
 setup: $(STAMP) $(WS)/install/.built-stamp
 
-$(STAMP): requirements/requirements.txt requirements/constraints.txt $(PKG_FILES)
+$(STAMP): requirements/lock.txt $(PKG_FILES)
 	@test -x $(BIN)/python || $(PY) -m venv $(VENV)
-	$(BIN)/python -m pip install --disable-pip-version-check -q \
-	    -r requirements/requirements.txt -c requirements/constraints.txt
+	$(BIN)/python -m pip install --disable-pip-version-check -q --require-hashes \
+	    -r requirements/lock.txt
 	$(BIN)/python -m pip install --disable-pip-version-check -q --no-deps --no-build-isolation \
 	    $(foreach p,$(PKGS),-e src/$(p))
 	install -m 755 tools/ros2 tools/rftgls $(BIN)/
@@ -46,11 +46,13 @@ test: setup
 bench: setup
 	$(ENV) && rftgls bench
 
-# Re-pin after changing requirements/requirements.txt.
-freeze:
-	rm -rf /tmp/rftgls-freeze && $(PY) -m venv /tmp/rftgls-freeze
-	/tmp/rftgls-freeze/bin/pip install -q -r requirements/requirements.txt
-	/tmp/rftgls-freeze/bin/pip freeze | grep -vE "^([a-z_]+_(msgs|interfaces|srvs)|rosidl_[a-z_]+|rclpy|rcutils|rmw_dds_common)==" > requirements/constraints.txt
+# Re-pin after changing requirements/requirements.txt: exact versions (constraints.txt), then
+# the files and their hashes (lock.txt, what `make setup` installs).
+lock:
+	rm -rf /tmp/rftgls-lock && $(PY) -m venv /tmp/rftgls-lock
+	/tmp/rftgls-lock/bin/pip install -q -r requirements/requirements.txt
+	/tmp/rftgls-lock/bin/pip freeze | grep -vE "^([a-z_]+_(msgs|interfaces|srvs)|rosidl_[a-z_]+|rclpy|rcutils|rmw_dds_common|rftgls_core|rftgls_ros|minirquad_driver)==" > requirements/constraints.txt
+	/tmp/rftgls-lock/bin/python tools/lock.py
 
 clean:
 	rm -rf $(VENV) $(WS)/build $(WS)/install $(WS)/log out
