@@ -6,7 +6,7 @@ import pytest
 
 from rftgls_core.maps import CapacityMap, shipped_map_path
 from rftgls_core.types import AnchorState
-from rftgls_ros.capacity.lower_bound import capacity_lower_bound
+from rftgls_core.uncertainty import capacity_lower_bound
 
 DH = AnchorState.from_degrees(0.034, 5.0, -40.0, 30.0)
 
