@@ -90,20 +90,10 @@ class Record:
     seconds: float          # pose + RFT + fit + one query, from scratch
 
 
-class _ShippedMap:
-    """The shipped map of a robot behind the predict() interface (method 'map')."""
-
-    def __init__(self, robot: str):
-        from .maps import CapacityMap, shipped_map_path
-        self.map = CapacityMap.load(shipped_map_path(robot))
-
-    def predict(self, state, phi, pull):
-        return self.map.query(state, phi, pull)
-
-
 def run_config(robot: str, config: Config, states, phis_deg=PHIS_DEG) -> list[Record]:
     if config.method == 'map':
-        model = _ShippedMap(robot)
+        from .maps import CapacityMap, shipped_map_path
+        model = CapacityMap.load(shipped_map_path(robot))   # predict() like AnchorModel
     else:
         model = AnchorModel(get_robot(robot, config.n_arc), get_medium(MEDIUM[robot]),
                             method=config.method, n_twists=config.n_twists,

@@ -28,14 +28,6 @@ def add_parser(sub) -> None:
     q.set_defaults(run=run)
 
 
-class _MapPredictor:
-    def __init__(self, cmap):
-        self.cmap = cmap
-
-    def predict(self, state, phi, pull):
-        return self.cmap.query(state, phi, pull)
-
-
 def run(args) -> int:
     from tqdm import tqdm
 
@@ -46,7 +38,7 @@ def run(args) -> int:
             raise ValueError('--method map needs --map FILE.h5')
         from ..maps import CapacityMap
         cmap = CapacityMap.load(args.map)
-        predictor = _MapPredictor(cmap)
+        predictor = cmap
         from ..robots.presets import get_robot
         robot = get_robot(cmap.robot_name)
     else:

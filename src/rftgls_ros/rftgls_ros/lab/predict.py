@@ -10,47 +10,27 @@ report) are ignored here.
 """
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from rftgls_core.rft.media import Medium, get_medium
+from rftgls_core.rft.media import Medium, medium_from_dict
+from rftgls_core.rft.media import load_medium as core_load_medium
 from rftgls_core.robots.presets import get_robot
 from rftgls_core.types import AnchorState
 
 from .bag_layout import PullTest
 
 METHODS = ('ellipsoid', 'alpha', 'twist-mesh', 'direct', 'map')
-MEDIUM_FIELDS = ('name', 'xi_n', 'mu_surf', 'zeta', 'li_coefficients', 'note')
-
-
-def medium_from_dict(d: dict) -> Medium:
-    return Medium(**{k: d[k] for k in MEDIUM_FIELDS if k in d})
 
 
 def load_medium(spec: str | Path | dict) -> Medium:
-    """A preset name, a medium JSON file path, or a dict."""
+    """A preset name, a medium JSON file path, or a dict (rftgls_core.rft.media)."""
     if isinstance(spec, dict):
         return medium_from_dict(spec)
-    p = Path(spec)
-    if p.suffix == '.json' or p.exists():
-        return medium_from_dict(json.loads(p.read_text()))
-    return get_medium(str(spec))
-
-
-class MapPredictor:
-    """CapacityMap behind the predict(state, phi, pull) interface of AnchorModel."""
-
-    def __init__(self, path: str | Path):
-        from rftgls_core.maps import CapacityMap
-        self.cmap = CapacityMap.load(path)
-        self.robot = get_robot(self.cmap.robot_name)
-
-    def predict(self, state, phi, pull):
-        return self.cmap.query(state, phi, pull)
+    return core_load_medium(str(spec))
 
 
 def make_predictor(method: str, robot: str, medium: Medium, map_path: str | Path | None = None,
@@ -58,7 +38,8 @@ def make_predictor(method: str, robot: str, medium: Medium, map_path: str | Path
     if method == 'map':
         if map_path is None:
             raise ValueError("method 'map' needs a map file")
-        return MapPredictor(map_path)
+        from rftgls_core.maps import CapacityMap
+        return CapacityMap.load(map_path)   # predict() like AnchorModel
     from rftgls_core.anchor import AnchorModel
     return AnchorModel(get_robot(robot), medium, method=method, n_twists=n_twists)
 
