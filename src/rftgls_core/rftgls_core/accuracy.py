@@ -57,6 +57,7 @@ DEFAULT_CONFIGS = (
     + [Config('twist-mesh', n, polish=False) for n in (500, 1000, 2000, 4000)]
     + [Config('twist-mesh', 1000, a) for a in (8, 12, 16)]
     + [Config('direct', 1000, a) for a in (8, 12, 16, LEG_ARC_SEGMENTS)]
+    + [Config('direct', 400)]     # the default bracketing sphere of direct
     + [Config('ellipsoid', n) for n in (500, 2000)]
     + [Config('alpha', n) for n in (1000, 2000)]
     + [Config('map', 1000)]     # the shipped maps (twist-mesh, 1000 twists, 24 arc segments)
