@@ -205,11 +205,20 @@ class TwistMeshSurface(LimitSurface):
         d = problem.load_direction_scaled(phi)
         eval_scaled = lambda ts: sc.wrench_to_scaled(problem.wrenches(sc.twist_from_scaled(ts)))
         corners = self.sphere.twists_scaled[self.sphere.faces[face]]
-        seeds = np.vstack([seed, corners])  # the corners too: steep maps defeat a single seed
-        t, s, res, _, conv, iters = newton_on_sphere(eval_scaled, d, seeds, max_iter=40)
         reach = 3.0 * float(np.arccos(np.clip(corners @ seed, -1.0, 1.0)).max()) + 1e-3
-        near = np.arccos(np.clip(t @ seed, -1.0, 1.0)) <= reach
-        ok = (conv | (res <= self.gap_tol * np.abs(s))) & (s > 0.0) & near
+
+        def solve(seeds, max_iter):
+            t, s, res, _, conv, iters = newton_on_sphere(eval_scaled, d, seeds, rtol=1e-10,
+                                                         max_iter=max_iter)
+            near = np.arccos(np.clip(t @ seed, -1.0, 1.0)) <= reach
+            ok = (conv | (res <= self.gap_tol * np.abs(s))) & (s > 0.0) & near
+            return t, s, res, ok, iters
+
+        # The hit's own twist usually converges in a few steps; only when it does not, the
+        # face corners are tried too (steep maps defeat a single seed).
+        t, s, res, ok, iters = solve(seed[None, :], 25)
+        if not np.any(ok):
+            t, s, res, ok, iters = solve(np.vstack([seed, corners]), 40)
         if not np.any(ok):
             return cap, seed, detail + '; not polished (no root near the hit face: mesh value)'
         k = int(np.flatnonzero(ok)[np.argmin(s[ok])])  # first exit among the local roots
