@@ -63,14 +63,7 @@ def test_image_folder_to_bag_cli(tmp_path):
         cv2.imwrite(str(folder / f'f{i:03d}.png'), img)
         lines.append(f'f{i:03d}.png,{0.5 * i:.3f}')
     (folder / 'timestamps.csv').write_text('\n'.join(lines) + '\n')
-    cam = tmp_path / 'cam.json'
-    cam.write_text(json.dumps(asdict(scene.camera)))
-    meta = PullTestMeta(test_id='cli', robot='prototype',
-                        medium={'name': 'glass_beads', 'xi_n': 3.8e5, 'mu_surf': 0.4,
-                                'zeta': 0.33e6},
-                        pull='backward', initial_state=AnchorState(0.02, 0.0, 0.0, 0.0),
-                        markers=scene.markers)
-    (tmp_path / 'meta.json').write_text(meta.to_json())
+    cam, meta = _camera_and_meta(tmp_path, scene, 'cli')
     rc = tracking_main(['--images', str(folder), '--camera', str(cam), '--meta',
                         str(tmp_path / 'meta.json'), '--out', str(tmp_path / 'bag')])
     assert rc == 0
@@ -100,14 +93,7 @@ def test_video_file_to_bag_cli(tmp_path):
     for img in frames:
         writer.write(cv2.cvtColor(img, cv2.COLOR_GRAY2BGR))
     writer.release()
-    cam = tmp_path / 'cam.json'
-    cam.write_text(json.dumps(asdict(scene.camera)))
-    meta = PullTestMeta(test_id='video', robot='prototype',
-                        medium={'name': 'glass_beads', 'xi_n': 3.8e5, 'mu_surf': 0.4,
-                                'zeta': 0.33e6},
-                        pull='backward', initial_state=AnchorState(0.02, 0.0, 0.0, 0.0),
-                        markers=scene.markers)
-    (tmp_path / 'meta.json').write_text(meta.to_json())
+    cam, meta = _camera_and_meta(tmp_path, scene, 'video')
     rc = tracking_main(['--video', str(video), '--camera', str(cam), '--meta',
                         str(tmp_path / 'meta.json'), '--out', str(tmp_path / 'bag')])
     assert rc == 0
@@ -116,3 +102,16 @@ def test_video_file_to_bag_cli(tmp_path):
     err = np.abs(back.pose - truth)
     # JPEG blocks cost a little precision against the PNG frames above.
     assert err[:, :2].max() < 1.5e-3 and np.degrees(err[:, 2]).max() < 0.3
+
+
+def _camera_and_meta(folder, scene, test_id):
+    """Camera calibration and test metadata files the tracking CLI reads."""
+    cam = folder / 'cam.json'
+    cam.write_text(json.dumps(asdict(scene.camera)))
+    meta = PullTestMeta(test_id=test_id, robot='prototype',
+                        medium={'name': 'glass_beads', 'xi_n': 3.8e5, 'mu_surf': 0.4,
+                                'zeta': 0.33e6},
+                        pull='backward', initial_state=AnchorState(0.02, 0.0, 0.0, 0.0),
+                        markers=scene.markers)
+    (folder / 'meta.json').write_text(meta.to_json())
+    return cam, meta
