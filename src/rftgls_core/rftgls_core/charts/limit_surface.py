@@ -9,6 +9,7 @@ import numpy as np
 
 from ..anchor import AnchorModel
 from ..types import AnchorState, Pull, pull_direction
+from .figure_io import pyplot, save
 
 
 def limit_curve(model: AnchorModel, state: AnchorState, pull: Pull | str, n: int = 181):
@@ -23,9 +24,7 @@ def limit_curve(model: AnchorModel, state: AnchorState, pull: Pull | str, n: int
 def plot_limit_surface(model: AnchorModel, state: AnchorState, pull: Pull | str, phi: float,
                        out: str | Path, title: str = '') -> dict:
     """Write a two-panel PNG; returns the capacity result at phi for captions and logs."""
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     surface, failure = model.fit(state, pull)
     result = failure if surface is None else surface.capacity(phi)
@@ -77,8 +76,5 @@ def plot_limit_surface(model: AnchorModel, state: AnchorState, pull: Pull | str,
                            f'h = {1e3 * state.h:.0f} mm, thetaB = {deg[0]:.1f}, '
                            f'thetaL1 = {deg[1]:.0f}, thetaL2 = {deg[2]:.0f} deg, '
                            f'method {model.method}'))
-    fig.tight_layout()
-    Path(out).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
+    save(fig, out)
     return {'capacity_N': cap, 'status': result.status.value, 'reason': result.reason}

@@ -17,6 +17,7 @@ import numpy as np
 from ..anchor import AnchorModel
 from ..sim.trajectory import Trajectory, simulate_pull
 from ..types import AnchorState, Pull
+from .figure_io import pyplot, save
 
 LEG_ANGLES_DEG = (-40, -20, 0, 20, 40)
 
@@ -64,9 +65,7 @@ def leg_angle_maps(model: AnchorModel, h: float = 0.02, theta_b: float = 0.0,
 
 
 def plot_leg_angle_maps(maps: dict, out: str | Path, title: str) -> None:
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     rows = (('peak', 'peak pull force [N]'), ('dz_dx', 'dz/dx [-]'),
             ('dtb', 'dthetaB/|dx| [deg/mm]'))
@@ -88,19 +87,14 @@ def plot_leg_angle_maps(maps: dict, out: str | Path, title: str) -> None:
             ax.set_title(f'{pull}: {label}')
             fig.colorbar(im, ax=ax, shrink=0.8)
     fig.suptitle(title + '\n(— : no quasi-static balance)')
-    fig.tight_layout()
-    Path(out).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
+    save(fig, out, dpi=100)
 
 
 def plot_anchor_modes(capacities: dict, needs: dict, out: str | Path, title: str,
                       lower: dict | None = None) -> None:
     """Fig. 10 b: capacities[mode][phi_deg] (N or None) against sled forces needs[label];
     lower[mode][phi_deg]: one-sided 95 % lower bounds, drawn as error bars."""
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     modes = list(capacities)
     phis = sorted({p for m in capacities.values() for p in m}, reverse=True)
@@ -125,7 +119,4 @@ def plot_anchor_modes(capacities: dict, needs: dict, out: str | Path, title: str
     ax.set_ylabel('load capacity [N]')
     ax.legend(fontsize=8)
     ax.set_title(title)
-    fig.tight_layout()
-    Path(out).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
+    save(fig, out)

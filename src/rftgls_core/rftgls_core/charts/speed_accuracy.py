@@ -5,15 +5,14 @@ import math
 from pathlib import Path
 
 from ..accuracy import Summary, pareto_front
+from .figure_io import pyplot, save
 
 COLORS = {'twist-mesh': 'tab:blue', 'direct': 'tab:green', 'alpha': 'tab:purple',
           'ellipsoid': 'tab:orange', 'map': 'tab:red'}
 
 
 def plot_speed_accuracy(summaries: list[Summary], out: str | Path, title: str = '') -> None:
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, axes = plt.subplots(1, 2, figsize=(13, 5.5))
     panels = (('cap_err_pct_p95', 'capacity error, 95th percentile [%]'),
@@ -43,7 +42,4 @@ def plot_speed_accuracy(summaries: list[Summary], out: str | Path, title: str = 
                 ax.scatter([], [], color=c, label=m)
         ax.legend(fontsize=8)
     fig.suptitle(title or 'speed against accuracy (reference: direct on the finest leg mesh)')
-    fig.tight_layout()
-    Path(out).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
+    save(fig, out)

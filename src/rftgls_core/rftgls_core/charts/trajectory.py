@@ -3,14 +3,13 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from .figure_io import pyplot, save
 
 
 def plot_trajectories(runs: dict, out: str | Path, title: str = '', measured: dict | None = None
                       ) -> None:
     """runs: label -> Trajectory. Rows: pull force, z of p, thetaB; all against x of p (mm)."""
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, axes = plt.subplots(3, 1, figsize=(6, 8), sharex=True)
     for label, traj in runs.items():
@@ -34,7 +33,4 @@ def plot_trajectories(runs: dict, out: str | Path, title: str = '', measured: di
     for ax in axes:
         ax.grid(alpha=0.3)
     fig.suptitle(title)
-    fig.tight_layout()
-    Path(out).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
+    save(fig, out)
