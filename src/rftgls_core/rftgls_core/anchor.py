@@ -123,8 +123,8 @@ class AnchorModel:
         from .surfaces.twist_mesh import TwistSphere
 
         sphere = TwistSphere.build(self.n_twists)
-        wrenches = problem.wrenches(sphere.twists_raw(problem))
-        if not np.all(np.isfinite(wrenches)):
+        wrenches, _ = sphere.wrenches(problem)
+        if wrenches is None:
             return surface.fit(problem), None  # the surface reports the non-finite wrenches
         wind = winding_number(problem.scaling.wrench_to_scaled(wrenches), sphere.faces)
         if abs(wind) < 0.5:

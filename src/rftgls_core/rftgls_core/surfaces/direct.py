@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..types import Status
-from .base import CapacityResult, FitInfo, GLSProblem, LimitSurface, evaluate_wrenches
+from .base import CapacityResult, FitInfo, GLSProblem, LimitSurface
 from .newton import newton_on_sphere, unit_rows
 from .raycast import all_hits, prepare_mesh, winding_number
 from .twist_mesh import TwistSphere
@@ -64,7 +64,7 @@ class DirectSurface(LimitSurface):
                                   f'{self.n_twists} bracketing twists cannot triangulate a '
                                   'sphere (need >= 8; 400 recommended)')
         self.sphere = TwistSphere.build(self.n_twists)
-        w, why = evaluate_wrenches(problem, self.sphere.twists_raw(problem))
+        w, why = self.sphere.wrenches(problem)
         if w is None:
             return self._fail_fit(Status.INVALID_INPUT, 'non_finite_wrench', why)
         ws = problem.scaling.wrench_to_scaled(w)

@@ -64,6 +64,10 @@ class TwistSphere:
     def twists_raw(self, problem: GLSProblem) -> np.ndarray:
         return problem.scaling.twist_from_scaled(self.twists_scaled)
 
+    def wrenches(self, problem: GLSProblem) -> tuple[np.ndarray | None, str]:
+        """Raw W_ext at every sphere twist (one batched call), or (None, why) if not finite."""
+        return evaluate_wrenches(problem, self.twists_raw(problem))
+
     @cached_property
     def edges(self) -> np.ndarray:
         """Unique undirected edges (E, 2): the same for every pose, so computed once."""
@@ -114,7 +118,7 @@ class TwistMeshSurface(LimitSurface):
                                       f'{self.n_twists} twists cannot triangulate a sphere '
                                       '(need >= 8, about 2000 recommended)')
             self.sphere = TwistSphere.build(self.n_twists)
-        w, why = evaluate_wrenches(problem, self.sphere.twists_raw(problem))
+        w, why = self.sphere.wrenches(problem)
         if w is None:
             self.problem = problem
             return self._fail_fit(Status.INVALID_INPUT, 'non_finite_wrench', why)
