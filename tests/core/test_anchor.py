@@ -8,9 +8,10 @@ from rftgls_core import accuracy as acc
 from rftgls_core.anchor import AnchorModel
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
+from rftgls_core.surfaces.registry import METHOD_NAMES
 from rftgls_core.types import AnchorState, Status
 
-METHODS = ['direct', 'twist-mesh', 'alpha', 'ellipsoid']
+METHODS = list(METHOD_NAMES)
 
 
 def model(robot='prototype', method='twist-mesh', **kw):

@@ -10,7 +10,6 @@ the twist sample (and so the twist-sphere mesh) the same for every state of a ma
 """
 from __future__ import annotations
 
-import importlib
 import math
 from dataclasses import dataclass
 
@@ -21,27 +20,14 @@ from .rft.media import Medium
 from .rft.models import make_model
 from .robots.model import G, PosedRobot, RobotModel
 from .surfaces.base import CapacityResult, GLSProblem, LimitSurface
+from .surfaces.registry import surface_class
 from .surfaces.scaling import Scaling
 from .types import AnchorState, Pull, Status
 
-# method name -> (module in rftgls_core.surfaces, class)
-METHODS = {
-    'direct': ('direct', 'DirectSurface'),
-    'twist-mesh': ('twist_mesh', 'TwistMeshSurface'),
-    'alpha': ('alpha_shape', 'AlphaShapeSurface'),
-    'ellipsoid': ('ellipsoid', 'EllipsoidSurface'),
-}
 DEFAULT_METHOD = 'twist-mesh'
 DEFAULT_TWISTS = 1000
 # direct needs the sphere only to bracket the ray (Newton does the rest): fewer twists.
 DEFAULT_TWISTS_BY_METHOD = {'direct': 400}
-
-
-def surface_class(method: str) -> type[LimitSurface]:
-    if method not in METHODS:
-        raise ValueError(f'unknown method {method!r}; known methods: {", ".join(METHODS)}')
-    module, cls = METHODS[method]
-    return getattr(importlib.import_module(f'rftgls_core.surfaces.{module}'), cls)
 
 
 @dataclass(frozen=True)
@@ -109,37 +95,14 @@ class AnchorModel:
         if anchor.body.facets_active == 0:
             return None, self._fail(Status.UNSUPPORTED, 'no_buried_leg',
                                     f'no leg facet is below the surface (h = {state.h:.4f} m)')
-        surface = self.new_surface()
-        if self.method in ('alpha', 'ellipsoid') and self.n_twists >= 8:
-            return self._fit_on_sphere_samples(surface, anchor.problem)
-        return surface.fit(anchor.problem), None
-
-    def _fit_on_sphere_samples(self, surface: LimitSurface, problem: GLSProblem):
-        """Alpha shapes and ellipsoids smooth over the cloud, and both can swallow the origin
-        when the legs cannot carry the robot (seen: the paper's median alpha fills the dent
-        the origin sits in). Whether the weight is held is decided on the samples themselves:
-        the winding number of the twist-sphere mesh about the origin, as twist-mesh does."""
-        from .surfaces.raycast import winding_number
-        from .surfaces.twist_mesh import TwistSphere
-
-        sphere = TwistSphere.build(self.n_twists)
-        wrenches, _ = sphere.wrenches(problem)
-        if wrenches is None:
-            return surface.fit(problem), None  # the surface reports the non-finite wrenches
-        wind = winding_number(problem.scaling.wrench_to_scaled(wrenches), sphere.faces)
-        if abs(wind) < 0.5:
-            return None, self._fail(Status.UNSUPPORTED, 'origin_outside',
-                                    f'origin outside the sampled limit surface (winding '
-                                    f'{wind:.3f}): the legs cannot hold the robot in this pose')
-        if self.method == 'alpha':
-            return surface.fit_samples(problem, sphere.twists_scaled, wrenches), None
-        return surface.fit_wrenches(problem, wrenches), None
+        return self.new_surface().fit(anchor.problem), None
 
     def predict_many(self, state: AnchorState, phis, pull: Pull | str) -> list[CapacityResult]:
         """Capacity and slip twist for several pull angles (rad) of one state."""
         phis = np.atleast_1d(np.asarray(phis, dtype=float))
         surface, failure = self.fit(state, pull)
         if surface is None:
+            assert failure is not None
             return [CapacityResult(**{**failure.__dict__, 'phi': float(p)}) for p in phis]
         return surface.capacity_many(phis)
 

@@ -87,11 +87,12 @@ def bench_rft() -> list[Figure]:
 def bench_capacity() -> list[Figure]:
     """Per limit-surface method on the MiniRQuad DH pose: from scratch (pose, RFT, fit, one
     query) and the query alone on a fitted surface."""
-    from .anchor import METHODS, AnchorModel
+    from .anchor import AnchorModel
+    from .surfaces.registry import METHOD_NAMES
 
     robot, medium = minirquad(), get_medium('m90_sand')
     figures = []
-    for method in METHODS:
+    for method in METHOD_NAMES:
         model = AnchorModel(robot, medium, method=method)
         scratch = best_time(lambda: model.predict(TYPICAL_STATE, 0.0, Pull.BACKWARD), repeats=5)
         surface, _ = model.fit(TYPICAL_STATE, Pull.BACKWARD)

@@ -4,7 +4,8 @@ from __future__ import annotations
 import math
 import time
 
-from ..anchor import DEFAULT_TWISTS, METHODS, AnchorModel
+from ..anchor import DEFAULT_TWISTS, AnchorModel
+from ..surfaces.registry import METHOD_NAMES
 from ..robots.presets import ROBOTS, get_robot
 from ..types import AnchorState, Pull
 from .common import add_medium_args, finite_float, medium_from_args, print_json
@@ -42,7 +43,7 @@ def add_parser(sub) -> None:
                        'L_c = char_length_m of the robot; slip_twist_raw is (vx, vz, wy) in '
                        'm/s and rad/s scaled to unit Euclidean norm.')
     add_state_args(p)
-    p.add_argument('--method', choices=list(METHODS) + ['map'], default='twist-mesh')
+    p.add_argument('--method', choices=list(METHOD_NAMES) + ['map'], default='twist-mesh')
     p.add_argument('--twists', type=int, default=None,
                    help=f'sampled unit twists (default {DEFAULT_TWISTS}; 400 for direct)')
     p.add_argument('--map', help='HDF5 map file (with --method map)')

@@ -18,7 +18,8 @@ import shlex
 
 import numpy as np
 
-from ..anchor import DEFAULT_METHOD, DEFAULT_TWISTS, METHODS
+from ..anchor import DEFAULT_METHOD, DEFAULT_TWISTS
+from ..surfaces.registry import METHOD_NAMES
 from ..robots.presets import ROBOTS
 from .common import add_medium_args, medium_from_args, print_json
 
@@ -36,7 +37,7 @@ def add_parser(sub) -> None:
     b = msub.add_parser('build', help='compute a map and write it to an HDF5 file')
     b.add_argument('--robot', required=True, choices=sorted(ROBOTS))
     add_medium_args(b)
-    b.add_argument('--method', default=DEFAULT_METHOD, choices=sorted(METHODS),
+    b.add_argument('--method', default=DEFAULT_METHOD, choices=sorted(METHOD_NAMES),
                    help='limit-surface method (default: %(default)s)')
     b.add_argument('--n-twists', type=int, default=DEFAULT_TWISTS,
                    help='twists sampled per state (default: %(default)s)')
@@ -67,7 +68,7 @@ def add_parser(sub) -> None:
     a.add_argument('file')
     a.add_argument('--samples', type=int, default=20,
                    help='cell centres and as many random states (default: %(default)s)')
-    a.add_argument('--reference', default='direct', choices=sorted(METHODS),
+    a.add_argument('--reference', default='direct', choices=sorted(METHOD_NAMES),
                    help='reference method (default: %(default)s)')
     a.add_argument('--seed', type=int, default=0)
     a.add_argument('--json', action='store_true', help='print JSON')

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 
-from ..anchor import METHODS
+from ..surfaces.registry import METHOD_NAMES
 from ..charts.limit_surface import plot_limit_surface
 from .capacity import add_state_args, model_from_args, state_from_args
 
@@ -11,7 +11,7 @@ from .capacity import add_state_args, model_from_args, state_from_args
 def add_parser(sub) -> None:
     p = sub.add_parser('plot', help='plot the limit surface and capacity of one pose (PNG)')
     add_state_args(p)
-    p.add_argument('--method', choices=list(METHODS), default='twist-mesh')
+    p.add_argument('--method', choices=list(METHOD_NAMES), default='twist-mesh')
     p.add_argument('--twists', type=int, default=None)
     p.add_argument('--out', required=True, help='PNG file to write')
     p.set_defaults(run=run)

@@ -20,6 +20,7 @@ forest of the complement graph (weights min(R_i, R_j), plus an outside node).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Self
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -27,10 +28,9 @@ from scipy.sparse.csgraph import connected_components, minimum_spanning_tree
 from scipy.spatial import Delaunay, QhullError
 
 from ..types import Status
-from .base import CapacityResult, FitInfo, GLSProblem, LimitSurface, evaluate_wrenches
+from .base import CapacityResult, FitSamples, GLSProblem, LimitSurface
 from .diagnostics import MeshTopology, mesh_topology
-from .raycast import cast_rays, prepare_mesh, winding_number
-from .sampling import sample_twists
+from .raycast import PreparedMesh, cast_rays, prepare_mesh, winding_number
 
 # Local faces of a tetrahedron: face j is opposite vertex j.
 _TET_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
@@ -280,34 +280,17 @@ class AlphaShapeSurface(LimitSurface):
     'one-region', or a radius in scaled units (inf = convex hull)."""
 
     method = 'alpha'
+    min_twists = 5
 
     def __init__(self, n_twists: int = 2000, alpha: str | float = 'paper') -> None:
         super().__init__(n_twists)
         self.alpha = alpha
+        self.shape: AlphaShape | None = None
+        self._mesh: PreparedMesh | None = None
 
-    def fit(self, problem: GLSProblem, n_twists: int | None = None) -> 'AlphaShapeSurface':
-        self.problem = problem
-        if n_twists is not None:
-            self.n_twists = int(n_twists)
-        if self.n_twists < 5:
-            return self._fail_fit(Status.DEGENERATE, 'too_few_twists',
-                                  f'{self.n_twists} twists: a 3D alpha shape needs >= 5 points')
-        sample = sample_twists(problem.scaling, self.n_twists)
-        w, why = evaluate_wrenches(problem, sample.raw)
-        if w is None:
-            return self._fail_fit(Status.INVALID_INPUT, 'non_finite_wrench', why)
-        return self.fit_samples(problem, sample.scaled, w)
-
-    def fit_samples(self, problem: GLSProblem, twists_scaled: np.ndarray,
-                    wrenches: np.ndarray) -> 'AlphaShapeSurface':
-        """Fit from paired samples: unit scaled twists (M, 3) and raw W_ext (M, 3)."""
-        self.problem = problem
-        ws = problem.scaling.wrench_to_scaled(np.asarray(wrenches, dtype=float))
-        sv = np.linalg.svd(ws - ws.mean(axis=0), compute_uv=False)
-        if len(ws) < 5 or sv[-1] < 1e-9 * sv[0]:
-            return self._fail_fit(Status.DEGENERATE, 'flat_cloud',
-                                  f'{len(ws)} points, singular values {np.round(sv, 6)}: no 3D '
-                                  'alpha shape')
+    def _fit_samples(self, problem: GLSProblem, samples: FitSamples) -> Self:
+        ws = samples.wrenches_scaled
+        twists_scaled = samples.sphere.twists_scaled
         cx = AlphaComplex(ws)
         self.complex = cx
         self._twists = np.asarray(twists_scaled, dtype=float)[cx.source_index]
@@ -318,10 +301,10 @@ class AlphaShapeSurface(LimitSurface):
                  'one-region': crit.alpha_one_region}[self.alpha]
         else:
             a = float(self.alpha)
-        diag = {'alpha': a, 'alpha_all_points': crit.alpha_all_points,
-                'alpha_one_region': crit.alpha_one_region, 'n_passing': int(len(crit.passing)),
-                'n_spectrum': int(len(crit.spectrum))}
-        self.fit_info = FitInfo(diagnostics=diag)
+        diag = self.fit_info.diagnostics
+        diag.update(alpha=a, alpha_all_points=crit.alpha_all_points,
+                    alpha_one_region=crit.alpha_one_region, n_passing=int(len(crit.passing)),
+                    n_spectrum=int(len(crit.spectrum)))
         if not np.isfinite(a) and not (np.isposinf(a) and not isinstance(self.alpha, str)):
             return self._fail_fit(Status.DEGENERATE, 'no_alpha',
                                   'no alpha gives one closed region with no voids')
@@ -348,9 +331,11 @@ class AlphaShapeSurface(LimitSurface):
         return self
 
     def _capacity_many(self, ph: np.ndarray) -> list[CapacityResult]:
-        d = np.stack([self.problem.load_direction_scaled(p) for p in ph])
+        pr = self._fitted_problem()
+        assert self._mesh is not None and self.shape is not None
+        d = np.stack([pr.load_direction_scaled(p) for p in ph])
         hits = cast_rays(self._mesh, d)
-        sf = self.problem.scaling.force_N
+        sf = pr.scaling.force_N
         out = []
         for k, phi in enumerate(ph):
             f, nh = int(hits.face[k]), int(hits.n_hits[k])
@@ -367,6 +352,6 @@ class AlphaShapeSurface(LimitSurface):
                 status, reason = Status.DEGENERATE, 'multiple_hits'
                 detail += '; ray crosses the alpha shape more than once (first exit used)'
             out.append(CapacityResult.make(phi, status, self.method, float(hits.s[k]) * sf, tw,
-                                           self.problem.scaling, n_hits=nh, reason=reason,
+                                           pr.scaling, n_hits=nh, reason=reason,
                                            detail=detail))
         return out

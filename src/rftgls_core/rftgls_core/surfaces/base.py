@@ -10,20 +10,23 @@ Space and conventions (architecture.md section 3, limit-surfaces.md section 1):
 - Origin outside the surface (the legs cannot hold the robot's weight): status UNSUPPORTED.
 
 Failure is a result: `CapacityResult.capacity_N` and the slip twists are None unless the status
-carries a value (ok / extrapolated). A first-exit distance computed despite a failed check is
+carries a value (ok / assumed). A first-exit distance computed despite a failed check is
 kept in `unchecked_capacity_N` for diagnostics only, and `reason` says what failed.
 """
 from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Callable, ClassVar, Iterable, Sequence
+from typing import ClassVar, Self
 
 import numpy as np
 
 from ..types import Status, pull_direction
+from .raycast import winding_number
 from .scaling import Scaling
+from .twist_sphere import TwistSphere
 
 WrenchFn = Callable[[np.ndarray], np.ndarray]
 
@@ -128,14 +131,46 @@ class FitInfo:
     diagnostics: dict = field(default_factory=dict)
 
 
+@dataclass(frozen=True)
+class FitSamples:
+    """What the base class hands a method's `_fit_samples`: one evaluation of the twist sphere.
+
+    sphere: the shared twist sphere (unit scaled twists and their outward triangulation).
+    wrenches_raw: (n, 3) W_ext (Fx, Fz, My) in N, N, N m at each sphere twist, finite.
+    wrenches_scaled: the same in the scaled wrench space.
+    winding: winding number of the sphere mesh (vertices moved to the scaled wrenches) about
+        the origin: ~1 when the weight is held, ~0 when the origin is outside.
+    """
+
+    sphere: TwistSphere
+    wrenches_raw: np.ndarray
+    wrenches_scaled: np.ndarray
+    winding: float
+
+
 class LimitSurface(ABC):
     """Fit-then-query interface (scikit-learn style): `fit(problem)` then `capacity(phi)`.
 
-    A fit that fails (degenerate data, invalid wrenches) does not raise: `fit_info.status`
-    records it and every later query returns that status with no value.
+    Hyper-parameters are set in `__init__` only; `fit(problem)` never changes them. The fit is
+    one template for every method (a new method provides `method`, `min_twists` and
+    `_fit_samples`, plus `_capacity` or `_capacity_many`):
+
+    1. the twist count is checked against the class's `min_twists` (DEGENERATE too_few_twists);
+    2. the shared twist sphere of `n_twists` twists is evaluated in one wrench_fn call
+       (INVALID_INPUT non_finite_wrench);
+    3. a sampled surface with no volume defines no limit surface (DEGENERATE flat_cloud);
+    4. the weight-held check: the origin must lie inside the sampled surface (winding number
+       of the sphere mesh), otherwise the legs cannot hold the robot (UNSUPPORTED
+       origin_outside). Methods that smooth over the cloud (alpha, ellipsoid) would otherwise
+       swallow the origin, so the check is made on the samples, for every method;
+    5. `_fit_samples(problem, samples)` builds the method's own representation.
+
+    A fit that fails does not raise: `fit_info.status` records it and every later query
+    returns that status with no value.
     """
 
     method: ClassVar[str] = 'base'
+    min_twists: ClassVar[int] = 8
 
     def __init__(self, n_twists: int = 2000) -> None:
         self.n_twists = int(n_twists)
@@ -143,10 +178,42 @@ class LimitSurface(ABC):
         self.fit_info = FitInfo(status=Status.INVALID_INPUT, reason='not_fitted',
                                 detail='call fit() first')
 
-    @abstractmethod
-    def fit(self, problem: GLSProblem, n_twists: int | None = None) -> 'LimitSurface':
-        ...
+    # -- the fit template --------------------------------------------------------------------
+    def fit(self, problem: GLSProblem) -> Self:
+        """Fit to `problem`; returns self. Failures are recorded in `fit_info`, never raised."""
+        self.problem = problem
+        self.fit_info = FitInfo()
+        if self.n_twists < self.min_twists:
+            return self._fail_fit(Status.DEGENERATE, 'too_few_twists',
+                                  f'{self.n_twists} twists: {self.method} needs at least '
+                                  f'{self.min_twists}')
+        sphere = self._twist_sphere()
+        w, why = evaluate_wrenches(problem, sphere.twists_raw(problem.scaling))
+        if w is None:
+            return self._fail_fit(Status.INVALID_INPUT, 'non_finite_wrench', why)
+        ws = problem.scaling.wrench_to_scaled(w)
+        sv = np.linalg.svd(ws - ws.mean(axis=0), compute_uv=False)
+        if not sv[-1] > 1e-9 * sv[0]:
+            return self._fail_fit(Status.DEGENERATE, 'flat_cloud',
+                                  f'the sampled wrenches are flat (singular values '
+                                  f'{sv[0]:.3g} .. {sv[-1]:.3g}): no limit surface')
+        wind = winding_number(ws, sphere.faces)
+        self.fit_info.diagnostics.update(n_twists=sphere.n, winding_number=wind)
+        if abs(wind) < 0.5:
+            return self._fail_fit(Status.UNSUPPORTED, 'origin_outside',
+                                  f'origin outside the sampled limit surface (winding '
+                                  f'{wind:.3f}): the legs cannot hold the robot in this pose')
+        return self._fit_samples(problem, FitSamples(sphere, w, ws, wind))
 
+    def _twist_sphere(self) -> TwistSphere:
+        """The sphere this surface samples (cached per twist count, shared by every pose)."""
+        return TwistSphere.build(self.n_twists)
+
+    @abstractmethod
+    def _fit_samples(self, problem: GLSProblem, samples: FitSamples) -> Self:
+        """Build the method's representation from checked samples; set `fit_info`; return self."""
+
+    # -- queries -----------------------------------------------------------------------------
     def _capacity(self, phi: float) -> CapacityResult:
         """One finite angle on a fitted surface (override this or `_capacity_many`)."""
         return self._capacity_many(np.array([phi]))[0]
@@ -173,7 +240,13 @@ class LimitSurface(ABC):
             return [self.capacity(p) for p in ph]
         return self._capacity_many(ph)
 
-    def _fail_fit(self, status: Status, reason: str, detail: str) -> 'LimitSurface':
+    def _fitted_problem(self) -> GLSProblem:
+        """The problem of a successful fit (queries only run after one)."""
+        if self.problem is None or not self.fit_info.status.has_value:
+            raise RuntimeError(f'{type(self).__name__} is not fitted')
+        return self.problem
+
+    def _fail_fit(self, status: Status, reason: str, detail: str) -> Self:
         self.fit_info = FitInfo(status=status, reason=reason, detail=detail,
                                 diagnostics=self.fit_info.diagnostics)
         return self
@@ -189,5 +262,6 @@ def evaluate_wrenches(problem: GLSProblem, twists_raw: np.ndarray
     return w, ''
 
 
-def phis_array(phis: Sequence[float] | np.ndarray) -> np.ndarray:
-    return np.atleast_1d(np.asarray(phis, dtype=float))
+def phis_array(phis: Iterable[float] | np.ndarray) -> np.ndarray:
+    return np.atleast_1d(np.asarray(list(phis) if not isinstance(phis, np.ndarray) else phis,
+                                    dtype=float))

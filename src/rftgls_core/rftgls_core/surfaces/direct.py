@@ -8,9 +8,9 @@ d, a twist t is on the load ray when the two residuals
 
 vanish (My = 0 and (Fx, Fz) parallel to d), with s = d . Ws(t) > 0.
 
-1. Fit: one batched wrench_fn call on a coarse twist sphere mesh (default 400 twists, the
-   twist-mesh connectivity) and its winding number about the origin (origin outside ->
-   UNSUPPORTED).
+1. Fit (the base-class template): one batched wrench_fn call on a coarse twist sphere mesh
+   (default 400 twists) and its winding number about the origin (origin outside ->
+   UNSUPPORTED); here only the ray precompute of that mesh is added.
 2. Query: cast the ray on the coarse mesh; every crossing is a bracket whose barycentric twist
    seeds a Newton solve on the sphere (2 unknowns: steps in the tangent plane, re-centred each
    iteration). All seeds advance together; each iteration is ONE wrench_fn call on 3 twists
@@ -30,13 +30,15 @@ is not seeded. Raise n_twists when the surface has fine folds.
 """
 from __future__ import annotations
 
+from typing import Self
+
 import numpy as np
 
 from ..types import Status
-from .base import CapacityResult, FitInfo, GLSProblem, LimitSurface
+from .base import CapacityResult, FitSamples, GLSProblem, LimitSurface
 from .newton import newton_on_sphere, unit_rows
-from .raycast import all_hits, prepare_mesh, winding_number
-from .twist_mesh import TwistSphere
+from .raycast import PreparedMesh, all_hits, prepare_mesh
+from .twist_sphere import TwistSphere
 
 
 class DirectSurface(LimitSurface):
@@ -54,35 +56,21 @@ class DirectSurface(LimitSurface):
         self.rtol, self.fd_step, self.max_iter = float(rtol), float(fd_step), int(max_iter)
         self.gap_tol = float(gap_tol)
         self.n_wrench_calls = 0
+        self.sphere: TwistSphere | None = None
+        self._mesh: PreparedMesh | None = None
 
-    def fit(self, problem: GLSProblem, n_twists: int | None = None) -> 'DirectSurface':
-        self.problem = problem
-        if n_twists is not None:
-            self.n_twists = int(n_twists)
-        if self.n_twists < 8:
-            return self._fail_fit(Status.DEGENERATE, 'too_few_twists',
-                                  f'{self.n_twists} bracketing twists cannot triangulate a '
-                                  'sphere (need >= 8; 400 recommended)')
-        self.sphere = TwistSphere.build(self.n_twists)
-        w, why = self.sphere.wrenches(problem)
-        if w is None:
-            return self._fail_fit(Status.INVALID_INPUT, 'non_finite_wrench', why)
-        ws = problem.scaling.wrench_to_scaled(w)
-        self._ws = ws
-        self._mesh = prepare_mesh(ws, self.sphere.faces)
-        wind = winding_number(ws, self.sphere.faces)
-        self.fit_info = FitInfo(diagnostics={'n_twists': self.n_twists, 'winding_number': wind})
-        if abs(wind) < 0.5:
-            return self._fail_fit(Status.UNSUPPORTED, 'origin_outside',
-                                  f'origin outside the limit surface (winding {wind:.3f}): the '
-                                  'legs cannot hold the robot in this pose')
+    def _fit_samples(self, problem: GLSProblem, samples: FitSamples) -> Self:
+        # The coarse sphere only brackets the ray; Newton on wrench_fn does the rest.
+        self.sphere = samples.sphere
+        self._ws = samples.wrenches_scaled
+        self._mesh = prepare_mesh(samples.wrenches_scaled, samples.sphere.faces)
         return self
 
     # -- the solver ------------------------------------------------------------------------
     def _eval_scaled(self, ts: np.ndarray) -> np.ndarray:
         self.n_wrench_calls += 1
-        sc = self.problem.scaling
-        return sc.wrench_to_scaled(self.problem.wrenches(sc.twist_from_scaled(ts)))
+        pr = self._fitted_problem()
+        return pr.scaling.wrench_to_scaled(pr.wrenches(pr.scaling.twist_from_scaled(ts)))
 
     def solve(self, d: np.ndarray, seeds: np.ndarray):
         """Newton on the sphere from seeds (K, 3). Returns (t, s, resid, J, converged, iters)."""
@@ -90,7 +78,8 @@ class DirectSurface(LimitSurface):
                                 self.max_iter)
 
     def _capacity(self, phi: float) -> CapacityResult:
-        pr = self.problem
+        pr = self._fitted_problem()
+        assert self._mesh is not None and self.sphere is not None
         d = pr.load_direction_scaled(phi)
         s_c, faces, bary = all_hits(self._mesh, d)
         calls0 = self.n_wrench_calls

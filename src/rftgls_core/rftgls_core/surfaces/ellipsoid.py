@@ -16,12 +16,12 @@ the slip twist is the normalised gradient ts ∝ A (Ws - c) (normality; not guar
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Self
 
 import numpy as np
 
 from ..types import Status
-from .base import CapacityResult, FitInfo, GLSProblem, LimitSurface, evaluate_wrenches
-from .sampling import sample_twists
+from .base import CapacityResult, FitSamples, GLSProblem, LimitSurface
 
 
 @dataclass(frozen=True)
@@ -115,6 +115,7 @@ class EllipsoidSurface(LimitSurface):
     """LG04 ellipsoid in scaled coordinates. roi='fx<0' (paper) or None (all points)."""
 
     method = 'ellipsoid'
+    min_twists = 4
 
     def __init__(self, n_twists: int = 2000, roi: str | None = 'fx<0',
                  min_points: int = 12) -> None:
@@ -123,48 +124,36 @@ class EllipsoidSurface(LimitSurface):
         self.min_points = int(min_points)
         self.model: EllipsoidFit | None = None
 
-    def fit(self, problem: GLSProblem, n_twists: int | None = None) -> 'EllipsoidSurface':
-        self.problem = problem
-        if n_twists is not None:
-            self.n_twists = int(n_twists)
-        if self.n_twists < 4:
-            return self._fail_fit(Status.DEGENERATE, 'too_few_twists',
-                                  f'{self.n_twists} twists: need at least {self.min_points}')
-        sample = sample_twists(problem.scaling, self.n_twists)
-        w, why = evaluate_wrenches(problem, sample.raw)
-        if w is None:
-            return self._fail_fit(Status.INVALID_INPUT, 'non_finite_wrench', why)
-        return self.fit_wrenches(problem, w)
-
-    def fit_wrenches(self, problem: GLSProblem, wrenches: np.ndarray) -> 'EllipsoidSurface':
-        """Fit from a raw W_ext cloud (M, 3) (twists not needed: normality gives the twist)."""
-        self.problem = problem
-        ws = problem.scaling.wrench_to_scaled(np.asarray(wrenches, dtype=float))
+    def _fit_samples(self, problem: GLSProblem, samples: FitSamples) -> Self:
+        # Twists are not needed: normality of the fitted surface gives the slip twist.
+        ws = samples.wrenches_scaled
         pts = ws[ws[:, 0] < 0.0] if self.roi == 'fx<0' else ws
-        self.model = fit_ellipsoid(pts, self.min_points)
-        diag = {'n_points': int(len(pts)), 'rms_residual': self.model.rms_residual}
-        self.fit_info = FitInfo(diagnostics=diag)
-        if not self.model.ok:
-            return self._fail_fit(Status.DEGENERATE, 'ellipsoid_fit', self.model.reason)
-        c = self.model.centre
-        if c @ self.model.A @ c >= 1.0:
+        model = fit_ellipsoid(pts, self.min_points)
+        self.model = model
+        self.fit_info.diagnostics.update(n_points=int(len(pts)),
+                                         rms_residual=model.rms_residual)
+        if not model.ok or model.A is None or model.centre is None:
+            return self._fail_fit(Status.DEGENERATE, 'ellipsoid_fit', model.reason)
+        c = model.centre
+        if c @ model.A @ c >= 1.0:
             return self._fail_fit(Status.UNSUPPORTED, 'origin_outside',
                                   'origin outside the fitted ellipsoid: the legs cannot hold '
                                   'the robot in this pose')
-        self.fit_info.detail = (f'{len(pts)} points, RMS radial residual '
-                                f'{self.model.rms_residual:.3g}')
+        self.fit_info.detail = f'{len(pts)} points, RMS radial residual {model.rms_residual:.3g}'
         return self
 
     def _capacity_many(self, ph: np.ndarray) -> list[CapacityResult]:
+        pr = self._fitted_problem()
+        assert self.model is not None and self.model.A is not None
         A, c = self.model.A, self.model.centre
-        d = np.stack([self.problem.load_direction_scaled(p) for p in ph])   # (K, 3)
+        d = np.stack([pr.load_direction_scaled(p) for p in ph])   # (K, 3)
         a2 = np.einsum('ki,ij,kj->k', d, A, d)
         a1 = -2.0 * d @ (A @ c)
         a0 = c @ A @ c - 1.0                                   # < 0: origin inside
         s = (-a1 + np.sqrt(a1 * a1 - 4.0 * a2 * a0)) / (2.0 * a2)
         grad = (s[:, None] * d - c) @ A.T
         tw = grad / np.linalg.norm(grad, axis=1, keepdims=True)
-        sf = self.problem.scaling.force_N
+        sf = pr.scaling.force_N
         return [CapacityResult.make(p, Status.OK, self.method, float(si) * sf, ti,
-                                    self.problem.scaling, n_hits=1, detail=self.fit_info.detail)
+                                    pr.scaling, n_hits=1, detail=self.fit_info.detail)
                 for p, si, ti in zip(ph, s, tw)]

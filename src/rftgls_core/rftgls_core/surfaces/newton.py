@@ -8,7 +8,7 @@ two forward differences) per iteration; steps that do not reduce the residual ar
 """
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -50,7 +50,7 @@ def newton_on_sphere(eval_scaled: Callable[[np.ndarray], np.ndarray], d: np.ndar
     s = np.zeros(k)
     conv = np.zeros(k, dtype=bool)
     it = 0
-    for it in range(1, max_iter + 1):
+    for it in range(1, max_iter + 1):  # noqa: B007 (the count is returned)
         u, v = _tangent_basis(t)
         batch = np.concatenate([t, unit_rows(t + h * u), unit_rows(t + h * v)])
         w = eval_scaled(batch).reshape(3, k, 3)

@@ -16,74 +16,16 @@ Per-pose checks, in the scaled wrench space:
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from functools import cached_property, lru_cache
+from typing import Self
 
 import numpy as np
-from scipy.spatial import ConvexHull
 
 from ..types import Status
-from .base import CapacityResult, FitInfo, GLSProblem, LimitSurface, evaluate_wrenches
-from .diagnostics import collapsed_vertices, face_normals, fold_mask, unique_edges
+from .base import CapacityResult, FitSamples, GLSProblem, LimitSurface
+from .diagnostics import collapsed_vertices, fold_mask
 from .newton import newton_on_sphere
-from .raycast import PreparedMesh, cast_rays, prepare_mesh, winding_number
-from .sampling import fibonacci_sphere
-
-
-def orient_outward(points: np.ndarray, faces: np.ndarray,
-                   centre: np.ndarray | None = None) -> np.ndarray:
-    """Reorder each face (F, 3) so its right-hand normal points away from `centre` (default 0)."""
-    c = np.zeros(3) if centre is None else np.asarray(centre, dtype=float)
-    f = np.array(faces, dtype=np.intp, copy=True)
-    n = face_normals(points, f)
-    centroid = points[f].mean(axis=1) - c
-    flip = np.einsum('ij,ij->i', n, centroid) < 0.0
-    f[flip, 1], f[flip, 2] = f[flip, 2].copy(), f[flip, 1].copy()
-    return f
-
-
-@dataclass(frozen=True)
-class TwistSphere:
-    """n unit scaled twists (Fibonacci) and their outward sphere triangulation (2n - 4 faces).
-
-    Independent of the pose and of the scaling (the scaling only changes the raw twists), so
-    one instance serves a whole state-space map.
-    """
-
-    twists_scaled: np.ndarray   # (n, 3) unit vectors
-    faces: np.ndarray           # (2n-4, 3) vertex indices, outward
-
-    @property
-    def n(self) -> int:
-        return len(self.twists_scaled)
-
-    @classmethod
-    def build(cls, n: int) -> 'TwistSphere':
-        return _sphere(int(n))
-
-    def twists_raw(self, problem: GLSProblem) -> np.ndarray:
-        return problem.scaling.twist_from_scaled(self.twists_scaled)
-
-    def wrenches(self, problem: GLSProblem) -> tuple[np.ndarray | None, str]:
-        """Raw W_ext at every sphere twist (one batched call), or (None, why) if not finite."""
-        return evaluate_wrenches(problem, self.twists_raw(problem))
-
-    @cached_property
-    def edges(self) -> np.ndarray:
-        """Unique undirected edges (E, 2): the same for every pose, so computed once."""
-        return unique_edges(self.faces)[0]
-
-
-@lru_cache(maxsize=8)
-def _sphere(n: int) -> TwistSphere:
-    ts = fibonacci_sphere(n)
-    hull = ConvexHull(ts)
-    if len(hull.vertices) != n:
-        raise RuntimeError(f'sphere hull dropped {n - len(hull.vertices)} of {n} twists')
-    faces = orient_outward(ts, hull.simplices)
-    faces.setflags(write=False)
-    ts.setflags(write=False)
-    return TwistSphere(twists_scaled=ts, faces=faces)
+from .raycast import PreparedMesh, cast_rays, prepare_mesh
+from .twist_sphere import TwistSphere, orient_outward  # noqa: F401  (orient_outward: re-export)
 
 
 class TwistMeshSurface(LimitSurface):
@@ -106,49 +48,23 @@ class TwistMeshSurface(LimitSurface):
         self.gap_tol = float(gap_tol)
         self.wrenches_scaled: np.ndarray | None = None
         self._mesh: PreparedMesh | None = None
+        self._folded = np.zeros(0, dtype=bool)
+        self._pinched = np.zeros(0, dtype=bool)
 
-    # -- fitting ---------------------------------------------------------------------------
-    def fit(self, problem: GLSProblem, n_twists: int | None = None) -> 'TwistMeshSurface':
-        if n_twists is not None and (self.sphere is None or self.sphere.n != int(n_twists)):
-            self.sphere, self.n_twists = None, int(n_twists)
-        if self.sphere is None:
-            if self.n_twists < 8:
-                self.problem = problem
-                return self._fail_fit(Status.DEGENERATE, 'too_few_twists',
-                                      f'{self.n_twists} twists cannot triangulate a sphere '
-                                      '(need >= 8, about 2000 recommended)')
-            self.sphere = TwistSphere.build(self.n_twists)
-        w, why = self.sphere.wrenches(problem)
-        if w is None:
-            self.problem = problem
-            return self._fail_fit(Status.INVALID_INPUT, 'non_finite_wrench', why)
-        return self.fit_wrenches(problem, w)
+    def _twist_sphere(self) -> TwistSphere:
+        return self.sphere if self.sphere is not None else super()._twist_sphere()
 
-    def fit_wrenches(self, problem: GLSProblem, wrenches: np.ndarray) -> 'TwistMeshSurface':
-        """Fit from precomputed raw W_ext (n, 3), ordered like sphere.twists_raw(problem)."""
-        self.problem = problem
-        w = np.asarray(wrenches, dtype=float)
-        if self.sphere is None or w.shape != (self.sphere.n, 3):
-            raise ValueError('wrenches must be (n, 3) and ordered like the sphere twists')
-        if not np.all(np.isfinite(w)):
-            return self._fail_fit(Status.INVALID_INPUT, 'non_finite_wrench',
-                                  'wrenches contain NaN or inf')
-        ws = problem.scaling.wrench_to_scaled(w)
-        faces = self.sphere.faces
+    def _fit_samples(self, problem: GLSProblem, samples: FitSamples) -> Self:
+        ws, faces, wind = samples.wrenches_scaled, samples.sphere.faces, samples.winding
+        self.sphere = samples.sphere
         self.wrenches_scaled = ws
         self._mesh = prepare_mesh(ws, faces)
         folds = fold_mask(ws, faces)
         self._folded = folds
-        self._pinched = collapsed_vertices(ws, self.sphere.twists_scaled, faces,
-                                           self.pinch_ratio, edges=self.sphere.edges)
-        wind = winding_number(ws, faces)
-        diag = {'n_twists': self.sphere.n, 'n_faces': len(faces), 'folds': int(folds.sum()),
-                'winding_number': wind, 'pinched_vertices': int(self._pinched.sum())}
-        self.fit_info = FitInfo(diagnostics=diag)
-        if abs(wind) < 0.5:
-            return self._fail_fit(Status.UNSUPPORTED, 'origin_outside',
-                                  f'origin outside the limit surface (winding {wind:.3f}): the '
-                                  'legs cannot hold the robot in this pose')
+        self._pinched = collapsed_vertices(ws, samples.sphere.twists_scaled, faces,
+                                           self.pinch_ratio, edges=samples.sphere.edges)
+        self.fit_info.diagnostics.update(n_faces=len(faces), folds=int(folds.sum()),
+                                         pinched_vertices=int(self._pinched.sum()))
         if abs(wind - 1.0) > 0.1:
             return self._fail_fit(Status.DEGENERATE, 'bad_winding',
                                   f'winding number {wind:.3f} about the origin (expected 1): '
@@ -159,7 +75,8 @@ class TwistMeshSurface(LimitSurface):
 
     # -- queries ---------------------------------------------------------------------------
     def _capacity_many(self, phis: np.ndarray) -> list[CapacityResult]:
-        problem = self.problem
+        problem = self._fitted_problem()
+        assert self._mesh is not None and self.sphere is not None
         dirs = np.stack([problem.load_direction_scaled(p) for p in phis])
         hits = cast_rays(self._mesh, dirs)
         faces = self.sphere.faces
@@ -204,7 +121,8 @@ class TwistMeshSurface(LimitSurface):
         Newton steps from the barycentric twist remove that error; a root is accepted only
         near the hit face (the mesh keeps the topology decisions: first exit, folds).
         """
-        problem = self.problem
+        problem = self._fitted_problem()
+        assert self.sphere is not None
         sc = problem.scaling
         d = problem.load_direction_scaled(phi)
         eval_scaled = lambda ts: sc.wrench_to_scaled(problem.wrenches(sc.twist_from_scaled(ts)))
