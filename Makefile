@@ -14,7 +14,7 @@ export MPLBACKEND := Agg
 ENV := source tools/env.sh
 PYTEST_ARGS ?= -n 2
 
-.PHONY: setup build demo test bench lock clean
+.PHONY: setup build demo test lint bench lock clean
 
 setup: $(STAMP) $(WS)/install/.built-stamp
 
@@ -42,6 +42,10 @@ demo: setup
 
 test: setup
 	$(ENV) && python -m pytest tests $(PYTEST_ARGS)
+
+# ruff (lint + import order) on every package and the tests; mypy on the core library.
+lint: setup
+	$(ENV) && ruff check src tests tools && mypy
 
 bench: setup
 	$(ENV) && rftgls bench

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rftgls_core.geometry.shapes import icosphere
-from rftgls_core.rft.li import GENERIC, LiTreersRFT as LiTreersFromLi, li_alpha
+from rftgls_core.rft.li import GENERIC, li_alpha
 from rftgls_core.rft.treers import F1_C, F23_D, LiTreersRFT, f1, f23
 
 ZETA = 3.3e5                     # N/m^3 (0.33 N/cm^3, Treers' glass beads, models-rft.md 2.4)
@@ -213,7 +213,6 @@ def test_parameters_and_describe():
     assert model.alpha1 == pytest.approx(0.136 * ZETA)
     d = json.loads(json.dumps(model.describe()))
     assert d['zeta_N_per_m3'] == ZETA and d['coefficients'] == 'generic'
-    assert LiTreersFromLi is LiTreersRFT
 
 
 def test_poppy_sets_convert_n_per_cm3_to_si():

@@ -9,10 +9,9 @@ import math
 
 import numpy as np
 import pytest
-
 from rftgls_core.surfaces.diagnostics import max_power_check, mesh_topology
 from rftgls_core.surfaces.raycast import all_hits, cast_rays, prepare_mesh, winding_number
-from rftgls_core.surfaces.sampling import fibonacci_sphere, sample_twists
+from rftgls_core.surfaces.sampling import fibonacci_sphere
 from rftgls_core.surfaces.scaling import Scaling, choose_scaling
 from rftgls_core.surfaces.synthetic import PNormGLS
 from rftgls_core.surfaces.twist_mesh import TwistSphere
@@ -62,8 +61,9 @@ def test_fibonacci_sphere_is_unit_distinct_and_balanced():
     np.testing.assert_allclose(np.linalg.norm(p, axis=1), 1.0, atol=1e-14)
     assert len(np.unique(np.round(p, 9), axis=0)) == 2000
     assert np.linalg.norm(p.mean(axis=0)) < 1e-3
-    s = sample_twists(Scaling(5.0, 0.01), 100)
-    np.testing.assert_allclose(Scaling(5.0, 0.01).twist_to_scaled(s.raw), s.scaled, atol=1e-12)
+    scaled = fibonacci_sphere(100)
+    raw = Scaling(5.0, 0.01).twist_from_scaled(scaled)
+    np.testing.assert_allclose(Scaling(5.0, 0.01).twist_to_scaled(raw), scaled, atol=1e-12)
 
 
 def test_pull_direction_convention():
@@ -126,9 +126,9 @@ def test_sphere_triangulation_is_closed_genus0_and_reusable():
 def test_max_power_check_convex_has_no_violation_dent_has_some():
     g = PNormGLS()
     sc = Scaling(5.0, 0.01)
-    s = sample_twists(sc, 600)
-    ws = sc.wrench_to_scaled(g.wrench(s.raw))
-    rep = max_power_check(s.scaled, ws, tol=1e-9)
+    scaled = fibonacci_sphere(600)
+    ws = sc.wrench_to_scaled(g.wrench(sc.twist_from_scaled(scaled)))
+    rep = max_power_check(scaled, ws, tol=1e-9)
     assert rep.fraction == 0.0
-    bent = ws * (1.0 - 0.4 * np.exp(-((s.scaled[:, 0] + 1.0) / 0.3) ** 2))[:, None]
-    assert max_power_check(s.scaled, bent).fraction > 0.0
+    bent = ws * (1.0 - 0.4 * np.exp(-((scaled[:, 0] + 1.0) / 0.3) ** 2))[:, None]
+    assert max_power_check(scaled, bent).fraction > 0.0

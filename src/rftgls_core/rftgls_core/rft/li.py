@@ -111,10 +111,3 @@ def li_alpha(beta, gamma, coefficients: str | LiCoefficients = 'generic'
     """(alpha_x, alpha_z) of Li's fit in the set's own unit (generic: per unit zeta)."""
     return coefficient_set(coefficients).alpha(beta, gamma)
 
-
-def __getattr__(name: str):
-    # LiTreersRFT lives in rft/treers.py (which imports this module); lazy to avoid a cycle.
-    if name == 'LiTreersRFT':
-        from .treers import LiTreersRFT
-        return LiTreersRFT
-    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')

@@ -4,6 +4,7 @@ from __future__ import annotations
 from .agarwal import AgarwalRFT
 from .base import StressModel
 from .media import Medium
+from .treers import LiTreersRFT
 
 MODELS = ('agarwal', 'li')
 DEFAULT_MODEL = 'agarwal'
@@ -15,6 +16,5 @@ def make_model(name: str, medium: Medium) -> StressModel:
     if key == 'agarwal':
         return AgarwalRFT(medium.xi_n, medium.mu_surf)
     if key == 'li':
-        from .li import LiTreersRFT  # written alongside; imported lazily
         return LiTreersRFT(zeta=medium.zeta, coefficients=medium.li_coefficients)
     raise ValueError(f'unknown RFT model {name!r}; known models: {", ".join(MODELS)}')

@@ -12,12 +12,12 @@ from .base import CapacityResult, GLSProblem, LimitSurface
 from .direct import DirectSurface
 from .ellipsoid import EllipsoidSurface, fit_ellipsoid
 from .registry import METHOD_NAMES, surface_class
-from .sampling import TwistSample, fibonacci_sphere, sample_twists
+from .sampling import fibonacci_sphere
 from .scaling import Scaling, choose_scaling
 from .twist_mesh import TwistMeshSurface
 from .twist_sphere import TwistSphere
 
 __all__ = ['AlphaComplex', 'AlphaShapeSurface', 'CapacityResult', 'DirectSurface',
            'EllipsoidSurface', 'GLSProblem', 'LimitSurface', 'METHOD_NAMES', 'Scaling',
-           'TwistMeshSurface', 'TwistSample', 'TwistSphere', 'alpha_shape', 'choose_scaling',
-           'fibonacci_sphere', 'fit_ellipsoid', 'sample_twists', 'surface_class']
+           'TwistMeshSurface', 'TwistSphere', 'alpha_shape', 'choose_scaling',
+           'fibonacci_sphere', 'fit_ellipsoid', 'surface_class']

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .sampling import fibonacci_sphere
+
 
 def _unit_rows(x: np.ndarray) -> np.ndarray:
     n = np.linalg.norm(x, axis=-1, keepdims=True)
@@ -98,8 +100,6 @@ def choose_scaling(wrench_fn, length_guess_m: float, n_pilot: int = 256,
     scaling is the half-range scaling of the resulting W_ext cloud (Scaling.from_wrenches).
     One batched wrench_fn call.
     """
-    from .sampling import fibonacci_sphere  # local import: sampling imports this module
-
     pilot = Scaling(force_guess_N, length_guess_m)
     twists = pilot.twist_from_scaled(fibonacci_sphere(n_pilot))
     return Scaling.from_wrenches(np.asarray(wrench_fn(twists), dtype=float))
