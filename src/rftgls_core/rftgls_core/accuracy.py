@@ -16,6 +16,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from .anchor import AnchorModel
+from .predictor import Predictor
 from .rft.media import get_medium
 from .robots.presets import LEG_ARC_SEGMENTS, get_robot
 from .types import AnchorState, Pull
@@ -92,9 +93,10 @@ class Record:
 
 
 def run_config(robot: str, config: Config, states, phis_deg=PHIS_DEG) -> list[Record]:
+    model: Predictor
     if config.method == 'map':
         from .maps import CapacityMap, shipped_map_path
-        model = CapacityMap.load(shipped_map_path(robot))   # predict() like AnchorModel
+        model = CapacityMap.load(shipped_map_path(robot))
     else:
         model = AnchorModel(get_robot(robot, config.n_arc), get_medium(MEDIUM[robot]),
                             method=config.method, n_twists=config.n_twists,
@@ -149,7 +151,7 @@ def summarise(records: list[Record], reference: list[Record]) -> Summary:
         if (r.capacity_N is None) != (ref.capacity_N is None):
             mismatch += 1
             continue
-        if r.capacity_N is None:
+        if r.capacity_N is None or ref.capacity_N is None:
             continue
         diff = r.capacity_N - ref.capacity_N
         scale = max(ref.capacity_N, 1e-9)

@@ -103,7 +103,8 @@ def capacity_lower_bound(predict: Callable[[AnchorState, float], CapacityResult]
         x = getattr(state, field)
         up = predict(replace(state, **{field: x + sigma}), phi)
         down = predict(replace(state, **{field: x - sigma}), phi)
-        if not (up.status.has_value and down.status.has_value):
+        if (not (up.status.has_value and down.status.has_value) or up.capacity_N is None
+                or down.capacity_N is None):
             return 0.0
         var += (0.5 * (up.capacity_N - down.capacity_N)) ** 2
     return max(0.0, capacity_N - z * math.sqrt(var))

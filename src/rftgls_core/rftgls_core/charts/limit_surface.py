@@ -27,12 +27,14 @@ def plot_limit_surface(model: AnchorModel, state: AnchorState, pull: Pull | str,
     plt = pyplot()
 
     surface, failure = model.fit(state, pull)
-    result = failure if surface is None else surface.capacity(phi)
+    result = surface.capacity(phi) if surface is not None else failure
+    assert result is not None  # fit() returns a surface or a failure result
     fig = plt.figure(figsize=(13, 6))
     ax3 = fig.add_subplot(1, 2, 1, projection='3d')
     ax2 = fig.add_subplot(1, 2, 2)
-    if surface is not None and getattr(surface, 'wrenches_scaled', None) is not None:
-        w = model.scaling.wrench_from_scaled(surface.wrenches_scaled)
+    cloud = getattr(surface, 'wrenches_scaled', None)   # twist-mesh keeps its wrench cloud
+    if cloud is not None:
+        w = model.scaling.wrench_from_scaled(cloud)
         ax3.scatter(w[:, 0], w[:, 1], w[:, 2], s=2, c='0.4', alpha=0.35, label='RFT wrench cloud')
         faces = getattr(getattr(surface, 'sphere', None), 'faces', None)
         if faces is not None:

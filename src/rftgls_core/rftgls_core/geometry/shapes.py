@@ -22,7 +22,7 @@ def _block_surface(counts: tuple[int, int, int]) -> tuple[np.ndarray, np.ndarray
     """Boundary of the lattice block [0, n0] x [0, n1] x [0, n2], outward for a right-handed
     parameter frame: integer lattice points (V, 3) and faces (F, 3), two triangles per cell.
     """
-    counts = tuple(int(c) for c in counts)
+    counts = (int(counts[0]), int(counts[1]), int(counts[2]))
     pts, faces, offset = [], [], 0
     for a in range(3):
         b, c = (a + 1) % 3, (a + 2) % 3          # e_a = e_b x e_c (cyclic, right-handed)
@@ -66,12 +66,13 @@ def _cells(lengths: tuple[float, float, float], subdivisions: int | tuple[int, i
     if isinstance(subdivisions, (tuple, list)):
         if len(subdivisions) != 3 or min(subdivisions) < 1:
             raise ValueError(f'subdivisions must be 3 positive ints, got {subdivisions!r}')
-        return tuple(int(s) for s in subdivisions)
+        return (int(subdivisions[0]), int(subdivisions[1]), int(subdivisions[2]))
     n = int(subdivisions)
     if n < 1:
         raise ValueError(f'subdivisions must be >= 1, got {subdivisions!r}')
     longest = max(lengths)
-    return tuple(max(1, math.ceil(n * length / longest - 1e-9)) for length in lengths)
+    c0, c1, c2 = (max(1, math.ceil(n * length / longest - 1e-9)) for length in lengths)
+    return (c0, c1, c2)
 
 
 # ------------------------------------------------------------------------------ box, plate
