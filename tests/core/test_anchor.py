@@ -28,9 +28,11 @@ def test_no_buried_leg_is_unsupported(method):
 
 @pytest.mark.parametrize('method', METHODS)
 def test_weight_not_carried_is_unsupported(method):
-    # Forward pull, proximal legs swung far from p (40 deg), distal legs vertical: in our model
-    # the buried legs cannot carry the prototype's weight (the origin is outside the GLS).
-    r = model(method=method).predict(AnchorState.from_degrees(0.02, 0, 40, 0), 0.0, 'forward')
+    # Forward pull, proximal legs swung far from p (40 deg), distal legs vertical, p 30 mm up:
+    # the legs are too shallow to carry the prototype's weight (the origin is outside the GLS;
+    # the 10^5-twist brute-force reference agrees). At h = 20 mm the same pose holds a little
+    # through the closure of the RFT map (0.19 N), see test_surfaces_closure.py.
+    r = model(method=method).predict(AnchorState.from_degrees(0.03, 0, 40, 0), 0.0, 'forward')
     assert r.status is Status.UNSUPPORTED and r.capacity_N is None
 
 

@@ -87,3 +87,13 @@ def test_fig10b_draws_the_uncertainty_band(tmp_path):
             # 10 % on xi_n moves the capacity by 10-15 % (the weight does not scale): the
             # one-sided 95 % bound (1.64 sigma) sits 15-25 % below
             assert 0.7 * cap < low < 0.9 * cap
+
+
+def test_capacity_on_a_jump_reports_the_flag():
+    # The issue-11 report: the prototype's grid centre was `degenerate` (no_root) for direct.
+    out = run('capacity', '--robot', 'prototype', '--h', '0.02', '--theta-b', '0',
+              '--theta-l1', '0', '--theta-l2', '0', '--phi', '0', '--pull', 'backward',
+              '--method', 'direct', '--json')
+    assert out.returncode == 0, out.stderr
+    res = json.loads(out.stdout)
+    assert res['status'] == 'ok' and 'on_jump' in res['flags'] and res['capacity_N'] > 0

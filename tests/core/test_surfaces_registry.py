@@ -40,7 +40,7 @@ ALL = [surface_class(m) for m in METHOD_NAMES] + [NearestSampleSurface]
 
 
 def test_registry_names_match_classes():
-    assert set(METHOD_NAMES) == {'twist-mesh', 'direct', 'ellipsoid', 'alpha'}
+    assert set(METHOD_NAMES) == {'twist-mesh', 'direct', 'ellipsoid', 'alpha', 'brute-force'}
     for name in METHOD_NAMES:
         cls = surface_class(name)
         assert issubclass(cls, LimitSurface) and cls.method == name

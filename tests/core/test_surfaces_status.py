@@ -1,7 +1,7 @@
 """Every failure status of the limit-surface layer is provoked here; no value escapes with it.
 
 Rule under test (architecture.md section 5): capacity_N and the slip twists are None unless the
-status is ok/extrapolated; `unchecked_capacity_N` keeps the first-exit distance for diagnostics.
+status carries a value; `unchecked_capacity_N` keeps the first-exit distance for diagnostics.
 """
 from __future__ import annotations
 
@@ -76,24 +76,25 @@ def test_ellipsoid_degenerate_fits():
     assert ok
 
 
-def test_folded_mesh_and_multiple_hits_are_degenerate():
+def test_folded_mesh_and_multiple_hits_answer_the_first_exit_with_a_flag():
+    # A capacity is defined wherever the load ray leaves the surface: the first exit. Folds
+    # and further crossings do not withhold it; they are reported as flags (issue 11).
     case = folded_case()
     surf = TwistMeshSurface(2000).fit(case.problem)
     assert surf.fit_info.diagnostics['folds'] > 0
     phis = np.linspace(-0.6, -0.35, 6)       # rays through the overhang (synthetic.py)
     for r in surf.capacity_many(phis):
-        assert r.status is Status.DEGENERATE and r.reason in ('multiple_hits', 'folded_face')
-        _no_value(r)
-        assert r.unchecked_capacity_N is not None and r.n_hits >= 2
-    # Away from the overhang the same pose answers normally.
-    assert surf.capacity(1.0).ok
-    # The direct reference also sees several crossings on these rays. (On this very sharp fold
-    # its first root can differ from the mesh's first crossing by several %: folds thinner than
-    # the bracketing triangles are a documented limit of the direct solver.)
+        assert r.status is Status.OK and 'multiple_crossings' in r.flags
+        assert r.n_hits >= 2 and r.capacity_N > 0
+    # Away from the overhang the same pose answers with no flag.
+    assert surf.capacity(1.0).ok and not surf.capacity(1.0).flags
+    # The direct reference sees several crossings on these rays too. (On this very sharp fold
+    # the first crossing can be missed by meshes coarser than the fold, by several %: a
+    # documented limit, docs/design/limit-surfaces.md.)
     direct = DirectSurface(n_twists=2000).fit(case.problem)
     for phi in phis:
         rd = direct.capacity(phi)
-        assert rd.n_hits >= 2, rd.detail
+        assert rd.ok and rd.n_hits >= 2, rd.detail
 
 
 def test_alpha_shape_with_several_regions_or_tunnels_is_degenerate():
@@ -105,20 +106,18 @@ def test_alpha_shape_with_several_regions_or_tunnels_is_degenerate():
     _no_value(r)
 
 
-def test_non_unique_twist_wrench_pairs_give_no_misleading_number():
+def test_non_unique_twist_and_jumps_still_give_the_exact_capacity():
     # 'Thin plate sliding in its own plane': an open cone of twists maps to one wrench (the tip
-    # of a hull). Reference: support-function minimum over twists (synthetic.pinched_case).
+    # of a hull), and the hull's flat faces are jumps of the support map (set-valued: the whole
+    # face answers one twist). Reference: support-function minimum over twists
+    # (synthetic.pinched_case). The capacity stands everywhere; what is special is flagged.
     case = pinched_case()
     phis = np.linspace(-1.3, 1.3, 14)
     exact = np.array([case.exact_capacity(p) for p in phis])
     for surf in (TwistMeshSurface(2000).fit(case.problem), DirectSurface().fit(case.problem)):
         flagged = 0
         for phi, ex, r in zip(phis, exact, surf.capacity_many(phis)):
-            if r.ok:
-                assert abs(r.capacity_N - ex) / ex < 0.01, (surf.method, phi)
-            else:
-                assert r.status is Status.DEGENERATE
-                assert r.reason in ('non_unique_twist', 'no_root')
-                _no_value(r)
-                flagged += 1
+            assert r.status is Status.OK, (surf.method, phi, r.reason)
+            assert abs(r.capacity_N - ex) / ex < 0.01, (surf.method, phi)
+            flagged += bool({'twist_ambiguous', 'on_jump'} & set(r.flags))
         assert 0 < flagged < len(phis), surf.method

@@ -67,7 +67,7 @@ def test_real_trajectory_converges_with_step(prototype_model):
 def test_stop_reasons(prototype_model):
     plate = lambda st: prototype_model.robot.pose(st, 'forward').plate_min_z
     # The weight is not carried here (see test_anchor): no balance at the first point.
-    t = simulate_pull(prototype_model, AnchorState.from_degrees(0.02, 0, 40, 0), 0.0,
+    t = simulate_pull(prototype_model, AnchorState.from_degrees(0.03, 0, 40, 0), 0.0,
                       'forward', plate)
     assert len(t.points) == 1 and 'no quasi-static balance' in t.stop_reason
     # A plate already at the surface.

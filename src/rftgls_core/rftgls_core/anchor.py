@@ -26,8 +26,9 @@ from .types import AnchorState, Pull, Status
 
 DEFAULT_METHOD = 'twist-mesh'
 DEFAULT_TWISTS = 1000
-# direct needs the sphere only to bracket the ray (Newton does the rest): fewer twists.
-DEFAULT_TWISTS_BY_METHOD = {'direct': 400}
+# direct needs the sphere only to bracket the ray (Newton does the rest): fewer twists; the
+# brute-force reference needs a dense one.
+DEFAULT_TWISTS_BY_METHOD = {'direct': 400, 'brute-force': 100_000}
 
 
 @dataclass(frozen=True)

@@ -72,7 +72,8 @@ def run(args) -> int:
            'slip_twist': list(result.slip_twist_scaled) if result.slip_twist_scaled else None,
            'slip_twist_raw': list(result.slip_twist) if result.slip_twist else None,
            'status': result.status.value, 'method': result.method, 'elapsed_s': elapsed,
-           'reason': result.reason, 'detail': result.detail, 'char_length_m': char_length}
+           'reason': result.reason, 'detail': result.detail, 'char_length_m': char_length,
+           'flags': list(result.flags), 'twist_spread_rad': result.twist_spread_rad}
     if args.json:
         print_json(out)
     else:
@@ -82,6 +83,8 @@ def run(args) -> int:
         if result.slip_twist_scaled:
             print('slip twist (scaled vx, vz, wy*L_c): '
                   + ' '.join(f'{v:+.4f}' for v in result.slip_twist_scaled))
+        if result.flags:
+            print('flags: ' + ', '.join(result.flags))
         if result.reason:
             print(f'reason: {result.reason}: {result.detail}')
     return 0

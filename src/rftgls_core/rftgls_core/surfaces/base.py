@@ -56,6 +56,19 @@ class GLSProblem:
         return np.asarray(pull_direction(phi), dtype=float)
 
 
+# Flags a value-carrying result may carry (the capacity stands; read them before acting on the
+# slip twist).
+FLAGS = {
+    'on_jump': 'the load ray crosses a bridged jump of the RFT map: the capacity is on the '
+               'closure and the slip twist lies on a facet switching set',
+    'twist_ambiguous': 'several twists give the first-exit wrench: the capacity stands, the '
+                       'slip twist is one of them (see twist_spread_rad)',
+    'multiple_crossings': 'the load ray crosses the surface more than once: the first exit is '
+                          'the capacity',
+    'folded': 'the surface folds toward the origin at the first exit',
+}
+
+
 def _tuple3(x) -> tuple[float, float, float] | None:
     if x is None:
         return None
@@ -74,6 +87,9 @@ class CapacityResult:
     reason: short machine-greppable cause when status is not ok ('' when ok).
     detail: human-readable diagnostics (hits, folds, fit residuals ...).
     unchecked_capacity_N: first-exit distance even when a check failed; diagnostics only.
+    flags: facts about a value-carrying answer that a user may act on, from FLAGS.
+    twist_spread_rad: with 'twist_ambiguous', the largest angle between candidate slip twists
+        (scaled metric), rad; None otherwise.
     """
 
     phi: float
@@ -86,6 +102,8 @@ class CapacityResult:
     reason: str = ''
     detail: str = ''
     unchecked_capacity_N: float | None = None
+    flags: tuple[str, ...] = ()
+    twist_spread_rad: float | None = None
 
     @property
     def ok(self) -> bool:
@@ -94,8 +112,12 @@ class CapacityResult:
     @classmethod
     def make(cls, phi: float, status: Status, method: str, capacity: float | None,
              twist_s=None, scaling: Scaling | None = None, n_hits: int = -1, reason: str = '',
-             detail: str = '') -> 'CapacityResult':
-        """Build a result, dropping every value when the status carries none."""
+             detail: str = '', flags: tuple[str, ...] = (),
+             twist_spread_rad: float | None = None) -> CapacityResult:
+        """Build a result, dropping every value (and flag) when the status carries none."""
+        unknown = set(flags) - set(FLAGS)
+        if unknown:
+            raise ValueError(f'unknown result flags {sorted(unknown)}')
         raw = None
         if twist_s is not None and scaling is not None:
             raw = scaling.twist_from_scaled(np.asarray(twist_s, dtype=float))
@@ -106,7 +128,8 @@ class CapacityResult:
                    slip_twist=_tuple3(raw) if keep else None,
                    slip_twist_scaled=_tuple3(twist_s) if keep else None,
                    n_hits=int(n_hits), reason=reason, detail=detail,
-                   unchecked_capacity_N=cap)
+                   unchecked_capacity_N=cap, flags=tuple(flags) if keep else (),
+                   twist_spread_rad=twist_spread_rad if keep else None)
 
 
 def invalid_phi_result(phi, method: str) -> CapacityResult | None:
@@ -199,6 +222,20 @@ class LimitSurface(ABC):
                                   f'{sv[0]:.3g} .. {sv[-1]:.3g}): no limit surface')
         wind = winding_number(ws, sphere.faces)
         self.fit_info.diagnostics.update(n_twists=sphere.n, winding_number=wind)
+        if abs(wind) < 0.5 and _near_origin(sphere, ws) and sphere.n < SUPPORT_CHECK_TWISTS:
+            # The sampled surface passes within a triangle of the origin: its chords may cut
+            # off a thin sliver that holds the weight. Decide on a denser sphere and, if it
+            # holds, fit on that sphere (only such edge states pay for it).
+            dense = TwistSphere.build(SUPPORT_CHECK_TWISTS)
+            wd, why = evaluate_wrenches(problem, dense.twists_raw(problem.scaling))
+            if wd is None:
+                return self._fail_fit(Status.INVALID_INPUT, 'non_finite_wrench', why)
+            wsd = problem.scaling.wrench_to_scaled(wd)
+            wind_d = winding_number(wsd, dense.faces)
+            self.fit_info.diagnostics.update(support_check_twists=dense.n,
+                                             support_check_winding=wind_d)
+            if abs(wind_d) >= 0.5:
+                sphere, w, ws, wind = dense, wd, wsd, wind_d
         if abs(wind) < 0.5:
             return self._fail_fit(Status.UNSUPPORTED, 'origin_outside',
                                   f'origin outside the sampled limit surface (winding '
@@ -250,6 +287,21 @@ class LimitSurface(ABC):
         self.fit_info = FitInfo(status=status, reason=reason, detail=detail,
                                 diagnostics=self.fit_info.diagnostics)
         return self
+
+
+# Twists of the denser sphere that decides the weight-held check next to the support edge.
+SUPPORT_CHECK_TWISTS = 4_000
+
+
+def _near_origin(sphere: TwistSphere, ws: np.ndarray) -> bool:
+    """True when some sampled wrench lies within its longest mesh edge of the origin, i.e. the
+    origin may sit in the sliver between the chords and the true surface."""
+    e = sphere.edges
+    length = np.linalg.norm(ws[e[:, 0]] - ws[e[:, 1]], axis=1)
+    longest = np.zeros(len(ws))
+    np.maximum.at(longest, e[:, 0], length)
+    np.maximum.at(longest, e[:, 1], length)
+    return bool(np.any(np.linalg.norm(ws, axis=1) < longest))
 
 
 def evaluate_wrenches(problem: GLSProblem, twists_raw: np.ndarray

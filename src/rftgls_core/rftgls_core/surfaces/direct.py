@@ -30,12 +30,14 @@ is not seeded. Raise n_twists when the surface has fine folds.
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Self
 
 import numpy as np
 
 from ..types import Status
-from .base import CapacityResult, FitSamples, GLSProblem, LimitSurface
+from .base import SUPPORT_CHECK_TWISTS, CapacityResult, FitSamples, GLSProblem, LimitSurface
+from .closure import closure_exit
 from .newton import newton_on_sphere, unit_rows
 from .raycast import PreparedMesh, all_hits, prepare_mesh
 from .twist_sphere import TwistSphere
@@ -58,12 +60,14 @@ class DirectSurface(LimitSurface):
         self.n_wrench_calls = 0
         self.sphere: TwistSphere | None = None
         self._mesh: PreparedMesh | None = None
+        self._dense: tuple[PreparedMesh, TwistSphere] | None = None
 
     def _fit_samples(self, problem: GLSProblem, samples: FitSamples) -> Self:
         # The coarse sphere only brackets the ray; Newton on wrench_fn does the rest.
         self.sphere = samples.sphere
         self._ws = samples.wrenches_scaled
         self._mesh = prepare_mesh(samples.wrenches_scaled, samples.sphere.faces)
+        self._dense = None
         return self
 
     # -- the solver ------------------------------------------------------------------------
@@ -78,16 +82,39 @@ class DirectSurface(LimitSurface):
                                 self.max_iter)
 
     def _capacity(self, phi: float) -> CapacityResult:
-        pr = self._fitted_problem()
         assert self._mesh is not None and self.sphere is not None
+        r = self._solve_bracketed(phi, self._mesh, self.sphere)
+        if r.status is Status.DEGENERATE and r.reason == 'no_root':
+            # The coarse mesh is too coarse for this ray (typically a tiny capacity: the origin
+            # sits close to the surface, where the chords are poor). Bracket again on the dense
+            # sphere of the support check, built once per fit.
+            mesh, sphere = self._dense_bracket()
+            dense = self._solve_bracketed(phi, mesh, sphere)
+            if dense.status.has_value:
+                return replace(dense, detail=f'dense bracket ({sphere.n} twists): '
+                                             + dense.detail)
+        return r
+
+    def _dense_bracket(self) -> tuple[PreparedMesh, TwistSphere]:
+        if self._dense is None:
+            pr = self._fitted_problem()
+            sphere = TwistSphere.build(max(SUPPORT_CHECK_TWISTS, self.n_twists))
+            self.n_wrench_calls += 1
+            ws = pr.scaling.wrench_to_scaled(pr.wrenches(sphere.twists_raw(pr.scaling)))
+            self._dense = (prepare_mesh(ws, sphere.faces), sphere)
+        return self._dense
+
+    def _solve_bracketed(self, phi: float, mesh: PreparedMesh,
+                         sphere: TwistSphere) -> CapacityResult:
+        pr = self._fitted_problem()
         d = pr.load_direction_scaled(phi)
-        s_c, faces, bary = all_hits(self._mesh, d)
+        s_c, faces, bary = all_hits(mesh, d)
         calls0 = self.n_wrench_calls
         if len(s_c) == 0:
             return CapacityResult.make(phi, Status.DEGENERATE, self.method, None, n_hits=0,
                                        reason='no_hit', detail='coarse mesh: ray never exits')
-        ts = self.sphere.twists_scaled
-        tri = self.sphere.faces[faces]                                 # (H, 3)
+        ts = sphere.twists_scaled
+        tri = sphere.faces[faces]                                 # (H, 3)
         # Seeds: the barycentric twist of every coarse crossing plus the three vertex twists
         # of its face (close crossings of a fold can swap roots; extra seeds find them all).
         seeds = np.concatenate([unit_rows(np.einsum('hk,hkj->hj', bary, ts[tri])),
@@ -104,25 +131,52 @@ class DirectSurface(LimitSurface):
         roots = np.unique(np.round(s[valid] / (1e-7 * max(float(s_c[-1]), 1e-300))))
         base = (f'coarse crossings {len(s_c)}, distinct roots {len(roots)}, iterations {iters}, '
                 f'wrench calls {calls}')
-        if not np.any(valid & (group == 0)) or not np.any(valid):
-            return CapacityResult.make(
-                phi, Status.DEGENERATE, self.method, float(s_c[0]) * sf, n_hits=len(s_c),
-                reason='no_root',
-                detail=base + '; no twist maps onto the ray at the first crossing (a jump or '
-                       'pinch in the twist-wrench map); unchecked value from the coarse mesh')
-        # First exit: the smallest root found from any seed.
-        k0 = int(np.flatnonzero(valid)[np.argmin(s[valid])])
-        s0, t0 = float(s[k0]), t[k0]
-        sv = np.linalg.svd(jac[k0], compute_uv=False)
-        detail = (base + f'; residual {res[k0]:.1e}, Jacobian singular values {sv[0]:.3g}, '
-                  f'{sv[1]:.3g}')
-        # Other roots at the same distance with a different twist: not one-to-one.
+        # First exit: the smallest root found from any seed. At the first coarse crossing the
+        # ray may pass through a jump of the map (no root there): then the exit is on the
+        # closure, found by shrinking patches around that crossing (closure.py).
+        on_jump, bridge = False, 0.0
+        if np.any(valid & (group == 0)):
+            k0 = int(np.flatnonzero(valid)[np.argmin(s[valid])])
+            s0, t0 = float(s[k0]), t[k0]
+        else:
+            corners = ts[tri[0]]
+            radius = 1.5 * float(np.arccos(np.clip(corners @ seeds[0], -1.0, 1.0)).max()) + 1e-4
+            ch = closure_exit(self._eval_scaled, d, seeds[0], radius)
+            calls = self.n_wrench_calls - calls0
+            if not ch.converged:
+                return CapacityResult.make(
+                    phi, Status.DEGENERATE, self.method, float(s_c[0]) * sf, n_hits=len(s_c),
+                    reason='no_root',
+                    detail=base + f'; no twist maps onto the ray at the first crossing and the '
+                           f'closure search did not settle ({ch.levels} patches, {calls} wrench '
+                           'calls); unchecked value from the coarse mesh')
+            s0, t0, on_jump, bridge = ch.s, ch.twist, ch.on_jump, ch.bridge
+            if np.any(valid) and float(s[valid].min()) < s0:
+                k0 = int(np.flatnonzero(valid)[np.argmin(s[valid])])
+                s0, t0, on_jump = float(s[k0]), t[k0], False
+            base += f'; closure search: {ch.levels} patches, {calls} wrench calls in all'
+        flags: list[str] = ['on_jump'] if on_jump else []
+        if on_jump:
+            detail = base + (f'; the ray crosses a bridged jump (relative gap {bridge:.2g}): '
+                             'the slip twist lies on a facet switching set')
+            return CapacityResult.make(phi, Status.OK, self.method, s0 * sf, t0, pr.scaling,
+                                       n_hits=len(roots), detail=detail, flags=tuple(flags))
         same = valid & (np.abs(s - s0) <= 1e-7 * s0)
-        ang = np.arccos(np.clip(t[same] @ t0, -1.0, 1.0))
-        if np.any(ang > 1e-4) or sv[1] < 1e-6 * max(sv[0], 1e-300):
-            return CapacityResult.make(
-                phi, Status.DEGENERATE, self.method, s0 * sf, t0, pr.scaling,
-                n_hits=len(roots), reason='non_unique_twist',
-                detail=detail + '; several twists give the first-exit wrench')
+        ang = np.arccos(np.clip(t[same] @ t0, -1.0, 1.0)) if np.any(same) else np.zeros(1)
+        k_same = np.flatnonzero(same)
+        sv = (np.linalg.svd(jac[k_same[0]], compute_uv=False) if len(k_same)
+              else np.array([1.0, 1.0]))
+        detail = (base + f'; Jacobian singular values {sv[0]:.3g}, {sv[1]:.3g}')
+        # Other roots at the same distance with a different twist, or a singular Jacobian: the
+        # capacity stands, the slip twist is not unique.
+        spread = float(ang.max())
+        if spread > 1e-4 or sv[1] < 1e-6 * max(sv[0], 1e-300):
+            flags.append('twist_ambiguous')
+            detail += f'; several twists give the first-exit wrench (spread {spread:.3g} rad)'
+            return CapacityResult.make(phi, Status.OK, self.method, s0 * sf, t0, pr.scaling,
+                                       n_hits=len(roots), detail=detail, flags=tuple(flags),
+                                       twist_spread_rad=spread)
+        if len(roots) > 1:
+            flags.append('multiple_crossings')
         return CapacityResult.make(phi, Status.OK, self.method, s0 * sf, t0, pr.scaling,
-                                   n_hits=len(roots), detail=detail)
+                                   n_hits=len(roots), detail=detail, flags=tuple(flags))

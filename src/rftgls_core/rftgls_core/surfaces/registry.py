@@ -18,6 +18,7 @@ _METHODS = {
     'direct': 'direct:DirectSurface',
     'ellipsoid': 'ellipsoid:EllipsoidSurface',
     'alpha': 'alpha_shape:AlphaShapeSurface',
+    'brute-force': 'brute_force:BruteForceSurface',
 }
 METHOD_NAMES: tuple[str, ...] = tuple(_METHODS)
 

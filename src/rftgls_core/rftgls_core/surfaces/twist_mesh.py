@@ -22,6 +22,7 @@ import numpy as np
 
 from ..types import Status
 from .base import CapacityResult, FitSamples, GLSProblem, LimitSurface
+from .closure import closure_exit
 from .diagnostics import collapsed_vertices, fold_mask
 from .newton import newton_on_sphere
 from .raycast import PreparedMesh, cast_rays, prepare_mesh
@@ -40,12 +41,14 @@ class TwistMeshSurface(LimitSurface):
     method = 'twist-mesh'
 
     def __init__(self, n_twists: int = 2000, sphere: TwistSphere | None = None,
-                 pinch_ratio: float = 1e-3, polish: bool = True, gap_tol: float = 2e-3) -> None:
+                 pinch_ratio: float = 1e-3, polish: bool = True, gap_tol: float = 2e-3,
+                 closure_tol: float = 1e-5) -> None:
         super().__init__(n_twists if sphere is None else sphere.n)
         self.sphere = sphere
         self.pinch_ratio = float(pinch_ratio)
         self.polish = bool(polish)
         self.gap_tol = float(gap_tol)
+        self.closure_tol = float(closure_tol)
         self.wrenches_scaled: np.ndarray | None = None
         self._mesh: PreparedMesh | None = None
         self._folded = np.zeros(0, dtype=bool)
@@ -96,21 +99,25 @@ class TwistMeshSurface(LimitSurface):
             tw = tw / np.linalg.norm(tw) if np.linalg.norm(tw) > 0 else tw
             edge = ' (through an edge/vertex, counted once)' if hits.on_edge[k] else ''
             detail = f'hits {nh}{edge}; folds {int(self._folded.sum())}'
-            status, reason = Status.OK, ''
+            # The first exit is the capacity whatever the surface does further out; what the
+            # mesh saw on the way is reported as flags.
+            flags = []
             if nh > 1:
-                status, reason = Status.DEGENERATE, 'multiple_hits'
+                flags.append('multiple_crossings')
                 detail += '; ray crosses the surface more than once (first exit used)'
-            elif self._folded[f]:
-                status, reason = Status.DEGENERATE, 'folded_face'
+            if self._folded[f]:
+                flags.append('folded')
                 detail += '; the hit face is folded toward the origin'
-            elif np.any(self._pinched[faces[f]] & (hits.bary[k] > 1e-3)):
-                status, reason = Status.DEGENERATE, 'non_unique_twist'
+            if np.any(self._pinched[faces[f]] & (hits.bary[k] > 1e-3)):
+                flags.append('twist_ambiguous')
                 detail += ('; the hit face touches a pinch where many twists give one wrench: '
                            'the slip twist is not determined')
-            if status is Status.OK and self.polish:
-                cap, tw, detail = self._polish(phi, f, tw, cap, detail)
-            out.append(CapacityResult.make(phi, status, self.method, cap, tw, problem.scaling,
-                                           n_hits=nh, reason=reason, detail=detail))
+            if self.polish:
+                cap, tw, on_jump, detail = self._polish(phi, f, tw, cap, detail)
+                if on_jump:
+                    flags.append('on_jump')
+            out.append(CapacityResult.make(phi, Status.OK, self.method, cap, tw, problem.scaling,
+                                           n_hits=nh, detail=detail, flags=tuple(flags)))
         return out
 
     def _polish(self, phi: float, face: int, seed: np.ndarray, cap: float, detail: str):
@@ -136,14 +143,20 @@ class TwistMeshSurface(LimitSurface):
             ok = (conv | (res <= self.gap_tol * np.abs(s))) & (s > 0.0) & near
             return t, s, res, ok, iters
 
-        # The hit's own twist usually converges in a few steps; only when it does not, the
-        # face corners are tried too (steep maps defeat a single seed).
+        # The hit's own twist usually converges in a few steps. When it does not, the ray
+        # crosses a jump of the RFT map (or a map too steep for one seed): the exit is on the
+        # closure (closure.py), found by shrinking patches around the hit. The map stores
+        # float32, so 1e-5 rad is plenty (about 1e-4 relative at a jump).
         t, s, res, ok, iters = solve(seed[None, :], 25)
         if not np.any(ok):
-            t, s, res, ok, iters = solve(np.vstack([seed, corners]), 40)
-        if not np.any(ok):
-            return cap, seed, detail + '; not polished (no root near the hit face: mesh value)'
+            ch = closure_exit(eval_scaled, d, seed, reach / 3.0, angle_tol=self.closure_tol)
+            if not ch.converged:
+                return cap, seed, False, detail + ('; not polished (no root and no closure '
+                                                   'exit near the hit face: mesh value)')
+            return (ch.s * sc.force_N, ch.twist, ch.on_jump,
+                    detail + f'; exit on the closure after {ch.levels} patches (mesh chord '
+                             f'{cap:.4g} N, relative gap {ch.bridge:.2g})')
         k = int(np.flatnonzero(ok)[np.argmin(s[ok])])  # first exit among the local roots
         cap_polished = float(s[k]) * sc.force_N
-        return cap_polished, t[k], detail + (f'; polished in {iters} steps (mesh chord '
-                                             f'{cap:.4g} N, residual {res[k]:.1e})')
+        return cap_polished, t[k], False, detail + (f'; polished in {iters} steps (mesh chord '
+                                                    f'{cap:.4g} N, residual {res[k]:.1e})')

@@ -1,0 +1,126 @@
+"""First exit of a load ray through the closure of RFT's discontinuous twist -> wrench map.
+
+RFT's wrench jumps where a facet switches between trailing (no stress) and leading (a finite
+stress): for planar twists each facet switches on a great circle of the twist sphere. At the
+switch itself the facet may carry any fraction lambda in [0, 1] of its leading stress, exactly
+like Coulomb friction at zero slip, so the physically meaningful map is set-valued: its closure
+bridges every jump with the segment between the wrenches on either side. A load ray that passes
+through such a gap meets no single-valued root (Newton stalls), but it crosses the bridged gap
+at a well defined point, with the slip twist on the switching circle (docs/design/
+limit-surfaces.md, "Jumps and the closure").
+
+`closure_exit` finds that crossing without knowing which facets switch: it triangulates a small
+patch of the twist sphere around a seed (a 7 x 7 grid in the tangent plane, one batched
+wrench evaluation), casts the ray on the patch's flat triangles, re-centres on the hit twist
+and halves the patch. On a smooth part of the surface the triangles are chords whose error
+falls with the square of the patch size; a triangle that straddles a switching circle has
+vertices on both sides of the jump, and its plane interpolates linearly between them: the
+bridged segment. So the iteration converges to the first exit of the closure in both cases,
+and `bridge` (the wrench spread across the final hit triangle, relative to the distance) tells
+which one it was: it vanishes on a smooth surface and stays at the jump size on a gap.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .newton import _tangent_basis, unit_rows
+from .raycast import cast_rays, prepare_mesh
+
+_K = 7
+_A, _B = (g.ravel() for g in np.meshgrid(np.linspace(-1.0, 1.0, _K), np.linspace(-1.0, 1.0, _K),
+                                         indexing='ij'))
+
+
+def _grid_faces(k: int) -> np.ndarray:
+    """Two triangles per cell of a k x k grid indexed i * k + j, alternating diagonals."""
+    faces = []
+    for i in range(k - 1):
+        for j in range(k - 1):
+            a, b, c, e = i * k + j, (i + 1) * k + j, (i + 1) * k + j + 1, i * k + j + 1
+            if (i + j) % 2:
+                faces += [(a, b, c), (a, c, e)]
+            else:
+                faces += [(a, b, e), (b, c, e)]
+    return np.array(faces, dtype=np.intp)
+
+
+_FACES = _grid_faces(_K)
+BRIDGE_TOL = 1e-3   # relative wrench spread across the final triangle that marks a jump
+SETTLED_RTOL = 1e-4  # relative spread of the last hits accepted when the patch cannot shrink
+
+
+@dataclass(frozen=True)
+class ClosureHit:
+    """Result of `closure_exit`, in the scaled spaces.
+
+    converged: the patch shrank below `angle_tol` with the distance settled to `rtol`, or, where
+        the crossing cannot be enclosed any tighter (switching circles meeting), the last hits
+        agree to SETTLED_RTOL.
+    s: first-exit distance along d (scaled wrench units); nan when not converged.
+    twist: (3,) unit scaled twist at the exit (on a switching circle when `bridge` is large).
+    bridge: largest wrench distance between the final hit triangle's vertices over s: ~0 on a
+        smooth surface, the relative jump size when the ray crosses a bridged gap.
+    radius: final patch half-width, rad. levels: patches evaluated (one wrench call each).
+    """
+
+    converged: bool
+    s: float
+    twist: np.ndarray
+    bridge: float
+    radius: float
+    levels: int
+
+    @property
+    def on_jump(self) -> bool:
+        return self.converged and self.bridge > BRIDGE_TOL
+
+
+def closure_exit(eval_scaled: Callable[[np.ndarray], np.ndarray], d: np.ndarray,
+                 seed: np.ndarray, radius: float, rtol: float = 1e-7,
+                 angle_tol: float = 1e-7, max_levels: int = 48) -> ClosureHit:
+    """First crossing of the ray s d (s > 0) with the closure near the unit twist `seed`.
+
+    eval_scaled: (M, 3) unit scaled twists -> (M, 3) scaled wrenches (one batched call).
+    radius: initial patch half-width, rad (about the size of the coarse face that was hit).
+    When the ray misses a patch (the crossing lies outside it) the patch grows, up to four
+    times, before giving up.
+    """
+    d = np.asarray(d, dtype=float)
+    t_c = unit_rows(np.asarray(seed, dtype=float).reshape(1, 3))[0]
+    r = float(radius)
+    r_max = min(8.0 * r, 0.5)
+    found: list[float] = []       # distances of the successive patch hits
+    misses = 0
+    s, bridge, level = np.nan, np.nan, 0
+    for level in range(1, max_levels + 1):
+        u, v = _tangent_basis(t_c[None, :])
+        pts = unit_rows(t_c + r * (_A[:, None] * u + _B[:, None] * v))
+        ws = eval_scaled(pts)
+        hits = cast_rays(prepare_mesh(ws, _FACES), d)
+        f = int(hits.face[0])
+        if f < 0 or not np.isfinite(hits.s[0]):
+            # The crossing left the patch. Where several switching circles meet (a staircase
+            # of small jumps) a re-centred half patch can straddle it without covering it: the
+            # hits have then settled already, to SETTLED_RTOL.
+            misses += 1
+            if len(found) >= 3 and np.ptp(found[-3:]) <= SETTLED_RTOL * found[-1]:
+                return ClosureHit(True, found[-1], t_c, bridge, r, level)
+            if misses > 12 or r >= r_max:
+                break
+            r = min(2.0 * r, r_max)
+            continue
+        tri = _FACES[f]
+        s = float(hits.s[0])
+        t_c = unit_rows((hits.bary[0] @ pts[tri])[None, :])[0]
+        w = ws[tri]
+        bridge = float(max(np.linalg.norm(w[0] - w[1]), np.linalg.norm(w[1] - w[2]),
+                           np.linalg.norm(w[0] - w[2]))) / max(s, 1e-300)
+        # (at a jump s settles like the patch size: 1e-7 rad moves it by ~1e-7 relative)
+        if r <= angle_tol and found and abs(s - found[-1]) <= rtol * max(s, 1e-300):
+            return ClosureHit(True, s, t_c, bridge, r, level)
+        found.append(s)
+        r *= 0.5
+    return ClosureHit(False, np.nan, t_c, bridge, r, level)

@@ -1,0 +1,113 @@
+"""Capacity through the closure of a discontinuous twist -> wrench map (issue 11, items 1-2).
+
+RFT's wrench jumps where a facet switches between trailing and leading; at the switch the
+facet may carry any fraction of its leading stress (a set-valued closure, like Coulomb
+friction at zero slip). The capacity is the first exit of the load ray from that closure.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from rftgls_core.anchor import AnchorModel
+from rftgls_core.cli.demo import ANCHOR_MODES
+from rftgls_core.rft.media import get_medium
+from rftgls_core.robots.presets import get_robot
+from rftgls_core.surfaces import DirectSurface, GLSProblem, Scaling, TwistMeshSurface
+from rftgls_core.surfaces.brute_force import BruteForceSurface
+from rftgls_core.types import AnchorState, Pull, Status
+
+JUMP = 1.0
+
+
+def _jump_wrench(t: np.ndarray) -> np.ndarray:
+    """Unit sphere W = t, with its t1 < 0 half pushed out by JUMP along -w1: the face that
+    resists t1 < 0 switches on at t1 = 0 (a great circle), like a flat face of a box."""
+    t = t / np.linalg.norm(t, axis=1, keepdims=True)
+    w = t.copy()
+    w[:, 0] -= JUMP * (t[:, 0] < 0.0)
+    return w
+
+
+JUMP_PROBLEM = GLSProblem(_jump_wrench, Scaling(1.0, 1.0))
+
+
+def _exact(phi: float) -> tuple[float, np.ndarray]:
+    """The capacity worked out on paper, and the slip twist.
+
+    The ray s d, d = (-cos phi, sin phi, 0), s > 0. The closure at the switch t1 = 0 is the band
+    {(-lambda JUMP, t2, t3): t2^2 + t3^2 = 1, lambda in [0, 1]}. The ray meets it at t3 = 0,
+    t2 = sign(phi), so s sin|phi| = 1 and lambda = cot|phi| / JUMP, which lies in [0, 1] when
+    |phi| >= arccot(JUMP): there s = 1 / sin|phi| with the slip twist (0, sign(phi), 0) on the
+    switching circle. At smaller |phi| the ray leaves through the pushed-out half sphere
+    |w + JUMP e1| = 1: s^2 - 2 s JUMP cos(phi) + JUMP^2 - 1 = 0, twist = w + JUMP e1.
+    """
+    if abs(phi) >= math.atan2(1.0, JUMP):
+        return 1.0 / abs(math.sin(phi)), np.array([0.0, math.copysign(1.0, phi), 0.0])
+    c = JUMP * math.cos(phi)
+    s = c + math.sqrt(c * c - JUMP * JUMP + 1.0)
+    w = s * np.array([-math.cos(phi), math.sin(phi), 0.0]) + [JUMP, 0.0, 0.0]
+    return s, w / np.linalg.norm(w)
+
+
+@pytest.mark.parametrize('surface', [DirectSurface(), TwistMeshSurface(1000)],
+                         ids=lambda s: s.method)
+@pytest.mark.parametrize('phi_deg', [-70.0, -50.0, 50.0, 60.0, 80.0, 20.0, -30.0])
+def test_hand_built_jump_is_answered_on_the_closure(surface, phi_deg):
+    phi = math.radians(phi_deg)
+    cap, twist = _exact(phi)
+    r = surface.fit(JUMP_PROBLEM).capacity(phi)
+    assert r.status is Status.OK, r.detail
+    assert r.capacity_N == pytest.approx(cap, rel=1e-6)
+    angle = math.acos(min(1.0, float(np.dot(r.slip_twist_scaled, twist))))
+    assert angle < 1e-4
+    assert ('on_jump' in r.flags) == (abs(phi) > math.atan2(1.0, JUMP))
+
+
+def test_brute_force_reference_agrees_on_the_jump():
+    phis = np.radians([-70.0, -50.0, 20.0, 60.0])
+    res = BruteForceSurface(20_000).fit(JUMP_PROBLEM).capacity_many(phis)
+    for phi, r in zip(phis, res):
+        assert r.status is Status.OK
+        assert r.capacity_N == pytest.approx(_exact(phi)[0], rel=2e-3)
+
+
+@pytest.fixture(scope='module')
+def prototype_direct():
+    return AnchorModel(get_robot('prototype'), get_medium('glass_beads'), method='direct')
+
+
+def test_direct_answers_every_state_of_the_fig9_grid(prototype_direct):
+    # The paper's Fig. 9 grid: h = 20 mm, thetaB = 0, thetaL1, thetaL2 in -40:20:40 deg, both
+    # pulls, phi = 0. Before the closure solver 8 of these 50 were `degenerate` (no_root).
+    counts: dict[tuple[str, str], int] = {}
+    for pull in Pull:
+        for l1 in range(-40, 41, 20):
+            for l2 in range(-40, 41, 20):
+                r = prototype_direct.predict(AnchorState.from_degrees(0.02, 0, l1, l2), 0.0, pull)
+                counts[(r.status.value, r.reason)] = counts.get((r.status.value, r.reason), 0) + 1
+                assert r.status in (Status.OK, Status.UNSUPPORTED), (pull, l1, l2, r.detail)
+    assert counts.get(('ok', ''), 0) >= 45
+
+
+def test_direct_answers_the_table2_poses():
+    model = AnchorModel(get_robot('minirquad'), get_medium('m90_sand'), method='direct')
+    for mode, state in ANCHOR_MODES.items():
+        for phi_deg in (0.0, -20.0):
+            r = model.predict(state, math.radians(phi_deg), Pull.BACKWARD)
+            assert r.status is Status.OK and r.capacity_N > 0, (mode, phi_deg, r.detail)
+
+
+def test_grid_centre_matches_twist_mesh_and_brute_force(prototype_direct):
+    # The state of the issue report: direct said `degenerate`, twist-mesh 4.35 N.
+    state = AnchorState.from_degrees(0.02, 0, 0, 0)
+    d = prototype_direct.predict(state, 0.0, Pull.BACKWARD)
+    tm = AnchorModel(get_robot('prototype'), get_medium('glass_beads')).predict(
+        state, 0.0, Pull.BACKWARD)
+    bf = AnchorModel(get_robot('prototype'), get_medium('glass_beads'), method='brute-force',
+                     n_twists=40_000).predict(state, 0.0, Pull.BACKWARD)
+    assert d.status is tm.status is bf.status is Status.OK
+    assert d.capacity_N == pytest.approx(tm.capacity_N, rel=1e-6)
+    assert d.capacity_N == pytest.approx(bf.capacity_N, rel=0.01)
