@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass
+from collections import Counter
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -62,6 +63,7 @@ DEFAULT_CONFIGS = (
     + [Config('ellipsoid', n) for n in (500, 2000)]
     + [Config('alpha', n) for n in (1000, 2000)]
     + [Config('map', 1000)]     # the shipped maps (twist-mesh, 1000 twists, 24 arc segments)
+    + [Config('brute-force', 100_000)]   # the dense closure reference (independent, slow)
 )
 
 
@@ -90,6 +92,8 @@ class Record:
     capacity_N: float | None
     twist: tuple | None
     seconds: float          # pose + RFT + fit + one query, from scratch
+    reason: str = ''
+    flags: tuple[str, ...] = ()
 
 
 def run_config(robot: str, config: Config, states, phis_deg=PHIS_DEG) -> list[Record]:
@@ -111,7 +115,8 @@ def run_config(robot: str, config: Config, states, phis_deg=PHIS_DEG) -> list[Re
                 dt = time.perf_counter() - t0
                 out.append(Record(robot, config.label, config.method, config.n_twists,
                                   config.n_arc, state.as_tuple(), pull.value, phi,
-                                  res.status.value, res.capacity_N, res.slip_twist_scaled, dt))
+                                  res.status.value, res.capacity_N, res.slip_twist_scaled, dt,
+                                  res.reason, tuple(res.flags)))
     return out
 
 
@@ -137,6 +142,13 @@ class Summary:
     twist_err_deg_mean: float
     twist_err_deg_p95: float
     twist_err_deg_worst: float
+    # Coverage: every query is counted, also those where the reference has no value.
+    queries: int = 0
+    answered_pct: float = math.nan           # queries this configuration answers with a value
+    answered_where_ref_pct: float = math.nan  # ... of those the reference answers
+    status_agree_pct: float = math.nan       # value / no value the same as the reference
+    ref_no_value: int = 0                    # queries the reference does not answer
+    outcomes: dict = field(default_factory=dict)   # 'status' or 'status:reason' -> count
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -162,11 +174,21 @@ def summarise(records: list[Record], reference: list[Record]) -> Summary:
     stat = lambda a, f: float(f(a)) if a else math.nan
     times = [r.seconds for r in records]
     r0 = records[0]
+    n = len(records)
+    answered = sum(r.capacity_N is not None for r in records)
+    ref_answers = [r for r, ref in zip(records, reference) if ref.capacity_N is not None]
+    where_ref = sum(r.capacity_N is not None for r in ref_answers)
+    outcomes = Counter(r.status + (f':{r.reason}' if r.reason else '') for r in records)
     return Summary(r0.config, r0.method, r0.n_twists, r0.n_arc,
                    1e3 * float(np.median(times)), len(cap_pct), mismatch,
                    stat(cap_pct, np.mean), stat(cap_pct, lambda a: np.percentile(a, 95)),
                    stat(cap_pct, np.max), stat(cap_n, np.max), stat(over, np.max),
-                   stat(tw, np.mean), stat(tw, lambda a: np.percentile(a, 95)), stat(tw, np.max))
+                   stat(tw, np.mean), stat(tw, lambda a: np.percentile(a, 95)), stat(tw, np.max),
+                   queries=n, answered_pct=100.0 * answered / n,
+                   answered_where_ref_pct=(100.0 * where_ref / len(ref_answers)
+                                           if ref_answers else math.nan),
+                   status_agree_pct=100.0 * (n - mismatch) / n,
+                   ref_no_value=n - len(ref_answers), outcomes=dict(sorted(outcomes.items())))
 
 
 def pareto_front(points: list[tuple[float, float]]) -> list[int]:
@@ -178,3 +200,68 @@ def pareto_front(points: list[tuple[float, float]]) -> list[int]:
             front.append(i)
             best = points[i][1]
     return front
+
+
+# -- agreement with the brute-force reference --------------------------------------------------
+
+AGREEMENT_METHODS = ('direct', 'twist-mesh')
+
+
+def agreement_states(robot: str, n: int, seed: int = 0
+                     ) -> list[tuple[AnchorState, Pull, float]]:
+    """n random (state, pull, phi) inside the robot's ranges; both pulls; phi in -30..10 deg."""
+    rng = np.random.default_rng(seed)
+    states = sample_states(robot, n, seed)
+    return [(s, Pull.FORWARD if k % 2 else Pull.BACKWARD, math.radians(rng.uniform(-30, 10)))
+            for k, s in enumerate(states)]
+
+
+def agreement(robot: str, n_states: int, seed: int = 0, reference_twists: int = 100_000,
+              progress=None) -> dict:
+    """direct and twist-mesh (defaults) against the brute-force closure reference.
+
+    Relative capacity errors are taken against max(reference, 5 % of the robot's weight): a
+    dense mesh of flat triangles still has absolute errors of a few 0.01 N next to steep jumps
+    (RFT's wrench changes by ~20 N/rad there), which would dominate the relative error of
+    capacities close to zero.
+    """
+    robot_model = get_robot(robot)
+    medium = get_medium(MEDIUM[robot])
+    models = {m: AnchorModel(robot_model, medium, method=m) for m in AGREEMENT_METHODS}
+    ref_model = AnchorModel(robot_model, medium, method='brute-force',
+                            n_twists=reference_twists)
+    floor = 0.05 * robot_model.mass * 9.81
+    rows = []
+    jobs = agreement_states(robot, n_states, seed)
+    for state, pull, phi in (progress(jobs) if progress else jobs):
+        ref = ref_model.predict(state, phi, pull)
+        row = {'state': state.as_tuple(), 'pull': pull.value, 'phi_deg': math.degrees(phi),
+               'brute-force': {'status': ref.status.value, 'capacity_N': ref.capacity_N}}
+        for m, model in models.items():
+            t0 = time.perf_counter()
+            r = model.predict(state, phi, pull)
+            row[m] = {'status': r.status.value, 'reason': r.reason, 'capacity_N': r.capacity_N,
+                      'flags': list(r.flags), 'ms': 1e3 * (time.perf_counter() - t0)}
+        rows.append(row)
+    summary = {}
+    for m in AGREEMENT_METHODS:
+        same = [r[m]['status'] == r['brute-force']['status'] for r in rows]
+        err = [(r[m]['capacity_N'] - r['brute-force']['capacity_N'])
+               / max(r['brute-force']['capacity_N'], floor)
+               for r in rows if r[m]['capacity_N'] is not None
+               and r['brute-force']['capacity_N'] is not None]
+        summary[m] = {
+            'status_agree_pct': 100.0 * float(np.mean(same)),
+            'degenerate_pct': 100.0 * float(np.mean([r[m]['status'] == 'degenerate'
+                                                    for r in rows])),
+            'compared': len(err),
+            'cap_err_pct_p95': 100.0 * float(np.percentile(np.abs(err), 95)) if err else None,
+            'cap_over_pct_worst': 100.0 * float(np.max(err)) if err else None,
+            'time_ms_median': float(np.median([r[m]['ms'] for r in rows])),
+        }
+    all_three = [r for r in rows if len({r[m]['status'] for m in AGREEMENT_METHODS}
+                                        | {r['brute-force']['status']}) == 1]
+    return {'robot': robot, 'states': n_states, 'seed': seed,
+            'reference': f'brute-force N={reference_twists}',
+            'error_floor_N': floor, 'all_agree_pct': 100.0 * len(all_three) / len(rows),
+            'summary': summary, 'rows': rows}

@@ -11,20 +11,29 @@ from ..charts.speed_accuracy import plot_speed_accuracy
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser('chart', help='charts: speed-accuracy')
-    p.add_argument('kind', choices=['speed-accuracy'])
-    p.add_argument('--out', required=True, help='PNG file; the numbers go next to it (.csv, .json)')
+    p = sub.add_parser('chart', help='charts: speed-accuracy (with coverage), agreement')
+    p.add_argument('kind', choices=['speed-accuracy', 'agreement'],
+                   help='speed-accuracy: every method and resolution against direct on the '
+                        'finest leg mesh; agreement: direct and twist-mesh against the '
+                        'brute-force closure reference (statuses and capacities)')
+    p.add_argument('--out', required=True, help='PNG file (agreement: JSON file); the numbers '
+                                                 'go next to it (.csv, .json)')
     p.add_argument('--states', type=int, default=10, help='random states per robot')
     p.add_argument('--robots', nargs='+', default=['prototype', 'minirquad'],
                    choices=sorted(acc.STATE_RANGES))
     p.add_argument('--seed', type=int, default=0)
     p.add_argument('--quick', action='store_true', help='fewer configurations (for tests)')
+    p.add_argument('--reference-twists', type=int, default=100_000,
+                   help='agreement: twists of the brute-force reference')
+    p.add_argument('--json', action='store_true', help='also print the numbers as JSON')
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
     from tqdm import tqdm
 
+    if args.kind == 'agreement':
+        return _agreement(args, tqdm)
     configs = list(acc.DEFAULT_CONFIGS)
     if args.quick:
         configs = [acc.Config('twist-mesh', 500), acc.Config('twist-mesh', 1000),
@@ -64,4 +73,29 @@ def run(args) -> int:
               f'{r["twist_err_deg_p95"]:>10.2f}{r["twist_err_deg_worst"]:>8.2f}'
               f'{r["compared"]:>5}/{r["status_mismatch"]}')
     print(f'wrote {out}, {out.with_suffix(".csv")}, {out.with_suffix(".json")}')
+    if args.json:
+        print(out.with_suffix('.json').read_text())
+    return 0
+
+
+def _agreement(args, tqdm) -> int:
+    result = {}
+    for robot in args.robots:
+        bar = lambda jobs, r=robot: tqdm(jobs, desc=f'agreement {r}', unit='state',
+                                         file=sys.stderr)
+        result[robot] = acc.agreement(robot, args.states, args.seed, args.reference_twists,
+                                      progress=bar)
+    out = Path(args.out)
+    out.write_text(json.dumps(result, indent=1))
+    for robot, r in result.items():
+        for m, s in r['summary'].items():
+            print(f'{robot:<10}{m:<11} status agree {s["status_agree_pct"]:6.2f} %  degenerate '
+                  f'{s["degenerate_pct"]:5.2f} %  cap p95 {s["cap_err_pct_p95"]:.3f} %  worst '
+                  f'over {s["cap_over_pct_worst"]:+.3f} %  ({s["compared"]} compared, '
+                  f'{s["time_ms_median"]:.1f} ms median)')
+        print(f'{robot:<10}all three agree on the status: {r["all_agree_pct"]:.2f} %')
+    print(f'wrote {out}')
+    if args.json:
+        print(json.dumps({k: {kk: v[kk] for kk in v if kk != 'rows'} for k, v in result.items()},
+                         indent=1))
     return 0

@@ -124,3 +124,33 @@ def closure_exit(eval_scaled: Callable[[np.ndarray], np.ndarray], d: np.ndarray,
         found.append(s)
         r *= 0.5
     return ClosureHit(False, np.nan, t_c, bridge, r, level)
+
+
+_K_FOLD = 13
+_AF, _BF = (g.ravel() for g in np.meshgrid(np.linspace(-1.0, 1.0, _K_FOLD),
+                                           np.linspace(-1.0, 1.0, _K_FOLD), indexing='ij'))
+_FACES_FOLD = _grid_faces(_K_FOLD)
+
+
+def earlier_exit(eval_scaled: Callable[[np.ndarray], np.ndarray], d: np.ndarray,
+                 twist: np.ndarray, s: float, radius: float = 0.25,
+                 angle_tol: float = 1e-7) -> ClosureHit | None:
+    """An exit closer than `s` near `twist`, on a fold sheet too thin for the coarse mesh.
+
+    RFT surfaces fold, and a sheet thinner than the bracketing sphere's spacing is invisible to
+    it: the solver then reports the next crossing, too far out. Run where a fold is suspected
+    (several roots, or a polish that moved far from the chord): a dense 13 x 13 patch of
+    half-width `radius` rad (spacing ~0.04 rad, like a 8,000-twist sphere) around the answer,
+    one wrench call; if the ray crosses it closer than s, the closure search follows that
+    crossing. None when there is no earlier exit.
+    """
+    t0 = unit_rows(np.asarray(twist, dtype=float).reshape(1, 3))[0]
+    u, v = _tangent_basis(t0[None, :])
+    pts = unit_rows(t0 + radius * (_AF[:, None] * u + _BF[:, None] * v))
+    hits = cast_rays(prepare_mesh(eval_scaled(pts), _FACES_FOLD), d)
+    f = int(hits.face[0])
+    if f < 0 or not hits.s[0] < s * (1.0 - 1e-4):
+        return None
+    seed = hits.bary[0] @ pts[_FACES_FOLD[f]]
+    ch = closure_exit(eval_scaled, d, seed, 2.0 * radius / (_K_FOLD - 1), angle_tol=angle_tol)
+    return ch if ch.converged and ch.s < s * (1.0 - 1e-6) else None

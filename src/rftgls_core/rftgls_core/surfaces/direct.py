@@ -37,7 +37,7 @@ import numpy as np
 
 from ..types import Status
 from .base import SUPPORT_CHECK_TWISTS, CapacityResult, FitSamples, GLSProblem, LimitSurface
-from .closure import closure_exit
+from .closure import closure_exit, earlier_exit
 from .newton import newton_on_sphere, unit_rows
 from .raycast import PreparedMesh, all_hits, prepare_mesh
 from .twist_sphere import TwistSphere
@@ -155,6 +155,13 @@ class DirectSurface(LimitSurface):
                 k0 = int(np.flatnonzero(valid)[np.argmin(s[valid])])
                 s0, t0, on_jump = float(s[k0]), t[k0], False
             base += f'; closure search: {ch.levels} patches, {calls} wrench calls in all'
+        # A fold sheet thinner than the coarse mesh hides an earlier exit: look for one where
+        # the evidence says the surface folds here (several roots, or a chord far off).
+        if len(roots) > 1 or abs(s0 - float(s_c[0])) > 0.05 * s0:
+            fold = earlier_exit(self._eval_scaled, d, t0, s0)
+            if fold is not None:
+                base += f'; earlier exit on a thin fold ({s0 * sf:.4g} N further out)'
+                s0, t0, on_jump, bridge = fold.s, fold.twist, fold.on_jump, fold.bridge
         flags: list[str] = ['on_jump'] if on_jump else []
         if on_jump:
             detail = base + (f'; the ray crosses a bridged jump (relative gap {bridge:.2g}): '
@@ -165,8 +172,9 @@ class DirectSurface(LimitSurface):
         ang = np.arccos(np.clip(t[same] @ t0, -1.0, 1.0)) if np.any(same) else np.zeros(1)
         k_same = np.flatnonzero(same)
         sv = (np.linalg.svd(jac[k_same[0]], compute_uv=False) if len(k_same)
-              else np.array([1.0, 1.0]))
-        detail = (base + f'; Jacobian singular values {sv[0]:.3g}, {sv[1]:.3g}')
+              else np.array([1.0, 1.0]))   # exit not from Newton: no Jacobian to judge
+        detail = base + (f'; Jacobian singular values {sv[0]:.3g}, {sv[1]:.3g}' if len(k_same)
+                         else '')
         # Other roots at the same distance with a different twist, or a singular Jacobian: the
         # capacity stands, the slip twist is not unique.
         spread = float(ang.max())
