@@ -5,7 +5,7 @@ pull angle phi, i.e. up to 32 corners (16 state corners x 2 stored pull angles).
 because capacity and twist vary smoothly with the load direction; a phi equal to a stored angle
 uses that angle only. The pull orientation is not interpolated: it selects a sub-map.
 
-Policies (architecture.md section 5, limit-surfaces.md section 10):
+Policies (docs/design/architecture.md#statuses, docs/design/maps.md#query-policy):
 - Out of grid (any state axis or phi): the coordinate is clamped to the end node and the
   result is EXTRAPOLATED, reason 'out_of_grid', with the axes named in `detail`.
 - Non-finite state or phi, unknown pull, or a pull orientation the map does not hold:
