@@ -210,13 +210,15 @@ def repo_problems() -> list[Problem]:
     problems = []
     for rel in sorted(files):
         suffix = Path(rel).suffix
-        if suffix in BINARY_WITH_TEXT:
-            problems += check_text((REPO / rel).read_bytes().decode('latin-1'), rel, repo)
-            continue
-        if suffix not in TEXT_SUFFIXES:
+        if suffix not in TEXT_SUFFIXES | BINARY_WITH_TEXT:
             continue
         try:
+            if suffix in BINARY_WITH_TEXT:
+                problems += check_text((REPO / rel).read_bytes().decode('latin-1'), rel, repo)
+                continue
             text = (REPO / rel).read_text(encoding='utf-8')
+        except FileNotFoundError:
+            continue  # an untracked file removed since the listing: not part of the repository
         except UnicodeDecodeError:
             # A text suffix must hold text: fail loudly instead of skipping the file.
             problems.append(Problem(rel, 0, 'not UTF-8 text, so it cannot be checked'))
