@@ -62,7 +62,8 @@ def ros_context():
 
 
 def stop_process(proc: subprocess.Popen, timeout: float = 5.0) -> None:
-    """terminate -> timed wait -> kill: an rclpy node can ignore SIGTERM (see ros2-from-pip.md)."""
+    """terminate -> timed wait -> kill: an rclpy node can ignore SIGTERM
+    (see docs/design/ros2-from-pip.md#stopping-nodes)."""
     if proc.poll() is not None:
         return
     proc.send_signal(signal.SIGINT)

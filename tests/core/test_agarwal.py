@@ -1,4 +1,4 @@
-"""Agarwal 3D-RFT stress: reference values from models-rft.md section 4.8 (derived there from
+"""Agarwal 3D-RFT stress: reference values from docs/design/models-rft.md 4.8 (derived there from
 the public coefficient table), the frame-free/optimised forms against each other, and the
 fused numba kernel against numpy."""
 import math
@@ -10,7 +10,8 @@ from rftgls_core.rft import kernels
 from rftgls_core.rft.agarwal import AgarwalRFT, downward_normal, generic_stress
 
 S = math.sqrt(0.5)
-# (outward n, v_hat) -> alpha_gen and alpha capped at mu_surf = 0.4; xi_n = 1 (models-rft.md 4.8)
+# (outward n, v_hat) -> alpha_gen and alpha capped at mu_surf = 0.4; xi_n = 1
+# (docs/design/models-rft.md 4.8)
 TABLE_4_8 = [
     ((0, 0, -1), (0, 0, -1), (0, 0, 0.875), (0, 0, 0.875)),
     ((0, 0, 1), (0, 0, 1), (0, 0, -0.080), (0, 0, -0.080)),
@@ -39,7 +40,8 @@ def test_reference_table(n, v, gen, capped):
 
 
 def test_edge_on_wall_sliding_is_small_and_capped():
-    # n = +x, v = +y (models-rft.md 4.8 last row): |alpha_gen| ~ 0.07, capped ~ 0.001. The
+    # n = +x, v = +y (docs/design/models-rft.md 4.8 last row):
+    # |alpha_gen| ~ 0.07, capped ~ 0.001. The
     # sign of the tiny x part depends on the n_z = 0 tie-break (we take n_d = -n).
     gen = generic_stress(np.array([1.0, 0, 0]), np.array([0, 1.0, 0]))
     assert np.allclose(np.abs(gen), (0.002, 0.068, 0.026), atol=1.5e-3)

@@ -31,7 +31,8 @@ def test_plate_pushed_down_json(plate_stl):
     res = json.loads(out.stdout)
     assert set(res) == {'force_N', 'moment_Nm', 'facets_total', 'facets_active', 'model',
                         'medium'}
-    # Bottom face: 0.875 xi_n A d at 5.1 cm depth (models-rft.md 4.8 scaling: 6.60 N at 5 cm);
+    # Bottom face: 0.875 xi_n A d at 5.1 cm depth
+    # (docs/design/models-rft.md 4.8 scaling: 6.60 N at 5 cm);
     # the four thin side walls slide edge-on and add a little friction-capped stress.
     assert res['force_N'][2] == pytest.approx(6.60 * 0.051 / 0.05, rel=0.03)
     assert res['model'] == 'agarwal' and res['facets_active'] == res['facets_total']

@@ -23,7 +23,7 @@ def horizontal_facet(depth, area, normal_z=-1.0):
 
 @pytest.mark.parametrize('backend', BACKENDS)
 def test_plate_pushed_down_reference(backend):
-    # models-rft.md 4.8: a 2 x 2 cm horizontal plate at 5 cm depth pushed down,
+    # docs/design/models-rft.md 4.8: a 2 x 2 cm horizontal plate at 5 cm depth pushed down,
     # xi_n = 3.771e5 N/m^3 gives 6.60 N (= 0.875 xi_n A d).
     body = BuriedBody(horizontal_facet(0.05, 4e-4), AgarwalRFT(3.771e5, 0.4), backend=backend)
     f = body.wrench(np.array([0, 0, -1.0, 0, 0, 0]))
@@ -125,7 +125,7 @@ def sphere_down_quadrature(xi_n, mu, radius, depth):
 
 @pytest.mark.parametrize('mu, published', [(math.inf, 13.82), (0.4, 10.64), (0.2, 9.26)])
 def test_sphere_quadrature_matches_published(mu, published):
-    # models-rft.md 4.8: R = 1 cm, centre depth 3 cm, xi_n = 1 N/cm^3, moving down.
+    # docs/design/models-rft.md 4.8: R = 1 cm, centre depth 3 cm, xi_n = 1 N/cm^3, moving down.
     assert sphere_down_quadrature(1e6, mu, 0.01, 0.03) == pytest.approx(published, abs=0.006)
 
 

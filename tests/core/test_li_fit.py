@@ -1,4 +1,5 @@
-"""Li 2013 generic 2D RFT fit (rft/li.py) against the reference values of models-rft.md."""
+"""Li 2013 generic 2D RFT fit (rft/li.py) against the reference values of
+docs/design/models-rft.md 2.6."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,7 +7,7 @@ import pytest
 
 from rftgls_core.rft.li import GENERIC, POPPY_CP, POPPY_LP, coefficient_set, li_alpha
 
-# models-rft.md section 2.6, "Grid for unit tests": alpha_x / alpha_z, generic set, zeta = 1;
+# docs/design/models-rft.md 2.6, "Grid for unit tests": alpha_x / alpha_z, generic set, zeta = 1;
 # rows beta, columns gamma, degrees.
 GAMMAS = (-90, -45, 0, 45, 90)
 GRID = {
@@ -17,7 +18,7 @@ GRID = {
     60: ('-0.037/-0.103', '+0.216/+0.059', '+0.388/+0.257', '+0.377/+0.376', '+0.190/+0.346'),
     90: ('+0.000/-0.054', '+0.262/-0.027', '+0.370/+0.037', '+0.262/+0.101', '+0.000/+0.128'),
 }
-# models-rft.md section 2.6, single cases: (beta, gamma) deg -> (alpha_x, alpha_z)
+# docs/design/models-rft.md 2.6, single cases: (beta, gamma) deg -> (alpha_x, alpha_z)
 CASES = {
     (0, 90): (0.000, 1.000),      # horizontal plate, straight down
     (0, -90): (0.000, -0.250),    # horizontal plate, straight up
@@ -48,15 +49,15 @@ def test_single_cases(case):
 
 
 def test_generic_normalisation():
-    # models-rft.md 2.3: alpha_z^gen(0, pi/2) = 0.206+0.169+0.212+0.358+0.055 = 1.000
+    # docs/design/models-rft.md 2.3: alpha_z^gen(0, pi/2) = 0.206+0.169+0.212+0.358+0.055 = 1.000
     assert GENERIC.penetration == pytest.approx(1.0, abs=1e-12)
     assert GENERIC.alpha(0.0, np.pi / 2)[1] == pytest.approx(1.0, abs=1e-12)
-    # models-rft.md 3.4 / 8: alpha_1 = alpha_x^gen(0, 0) = 0.136
+    # docs/design/models-rft.md 3.4 / 8: alpha_1 = alpha_x^gen(0, 0) = 0.136
     assert GENERIC.drag == pytest.approx(0.136, abs=1e-12)
 
 
 def test_poppy_sets_are_in_n_per_cm3():
-    # models-rft.md 2.4: alpha_z(0, pi/2) = 0.254 (LP) and 0.464 (CP) N/cm^3
+    # docs/design/models-rft.md 2.4: alpha_z(0, pi/2) = 0.254 (LP) and 0.464 (CP) N/cm^3
     assert POPPY_LP.unit == POPPY_CP.unit == 'N/cm^3'
     assert POPPY_LP.penetration == pytest.approx(0.254, abs=1e-12)
     assert POPPY_CP.penetration == pytest.approx(0.464, abs=1e-12)
@@ -64,7 +65,7 @@ def test_poppy_sets_are_in_n_per_cm3():
 
 @pytest.mark.parametrize('coeffs', [GENERIC, POPPY_LP, POPPY_CP])
 def test_c_cosine_d_sine_pairing(coeffs):
-    # models-rft.md 2.2 and 5: only the C-cos / D-sin pairing makes alpha_x vanish for a
+    # docs/design/models-rft.md 2.2 and 5: only the C-cos / D-sin pairing makes alpha_x vanish for a
     # horizontal plate moving straight down or up (the swapped IsaacLab form gives 0.224)
     for gamma in (np.pi / 2, -np.pi / 2):
         assert coeffs.alpha(0.0, gamma)[0] == pytest.approx(0.0, abs=1e-15)
@@ -72,7 +73,8 @@ def test_c_cosine_d_sine_pairing(coeffs):
 
 @pytest.mark.parametrize('coeffs', [GENERIC, POPPY_LP, POPPY_CP])
 def test_mirror_relations_and_periodicity(coeffs):
-    # models-rft.md 2.5: az(b, g) = az(-b, pi - g), ax(b, g) = -ax(-b, pi - g); pi-periodic in b
+    # docs/design/models-rft.md 2.5:
+    # az(b, g) = az(-b, pi - g), ax(b, g) = -ax(-b, pi - g); pi-periodic in b
     rng = np.random.default_rng(7)
     beta = rng.uniform(-np.pi, np.pi, 500)
     gamma = rng.uniform(-np.pi, np.pi, 500)

@@ -1,4 +1,5 @@
-"""LiTreersRFT: Li's 2D fit in Treers' 3D decomposition (rft/treers.py), models-rft.md 2-3."""
+"""LiTreersRFT: Li's 2D fit in Treers' 3D decomposition (rft/treers.py),
+docs/design/models-rft.md 2-3."""
 from __future__ import annotations
 
 import json
@@ -13,7 +14,8 @@ from rftgls_core.geometry.shapes import icosphere
 from rftgls_core.rft.li import GENERIC, li_alpha
 from rftgls_core.rft.treers import F1_C, F23_D, LiTreersRFT, f1, f23
 
-ZETA = 3.3e5                     # N/m^3 (0.33 N/cm^3, Treers' glass beads, models-rft.md 2.4)
+ZETA = 3.3e5                     # N/m^3 (0.33 N/cm^3, Treers' glass beads,
+                                 # docs/design/models-rft.md 2.4)
 
 
 def stress(n, v, model=None):
@@ -33,7 +35,7 @@ def unit(*xyz):
 # --------------------------------------------------------------------- weights (section 3.3)
 
 def test_weights_table():
-    # models-rft.md 3.3: phi in degrees -> f1(sin phi), f23(cos phi), 4 decimals
+    # docs/design/models-rft.md 3.3: phi in degrees -> f1(sin phi), f23(cos phi), 4 decimals
     phi = np.radians([0, 15, 30, 45, 60, 75, 90])
     np.testing.assert_allclose(f1(np.sin(phi)),
                                [0, 0.1785, 0.5946, 0.8813, 0.9709, 0.9949, 1], atol=5e-5 + 1e-12)
@@ -42,7 +44,7 @@ def test_weights_table():
 
 
 def test_weights_end_points_and_domain():
-    # models-rft.md 3.3: both are 0 at 0 and 1 at 1; artanh stays finite on [0, 1]
+    # docs/design/models-rft.md 3.3: both are 0 at 0 and 1 at 1; artanh stays finite on [0, 1]
     assert f1(0.0) == pytest.approx(0, abs=1e-14) and f1(1.0) == pytest.approx(1, abs=1e-14)
     assert f23(0.0) == pytest.approx(0, abs=1e-14) and f23(1.0) == pytest.approx(1, abs=1e-14)
     x = np.array([-0.5, 0.0, 1.0, 1.0 + 1e-9, 7.0])
@@ -79,7 +81,8 @@ def test_reference_stresses(n, v, expected):
 
 
 def _treers_reference(n, v, alpha1_ratio=GENERIC.drag):
-    """models-rft.md 3.2 steps 5-10 written out literally (angles via atan2), zeta = 1."""
+    """docs/design/models-rft.md 3.2 steps 5-10 written out literally (angles via atan2),
+    zeta = 1."""
     z = np.array([0.0, 0.0, 1.0])
     if abs(n[2]) < 1 - 1e-3:
         e2 = np.array([n[0], n[1], 0.0])
@@ -113,7 +116,8 @@ def test_matches_literal_treers_algorithm():
 
 
 def test_alpha1_ratio_reproduces_public_code_choice():
-    # models-rft.md 3.4: Treers' code uses aY ~ 0.2035; only the out-of-plane part changes
+    # docs/design/models-rft.md 3.4: Treers' code uses aY ~ 0.2035;
+    # only the out-of-plane part changes
     model = LiTreersRFT(1.0, alpha1_ratio=0.2035)
     n, v = unit(1, 0.3, -0.5), unit(0.6, 1.0, -0.2)
     np.testing.assert_allclose(stress(n, v, model), _treers_reference(n, v, 0.2035),
@@ -122,7 +126,7 @@ def test_alpha1_ratio_reproduces_public_code_choice():
 
 
 def test_sphere_forces_match_models_rft_2_6():
-    # models-rft.md 2.6: sphere R = 1 cm, centre 3 cm deep, generic, zeta = 1 N/cm^3,
+    # docs/design/models-rft.md 2.6: sphere R = 1 cm, centre 3 cm deep, generic, zeta = 1 N/cm^3,
     # facet-centroid sums on a 20480-triangle icosphere: down 9.644 N, +x (-4.485, 0, 2.404) N,
     # up -1.765 N (analytic down: 9.664 N)
     mesh = icosphere(0.01, 5).transformed(np.eye(3), [0.0, 0.0, -0.03])
@@ -216,7 +220,8 @@ def test_parameters_and_describe():
 
 
 def test_poppy_sets_convert_n_per_cm3_to_si():
-    # models-rft.md 1 and 2.3-2.4: the LP/CP numbers are N/cm^3 and 1 N/cm^3 = 1e6 N/m^3, so
+    # docs/design/models-rft.md 1 and 2.3-2.4:
+    # the LP/CP numbers are N/cm^3 and 1 N/cm^3 = 1e6 N/m^3, so
     # the default zeta = 1e6 N/m^3 reproduces them in SI: LP alpha_z(0, 90) = 0.254 N/cm^3
     lp = LiTreersRFT(coefficients='poppy_lp')
     assert lp.zeta == 1e6 and lp.penetration == pytest.approx(0.254e6)

@@ -1,4 +1,5 @@
-"""Robot models posed from anchor states: the sign conventions of the architecture page."""
+"""Robot models posed from anchor states: the sign conventions of
+docs/design/architecture.md#frames-and-signs."""
 import math
 
 import numpy as np

@@ -1,4 +1,5 @@
-"""Accuracy of the representations on analytic limit surfaces (limit-surfaces.md section 12).
+"""Accuracy of the representations on analytic limit surfaces
+(docs/design/limit-surfaces.md#synthetic-test-surfaces).
 
 References: `synthetic.PNormGLS.exact_capacity` (brentq on the dual q-norm, independent of
 every representation) and its exact twist A^-1 grad||y||_q; for the dented case the exact
@@ -84,7 +85,8 @@ def test_ellipsoid_is_exact_on_an_ellipsoid_and_a_fair_baseline_otherwise():
     cap, ang = _errors(ell, EllipsoidSurface().fit(ell.problem).capacity_many(PHIS))
     assert np.max(np.abs(cap)) < 1e-8 and np.max(ang) < 1e-4
     # On the boxier p = 1.6 surface the ellipsoid is only a model: ~15 % and ~12 deg worst case
-    # here (documented limitation; limit-surfaces.md measured 4.8 % on a rounder surface).
+    # here (documented limitation;
+    # docs/design/limit-surfaces.md#ellipsoid-lg04: 4.8 % on a rounder one).
     case = convex_case()
     cap, ang = _errors(case, EllipsoidSurface().fit(case.problem).capacity_many(PHIS))
     assert np.max(np.abs(cap)) < 0.2 and np.max(ang) < 20.0

@@ -48,7 +48,8 @@ def _volume(cx, keep):
 
 
 def test_convex_cloud_paper_alpha_gives_nearly_its_hull(convex_cx):
-    # The median rule sits in the large-radius tail (limit-surfaces.md section 3): one region,
+    # The median rule sits in the large-radius tail
+    # (docs/design/limit-surfaces.md#the-papers-median-rule): one region,
     # no voids, essentially the hull (a few boundary slivers may stay out).
     crit = convex_cx.criteria()
     shp = alpha_shape(convex_cx, crit.alpha_paper)

@@ -1,4 +1,5 @@
-"""Hypothesis strategies for every protocol message, within the wire ranges of PROTOCOL.md."""
+"""Hypothesis strategies for every protocol message, within the wire ranges of
+src/minirquad_driver/PROTOCOL.md."""
 import math
 
 from hypothesis import strategies as st

@@ -135,7 +135,7 @@ def test_teleop_pty_guard_against_simulated_robot(tmp_path, spawn, ros_context):
 
     # Burrow SH by key. Then trim thetaL1 by 0.3 deg: the bridge's micro-radian quantisation
     # puts -40 deg at -40.00004 deg, where the shipped map's cell touches unsupported -60 deg
-    # nodes and capacity_node says 'unsupported' (reported; see behavior_README.md).
+    # nodes and capacity_node says 'unsupported' (reported; see src/rftgls_ros/behavior_README.md).
     term.press('3')
     probe = rclpy.create_node('teleop_probe', context=ros_context)
     legs = {}

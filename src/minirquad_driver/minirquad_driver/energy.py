@@ -11,7 +11,8 @@ skipped, and counted, when it is not a normal sample interval:
 
 The uint32 ms counter's wrap is handled by modular differences (see ``mcu_clock``). One or
 two dropped samples at 50-100 Hz stay below the gap threshold and are integrated across,
-which the hardware notes measured as negligible error (< 0.01 %).
+which costs a negligible error
+(< 0.01 %, docs/design/minirquad-hardware.md#ina219-power-and-energy).
 """
 from __future__ import annotations
 

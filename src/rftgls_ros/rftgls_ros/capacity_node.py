@@ -336,7 +336,7 @@ def main(args=None) -> int:
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
-        # spin_once with a timeout, not spin(): see ros2-from-pip.md 3.5 (ignored signals).
+        # spin_once with a timeout, not spin(): see docs/design/ros2-from-pip.md#stopping-nodes.
         while rclpy.ok():
             executor.spin_once(timeout_sec=0.2)
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -21,7 +21,7 @@ from .burrow import TABLE_II
 class AnchorPrediction(NamedTuple):
     """capacity: largest tension T (N) the anchor holds along d(phi), None without a value.
     slip_twist: direction of motion of p when it fails, (vx, vz, wy) in world axes with
-    |(vx, vz)| = 1 (wy in rad per m of travel). status: see architecture section 5."""
+    |(vx, vz)| = 1 (wy in rad per m of travel). status: see docs/design/architecture.md#statuses."""
 
     capacity: float | None
     slip_twist: tuple[float, float, float]

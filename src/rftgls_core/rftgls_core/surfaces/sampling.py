@@ -3,7 +3,7 @@
 Convert them to raw (vx, vz, wy) directions with `Scaling.twist_from_scaled`.
 
 A Fibonacci sphere: no duplicates, no pole clusters, no lat-long degeneracies (which make
-Qhull slow and alpha spectra collapse, limit-surfaces.md section 3.2).
+Qhull slow and alpha spectra collapse, docs/design/limit-surfaces.md).
 """
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Anchor modes, required force, energy per mode, the mode chooser and the tether geometry.
 
-Units: SI (m, rad, N, J, s). Angles of legs and body follow the architecture page: leg angles
+Units: SI (m, rad, N, J, s). Angles of legs and body follow docs/design/architecture.md: leg angles
 from -z_B about the axle, body pitch thetaB positive nose up, h = height of the winch point p
 above the sand. Pull angle phi: 0 = horizontal tether, negative = tether going down from p to
 the sled (the paper's -20 deg when the sled is close).

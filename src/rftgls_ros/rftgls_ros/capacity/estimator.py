@@ -1,6 +1,6 @@
 """ROS-free core of capacity_node: timestamped inputs in, a status-carrying estimate out.
 
-Inputs (SI, the conventions of docs/architecture.md section 3):
+Inputs (SI, the conventions of docs/design/architecture.md#frames-and-signs):
   joints   leg angles, rad, from -z_B about the axles: proximal_left/right (theta_L1),
            distal_left/right (theta_L2). The two legs of one axle are averaged (the sagittal
            model shares one angle per axle); a spread beyond `leg_tolerance_rad` is reported.
