@@ -6,8 +6,7 @@ switch itself the facet may carry any fraction lambda in [0, 1] of its leading s
 like Coulomb friction at zero slip, so the physically meaningful map is set-valued: its closure
 bridges every jump with the segment between the wrenches on either side. A load ray that passes
 through such a gap meets no single-valued root (Newton stalls), but it crosses the bridged gap
-at a well defined point, with the slip twist on the switching circle (docs/design/
-limit-surfaces.md, "Jumps and the closure").
+at a well defined point, with the slip twist on the switching circle (docs/design/closure.md).
 
 `closure_exit` finds that crossing without knowing which facets switch: it triangulates a small
 patch of the twist sphere around a seed (a 7 x 7 grid in the tangent plane, one batched
