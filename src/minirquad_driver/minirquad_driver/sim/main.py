@@ -19,7 +19,7 @@ from ..protocol import messages as m
 from ..protocol.codec import encode_frame
 from .faults import FaultConfig, FaultInjector
 from .mcu import McuConfig, SimMcu
-from .pty_link import PtyLink
+from .pty_link import LinkPathError, PtyLink
 from .robot import SimRobot
 from .winch import WinchSled
 
@@ -182,7 +182,12 @@ def _split(data: bytes) -> list[bytes]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    return run(build_parser().parse_args(argv))
+    args = build_parser().parse_args(argv)
+    try:
+        return run(args)
+    except LinkPathError as exc:
+        print(f'minirquad_sim: error: {exc}', file=sys.stderr)
+        return 2
 
 
 if __name__ == '__main__':
