@@ -11,83 +11,9 @@ from __future__ import annotations
 import time
 
 import pytest
-import rclpy
-from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import BatteryState, Imu, JointState
-from std_msgs.msg import Float64, String
+from bridge_harness import Harness
 
-from minirquad_driver.bridge_node import JOINT_NAMES, BridgeNode
-
-
-class Harness:
-    def __init__(self, ctx, port: str):
-        self.node = BridgeNode(context=ctx, parameter_overrides=[
-            Parameter('port', value=port), Parameter('diagnostics_period', value=0.5)])
-        self.probe = rclpy.create_node('probe', context=ctx)
-        self.joints: list[tuple[float, JointState]] = []
-        self.energy: list[float] = []
-        self.states: list[tuple[float, str]] = []
-        self.diag: list[DiagnosticArray] = []
-        self.imu: list[Imu] = []
-        self.power: list[BatteryState] = []
-        sub = self.probe.create_subscription
-        sub(JointState, 'joint_states', lambda msg: self.joints.append((time.monotonic(), msg)),
-            1000)
-        sub(Float64, 'energy', lambda msg: self.energy.append(msg.data), 1000)
-        sub(Imu, 'imu', self.imu.append, 1000)
-        sub(BatteryState, 'power', self.power.append, 1000)
-        sub(DiagnosticArray, 'diagnostics', self.diag.append, 10)
-        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        sub(String, 'minirquad/link_state',
-            lambda msg: self.states.append((time.monotonic(), msg.data)), latched)
-        self.gait = self.probe.create_publisher(String, 'gait', 10)
-        self.executor = SingleThreadedExecutor(context=ctx)
-        self.executor.add_node(self.node)
-        self.executor.add_node(self.probe)
-
-    def spin(self, seconds: float) -> None:
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            self.executor.spin_once(timeout_sec=0.02)
-
-    def spin_until(self, cond, timeout: float) -> bool:
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            if cond():
-                return True
-            self.executor.spin_once(timeout_sec=0.02)
-        return cond()
-
-    def walk(self) -> None:
-        assert self.spin_until(lambda: self.joints, 5.0), 'no telemetry'
-        self.gait.publish(String(data='walk'))
-        assert self.spin_until(lambda: self.node.core.counters.commands_acked >= 1, 3.0)
-
-    def link(self) -> dict:
-        return self.node.core.diagnostics(transport=self.node.transport)[0].values
-
-    def close(self) -> None:
-        self.node.destroy_node()
-        self.probe.destroy_node()
-        self.executor.shutdown()
-
-
-@pytest.fixture
-def harness(ros_context):
-    made = []
-
-    def make(port):
-        h = Harness(ros_context, port)
-        made.append(h)
-        return h
-
-    yield make
-    for h in made:
-        h.close()
+from minirquad_driver.bridge_node import JOINT_NAMES
 
 
 def _published_subset_of_intact(h: Harness, sim) -> int:

@@ -62,6 +62,7 @@ class _Recorder:
             return
         self.file.write(json.dumps({
             'seq': seq, 't_ms': t_ms, 'fault': fault,
+            'host_s': time.time(),    # host wall time just after the sample: tests' truth
             'legs': [round(a * m.MICRORAD) for a in tel.leg_angles],
             'pitch': round(tel.pitch * m.MICRORAD),
             'tension': round(tel.tension * m.MILLINEWTON)}) + '\n')
