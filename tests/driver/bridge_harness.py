@@ -75,7 +75,7 @@ class Harness:
         return cond()
 
     def walk(self) -> None:
-        assert self.spin_until(lambda: self.joints, 5.0), 'no telemetry'
+        assert self.spin_until(lambda: self.joints, 15.0), 'no telemetry'
         self.gait.publish(String(data='walk'))
         assert self.spin_until(lambda: self.node.core.counters.commands_acked >= 1, 3.0)
 

@@ -71,7 +71,7 @@ FAULTS = {
     'drop': ['--drop-rate', '0.05'],
     'corrupt': ['--corrupt-rate', '0.05'],
     'latency': ['--latency-ms', '30', '--jitter-ms', '5'],
-    'disconnect': ['--disconnect-at', '2.0', '--disconnect-for', '1.0'],
+    'disconnect': ['--disconnect-at', '3.0', '--disconnect-for', '1.0'],
     'reset': ['--reset-at', '2.0'],
     'wrap': ['--clock-start-ms', str(2**32 - 2500)],
 }
@@ -84,11 +84,11 @@ def test_fault_is_counted_and_survived(sim, harness, fault):
     h.walk()
     h.spin(3.5)
     link = h.link()
-    # Recovered: telemetry is flowing again at the end, and the link is ok.
+    # Recovered: telemetry is flowing again at the end, and the link is ok (fresh by
+    # sample time, which a heavily loaded host may need a moment to catch up to).
+    assert h.spin_until(lambda: h.states[-1][1] == 'ok' and not h.node.core.is_stale(), 3.0)
     t_end = time.monotonic()
     assert h.joints[-1][0] > t_end - 0.3
-    assert h.states[-1][1] == 'ok'
-    assert not h.node.core.is_stale()
     _published_subset_of_intact(h, s)
     assert h.energy == sorted(h.energy)     # power > 0: energy never goes backwards
     rejected = link['crc_errors'] + link['cobs_errors'] + link['other_rejected']
@@ -108,7 +108,8 @@ def test_fault_is_counted_and_survived(sim, harness, fault):
         states = [st for _, st in h.states]
         assert 'stale' in states[1:] and states[-1] == 'ok'
         # Nothing is published while stale: a hole of about the unplug time.
-        times = [t for t, _ in h.joints]
+        # (By sample time: receipt times compress the hole when the host runs behind.)
+        times = [js.header.stamp.sec + 1e-9 * js.header.stamp.nanosec for _, js in h.joints]
         assert max(b - a for a, b in zip(times, times[1:])) > 0.8
     elif fault == 'reset':
         assert link['mcu_resets'] == 1
