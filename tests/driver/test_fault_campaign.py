@@ -146,6 +146,19 @@ def _stamp_errors(h: Harness, sim) -> list[float]:
     return errors
 
 
+def _report(case: str, h: Harness, errors: list[float]) -> None:
+    """One line of measured figures (shown with pytest -s)."""
+    ages = [w - stamp_s(js) for w, (_, js) in zip(h.joints_wall, h.joints)]
+    worst = {name: max((lvl for lvl, _ in h.published(name)), default=None)
+             for name in (TIME, LINK)}
+    t = h.node.core.diagnostics()[1].values
+    print(f'\n[campaign] {case}: published {len(ages)}, age at receipt median '
+          f'{statistics.median(ages):.3f} s max {max(ages):.3f} s; stamp - true sample time '
+          f'median {1e3 * statistics.median(errors):.2f} ms, range [{1e3 * min(errors):.2f}, '
+          f'{1e3 * max(errors):.2f}] ms over {len(errors)}; worst level time/link '
+          f'{worst[TIME]}/{worst[LINK]}; delay_max_ms {t["delay_max_ms"]}')
+
+
 def _check_true_age(h: Harness, sim, min_known: int = 20) -> list[float]:
     errors = _stamp_errors(h, sim)
     assert len(errors) >= min_known
@@ -177,7 +190,7 @@ def test_400ms_link_latency_is_reported_and_in_every_stamp(sim, harness):
     # Every message arrives 0.4 s after its sample, and its stamp says so.
     ages = [w - stamp_s(js) for w, (_, js) in zip(h.joints_wall, h.joints)]
     assert min(ages) >= 0.38
-    _check_true_age(h, s)
+    _report('latency 400 ms', h, _check_true_age(h, s))
     # A sample 0.4 s old is older than stale_timeout (0.25 s): the link is not fresh.
     assert h.states[-1][1] == 'stale' and h.node.core.is_stale()
 
@@ -192,7 +205,7 @@ def test_38_percent_frame_loss_is_an_error_and_nothing_damaged_goes_out(sim, har
     ratios = [float(v['loss_ratio']) for _, v in h.published(LINK)]
     assert 0.28 <= max(ratios) <= 0.5
     assert h.node.core.counters.dropped_frames > 100
-    _check_true_age(h, s)
+    _report('loss 38 %', h, _check_true_age(h, s))
 
 
 def test_2s_host_stall_is_reported_and_late_messages_carry_their_age(sim, harness):
@@ -217,7 +230,7 @@ def test_2s_host_stall_is_reported_and_late_messages_carry_their_age(sim, harnes
     ages = [w - stamp_s(js) for w, (_, js) in after]
     assert max(ages) >= 1.5          # the backlog went out with its true age...
     assert min(ages[-5:]) < 0.1      # ...and the link caught up
-    _check_true_age(h, s)
+    _report('host stall 2 s', h, _check_true_age(h, s))
     # The MCU saw no heartbeat for 2 s and stopped the motors, and said so.
     assert h.node.core.counters.mcu_errors >= 1
 
@@ -244,7 +257,8 @@ def test_unplug_replug_is_stale_then_resynced_and_time_never_runs_backwards(sim,
                 and h.joints_wall[-1] - stamp_s(h.joints[-1][1]) < 0.1)
 
     assert h.spin_until(fresh_again, 5.0)
-    _check_true_age(h, s, min_known=5)    # the watchdog stops the gait while unplugged
+    # Few unique samples: the MCU watchdog stops the gait while unplugged.
+    _report('unplug/replug', h, _check_true_age(h, s, min_known=5))
 
 
 @pytest.mark.parametrize('case', ['missing', 'not_a_tty'])
