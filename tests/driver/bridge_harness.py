@@ -38,7 +38,8 @@ class Harness:
         sub(Imu, 'imu', self.imu.append, 1000)
         sub(BatteryState, 'power', self.power.append, 1000)
         sub(DiagnosticArray, 'diagnostics', self.diag.append, 10)
-        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+        # Depth 10: a busy probe must not lose a short-lived state under the next one.
+        latched = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         sub(String, 'minirquad/link_state',
             lambda msg: self.states.append((time.monotonic(), msg.data)), latched)

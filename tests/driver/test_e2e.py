@@ -71,22 +71,34 @@ FAULTS = {
     'drop': ['--drop-rate', '0.05'],
     'corrupt': ['--corrupt-rate', '0.05'],
     'latency': ['--latency-ms', '30', '--jitter-ms', '5'],
-    'disconnect': ['--disconnect-at', '3.0', '--disconnect-for', '1.0'],
-    'reset': ['--reset-at', '2.0'],
+    'disconnect': ['--disconnect-at', '5.0', '--disconnect-for', '1.0'],
+    'reset': ['--reset-at', '4.0'],
     'wrap': ['--clock-start-ms', str(2**32 - 2500)],
 }
 
 
+#: Simulator time (s since its start) by which a scheduled fault is over, plus a margin.
+#: The faults come late enough for a simulator and bridge that start slowly on a busy host
+#: to be up before them.
+FAULT_OVER_S = {'disconnect': 6.5, 'reset': 4.5}
+
+
 @pytest.mark.parametrize('fault', sorted(FAULTS))
-def test_fault_is_counted_and_survived(sim, harness, fault):
+def test_fault_is_counted_and_survived(sim, harness, tmp_path, fault):
+    # The bridge waits for the port before the simulator starts, so the simulator's fault
+    # schedule (seconds since its start) is not eaten by the bridge's start-up on a busy host.
+    h = harness(str(tmp_path / 'tty'), reconnect_period=0.05)
     s = sim.start(*FAULTS[fault])
-    h = harness(str(s.link))
+    t_sim = time.monotonic()
     h.walk()
     h.spin(3.5)
-    link = h.link()
+    # Scheduled faults fire at a time since the simulator's start: make sure they did.
+    # (The simulator's clock started before sim.start returned.)
+    h.spin(FAULT_OVER_S.get(fault, 0.0) - (time.monotonic() - t_sim))
     # Recovered: telemetry is flowing again at the end, and the link is ok (fresh by
     # sample time, which a heavily loaded host may need a moment to catch up to).
     assert h.spin_until(lambda: h.states[-1][1] == 'ok' and not h.node.core.is_stale(), 3.0)
+    link = h.link()
     t_end = time.monotonic()
     assert h.joints[-1][0] > t_end - 0.3
     _published_subset_of_intact(h, s)
