@@ -36,3 +36,20 @@ def sim(spawn, python_exe, tmp_path):
                     if line.strip()]
 
     return Sim()
+
+
+@pytest.fixture
+def harness(ros_context):
+    """make(port, **params) -> a bridge_harness.Harness, closed after the test."""
+    from bridge_harness import Harness
+
+    made = []
+
+    def make(port, **params):
+        h = Harness(ros_context, port, **params)
+        made.append(h)
+        return h
+
+    yield make
+    for h in made:
+        h.close()

@@ -16,9 +16,11 @@ four = lambda s: st.tuples(s, s, s, s)  # noqa: E731
 
 telemetry = st.builds(m.Telemetry, leg_angles=four(angle), leg_velocities=four(rate),
                       pitch=angle, pitch_rate=rate, tension=big, spool_position=big,
-                      spool_velocity=st.floats(-2.0, 2.0), mode=u8, flags=u16)
+                      spool_velocity=st.floats(-2.0, 2.0), mode=st.sampled_from(list(m.Mode)),
+                      flags=st.integers(0, m.ALL_FLAGS))
 power = st.builds(m.Power, bus=u16, shunt=i16, current=i16, power=u16, cal=u16)
-about = dict(protocol_version=u8, firmware_version=u16, reset_cause=u8, telemetry_hz=u16,
+about = dict(protocol_version=st.just(m.PROTOCOL_VERSION), firmware_version=u16,
+             reset_cause=st.sampled_from(list(m.ResetCause)), telemetry_hz=u16,
              power_hz=u16)
 commands = st.one_of(
     st.builds(m.Heartbeat), st.builds(m.GetInfo),
@@ -33,9 +35,10 @@ commands = st.one_of(
 )
 mcu_messages = st.one_of(
     telemetry, power,
-    st.builds(m.Ack, acked_seq=u8, acked_type=u8, result=u8),
+    st.builds(m.Ack, acked_seq=u8, acked_type=st.sampled_from(sorted(m.HOST_TYPES)),
+              result=st.sampled_from(list(m.AckResult))),
     st.builds(m.ResetNotice, **about), st.builds(m.Info, **about),
-    st.builds(m.Error, code=u8, detail=u16),
+    st.builds(m.Error, code=st.sampled_from(list(m.ErrorCode)), detail=u16),
     st.builds(m.Log, text=st.text(max_size=50)),
 )
 any_message = st.one_of(mcu_messages, commands)

@@ -5,9 +5,13 @@ publish; it builds command and heartbeat frames, tracks acks and retries, maps M
 host time, integrates energy, and keeps the link statistics. The ROS node only converts
 its outputs to messages.
 
-Time: ``stamp`` values are host wall-clock seconds (ROS time) computed from the MCU
-timestamp: stamp = t_mcu + offset, where offset tracks the smallest observed
-(arrival - t_mcu), i.e. the least-delayed frame, with a slow upward leak for clock drift.
+Time: ``stamp`` values are host wall-clock seconds (ROS time) of the MCU sample: the MCU
+timestamp mapped into the host clock by ``TimeSync`` with the lower bound of the clock
+offset that round trips (acks) prove, so a sample that sat in a slow link or behind a
+stalled host is stamped as old as it is. Until a round trip vouches for the offset,
+samples are withheld (counted as ``unsynced_samples``). The age of every sample when it is
+handed out (``delay``) and the frames lost are windowed and graded on diagnostics.
+See docs/design/serial-time.md.
 """
 from __future__ import annotations
 
@@ -23,6 +27,7 @@ from .energy import EnergyIntegrator
 from .mcu_clock import McuClock
 from .protocol import messages as m
 from .protocol.codec import FrameDecoder, encode_frame
+from .time_sync import TimeSync
 
 MAX_TENSION_N = 200.0   # beyond this a reading is a fault, not a rope
 
@@ -31,15 +36,26 @@ MAX_TENSION_N = 200.0   # beyond this a reading is a fault, not a rope
 class BridgeConfig:
     """r_shunt: INA219 shunt, ohm. stale_timeout: s without telemetry before outputs are
     stale. ack_timeout: s before a command is resent; max_retries: resends before giving
-    up. energy_max_gap: s; never integrate across a longer hole. clock_leak: s/s the
-    MCU-to-host offset may rise per second (crystal drift allowance)."""
+    up.
+    energy_max_gap: s; never integrate across a longer hole. clock_drift: s/s the
+    MCU-to-host offset may move (crystal drift allowance); sync_window: s a clock bound is
+    kept. diag_window: s over which delay and loss are graded. delay_warn/delay_error: s,
+    the oldest sample age at hand-out in the window that makes the time status WARN/ERROR.
+    loss_warn/loss_error: fraction of MCU frames lost in the window (sequence gaps) that
+    makes the link status WARN/ERROR."""
 
     r_shunt: float = ina219.DEFAULT_SHUNT_OHM
     stale_timeout: float = 0.25
     ack_timeout: float = 0.15
     max_retries: int = 3
     energy_max_gap: float = 0.5
-    clock_leak: float = 2e-4
+    clock_drift: float = 2e-4
+    sync_window: float = 10.0
+    diag_window: float = 5.0
+    delay_warn: float = 0.1
+    delay_error: float = 0.3
+    loss_warn: float = 0.02
+    loss_error: float = 0.10
 
 
 @dataclass(frozen=True)
@@ -85,6 +101,7 @@ class _Pending:
     frame: bytes
     type: int
     sent_at: float
+    sent_wall: float       # host wall time of the FIRST send: any ack answers a later copy
     tries: int = 1
 
 
@@ -97,6 +114,7 @@ class LinkCounters:
     resets: int = 0
     reset_notices: int = 0
     invalid_values: int = 0
+    unsynced_samples: int = 0     # decoded but withheld: no round trip vouches for the clock
     mcu_errors: int = 0
     commands_sent: int = 0
     commands_acked: int = 0
@@ -109,9 +127,16 @@ class LinkCounters:
 
 
 class BridgeCore:
-    def __init__(self, config: BridgeConfig | None = None, mono=time.monotonic):
+    def __init__(self, config: BridgeConfig | None = None, mono=time.monotonic,
+                 wall=time.time):
         self.config = config or BridgeConfig()
         self.mono = mono
+        self.wall = wall
+        self.sync = TimeSync(drift=self.config.clock_drift, window=self.config.sync_window)
+        self.last_stamp: float | None = None            # host s of the newest telemetry
+        self._delays: deque = deque()                   # (mono at hand-out, age s)
+        self._snapshots: deque = deque()                # (mono, counter totals)
+        self.open_error: str | None = None              # why the port cannot be opened
         self.decoder = FrameDecoder()
         self.clock = McuClock()
         self.energy = EnergyIntegrator(max_gap_s=self.config.energy_max_gap)
@@ -126,10 +151,8 @@ class BridgeCore:
         self._lock = threading.RLock()
         self._host_seq = 0
         self._pending: dict[int, _Pending] = {}
-        self._hb_sent: dict[int, float] = {}
+        self._hb_sent: dict[int, tuple[float, float]] = {}   # seq -> (mono, wall)
         self._last_seq: int | None = None
-        self._offset: float | None = None
-        self._offset_at = 0.0
         self._prev_angles: list[float] | None = None
         self._turns = [0, 0, 0, 0]
         self._rate_window: deque = deque(maxlen=400)
@@ -143,14 +166,23 @@ class BridgeCore:
             self._last_seq = None
             self.clock.restart()
             self.energy.mark_discontinuity()
-            self._offset = None
+            self.sync.reset()
             self._hb_sent.clear()
+            if connected:
+                self.open_error = None
+
+    def on_open_error(self, reason: str) -> None:
+        """The transport could not open the port (it retries); shown on diagnostics."""
+        with self._lock:
+            self.open_error = reason
 
     def is_stale(self) -> bool:
+        """True when the newest telemetry handed out is older than stale_timeout by its
+        stamp (the sample time), whether it stopped coming or comes late."""
         with self._lock:
-            if not self.connected or self.last_telemetry_at is None:
+            if not self.connected or self.last_stamp is None:
                 return True
-            return self.mono() - self.last_telemetry_at > self.config.stale_timeout
+            return self.wall() - self.last_stamp > self.config.stale_timeout
 
     # ------------------------------------------------------------------ MCU -> host
     def on_bytes(self, data: bytes, host_time: float) -> list:
@@ -189,27 +221,38 @@ class BridgeCore:
                 c.dropped_frames += gap
                 c.gap_events += 1
         self._last_seq = frame.seq
-        stamp = self._stamp(frame.t_mcu_ms, host_time)
+        mcu_s = self.clock.unwrapped_ms * 1e-3
+        self.sync.add_arrival(host_time, mcu_s)
+        if isinstance(msg, m.Ack):
+            return self._on_ack(msg, mcu_s)
         if isinstance(msg, m.Telemetry):
             if not self._valid(msg):
                 c.invalid_values += 1
                 return []
+            self._count_turns(msg.leg_angles)
+            stamp = self._stamp(mcu_s)
+            if stamp is None:
+                c.unsynced_samples += 1
+                return []
             c.telemetry += 1
             self.last_telemetry = msg
             self.last_telemetry_at = self.mono()
+            self.last_stamp = stamp
             self._rate_window.append(self.last_telemetry_at)
-            self._count_turns(msg.leg_angles)
             return [TelemetrySample(stamp, frame.t_mcu_ms, msg, tuple(self._turns))]
         if isinstance(msg, m.Power):
             reading = ina219.reading_from(msg, self.config.r_shunt)
             if reading.chip_reset:
                 self.ina219_resets += 1
-            c.power += 1
             self.last_power = reading
+            # Energy is integrated on MCU time, so it needs no host stamp.
             energy = self.energy.add(frame.t_mcu_ms, reading.power)
+            stamp = self._stamp(mcu_s)
+            if stamp is None:
+                c.unsynced_samples += 1
+                return []
+            c.power += 1
             return [PowerSample(stamp, frame.t_mcu_ms, reading, energy)]
-        if isinstance(msg, m.Ack):
-            return self._on_ack(msg)
         if isinstance(msg, m.Info):
             self.about = msg
         elif isinstance(msg, m.Error):
@@ -220,14 +263,11 @@ class BridgeCore:
     def _restart_baselines(self) -> None:
         """A new MCU time base: keep the energy, restart every baseline built on time."""
         self.energy.mark_discontinuity()
-        self._offset = None
+        self.sync.reset()
         self._prev_angles = None
 
     def _valid(self, tel: m.Telemetry) -> bool:
-        try:
-            m.Mode(tel.mode)
-        except ValueError:
-            return False
+        # Mode and flags were range-checked by the decoder.
         return abs(tel.tension) <= MAX_TENSION_N and all(
             math.isfinite(v) for v in (*tel.leg_angles, *tel.leg_velocities, tel.pitch))
 
@@ -241,19 +281,18 @@ class BridgeCore:
                     self._turns[i] -= 1
         self._prev_angles = list(angles)
 
-    def _stamp(self, t_mcu_ms: int, host_time: float) -> float:
-        mcu_s = self.clock.unwrapped_ms * 1e-3
-        obs = host_time - mcu_s
-        now = self.mono()
-        if self._offset is None:
-            self._offset = obs
-        else:
-            leaked = self._offset + self.config.clock_leak * (now - self._offset_at)
-            self._offset = min(obs, leaked)
-        self._offset_at = now
-        return mcu_s + self._offset
+    def _stamp(self, mcu_s: float) -> float | None:
+        """Host time of an MCU sample (None if unsynced); records its age at hand-out."""
+        wall = self.wall()
+        stamp = self.sync.to_host(mcu_s, wall)
+        if stamp is not None:
+            now = self.mono()
+            self._delays.append((now, wall - stamp))
+            while now - self._delays[0][0] > self.config.diag_window:
+                self._delays.popleft()
+        return stamp
 
-    def _on_ack(self, ack: m.Ack) -> list:
+    def _on_ack(self, ack: m.Ack, reply_mcu_s: float) -> list:
         c = self.counters
         now = self.mono()
         if ack.acked_type == m.MsgType.HEARTBEAT:
@@ -261,13 +300,15 @@ class BridgeCore:
             if sent is None:
                 c.unmatched_acks += 1
             else:
-                c.rtt.append(now - sent)
+                c.rtt.append(now - sent[0])
+                self.sync.add_round_trip(sent[1], reply_mcu_s)
             return []
         pend = self._pending.get(ack.acked_seq)
         if pend is None or pend.type != ack.acked_type:
             c.unmatched_acks += 1     # a late ack for a command already resolved
             return []
         del self._pending[ack.acked_seq]
+        self.sync.add_round_trip(pend.sent_wall, reply_mcu_s)
         if pend.tries == 1:
             c.rtt.append(now - pend.sent_at)
         if ack.result == m.AckResult.OK:
@@ -285,7 +326,7 @@ class BridgeCore:
     def heartbeat(self) -> bytes:
         with self._lock:
             seq = self._next_seq()
-            self._hb_sent[seq] = self.mono()
+            self._hb_sent[seq] = (self.mono(), self.wall())
             # Forget heartbeats that were never answered, keeping the table small.
             if len(self._hb_sent) > 64:
                 for k in sorted(self._hb_sent, key=self._hb_sent.get)[:32]:
@@ -299,7 +340,7 @@ class BridgeCore:
             msg.pack()   # raises ValueError before a sequence number is spent
             seq = self._next_seq()
             frame = encode_frame(msg, seq, self._host_ms())
-            self._pending[seq] = _Pending(frame, int(msg.TYPE), self.mono())
+            self._pending[seq] = _Pending(frame, int(msg.TYPE), self.mono(), self.wall())
             self.counters.commands_sent += 1
             return frame
 
@@ -332,11 +373,63 @@ class BridgeCore:
             n = sum(1 for t in self._rate_window if now - t <= window)
             return n / window
 
+    def _windowed(self, totals: dict) -> dict:
+        """Change of each counter over about the last diag_window seconds (since start
+        when younger), from snapshots taken at each diagnostics call."""
+        now = self.mono()
+        q = self._snapshots
+        if not q:
+            q.append((now, dict.fromkeys(totals, 0)))
+        q.append((now, dict(totals)))
+        while len(q) > 2 and now - q[1][0] >= self.config.diag_window:
+            q.popleft()
+        base = q[0][1]
+        return {k: v - base.get(k, 0) for k, v in totals.items()}
+
+    def _time_status(self) -> DiagStatus:
+        cfg = self.config
+        now, wall = self.mono(), self.wall()
+        ages = [a for t, a in self._delays if now - t <= cfg.diag_window]
+        low = self.sync.lower(wall)
+        unc = self.sync.uncertainty(wall)
+        values = {
+            'clock_synced': low is not None,
+            'clock_offset_s': round(low, 6) if low is not None else None,
+            'clock_uncertainty_ms': round(1e3 * unc, 3) if unc is not None else None,
+            'round_trips': self.sync.round_trips,
+            'unsynced_samples': self.counters.unsynced_samples,
+            'delay_median_ms': round(1e3 * statistics.median(ages), 3) if ages else None,
+            'delay_max_ms': round(1e3 * max(ages), 3) if ages else None,
+            'delay_window_s': cfg.diag_window,
+            'delay_warn_ms': round(1e3 * cfg.delay_warn, 3),
+            'delay_error_ms': round(1e3 * cfg.delay_error, 3),
+        }
+        level, alarms, msg = 0, [], 'ok'
+        if not self.connected:
+            level, msg = 3, 'disconnected'
+        elif low is None:
+            level, msg = 1, 'clock not synced: samples withheld'
+            alarms.append('clock_synced')
+        if ages and max(ages) >= cfg.delay_warn:
+            worst = max(ages)
+            lvl = 2 if worst >= cfg.delay_error else 1
+            alarms.append('delay_max_ms')
+            if lvl > level or level == 0:
+                msg = f'samples up to {1e3 * worst:.0f} ms old when published'
+            level = max(level, lvl)
+        values['alarms'] = ','.join(alarms)
+        return DiagStatus('minirquad_driver: time', level, msg, values)
+
     def diagnostics(self, port: str = '', transport=None) -> list[DiagStatus]:
         with self._lock:
             c, d = self.counters, self.decoder.stats
             stale = self.is_stale()
             rtt = list(c.rtt)
+            cfg = self.config
+            win = self._windowed({'frames': d.frames, 'dropped': c.dropped_frames,
+                                  'protocol_rejects': d.protocol_rejects})
+            expected = win['frames'] + win['dropped']
+            loss = win['dropped'] / expected if expected else 0.0
             link_values = {
                 'port': port, 'connected': self.connected,
                 'frames': d.frames, 'bytes_in': d.bytes_in,
@@ -344,7 +437,14 @@ class BridgeCore:
                 'telemetry_rate_hz': round(self.telemetry_rate(), 1),
                 'crc_errors': d.crc_errors, 'cobs_errors': d.cobs_errors,
                 'other_rejected': d.rejected - d.crc_errors - d.cobs_errors,
+                'version_errors': d.version_errors, 'unknown_types': d.unknown_types,
+                'range_errors': d.range_errors, 'payload_errors': d.payload_errors,
+                'protocol_rejects': d.protocol_rejects,
+                'protocol_rejects_window': win['protocol_rejects'],
                 'dropped_frames': c.dropped_frames, 'gap_events': c.gap_events,
+                'loss_ratio': round(loss, 4), 'loss_window_s': cfg.diag_window,
+                'loss_warn': cfg.loss_warn, 'loss_error': cfg.loss_error,
+                'open_error': self.open_error,
                 'invalid_values': c.invalid_values,
                 'mcu_resets': c.resets, 'reset_notices': c.reset_notices,
                 'clock_wraps': self.clock.wraps,
@@ -357,13 +457,26 @@ class BridgeCore:
                                    open_failures=s.open_failures,
                                    silence_reconnects=s.silence_reconnects,
                                    write_errors=s.write_errors)
-            if not self.connected:
-                link = DiagStatus('minirquad_driver: link', 3, 'disconnected', link_values)
+            level, msg, alarms = 0, 'ok', []
+            if not self.connected and self.open_error:
+                level, msg = 2, f'cannot open port: {self.open_error}'
+                alarms.append('open_error')
+            elif not self.connected:
+                level, msg = 3, 'disconnected'
             elif stale:
-                link = DiagStatus('minirquad_driver: link', 3, 'stale: no telemetry',
-                                  link_values)
-            else:
-                link = DiagStatus('minirquad_driver: link', 0, 'ok', link_values)
+                level, msg = 3, 'stale: no fresh telemetry'
+            if loss >= cfg.loss_warn:
+                alarms.append('loss_ratio')
+                if level == 0:
+                    msg = f'{100 * loss:.1f} % of frames lost'
+                level = max(level, 2 if loss >= cfg.loss_error else 1)
+            if win['protocol_rejects']:
+                alarms.append('protocol_rejects')
+                if level == 0:
+                    msg = 'frames with fields this protocol does not define'
+                level = max(level, 1)
+            link_values['alarms'] = ','.join(alarms)
+            link = DiagStatus('minirquad_driver: link', level, msg, link_values)
             cmd = DiagStatus('minirquad_driver: commands',
                              1 if c.command_timeouts else 0,
                              'ok' if not c.command_timeouts else 'command timeouts', {
@@ -401,4 +514,4 @@ class BridgeCore:
                                  if self.last_error and self.last_error.code
                                  in tuple(m.ErrorCode) else None,
                                  'leg_turns': list(self._turns)})
-            return [link, cmd, power, mcu]
+            return [link, self._time_status(), cmd, power, mcu]

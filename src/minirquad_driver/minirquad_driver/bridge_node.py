@@ -9,6 +9,8 @@ Published (SystemDefaults QoS, depth 10, except /minirquad/link_state: transient
   /winch/tension (geometry_msgs/WrenchStamped), /power (sensor_msgs/BatteryState),
   /power/watts (std_msgs/Float64), /energy (std_msgs/Float64),
   /minirquad/link_state (std_msgs/String: ok|stale), /diagnostics.
+Every header.stamp is the host-clock time of the MCU sample (see bridge.py and
+docs/design/serial-time.md), never the time it was received.
 Subscribed: /leg_targets (JointState), /gait (String), /burrow (String),
   /winch/speed (Float64, m/s), /estop (Bool).
 """
@@ -49,7 +51,12 @@ class BridgeNode(Node):
                            stale_timeout=p('stale_timeout', 0.25).value,
                            ack_timeout=p('ack_timeout', 0.15).value,
                            max_retries=p('max_retries', 3).value,
-                           energy_max_gap=p('energy_max_gap', 0.5).value)
+                           energy_max_gap=p('energy_max_gap', 0.5).value,
+                           diag_window=p('diag_window_s', 5.0).value,
+                           delay_warn=p('delay_warn_s', 0.1).value,
+                           delay_error=p('delay_error_s', 0.3).value,
+                           loss_warn=p('loss_warn', 0.02).value,
+                           loss_error=p('loss_error', 0.10).value)
         self.core = BridgeCore(cfg)
 
         self.pub_joints = self.create_publisher(JointState, 'joint_states', 10)
@@ -73,7 +80,8 @@ class BridgeNode(Node):
         self.transport = SerialTransport(
             self.port, baud, self._on_bytes, self._on_connection,
             reconnect_period=p('reconnect_period', 0.25).value,
-            silence_timeout=p('silence_timeout', 1.0).value)
+            silence_timeout=p('silence_timeout', 1.0).value,
+            on_open_error=self._on_open_error)
         # These timers also keep the executor waking up, so SIGINT/SIGTERM are never missed.
         self.create_timer(self.heartbeat_period, self._on_heartbeat)
         self.create_timer(0.05, self._on_watch)
@@ -94,6 +102,12 @@ class BridgeNode(Node):
         if connected:
             self.transport.write(self.core.command(m.GetInfo()))
         self.get_logger().info('link up' if connected else 'link down: reconnecting')
+
+    def _on_open_error(self, reason: str) -> None:
+        # Transport thread; called once per failure episode, not per retry.
+        self.core.on_open_error(reason)
+        self.get_logger().error(f'cannot open serial port {self.port}: {reason} '
+                                f'(retrying every {self.transport.reconnect_period:g} s)')
 
     def _on_bytes(self, data: bytes, host_time: float) -> None:
         # Runs on the transport's reader thread; rclpy publishers are thread safe.

@@ -5,7 +5,9 @@ A reader thread owns the port: it opens it (``serial_for_url``, so ``loop://`` a
 ``on_bytes(data, host_time)``, and on any error (USB unplug: pyserial raises
 SerialException) or after ``silence_timeout`` without a byte it closes the port, reports
 the state change, and retries the open every ``reconnect_period`` seconds. The node never
-has to restart.
+has to restart. A port that cannot be opened (missing, not a tty, no permission) is
+reported through ``on_open_error(reason)`` once per failure episode, again only when the
+reason changes or after the port was open in between; every attempt is counted.
 """
 from __future__ import annotations
 
@@ -24,6 +26,7 @@ class TransportStats:
     open_failures: int = 0
     silence_reconnects: int = 0
     write_errors: int = 0
+    last_open_error: str | None = None   # reason of the latest failed open, None once open
     bytes_in: int = 0
     bytes_out: int = 0
 
@@ -37,7 +40,8 @@ class SerialTransport:
                  on_bytes: Callable[[bytes, float], None],
                  on_state: Callable[[bool], None] = lambda connected: None,
                  read_timeout: float = 0.02, reconnect_period: float = 0.25,
-                 silence_timeout: float = 1.0, opener=serial.serial_for_url):
+                 silence_timeout: float = 1.0, opener=serial.serial_for_url,
+                 on_open_error: Callable[[str], None] = lambda reason: None):
         self.url = url
         self.baudrate = baudrate
         self.on_bytes = on_bytes
@@ -46,6 +50,8 @@ class SerialTransport:
         self.reconnect_period = reconnect_period
         self.silence_timeout = silence_timeout
         self.opener = opener
+        self.on_open_error = on_open_error
+        self._reported: str | None = None      # reason already reported in this episode
         self.stats = TransportStats()
         self._port = None
         self._lock = threading.Lock()          # guards _port for writers
@@ -84,9 +90,15 @@ class SerialTransport:
         try:
             port = self.opener(self.url, baudrate=self.baudrate, timeout=self.read_timeout,
                                write_timeout=0.1)
-        except (serial.SerialException, OSError, ValueError):
+        except (serial.SerialException, OSError, ValueError) as exc:
             self.stats.open_failures += 1
+            reason = ' '.join(f'{type(exc).__name__}: {exc}'.split())   # one line
+            self.stats.last_open_error = reason
+            if reason != self._reported:
+                self._reported = reason
+                self.on_open_error(reason)
             return False
+        self._reported = self.stats.last_open_error = None
         with self._lock:
             self._port = port
         self.stats.connects += 1

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 from . import cobs
 from .crc import crc16_ccitt_false
-from .messages import MESSAGE_CLASSES, PROTOCOL_VERSION, Message
+from .messages import MESSAGE_CLASSES, PROTOCOL_VERSION, FieldRangeError, Message
 
 HEADER = struct.Struct('<BBBI')
 CRC = struct.Struct('<H')
@@ -56,13 +56,21 @@ class DecoderStats:
     short_frames: int = 0        # too short to hold header and CRC
     version_errors: int = 0
     unknown_types: int = 0
-    payload_errors: int = 0      # right CRC, but the payload does not decode (size or range)
+    payload_errors: int = 0      # right CRC, but the payload does not decode (size, value)
+    range_errors: int = 0        # right size, but an enum/flag field the protocol lacks
     overflows: int = 0           # no delimiter within MAX_ENCODED bytes
 
     @property
     def rejected(self) -> int:
         return (self.cobs_errors + self.crc_errors + self.short_frames + self.version_errors
-                + self.unknown_types + self.payload_errors + self.overflows)
+                + self.unknown_types + self.payload_errors + self.range_errors
+                + self.overflows)
+
+    @property
+    def protocol_rejects(self) -> int:
+        """Intact frames (right CRC) refused for a value this protocol does not define:
+        another version, an unknown type, an out-of-range enum or flag field."""
+        return self.version_errors + self.unknown_types + self.range_errors
 
 
 @dataclass
@@ -130,6 +138,9 @@ class FrameDecoder:
             return None
         try:
             message = cls.unpack(body[HEADER.size:-CRC.size])
+        except FieldRangeError:
+            self.stats.range_errors += 1
+            return None
         except (ValueError, struct.error, UnicodeDecodeError):
             self.stats.payload_errors += 1
             return None

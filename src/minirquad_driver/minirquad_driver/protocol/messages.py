@@ -56,6 +56,10 @@ class MsgType(enum.IntEnum):
     GET_INFO = 0x16
 
 
+#: Types the host sends (and the MCU acks).
+HOST_TYPES = frozenset(range(0x10, 0x17))
+
+
 class Mode(enum.IntEnum):
     """What the MCU is doing (telemetry ``mode`` byte)."""
 
@@ -77,6 +81,9 @@ class Flag(enum.IntFlag):
     ANCHOR_SLIPPING = 0x0008
     VELOCITY_SATURATED = 0x0010   # a reported rate hit the int16 limit
     SLED_MOVING = 0x0020
+
+
+ALL_FLAGS = 0x003F    # every bit Flag defines; the others are reserved (must be 0)
 
 
 class BurrowMode(enum.IntEnum):
@@ -115,6 +122,20 @@ class ErrorCode(enum.IntEnum):
     WINCH_STALL = 3
     SERVO_OVERLOAD = 4
     ANCHOR_SLIP = 5
+
+
+class FieldRangeError(ValueError):
+    """A payload of the right size whose enum or flag field holds a value the protocol does
+    not define (mode, result code, error code, reset cause, protocol version). The decoder
+    counts these apart from size errors: they mean a firmware speaking another dialect."""
+
+
+def _member(value: int, allowed, name: str) -> int:
+    """``value`` if it is one of ``allowed`` (an enum or a set of ints), else FieldRangeError."""
+    if value not in {int(a) for a in allowed}:
+        raise FieldRangeError(f'{name}={value} is not defined by protocol version '
+                              f'{PROTOCOL_VERSION}')
+    return value
 
 
 def _fixed(value: float, scale: float, lo: int, hi: int, name: str) -> int:
@@ -189,6 +210,9 @@ class Telemetry:
         for raw in v[0:4] + (v[8],):
             if abs(raw) > 3141593:
                 raise ValueError('angle outside (-pi, pi]')
+        _member(v[13], Mode, 'mode')
+        if v[14] & ~ALL_FLAGS:
+            raise FieldRangeError(f'flags=0x{v[14]:04x} sets undefined bits')
         return cls(
             leg_angles=tuple(a / MICRORAD for a in v[0:4]),
             leg_velocities=tuple(w / MILLIRAD_S for w in v[4:8]),
@@ -244,7 +268,10 @@ class Ack:
 
     @classmethod
     def unpack(cls, payload: bytes) -> 'Ack':
-        return cls(*cls._FMT.unpack(payload))
+        seq, acked_type, result = cls._FMT.unpack(payload)
+        _member(acked_type, HOST_TYPES, 'acked_type')
+        _member(result, AckResult, 'result')
+        return cls(seq, acked_type, result)
 
 
 @dataclass(frozen=True)
@@ -274,7 +301,10 @@ class _About:
 
     @classmethod
     def unpack(cls, payload: bytes):
-        return cls(*cls._FMT.unpack(payload))
+        v = cls._FMT.unpack(payload)
+        _member(v[0], (PROTOCOL_VERSION,), 'protocol_version')
+        _member(v[2], ResetCause, 'reset_cause')
+        return cls(*v)
 
 
 @dataclass(frozen=True)
@@ -306,7 +336,9 @@ class Error:
 
     @classmethod
     def unpack(cls, payload: bytes) -> 'Error':
-        return cls(*cls._FMT.unpack(payload))
+        code, detail = cls._FMT.unpack(payload)
+        _member(code, ErrorCode, 'code')
+        return cls(code, detail)
 
 
 @dataclass(frozen=True)

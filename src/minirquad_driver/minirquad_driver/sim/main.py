@@ -19,7 +19,7 @@ from ..protocol import messages as m
 from ..protocol.codec import encode_frame
 from .faults import FaultConfig, FaultInjector
 from .mcu import McuConfig, SimMcu
-from .pty_link import PtyLink
+from .pty_link import LinkPathError, PtyLink
 from .robot import SimRobot
 from .winch import WinchSled
 
@@ -57,11 +57,13 @@ class _Recorder:
     def __init__(self, path: str | None):
         self.file = open(path, 'a', buffering=1) if path else None
 
-    def telemetry(self, seq: int, t_ms: int, tel: m.Telemetry, fault: str | None) -> None:
+    def telemetry(self, seq: int, t_ms: int, tel: m.Telemetry, fault: str | None,
+                  host_s: float | None = None) -> None:
         if not self.file:
             return
         self.file.write(json.dumps({
             'seq': seq, 't_ms': t_ms, 'fault': fault,
+            'host_s': host_s,     # host wall time of the sample instant: tests' truth
             'legs': [round(a * m.MICRORAD) for a in tel.leg_angles],
             'pitch': round(tel.pitch * m.MICRORAD),
             'tension': round(tel.tension * m.MILLINEWTON)}) + '\n')
@@ -92,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
     print(link.open(), flush=True)
 
     start = time.monotonic()
+    wall_minus_mono = time.time() - start    # the simulator owns both clocks: exact truth
     mcu = SimMcu(robot_factory=lambda: SimRobot(winch=WinchSled(sled_mass=args.sled_mass)),
                  config=McuConfig(telemetry_hz=args.telemetry_hz, power_hz=args.power_hz,
                                   watchdog_s=args.watchdog, clock_start_ms=args.clock_start_ms),
@@ -142,7 +145,7 @@ def run(args: argparse.Namespace) -> int:
             if kind == 'telemetry':
                 for s, tm, tel in pending_tel:
                     recorder.telemetry(s, tm, tel, fault if link.master is not None
-                                       else 'disconnected')
+                                       else 'disconnected', now + wall_minus_mono)
                 pending_tel.clear()
         # Release due bytes, paced like a UART if asked.
         while queue and queue[0][0] <= now and now >= line_free_at:
@@ -182,7 +185,12 @@ def _split(data: bytes) -> list[bytes]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    return run(build_parser().parse_args(argv))
+    args = build_parser().parse_args(argv)
+    try:
+        return run(args)
+    except LinkPathError as exc:
+        print(f'minirquad_sim: error: {exc}', file=sys.stderr)
+        return 2
 
 
 if __name__ == '__main__':
