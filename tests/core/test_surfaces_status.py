@@ -1,7 +1,7 @@
 """Every failure status of the limit-surface layer is provoked here; no value escapes with it.
 
 Rule under test (architecture.md section 5): capacity_N and the slip twists are None unless the
-status is ok/extrapolated; `unchecked_capacity_N` keeps the first-exit distance for diagnostics.
+status is ok/assumed; `unchecked_capacity_N` keeps the first-exit distance for diagnostics.
 """
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 
 Agarwal 3D-RFT takes two parameters: the depth-scaled stress scale xi_n (N/m^3) and the
 intruder-surface friction mu_surf. Li 2013 takes one scale zeta (N/m^3 here; the literature
-quotes N/cm^3 = 1e6 N/m^3). Values and their sources: models-rft.md sections 2.4, 4.5, 8.
+quotes N/cm^3 = 1e6 N/m^3). Values and their sources: docs/design/models-rft.md.
 """
 from __future__ import annotations
 
@@ -55,11 +55,11 @@ PRESETS: dict[str, Medium] = {
     'glass_beads': Medium(
         'glass_beads', xi_n=3.8e5, mu_surf=0.4, zeta=0.33e6,
         note='0.8 mm glass beads (paper sec. IV); zeta = 0.33 N/cm^3 from Treers 2021; '
-             'xi_n = zeta / 0.875; mu_surf from public 3D-RFT code (models-rft.md 8a)'),
+             'xi_n = zeta / 0.875; mu_surf from public 3D-RFT code (docs/design/models-rft.md)'),
     'm90_sand': Medium(
         'm90_sand', xi_n=6.8e5, mu_surf=0.4, zeta=0.6e6,
         note='M90 silver sand simulant (paper sec. VI); rho_c = 1600, mu_int = 0.45 '
-             '(models-rft.md 8b), equivalent to Li zeta ~ 0.6 N/cm^3'),
+             '(docs/design/models-rft.md), equivalent to Li zeta ~ 0.6 N/cm^3'),
     'poppy_lp': Medium(
         'poppy_lp', xi_n=2.9e5, mu_surf=0.4, zeta=1.0e6, li_coefficients='poppy_lp',
         note='loosely packed poppy seeds; Li LP coefficient set is already in N/cm^3 '

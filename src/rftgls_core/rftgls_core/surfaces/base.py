@@ -10,7 +10,7 @@ Space and conventions (architecture.md section 3, limit-surfaces.md section 1):
 - Origin outside the surface (the legs cannot hold the robot's weight): status UNSUPPORTED.
 
 Failure is a result: `CapacityResult.capacity_N` and the slip twists are None unless the status
-carries a value (ok / extrapolated). A first-exit distance computed despite a failed check is
+carries a value (ok / assumed). A first-exit distance computed despite a failed check is
 kept in `unchecked_capacity_N` for diagnostics only, and `reason` says what failed.
 """
 from __future__ import annotations
