@@ -50,7 +50,8 @@ def test_no_value_is_null_and_errors_exit_2():
     up = json.loads(run('capacity', '--robot', 'minirquad', '--h', '0.3', '--theta-b', '0',
                         '--theta-l1', '0', '--theta-l2', '0', '--json').stdout)
     assert up['status'] == 'unsupported' and up['capacity_N'] is None and up['slip_twist'] is None
-    for args, msg in ((['--method', 'map'], 'needs --map'),
+    for args, msg in ((['--method', 'map', '--map', str(shipped_map_path('prototype'))],
+                       "robot 'prototype'"),
                       (['--theta-b', 'nan'], 'must be finite')):
         out = run('capacity', *DH, *args)
         assert out.returncode == 2 and msg in out.stderr and 'Traceback' not in out.stderr
