@@ -1,6 +1,6 @@
 """Small typed records shared by every layer: anchor states, planar wrenches and twists, statuses.
 
-Frames and signs (architecture page, section 3): world z up, free surface z = 0, gravity -z.
+Frames and signs (docs/design/architecture.md): world z up, free surface z = 0, gravity -z.
 Planar quantities live in the sagittal x-z plane with the winch point p as reference:
 wrench (Fx, Fz, My) in N and N m, twist (vx, vz, wy) in m/s and rad/s, both in world axes.
 """

@@ -2,7 +2,7 @@
 
 Pure functions, two flavours of the same arithmetic:
 - single query, pure Python lists + bisect (numpy's per-call overhead, ~1 us per ufunc on a
-  scalar, would dominate a 16-32 corner blend; see limit-surfaces.md section 10);
+  scalar, would dominate a 16-32 corner blend; see docs/design/limit-surfaces.md);
 - batch query, vectorised numpy over N points (one searchsorted per axis).
 
 Out-of-range coordinates are clamped to the end node; `side` says which way (-1 below,

@@ -5,7 +5,7 @@ pull angle phi, i.e. up to 32 corners (16 state corners x 2 stored pull angles).
 because capacity and twist vary smoothly with the load direction; a phi equal to a stored angle
 uses that angle only. The pull orientation is not interpolated: it selects a sub-map.
 
-Policies (architecture.md section 5, limit-surfaces.md section 10):
+Policies (docs/design/architecture.md, docs/design/limit-surfaces.md):
 - Out of grid (any state axis or phi beyond interpolate.SNAP of a cell past the end node):
   OUT_OF_RANGE, reason 'out_of_grid', NO value, with the axes named in `detail`. A clamped
   answer would carry the edge's capacity to states where the live solver gives a far lower

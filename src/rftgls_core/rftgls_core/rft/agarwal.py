@@ -1,6 +1,6 @@
 """Agarwal, Goldman and Kamrin 3D-RFT (PNAS 2023), frame-free form.
 
-Stress per unit depth on a leading facet (models-rft.md 4.3, 4.6):
+Stress per unit depth on a leading facet (docs/design/models-rft.md):
 
     alpha_gen = f1 n_d + f2 v - f3 z,   f_j = sum_k c_jk T_k(x1, x2, x3)
     x1 = -v.z (sin gamma),  x2 = -n_d.z (cos beta),  x3 = n_d.v
@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-# Basis exponents (a, b, c) of T_k = x1^a x2^b x3^c, k = 1..20 (models-rft.md 4.4).
+# Basis exponents (a, b, c) of T_k = x1^a x2^b x3^c, k = 1..20 (docs/design/models-rft.md).
 _EXPONENTS = np.array([
     (0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (2, 0, 0), (0, 2, 0), (0, 0, 2), (1, 1, 0),
     (0, 1, 1), (1, 0, 1), (3, 0, 0), (0, 3, 0), (0, 0, 3), (1, 2, 0), (2, 1, 0), (0, 1, 2),

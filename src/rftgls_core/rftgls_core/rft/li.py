@@ -1,7 +1,7 @@
 """Li, Zhang & Goldman 2013 (Science 339:1408) generic 2D RFT: the 9-term Fourier fit.
 
 In the vertical plane that holds the plate normal and the velocity, with a horizontal unit
-vector x_hat and z_hat up (models-rft.md section 2.1):
+vector x_hat and z_hat up (docs/design/models-rft.md):
 - beta, attack angle: tilt of the plate line; the downward plate normal is
   n_d = sin(beta) x_hat - cos(beta) z_hat (beta = 0 horizontal plate, +-pi/2 vertical).
 - gamma, intrusion angle: v_hat = cos(gamma) x_hat - sin(gamma) z_hat (pi/2 straight down).
@@ -28,7 +28,7 @@ N_PER_CM3 = 1e6   # N/m^3 per N/cm^3 (1 cm^-3 = 1e6 m^-3)
 
 @dataclass(frozen=True)
 class LiCoefficients:
-    """The nine non-zero Fourier coefficients of one Li 2013 fit (models-rft.md 2.3).
+    """The nine non-zero Fourier coefficients of one Li 2013 fit (docs/design/models-rft.md).
 
     unit: 'dimensionless' for the generic set (multiplied by the medium's zeta), or 'N/cm^3'
     for medium-specific sets (the fit is the stress per depth itself, in Li's units).
@@ -80,18 +80,18 @@ class LiCoefficients:
         return asdict(self)
 
 
-# models-rft.md section 2.3. Generic: Li 2013 Table S2 as quoted by four public codes;
+# (docs/design/models-rft.md.) Generic: Li 2013 Table S2 as quoted by four public codes;
 # normalised so that penetration == 1.000.
 GENERIC = LiCoefficients('generic', 'dimensionless', 0.206, 0.169, 0.212, 0.358, 0.055,
                          -0.124, 0.253, 0.007, 0.088,
-                         source='Li et al. 2013 Table S2 (models-rft.md 2.3)')
-# Poppy seeds, already in N/cm^3 (jnskkmhr/IsaacLab material.py, models-rft.md 2.3).
+                         source='Li et al. 2013 Table S2 (docs/design/models-rft.md)')
+# Poppy seeds, already in N/cm^3 (jnskkmhr/IsaacLab material.py, docs/design/models-rft.md).
 POPPY_LP = LiCoefficients('poppy_lp', 'N/cm^3', 0.051, 0.047, 0.053, 0.083, 0.020,
                           -0.026, 0.057, 0.000, 0.025,
-                          source='poppy seeds, loosely packed (models-rft.md 2.3)')
+                          source='poppy seeds, loosely packed (docs/design/models-rft.md)')
 POPPY_CP = LiCoefficients('poppy_cp', 'N/cm^3', 0.094, 0.092, 0.092, 0.151, 0.035,
                           -0.039, 0.086, 0.018, 0.046,
-                          source='poppy seeds, closely packed (models-rft.md 2.3)')
+                          source='poppy seeds, closely packed (docs/design/models-rft.md)')
 
 COEFFICIENT_SETS: dict[str, LiCoefficients] = {c.name: c for c in (GENERIC, POPPY_LP, POPPY_CP)}
 

@@ -1,7 +1,7 @@
 """Treers, Cao & Stuart 2021 (RA-L 6(2)) 3D RFT: Li's 2D fit applied in each facet's plane.
 
 Per facet with outward unit normal n and unit velocity direction v (world axes, z up), as in
-Treers' rft_3D_body (models-rft.md section 3.2):
+Treers' rft_3D_body (docs/design/models-rft.md):
 - e2: the normalised horizontal projection of n. For a near-horizontal facet
   (|n_z| >= 1 - flat_tol) that direction is noise, so e2 is the horizontal projection of v
   instead: the facet then behaves exactly like Li's 2D plate in the plane of motion.
@@ -32,7 +32,7 @@ import numpy as np
 
 from .li import N_PER_CM3, LiCoefficients, coefficient_set
 
-# f1(vt) = c1 [tanh(c2 vt - c3) + tanh(c3)] / c4 (models-rft.md 3.3, rft_3D_body.m)
+# f1(vt) = c1 [tanh(c2 vt - c3) + tanh(c3)] / c4 (docs/design/models-rft.md, rft_3D_body.m)
 F1_C = (0.440850096954369, 3.62263982880971, 1.60910808139526, 0.832324700111401)
 # f23(vn) = d1 [artanh(d2 vn - d3) + artanh(d3)] / d4
 F23_D = (1.99392673405210, 1.61146827229181, 0.973746396532650, 5.81083560370960)

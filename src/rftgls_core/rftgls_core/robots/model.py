@@ -1,6 +1,6 @@
 """Sagittal robot models: legs on two axles posed from an anchor state (h, thetaB, thetaL1, thetaL2).
 
-Frames (architecture page, section 3). World W: z up, free surface z = 0. Body B: origin at the
+Frames (docs/design/architecture.md). World W: z up, free surface z = 0. Body B: origin at the
 winch point p, x_B along the body from p toward the axles, z_B up out of the body plate,
 y_B = z_B x x_B. At thetaB = 0, B is aligned with W and p sits at (0, 0, h).
 

@@ -1,6 +1,6 @@
 """Alpha shapes with MATLAB `alphaShape` semantics, on scipy.spatial.Delaunay.
 
-Semantics (limit-surfaces.md sections 2-3; inferred from MATLAB's documented behaviour):
+Semantics (docs/design/limit-surfaces.md; inferred from MATLAB's documented behaviour):
 - regularised: the solid is exactly the union of Delaunay tetrahedra with circumradius
   R <= alpha (alpha is a RADIUS; alpha = inf gives the convex hull, 0 an empty shape);
 - spectrum: the distinct finite circumradii, descending;

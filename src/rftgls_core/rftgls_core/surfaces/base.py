@@ -1,6 +1,6 @@
 """The limit-surface problem, the capacity result, and the fit-then-query interface.
 
-Space and conventions (architecture.md section 3, limit-surfaces.md section 1):
+Space and conventions (docs/design/architecture.md, docs/design/limit-surfaces.md):
 - The surface lives in external-load wrench space W_ext = -W_rft - W_gravity, planar
   (Fx, Fz, My) in (N, N, N m) about the winch point p, world axes (x forward, z up).
 - Twists are planar (vx, vz, wy) in (m/s, m/s, rad/s) at p. RFT is rate independent, so each

@@ -2,7 +2,7 @@
 
 Model, in the scaled wrench space: (Ws - c)^T A (Ws - c) = 1 with A symmetric positive
 definite and an offset centre c (gravity and granular asymmetry shift it). Fitted to the
-region of interest Fx < 0 as in the paper (limit-surfaces.md section 7).
+region of interest Fx < 0 as in the paper (docs/design/limit-surfaces.md).
 
 LG04: rows [x^2, y^2, z^2, 2yz, 2xz, 2xy, 2x, 2y, 2z, 1], S = D^T D partitioned 6 + 4, the
 constraint k J - I^2 = 1 (k = 4) written as v1^T C1 v1; the eigenvector of the unique positive

@@ -2,7 +2,7 @@
 
 Every load ray starts at the same point (the origin of W_ext space), so the per-triangle
 terms that depend only on the triangle and the origin are precomputed once per mesh
-(limit-surfaces.md section 6). With e1 = v1 - v0, e2 = v2 - v0, q0 = o - v0:
+(docs/design/limit-surfaces.md). With e1 = v1 - v0, e2 = v2 - v0, q0 = o - v0:
 
     det = d . (e2 x e1),  u = d . (e2 x q0) / det,  v = d . (q0 x e1) / det,
     s = e2 . (q0 x e1) / det,

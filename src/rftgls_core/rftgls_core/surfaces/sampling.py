@@ -1,7 +1,7 @@
 """Unit twists spread uniformly on the sphere of the scaled twist metric.
 
 A Fibonacci sphere: no duplicates, no pole clusters, no lat-long degeneracies (which make
-Qhull slow and alpha spectra collapse, limit-surfaces.md section 3.2).
+Qhull slow and alpha spectra collapse, docs/design/limit-surfaces.md).
 """
 from __future__ import annotations
 

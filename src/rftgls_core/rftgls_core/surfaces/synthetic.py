@@ -1,6 +1,6 @@
 """Analytic limit surfaces with exact capacities and twists (tests and benchmarks, no RFT).
 
-Convex case (limit-surfaces.md section 12): the dissipation D(t) = ||A t||_p gives
+Convex case (docs/design/limit-surfaces.md): the dissipation D(t) = ||A t||_p gives
 W(t) = grad D(t) = A g(A t), g(u) = sign(u) |u|^(p-1) / ||u||_p^(p-1), so every wrench lies on
 the dual-norm ball ||(W - c)/A||_q = 1 (1/p + 1/q = 1), shifted by the offset c (gravity).
 Along d(phi) the exact capacity is the root of ||(s d - c)/A||_q = 1 (brentq) and the exact

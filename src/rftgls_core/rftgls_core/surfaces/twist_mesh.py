@@ -5,7 +5,7 @@ of the sphere (the convex hull of the unit twists = their spherical Delaunay tri
 closed genus-0 mesh of the surface once its vertices are moved to the wrenches. Each vertex
 carries its twist, so the slip twist at a hit is the barycentric blend of the three vertex
 twists (renormalised). Only the wrenches change from pose to pose: fitting a pose is one
-wrench_fn call plus the ray precompute (limit-surfaces.md section 5).
+wrench_fn call plus the ray precompute (docs/design/limit-surfaces.md).
 
 Per-pose checks, in the scaled wrench space:
 - folds: faces whose outward normal points toward the origin (n . centroid <= 0). They mean the

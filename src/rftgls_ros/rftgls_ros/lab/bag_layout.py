@@ -5,7 +5,7 @@ source of truth (TOPICS). Topic names match capacity_node's inputs, so a replaye
 node with at most two parameters changed (pitch_topic, phi_topic).
 
 Frames:
-    lab_world      the lab world W of the architecture page: z up, free sand surface z = 0,
+    lab_world      the lab world W of docs/design/architecture.md: z up, free sand surface z = 0,
                    x horizontal in the sagittal plane pointing from p toward the axles (the
                    tether pulls p toward -x when phi = 0), y = z x x.
     camera_optical OpenCV camera frame (x right, y down, z forward), m.
@@ -300,7 +300,8 @@ def write_pull_test(path: str | Path, test: PullTest, storage: str = 'mcap') -> 
         events.append((k, '/joint_states', T['sensor_msgs/msg/JointState'](
             header=header(k, 'base_link'), name=list(JOINT_NAMES),
             position=np.array([l1, l1, l2, l2], float),
-            # Empty velocity/effort are legal; rosbags serialises them exactly (ros2-from-pip 5.3).
+            # Empty velocity/effort are legal; rosbags serialises them exactly
+            # (docs/design/ros2-from-pip.md).
             velocity=np.array([], float), effort=np.array([], float))))
     if test.tracking is not None:
         events += _tracking_events(ts, test.tracking, tns, header)

@@ -2,7 +2,7 @@
 
 Like `ros2 bag play` (not available from pip): every connection gets a publisher of its type,
 and each message's recorded CDR bytes go out unchanged (Publisher.publish accepts bytes,
-ros2-from-pip.md 5.2). Timing: the original rate (rate=1), faster (rate=k), as fast as
+docs/design/ros2-from-pip.md). Timing: the original rate (rate=1), faster (rate=k), as fast as
 possible (rate=0), or lock-step (step() one message at a time, for tests). /lab/metadata is
 published reliable + transient-local so a late joiner still gets it; everything else reliable
 with a deep queue, so a fast replay does not drop (a best-effort subscriber still may).
