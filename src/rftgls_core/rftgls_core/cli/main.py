@@ -31,13 +31,41 @@ def one_line(text: object) -> str:
     return ' '.join(str(text).split())
 
 
+_SEEN = '_rftgls_options_seen'
+
+
+class _StoreOnce(argparse._StoreAction):
+    """argparse's 'store', refusing a second occurrence: `--h 1 --h 2` silently kept 2.
+    Options that may repeat say so (action='append') and are combined by their command."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        seen = getattr(namespace, _SEEN, None)
+        if seen is None:
+            seen = set()
+            setattr(namespace, _SEEN, seen)
+        if option_string is not None and self.dest in seen:
+            raise argparse.ArgumentError(self, 'given more than once; give it once (a '
+                                         'repeated value would be silently dropped)')
+        seen.add(self.dest)
+        super().__call__(parser, namespace, values, option_string)
+
+
 class RftglsParser(argparse.ArgumentParser):
-    """ArgumentParser with the CLI contract: one-line errors (exit 2) and negative numbers in
-    scientific notation accepted as values. Sub-parsers inherit the class."""
+    """ArgumentParser with the CLI contract: one-line errors (exit 2), negative numbers in
+    scientific notation accepted as values, a single-valued option given twice refused.
+    Sub-parsers inherit the class."""
 
     def __init__(self, *args, **kwargs) -> None:
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = _NEGATIVE_NUMBER
+        self.register('action', None, _StoreOnce)
+        self.register('action', 'store', _StoreOnce)
+
+    def parse_known_args(self, args=None, namespace=None):
+        ns, extras = super().parse_known_args(args, namespace)
+        if hasattr(ns, _SEEN):
+            delattr(ns, _SEEN)
+        return ns, extras
 
     def error(self, message: str):
         self.exit(EXIT_USAGE, f'{self.prog}: error: {one_line(message)} (see {self.prog} '
@@ -68,10 +96,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _one_line_warnings(prefix: str):
-    def show(message, category, filename, lineno, file=None, line=None):
-        print(f'{prefix}: warning: {one_line(message)}', file=file or sys.stderr)
-    return show
+def _print_warnings(prefix: str, caught) -> None:
+    for w in caught:
+        print(f'{prefix}: warning: {one_line(w.message)}', file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -82,11 +109,14 @@ def main(argv: list[str] | None = None) -> int:
         return int(exc.code or 0) if not isinstance(exc.code, str) else EXIT_USAGE
     prefix = f'rftgls {args.command}'
     debug = bool(os.environ.get('RFTGLS_DEBUG'))
-    with warnings.catch_warnings():
-        if not debug:
-            warnings.showwarning = _one_line_warnings(prefix)
+    # Warnings (repaired mesh, unverified map, ...) are printed one line each after a run that
+    # succeeds; when the run fails, the error line is the only line.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter('default')
         try:
-            return int(args.run(args) or 0)
+            code = int(args.run(args) or 0)
+            _print_warnings(prefix, caught)
+            return code
         except KeyboardInterrupt:
             print(f'{prefix}: interrupted', file=sys.stderr)
             return 130

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.stl import read_stl
+from ..geometry.stl import MeshError, read_stl
 from ..geometry.validate import clean_mesh
 from ..geometry.transforms import rpy_matrix
 from ..rft.engine import BuriedBody
@@ -47,7 +47,12 @@ def run(args) -> int:
                          f'{MIN_TWIST_NORM:g}; m/s and rad/s)')
     # Repair what a CAD export gets wrong: degenerate facets (dropped with a warning) and
     # inconsistent or inward winding (RFT needs outward normals).
-    mesh, report = clean_mesh(read_stl(args.mesh, units=args.units))
+    try:
+        mesh, report = clean_mesh(read_stl(args.mesh, units=args.units))
+    except MeshError as exc:
+        if str(args.mesh) in str(exc):
+            raise
+        raise MeshError(f'{args.mesh}: {exc}') from None
     position = np.asarray(args.position, dtype=float)
     rot = rpy_matrix(*np.radians(args.rpy))
     facets = mesh.facets().transformed(rot, position)

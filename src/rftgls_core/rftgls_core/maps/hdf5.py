@@ -52,7 +52,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import logging
 import math
 import warnings
 from dataclasses import dataclass, field
@@ -80,7 +79,6 @@ ANSWER_ATTRS = ('robot', 'medium', 'method', 'rft_model', 'n_twists', 'scaling_f
 # Status names earlier versions wrote into /status's table. Allowed in the table as long as no
 # node uses them ('extrapolated' was never stored at a node: maps hold node values only).
 RETIRED_STATUS_NAMES = ('extrapolated',)
-_log = logging.getLogger(__name__)
 
 
 class MapFileError(ValueError):
@@ -364,8 +362,8 @@ def load_map(path: str | Path, expected_sha256: str | None = None) -> MapData:
 
     expected_sha256: the content hash the caller requires; by default the hash recorded in the
     package when `path` is a shipped map in maps_dir(), else none (the file's own stored hash
-    is always checked). A file without a stored hash loads with a MapIntegrityWarning (also
-    logged) and `integrity == 'unverified'`.
+    is always checked). A file without a stored hash loads with a MapIntegrityWarning and
+    `integrity == 'unverified'` (nodes should log it loudly).
     """
     path = Path(path)
     if not path.is_file():
@@ -384,6 +382,5 @@ def load_map(path: str | Path, expected_sha256: str | None = None) -> MapData:
     if data.integrity == 'unverified':
         msg = (f'{path}: map has no {HASH_ATTR}: its values cannot be verified (rebuild it, '
                'or re-save it with save_map, which writes the hash)')
-        _log.warning(msg)
         warnings.warn(msg, MapIntegrityWarning, stacklevel=2)
     return data

@@ -36,7 +36,7 @@ import numpy as np
 from rftgls_core.rft.media import Medium
 from rftgls_core.types import AnchorState
 
-from .bag_layout import PullTest, read_pull_test
+from .bag_layout import BagError, PullTest, read_pull_test
 from .evaluate import running_median
 from .predict import initial_pose, make_predictor, measured_initial_state
 
@@ -297,8 +297,14 @@ def run(args, command: str) -> int:
         v = getattr(args, name)
         if not (math.isfinite(v) and v > 0):
             raise ValueError(f'--{name.replace("_", "-")} must be a positive number, got {v}')
-    tests = [read_pull_test(b) for b in args.bags]
-    pulls = [PullObservation.from_test(t) for t in tests]
+    pulls = []
+    for bag in args.bags:
+        try:
+            pulls.append(PullObservation.from_test(read_pull_test(bag)))
+        except BagError:
+            raise
+        except ValueError as exc:
+            raise ValueError(f'{bag}: {exc}') from None
     pen = []
     if args.penetration:
         areas = args.plate_area
