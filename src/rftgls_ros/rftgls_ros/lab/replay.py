@@ -71,7 +71,8 @@ class BagReplayer:
                 qos = LATCHED if c.topic in LATCHED_TOPICS else 100
                 self.publishers[c.topic] = node.create_publisher(message_class(c.msgtype),
                                                                  c.topic, qos)
-        self._it = self.reader.messages(connections=conns)
+        # rosbags reads EVERY connection when given none: an empty selection is no messages.
+        self._it = self.reader.messages(connections=conns) if conns else iter(())
         self.count = 0
 
     def step(self) -> tuple[str, int] | None:
