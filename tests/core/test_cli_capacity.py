@@ -88,3 +88,16 @@ def test_fig10b_draws_the_uncertainty_band(tmp_path):
             # 10 % on xi_n moves the capacity by 10-15 % (the weight does not scale): the
             # one-sided 95 % bound (1.64 sigma) sits 15-25 % below
             assert 0.7 * cap < low < 0.9 * cap
+
+
+@pytest.mark.parametrize('theta_l1', ['60', '90', '172'])
+def test_map_off_grid_has_no_value(theta_l1, capsys):
+    """Issue 15: theta_l1 = 60 deg answered 7.45 N 'extrapolated' (the grid edge's value)
+    where direct gives 3.15 N, and 90 / 172 deg the same where direct says unsupported."""
+    from rftgls_core.cli.main import main
+    assert main(['capacity', '--robot', 'minirquad', '--h', '0.034', '--theta-b', '5',
+                 '--theta-l1', theta_l1, '--theta-l2', '30', '--method', 'map', '--json']) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out['status'] == 'out_of_range' and out['reason'] == 'out_of_grid'
+    assert out['capacity_N'] is None and out['slip_twist'] is None
+    assert 'theta_l1' in out['detail']
