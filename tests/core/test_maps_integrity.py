@@ -129,6 +129,14 @@ def test_shipped_maps_match_the_recorded_hashes():
         assert (maps_dir() / name).stat().st_size < 400_000    # maps stay small
 
 
+def test_map_info_reports_integrity(capsys):
+    import json
+    assert main(['map', 'info', SHIPPED['prototype'], '--json']) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info['integrity'] == 'shipped'
+    assert info['content_sha256'] == SHIPPED_SHA256[SHIPPED['prototype']]
+
+
 def test_rehashed_tampered_shipped_map_is_refused(shipped_copy):
     path = shipped_copy / SHIPPED['minirquad']
     with h5py.File(path, 'a') as f:

@@ -163,7 +163,17 @@ def info_dict(path: str) -> dict:
             'package_version': data.attrs['package_version'],
             'build_command': data.attrs['build_command'],
             'build_time_utc': data.attrs.get('build_time_utc', ''),
+            'integrity': data.integrity, 'content_sha256': _stored_hash(path),
             'robot_params': prov.get('robot', {}), 'medium_params': prov.get('medium', {})}
+
+
+def _stored_hash(path: str) -> str | None:
+    import h5py
+
+    from ..maps.hdf5 import HASH_ATTR
+    with h5py.File(path, 'r') as f:
+        value = f.attrs.get(HASH_ATTR)
+    return None if value is None else str(value)
 
 
 def run_info(args) -> int:
@@ -186,6 +196,8 @@ def run_info(args) -> int:
           + (f"; reasons: {', '.join(info['reasons'])}" if info['reasons'] else ''))
     print(f"built {info['build_time_utc']} by rftgls_core {info['package_version']}: "
           f"{info['build_command']}")
+    sha = info['content_sha256']
+    print(f"integrity {info['integrity']}" + (f" (content_sha256 {sha})" if sha else ''))
     return 0
 
 
