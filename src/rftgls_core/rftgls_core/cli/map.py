@@ -142,6 +142,8 @@ def info_dict(path: str) -> dict:
     from ..maps.build import status_counts
     from ..maps.grid import AXIS_HUMAN, AXIS_UNITS
     from ..maps.hdf5 import SCHEMA, SCHEMA_VERSION, load_map
+    from ..maps.shipped import resolve_map
+    path = str(resolve_map(path))
     data = load_map(path)
     g = data.grid
     axes = {}
@@ -204,10 +206,11 @@ def run_info(args) -> int:
 def run_accuracy(args) -> int:
     from ..maps.accuracy import accuracy_report
     from ..maps.query import CapacityMap
+    from ..maps.shipped import resolve_map
     if args.samples < 1:
         raise ValueError(f'--samples must be >= 1, got {args.samples}')
-    rep = accuracy_report(CapacityMap.load(args.file), samples=args.samples, seed=args.seed,
-                          reference=args.reference, progress=not args.quiet)
+    rep = accuracy_report(CapacityMap.load(resolve_map(args.file)), samples=args.samples,
+                          seed=args.seed, reference=args.reference, progress=not args.quiet)
     if args.json:
         d = rep.to_dict()
         for k in ('capacity_N', 'capacity_pct', 'twist_deg'):
@@ -232,7 +235,8 @@ def run_refine(args) -> int:
     from ..maps.hdf5 import save_map
     from ..maps.query import CapacityMap
     from ..maps.refine import interval_errors, refined_grid
-    cmap = CapacityMap.load(args.file)
+    from ..maps.shipped import resolve_map
+    cmap = CapacityMap.load(resolve_map(args.file))
     errors = interval_errors(cmap, samples=args.samples, seed=args.seed,
                              progress=not args.quiet)
     grid = refined_grid(cmap.grid, errors, args.tol)
