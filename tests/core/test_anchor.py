@@ -55,6 +55,26 @@ def test_non_finite_state_is_invalid_input(bad_state):
     assert r.status is Status.INVALID_INPUT and r.capacity_N is None
 
 
+@pytest.mark.parametrize('robot', ['prototype', 'minirquad'])
+@pytest.mark.parametrize('bad_state', [
+    AnchorState(-10.0, 0, 0, 0),                 # p 10 m under the sand: gave 5,391 N
+    AnchorState(-0.06, 0, 0, 0),                 # deeper than the body is tall
+    AnchorState(0.6, 0, 0, 0),                   # far above the sand: carried, not anchored
+    AnchorState.from_degrees(0.02, 95, 0, 0),    # on its back
+    AnchorState.from_degrees(0.02, 0, 270, 0),   # unwrapped leg angle
+    AnchorState.from_degrees(0.02, 0, 0, -200)])
+def test_state_outside_the_physical_range_has_no_value(robot, bad_state):
+    r = model(robot, method='direct').predict(bad_state, 0.0, 'backward')
+    assert r.status is Status.OUT_OF_RANGE and r.reason == 'outside_physical_range'
+    assert r.capacity_N is None and r.slip_twist is None and not r.status.has_value
+
+
+def test_status_list_has_no_extrapolated():
+    # Issue 15 item 2: off-grid and off-range states have no value; nothing is clamped.
+    assert 'extrapolated' not in {s.value for s in Status}
+    assert {s for s in Status if s.has_value} == {Status.OK, Status.ASSUMED}
+
+
 def test_non_finite_phi_and_too_few_twists():
     m = model()
     r = m.predict(AnchorState.from_degrees(0.02, 0, -40, 0), math.nan, 'forward')

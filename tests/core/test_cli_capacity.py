@@ -50,7 +50,8 @@ def test_no_value_is_null_and_errors_exit_2():
     up = json.loads(run('capacity', '--robot', 'minirquad', '--h', '0.3', '--theta-b', '0',
                         '--theta-l1', '0', '--theta-l2', '0', '--json').stdout)
     assert up['status'] == 'unsupported' and up['capacity_N'] is None and up['slip_twist'] is None
-    for args, msg in ((['--method', 'map'], 'needs --map'),
+    for args, msg in ((['--method', 'map', '--map', str(shipped_map_path('prototype'))],
+                       "robot 'prototype'"),
                       (['--theta-b', 'nan'], 'must be finite')):
         out = run('capacity', *DH, *args)
         assert out.returncode == 2 and msg in out.stderr and 'Traceback' not in out.stderr
@@ -97,3 +98,16 @@ def test_capacity_on_a_jump_reports_the_flag():
     assert out.returncode == 0, out.stderr
     res = json.loads(out.stdout)
     assert res['status'] == 'ok' and 'on_jump' in res['flags'] and res['capacity_N'] > 0
+
+
+@pytest.mark.parametrize('theta_l1', ['60', '90', '172'])
+def test_map_off_grid_has_no_value(theta_l1, capsys):
+    """Issue 15: theta_l1 = 60 deg answered 7.45 N 'extrapolated' (the grid edge's value)
+    where direct gives 3.15 N, and 90 / 172 deg the same where direct says unsupported."""
+    from rftgls_core.cli.main import main
+    assert main(['capacity', '--robot', 'minirquad', '--h', '0.034', '--theta-b', '5',
+                 '--theta-l1', theta_l1, '--theta-l2', '30', '--method', 'map', '--json']) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out['status'] == 'out_of_range' and out['reason'] == 'out_of_grid'
+    assert out['capacity_N'] is None and out['slip_twist'] is None
+    assert 'theta_l1' in out['detail']

@@ -52,7 +52,8 @@ def test_pitched_plate_and_reference_point(plate_stl):
 
 @pytest.mark.parametrize('args, message', [
     (['--twist', 'nan', '0', '0', '0', '0', '0'], 'must be finite'),
-    (['--twist', '0', '0', '0', '0', '0', '0'], 'zero twist'),
+    (['--twist', '0', '0', '0', '0', '0', '0'], 'invalid_input'),
+    (['--twist', '1e-200', '0', '0', '0', '0', '-1e-200'], 'invalid_input'),
     (['--twist', '1', '0', '0', '0', '0', '0', '--medium', 'mud'], 'unknown medium'),
 ])
 def test_bad_input_exits_2_with_a_message(plate_stl, args, message):

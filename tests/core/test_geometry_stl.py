@@ -131,3 +131,28 @@ def test_malformed_files_raise_mesh_error(tmp_path, case):
 def test_missing_file_raises_mesh_error(tmp_path):
     with pytest.raises(MeshError, match='nope.stl: cannot read'):
         read_stl(tmp_path / 'nope.stl')
+
+
+def test_one_stray_far_triangle_does_not_weld_the_mesh_away():
+    """A bounding-box-relative tolerance let one far triangle merge every real vertex
+    (issue 15): the tolerance is capped by the feature size, and clean_mesh refuses strays."""
+    from rftgls_core.geometry.validate import clean_mesh
+    leg = c_leg(arc_diameter=0.09, thickness=0.005, width=0.01, n_arc=12)
+    far = np.array([[[1e5, 1e5, 1e5], [1e5 + 0.01, 1e5, 1e5], [1e5, 1e5 + 0.01, 1e5]]])
+    welded = weld_triangles(np.concatenate([leg.triangles, far]))
+    assert len(welded.vertices) == len(leg.vertices) + 3
+    assert len(welded.faces) == len(leg.faces) + 1
+    with pytest.raises(MeshError, match='stray'):
+        clean_mesh(welded)
+    # the leg alone is untouched
+    clean, report = clean_mesh(weld_triangles(leg.triangles))
+    assert len(clean.faces) == len(leg.faces) and report.outward_proven
+
+
+def test_too_many_triangles_is_refused(tmp_path, monkeypatch):
+    from rftgls_core.geometry import stl
+    monkeypatch.setattr(stl, 'MAX_TRIANGLES', 10)
+    path = tmp_path / 'big.stl'
+    write_stl(path, icosphere(0.01, 1), units='m')       # 80 triangles
+    with pytest.raises(MeshError, match='more than the 10'):
+        read_stl(path, units='m')

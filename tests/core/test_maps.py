@@ -162,15 +162,26 @@ def test_nodes_and_affine_reproduction(cmap):
         assert 'twist_confidence=1.000' in r.detail
 
 
-def test_out_of_grid_is_clamped_and_flagged(cmap):
+def test_out_of_grid_has_no_value(cmap):
     inside = cmap.query(state(20, 0, 20, 40), 0.0, 'backward')
     out = cmap.query(state(35, 0, 30, 40), math.radians(10), 'backward')
     assert inside.status is Status.OK
-    assert out.status is Status.EXTRAPOLATED and out.reason == 'out_of_grid'
-    assert out.capacity_N == pytest.approx(inside.capacity_N, rel=1e-6)
+    # Outside the grid the map knows nothing: no clamped edge value (issue 15 item 2).
+    assert out.status is Status.OUT_OF_RANGE and out.reason == 'out_of_grid'
+    assert out.capacity_N is None and out.slip_twist is None and not out.status.has_value
     assert 'h 35 mm above grid' in out.detail and 'theta_l1' in out.detail and 'phi' in out.detail
     below = cmap.query(state(1, -30, 0, 20), -1.0, 'backward')
-    assert below.status is Status.EXTRAPOLATED and 'below grid' in below.detail
+    assert below.status is Status.OUT_OF_RANGE and 'below grid' in below.detail
+    assert below.capacity_N is None
+    # Within the snap tolerance of the edge node is still on the grid.
+    edge = cmap.query(state(20 * (1 + 1e-9), 0, 20, 40), 0.0, 'backward')
+    assert edge.status is Status.OK
+    batch = cmap.query_batch([[0.035, 0.0, math.radians(30), math.radians(40)],
+                              [0.020, 0.0, math.radians(20), math.radians(40)]],
+                             [math.radians(10), 0.0], 'backward')
+    assert batch.statuses() == [Status.OUT_OF_RANGE, Status.OK]
+    assert math.isnan(batch.capacity_N[0]) and batch.capacity_N[1] == pytest.approx(
+        inside.capacity_N, rel=1e-9)
 
 
 def test_invalid_inputs(cmap):

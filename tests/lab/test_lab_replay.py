@@ -24,7 +24,9 @@ MAP = 'maps/prototype_glass_beads.h5'
 
 
 def test_replay_into_capacity_node(ros_context, synthetic_bags):
-    bag = synthetic_bags[0]
+    # Legs on interior nodes: a map has no value off its grid (out_of_range), and the edge
+    # poses' leg noise straddles the edge.
+    bag = next(b for b in synthetic_bags if 'L1-020_L2+020' in b.name)
     test = read_pull_test(bag)
     node = CapacityNode(context=ros_context, parameter_overrides=[
         Parameter('map_file', value=MAP), Parameter('robot', value='prototype'),
@@ -75,3 +77,32 @@ def test_replay_into_capacity_node(ros_context, synthetic_bags):
     want = CapacityMap.load(MAP).query(state, test.meta.phi_rad, test.meta.pull)
     if want.status.has_value:
         assert values[-1] == pytest.approx(want.capacity_N, rel=0.02)
+
+
+def test_replay_resolves_only_the_layouts_types(ros_context, tmp_path):
+    """A bag names its message types as text; replay must never import a module a bag names
+    (issue 15 item 7). Unknown types are skipped and reported, never resolved."""
+    import sys
+
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    from rftgls_ros.lab.bag_layout import BagError
+    from rftgls_ros.lab.replay import message_class
+    with pytest.raises(BagError):
+        message_class('h4_evil_pkg/msg/Payload')
+    assert 'h4_evil_pkg.msg' not in sys.modules and 'h4_evil_pkg' not in sys.modules
+    assert message_class('std_msgs/msg/String') is String
+    bag = tmp_path / 'hostile'
+    with Writer(bag, version=8, storage_plugin=StoragePlugin.MCAP) as w:
+        c = w.add_connection('/evil', 'h4_evil_pkg/msg/Payload', msgdef='int32 x',
+                             rihs01='RIHS01_' + '0' * 64)
+        w.write(c, 1, b'\x00\x01\x00\x00\x05\x00\x00\x00')
+    node = rclpy.create_node('hostile_replay', context=ros_context)
+    try:
+        rep = BagReplayer(node, bag)
+        assert rep.skipped == ['/evil (h4_evil_pkg/msg/Payload)'] and not rep.publishers
+        assert rep.step() is None
+        rep.close()
+    finally:
+        node.destroy_node()
+    assert 'h4_evil_pkg' not in sys.modules

@@ -1,4 +1,4 @@
-"""capacity_node and its estimator with a real (small) HDF5 map: ok, extrapolated, unsupported,
+"""capacity_node and its estimator with a real (small) HDF5 map: ok, out_of_range, unsupported,
 and the start-up errors of bad map files."""
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ def estimator_for(path, state, tension=1.0):
     return est.estimate(0.0)
 
 
-@pytest.mark.parametrize('state, status', [(DH, Status.OK), (OUTSIDE, Status.EXTRAPOLATED),
+@pytest.mark.parametrize('state, status', [(DH, Status.OK), (OUTSIDE, Status.OUT_OF_RANGE),
                                            (HIGH, Status.UNSUPPORTED)])
 def test_estimator_statuses_from_the_map(small_map, state, status):
     e = estimator_for(small_map, state)
@@ -34,8 +34,10 @@ def test_estimator_statuses_from_the_map(small_map, state, status):
     assert e.status is status and direct.status is status
     if status.has_value:
         assert e.capacity_N == direct.capacity_N and e.slip_twist == direct.slip_twist
-    else:
+    elif status is Status.UNSUPPORTED:
         assert e.capacity_N == 0.0 and e.margin_N == -1.0 and e.slip_twist is None
+    else:   # no value at all off the grid
+        assert e.capacity_N is None and e.slip_twist is None
 
 
 def test_bad_map_files(tmp_path, small_map):
@@ -57,7 +59,7 @@ def test_bad_map_files(tmp_path, small_map):
         make_predictor(str(small_map), robot='prototype')
 
 
-def test_node_with_map_extrapolated_and_ok(ros_context, small_map):
+def test_node_with_map_out_of_range_and_ok(ros_context, small_map):
     pytest.importorskip('rclpy')
     from diagnostic_msgs.msg import DiagnosticStatus
     from rclpy.executors import SingleThreadedExecutor
@@ -78,9 +80,10 @@ def test_node_with_map_extrapolated_and_ok(ros_context, small_map):
         assert probe.wait_status('ok')
         assert f_along(cap) == pytest.approx(cmap.query(DH, PHI, 'backward').capacity_N)
         cap = send(probe, node, OUTSIDE, 1.0)
-        assert probe.wait_status('extrapolated')
-        assert f_along(cap) == pytest.approx(cmap.query(OUTSIDE, PHI, 'backward').capacity_N)
-        assert probe.wait_diag_level(DiagnosticStatus.WARN)
+        assert probe.wait_status('out_of_range')
+        assert cmap.query(OUTSIDE, PHI, 'backward').capacity_N is None
+        assert not f_along(cap) > 0.0      # no value published off the grid
+        assert probe.wait_diag_level(DiagnosticStatus.ERROR)
         assert 'out_of_grid' in probe.last_diag().message
         cap = send(probe, node, HIGH, 1.0)
         assert probe.wait_status('unsupported')

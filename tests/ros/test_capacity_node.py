@@ -1,5 +1,5 @@
 """capacity_node in process, real rclpy and DDS on loopback: a probe feeds inputs and checks
-every output for every status (extrapolated: see test_capacity_map.py)."""
+every output for every status (out_of_range: see test_capacity_map.py)."""
 from __future__ import annotations
 
 import math

@@ -92,6 +92,10 @@ class AnchorModel:
         if not isinstance(state, AnchorState) or not state.is_finite():
             return None, self._fail(Status.INVALID_INPUT, 'invalid_state',
                                     f'anchor state must be finite, got {state!r}')
+        outside = self.robot.state_range.violations(state)
+        if outside:
+            return None, self._fail(Status.OUT_OF_RANGE, 'outside_physical_range',
+                                    f'not a {self.robot.name} pose: ' + '; '.join(outside))
         anchor = self.pose(state, pull)
         if anchor.body.facets_active == 0:
             return None, self._fail(Status.UNSUPPORTED, 'no_buried_leg',

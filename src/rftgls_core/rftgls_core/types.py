@@ -16,14 +16,13 @@ class Status(str, enum.Enum):
 
     Value-carrying: OK (every input measured, inside what was computed) and ASSUMED (a value,
     but at least one input came from a parameter or a table instead of a measurement; the
-    reason names which). OUT_OF_RANGE replaces the old clamped EXTRAPOLATED answer: a state
-    outside what was computed (a map's grid, a robot's physical range) has no value.
-    EXTRAPOLATED is kept only until every layer has moved to OUT_OF_RANGE.
+    reason names which). OUT_OF_RANGE: a state outside what was computed (a map's grid, a
+    robot's physical range) has no value; there is no clamped or extrapolated answer (the
+    old 'extrapolated' status is gone, see README "Statuses").
     """
 
     OK = 'ok'
     ASSUMED = 'assumed'                # value computed with an assumed (not measured) input
-    EXTRAPOLATED = 'extrapolated'      # deprecated: state outside the map grid, clamped
     OUT_OF_RANGE = 'out_of_range'      # state outside what was computed: no value
     UNSUPPORTED = 'unsupported'        # no quasi-static balance: weight too large or no buried leg
     DEGENERATE = 'degenerate'          # surface folds, fit not an ellipsoid, ray hits twice, ...
@@ -32,7 +31,7 @@ class Status(str, enum.Enum):
 
     @property
     def has_value(self) -> bool:
-        return self in (Status.OK, Status.ASSUMED, Status.EXTRAPOLATED)
+        return self in (Status.OK, Status.ASSUMED)
 
     def __str__(self) -> str:
         return self.value

@@ -210,6 +210,14 @@ def percentile(sorted_values: list[float], q: float) -> float:
     return sorted_values[min(len(sorted_values) - 1, int(math.ceil(q * len(sorted_values))) - 1)]
 
 
+def _default_map_installed() -> bool:
+    try:
+        resolve_map_path(DEFAULT_MAP)
+    except ValueError:   # rftgls_core.maps.MapFileError
+        return False
+    return True
+
+
 def main(args=None) -> int:
     ap = argparse.ArgumentParser(prog='capacity_bench', description=__doc__.split('\n')[0])
     ap.add_argument('--map', default='', help=f'map file (default: {DEFAULT_MAP} if built, '
@@ -225,7 +233,7 @@ def main(args=None) -> int:
             map_file, note = '', 'live twist-mesh predictor (no map)'
         elif ns.map:
             map_file = ns.map
-        elif resolve_map_path(DEFAULT_MAP).is_file():
+        elif _default_map_installed():
             map_file = DEFAULT_MAP
         else:
             map_file = str(small_map(Path(tmp)))

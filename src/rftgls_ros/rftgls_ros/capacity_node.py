@@ -33,7 +33,7 @@ from .capacity.predictor import DEFAULT_MAP, ConfigError, make_predictor
 
 NAN = float('nan')
 TRIGGERS = ('joint_states', 'pitch', 'tension', 'height', 'phi')
-LEVELS = {Status.OK: DiagnosticStatus.OK, Status.EXTRAPOLATED: DiagnosticStatus.WARN,
+LEVELS = {Status.OK: DiagnosticStatus.OK, Status.OUT_OF_RANGE: DiagnosticStatus.ERROR,
           Status.UNSUPPORTED: DiagnosticStatus.ERROR, Status.DEGENERATE: DiagnosticStatus.ERROR,
           Status.INVALID_INPUT: DiagnosticStatus.ERROR, Status.STALE: DiagnosticStatus.STALE}
 

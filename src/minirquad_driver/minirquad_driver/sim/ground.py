@@ -80,8 +80,9 @@ def _unit_slip(phi: float) -> tuple[float, float, float]:
 
 class MapAnchorModel:
     """RFT-GLS ground from an rftgls_core capacity map (backward pulls: the winch is on the
-    MiniRQuad's back). Outside the map the answer is clamped ('extrapolated'); where the map
-    has no value the simulator falls back to body friction."""
+    MiniRQuad's back). The map answers out_of_range off its grid; the simulated world needs
+    an answer everywhere, so its truth there is the nearest grid edge's (the state clamped
+    into the grid). Where the map has no value the simulator falls back to body friction."""
 
     def __init__(self, path=None, pull: str = 'backward'):
         from rftgls_core.maps import CapacityMap, shipped_map_path
@@ -91,6 +92,13 @@ class MapAnchorModel:
 
     def predict(self, state: AnchorState, phi: float) -> AnchorPrediction:
         res = self.map.query(state, phi, self.pull)
+        if res.status.value == 'out_of_range':
+            ax = self.map.axes
+            state = AnchorState(*(min(max(v, float(ax[n][0])), float(ax[n][-1])) for n, v in
+                                  zip(('h', 'theta_b', 'theta_l1', 'theta_l2'),
+                                      state.as_tuple())))
+            phi = min(max(phi, float(self.map.phis[0])), float(self.map.phis[-1]))
+            res = self.map.query(state, phi, self.pull)
         if not res.status.has_value or res.slip_twist is None:
             return AnchorPrediction(None, (0.0, 0.0, 0.0), res.status)
         vx, vz, wy = res.slip_twist

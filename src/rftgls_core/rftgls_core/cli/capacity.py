@@ -8,7 +8,7 @@ from ..anchor import DEFAULT_TWISTS, AnchorModel
 from ..surfaces.registry import METHOD_NAMES
 from ..robots.presets import ROBOTS, get_robot
 from ..types import AnchorState, Pull
-from .common import add_medium_args, finite_float, medium_from_args, print_json
+from .common import add_medium_args, finite_float, medium_from_args, print_json, twist_count
 
 DEFAULT_MEDIUM = {'prototype': 'glass_beads', 'minirquad': 'm90_sand'}
 
@@ -27,7 +27,32 @@ def add_state_args(p) -> None:
 
 
 def state_from_args(args) -> AnchorState:
-    return AnchorState.from_degrees(args.h, args.theta_b, args.theta_l1, args.theta_l2)
+    """The state of the command line, refused (ValueError, one line) when the robot cannot be
+    in it (robots.model.StateRange): no capacity is computed for an impossible pose."""
+    state = AnchorState.from_degrees(args.h, args.theta_b, args.theta_l1, args.theta_l2)
+    outside = get_robot(args.robot).state_range.violations(state)
+    if outside:
+        raise ValueError(f'not a {args.robot} pose: {"; ".join(outside)} (--h in m, angles '
+                         'in deg)')
+    return state
+
+
+def map_from_args(args):
+    """The map of --map (or the robot's shipped map), refused when it was built for another
+    robot or medium than the command line's: a map answers only for what it was built for."""
+    from ..maps import CapacityMap, resolve_map
+    cmap = CapacityMap.load(resolve_map(args.map, robot=args.robot))
+    if cmap.robot_name != args.robot:
+        raise ValueError(f'{cmap.source}: map is for robot {cmap.robot_name!r}, not '
+                         f'--robot {args.robot}')
+    if any(v is not None for v in (args.xi_n, args.mu_surf, args.zeta)):
+        raise ValueError('--method map answers for the medium the map was built for; drop '
+                         '--xi-n/--mu-surf/--zeta or use a live method')
+    want = (args.medium or DEFAULT_MEDIUM[args.robot]).strip()
+    if want.lower().endswith('.json') or want.lower() != cmap.medium_name.lower():
+        raise ValueError(f'{cmap.source}: map is for medium {cmap.medium_name!r}, not '
+                         f'{want!r}')
+    return cmap
 
 
 def model_from_args(args, method: str | None = None) -> AnchorModel:
@@ -44,9 +69,10 @@ def add_parser(sub) -> None:
                        'm/s and rad/s scaled to unit Euclidean norm.')
     add_state_args(p)
     p.add_argument('--method', choices=list(METHOD_NAMES) + ['map'], default='twist-mesh')
-    p.add_argument('--twists', type=int, default=None,
+    p.add_argument('--twists', type=twist_count, default=None,
                    help=f'sampled unit twists (default {DEFAULT_TWISTS}; 400 for direct)')
-    p.add_argument('--map', help='HDF5 map file (with --method map)')
+    p.add_argument('--map', help='HDF5 map file (with --method map; default: the robot\'s '
+                   'shipped map)')
     p.add_argument('--json', action='store_true')
     p.set_defaults(run=run)
 
@@ -55,11 +81,10 @@ def run(args) -> int:
     state = state_from_args(args)
     phi = math.radians(args.phi)
     t0 = time.perf_counter()
+    if args.map and args.method != 'map':
+        raise ValueError('--map is used only with --method map')
     if args.method == 'map':
-        if not args.map:
-            raise ValueError('--method map needs --map FILE.h5')
-        from ..maps import CapacityMap  # the map layer; imported only when asked for
-        cmap = CapacityMap.load(args.map)
+        cmap = map_from_args(args)
         t0 = time.perf_counter()
         result = cmap.query(state, phi, args.pull)
         char_length = get_robot(cmap.robot_name).char_length

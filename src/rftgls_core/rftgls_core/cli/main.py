@@ -1,21 +1,79 @@
 """`rftgls`: the RFT-GLS command line. One sub-command per module in this folder.
 
-Bad input (unreadable mesh, NaN or zero twist, unknown medium, ...) ends with one line on
-stderr and exit status 2, never a traceback.
+Error contract (README "Command-line contract"): every error ends with ONE line on stderr and
+exit status 2, never a traceback. One handler, here, maps the project's own errors to that
+line: they are all ValueError subclasses (MeshError, MapFileError, MediumError, the lab's
+BagError, the nodes' ConfigError) or OSError (missing/unreadable files). argparse errors are
+one line too (RftglsParser.error). Anything else is a bug: one line, exit 3
+('internal error'), and the traceback only with RFTGLS_DEBUG=1.
 """
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
+import re
 import sys
+import warnings
 from importlib.metadata import entry_points
 
 # sub-command -> module in rftgls_core.cli; each has add_parser(subparsers) and run(args).
 COMMANDS = ('wrench', 'capacity', 'plot', 'bench', 'demo', 'chart', 'map', 'simulate', 'figure')
+EXIT_USAGE = 2      # bad input of any kind (the CLI contract)
+EXIT_INTERNAL = 3   # a bug: an exception the project does not define
+
+# argparse only takes '-5' and '-.5' as values, so '--h -1e-3' would read as an option.
+_NEGATIVE_NUMBER = re.compile(r'^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$')
+
+
+def one_line(text: object) -> str:
+    """Collapse whitespace (h5py, numpy and rosbags messages span lines)."""
+    return ' '.join(str(text).split())
+
+
+_SEEN = '_rftgls_options_seen'
+
+
+class _StoreOnce(argparse._StoreAction):
+    """argparse's 'store', refusing a second occurrence: `--h 1 --h 2` silently kept 2.
+    Options that may repeat say so (action='append') and are combined by their command."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        seen = getattr(namespace, _SEEN, None)
+        if seen is None:
+            seen = set()
+            setattr(namespace, _SEEN, seen)
+        if option_string is not None and self.dest in seen:
+            raise argparse.ArgumentError(self, 'given more than once; give it once (a '
+                                         'repeated value would be silently dropped)')
+        seen.add(self.dest)
+        super().__call__(parser, namespace, values, option_string)
+
+
+class RftglsParser(argparse.ArgumentParser):
+    """ArgumentParser with the CLI contract: one-line errors (exit 2), negative numbers in
+    scientific notation accepted as values, a single-valued option given twice refused.
+    Sub-parsers inherit the class."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = _NEGATIVE_NUMBER
+        self.register('action', None, _StoreOnce)
+        self.register('action', 'store', _StoreOnce)
+
+    def parse_known_args(self, args=None, namespace=None):
+        ns, extras = super().parse_known_args(args, namespace)
+        if hasattr(ns, _SEEN):
+            delattr(ns, _SEEN)
+        return ns, extras
+
+    def error(self, message: str):
+        self.exit(EXIT_USAGE, f'{self.prog}: error: {one_line(message)} (see {self.prog} '
+                              f'--help)\n')
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = RftglsParser(
         prog='rftgls', description='RFT granular limit surfaces: wrenches, load capacity, '
         'slip twists, state-space maps. SI inside; CLI angles in degrees.')
     sub = parser.add_subparsers(dest='command', required=True, metavar='COMMAND')
@@ -33,21 +91,47 @@ def build_parser() -> argparse.ArgumentParser:
         try:
             ep.load()(sub)
         except Exception as exc:  # a broken plugin must not take the core CLI down
-            print(f'rftgls: warning: command {ep.name!r} unavailable: {exc}', file=sys.stderr)
+            print(f'rftgls: warning: command {ep.name!r} unavailable: {one_line(exc)}',
+                  file=sys.stderr)
     return parser
+
+
+def _print_warnings(prefix: str, caught) -> None:
+    for w in caught:
+        print(f'{prefix}: warning: {one_line(w.message)}', file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
     try:
-        return int(args.run(args) or 0)
-    except KeyboardInterrupt:
-        print('rftgls: interrupted', file=sys.stderr)
-        return 130
-    except (ValueError, OSError) as exc:
-        print(f'rftgls {args.command}: error: {exc}', file=sys.stderr)
-        return 2
+        args = parser.parse_args(argv)
+    except SystemExit as exc:       # --help (0) and argparse errors (2, one line)
+        return int(exc.code or 0) if not isinstance(exc.code, str) else EXIT_USAGE
+    prefix = f'rftgls {args.command}'
+    debug = bool(os.environ.get('RFTGLS_DEBUG'))
+    # Warnings (repaired mesh, unverified map, ...) are printed one line each after a run that
+    # succeeds; when the run fails, the error line is the only line.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter('default')
+        try:
+            code = int(args.run(args) or 0)
+            _print_warnings(prefix, caught)
+            return code
+        except KeyboardInterrupt:
+            print(f'{prefix}: interrupted', file=sys.stderr)
+            return 130
+        except (ValueError, OSError) as exc:
+            # The project's own errors (all ValueError subclasses) and unreadable files.
+            if debug:
+                raise
+            print(f'{prefix}: error: {one_line(exc) or type(exc).__name__}', file=sys.stderr)
+            return EXIT_USAGE
+        except Exception as exc:  # noqa: BLE001 -- a bug, still no traceback by default
+            if debug:
+                raise
+            print(f'{prefix}: internal error ({type(exc).__name__}): {one_line(exc)}; '
+                  'RFTGLS_DEBUG=1 shows the traceback', file=sys.stderr)
+            return EXIT_INTERNAL
 
 
 if __name__ == '__main__':

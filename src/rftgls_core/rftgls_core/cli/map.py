@@ -143,6 +143,8 @@ def info_dict(path: str) -> dict:
     from ..maps.build import status_counts
     from ..maps.grid import AXIS_HUMAN, AXIS_UNITS
     from ..maps.hdf5 import SCHEMA, SCHEMA_VERSION, load_map
+    from ..maps.shipped import resolve_map
+    path = str(resolve_map(path))
     data = load_map(path)
     g = data.grid
     axes = {}
@@ -164,7 +166,17 @@ def info_dict(path: str) -> dict:
             'package_version': data.attrs['package_version'],
             'build_command': data.attrs['build_command'],
             'build_time_utc': data.attrs.get('build_time_utc', ''),
+            'integrity': data.integrity, 'content_sha256': _stored_hash(path),
             'robot_params': prov.get('robot', {}), 'medium_params': prov.get('medium', {})}
+
+
+def _stored_hash(path: str) -> str | None:
+    import h5py
+
+    from ..maps.hdf5 import HASH_ATTR
+    with h5py.File(path, 'r') as f:
+        value = f.attrs.get(HASH_ATTR)
+    return None if value is None else str(value)
 
 
 def run_info(args) -> int:
@@ -187,16 +199,19 @@ def run_info(args) -> int:
           + (f"; reasons: {', '.join(info['reasons'])}" if info['reasons'] else ''))
     print(f"built {info['build_time_utc']} by rftgls_core {info['package_version']}: "
           f"{info['build_command']}")
+    sha = info['content_sha256']
+    print(f"integrity {info['integrity']}" + (f" (content_sha256 {sha})" if sha else ''))
     return 0
 
 
 def run_accuracy(args) -> int:
     from ..maps.accuracy import accuracy_report
     from ..maps.query import CapacityMap
+    from ..maps.shipped import resolve_map
     if args.samples < 1:
         raise ValueError(f'--samples must be >= 1, got {args.samples}')
-    rep = accuracy_report(CapacityMap.load(args.file), samples=args.samples, seed=args.seed,
-                          reference=args.reference, progress=not args.quiet)
+    rep = accuracy_report(CapacityMap.load(resolve_map(args.file)), samples=args.samples,
+                          seed=args.seed, reference=args.reference, progress=not args.quiet)
     if args.json:
         d = rep.to_dict()
         for k in ('capacity_N', 'capacity_pct', 'twist_deg'):
@@ -221,7 +236,8 @@ def run_refine(args) -> int:
     from ..maps.hdf5 import save_map
     from ..maps.query import CapacityMap
     from ..maps.refine import interval_errors, refined_grid
-    cmap = CapacityMap.load(args.file)
+    from ..maps.shipped import resolve_map
+    cmap = CapacityMap.load(resolve_map(args.file))
     errors = interval_errors(cmap, samples=args.samples, seed=args.seed,
                              progress=not args.quiet)
     grid = refined_grid(cmap.grid, errors, args.tol)

@@ -7,7 +7,8 @@ import sys
 from pathlib import Path
 
 from ..sim.trajectory import simulate_pull
-from .capacity import add_state_args, model_from_args, state_from_args
+from .capacity import add_state_args, map_from_args, model_from_args, state_from_args
+from .common import finite_float, twist_count
 
 
 def add_parser(sub) -> None:
@@ -16,12 +17,12 @@ def add_parser(sub) -> None:
     q = sub2.add_parser('pull', help='slip of an anchor held at its capacity by a steady pull')
     add_state_args(q)
     q.add_argument('--method', choices=['direct', 'twist-mesh', 'map'], default='direct')
-    q.add_argument('--map', help='HDF5 map (with --method map)')
-    q.add_argument('--twists', type=int, default=None)
+    q.add_argument('--map', help='HDF5 map (with --method map; default: the robot\'s shipped map)')
+    q.add_argument('--twists', type=twist_count, default=None)
     q.add_argument('--integrator', choices=['euler', 'heun'], default='heun')
-    q.add_argument('--step', type=float, default=0.001, help='path of p per step, m')
-    q.add_argument('--max-travel', type=float, default=0.08, help='m')
-    q.add_argument('--speed', type=float, default=0.001,
+    q.add_argument('--step', type=finite_float, default=0.001, help='path of p per step, m')
+    q.add_argument('--max-travel', type=finite_float, default=0.08, help='m')
+    q.add_argument('--speed', type=finite_float, default=0.001,
                    help='pull speed that turns path length into time, m/s (default 1 mm/s)')
     q.add_argument('--out', required=True, help='CSV file')
     q.add_argument('--plot', help='PNG file (force, z and thetaB against x, like Fig. 8)')
@@ -33,11 +34,15 @@ def run(args) -> int:
 
     state = state_from_args(args)
     phi = math.radians(args.phi)
+    if not (args.step > 0 and args.max_travel > 0 and args.speed > 0):
+        raise ValueError('--step, --max-travel and --speed must be > 0')
+    if args.max_travel / args.step > 100_000:
+        raise ValueError(f'--max-travel / --step gives {args.max_travel / args.step:.3g} steps; '
+                         'at most 100000')
+    if args.map and args.method != 'map':
+        raise ValueError('--map is used only with --method map')
     if args.method == 'map':
-        if not args.map:
-            raise ValueError('--method map needs --map FILE.h5')
-        from ..maps import CapacityMap
-        cmap = CapacityMap.load(args.map)
+        cmap = map_from_args(args)
         predictor = cmap
         from ..robots.presets import get_robot
         robot = get_robot(cmap.robot_name)

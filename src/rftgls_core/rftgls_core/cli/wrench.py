@@ -3,12 +3,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.stl import read_stl
+from ..geometry.stl import MeshError, read_stl
 from ..geometry.validate import clean_mesh
 from ..geometry.transforms import rpy_matrix
 from ..rft.engine import BuriedBody
 from ..rft.models import make_model
 from .common import add_medium_args, finite_float, medium_from_args, print_json
+
+# Below this the twist has no usable direction (1 nm/s or 1 nrad/s).
+MIN_TWIST_NORM = 1e-9
 
 
 def add_parser(sub) -> None:
@@ -36,11 +39,20 @@ def run(args) -> int:
     medium = medium_from_args(args)
     model = make_model(args.model, medium)
     twist = np.asarray(args.twist, dtype=float)
-    if not np.any(twist != 0.0):
-        raise ValueError('zero twist: RFT needs a direction of motion')
+    norm = float(np.linalg.norm(twist))
+    if not norm >= MIN_TWIST_NORM:
+        # RFT reads only the direction, but a norm this small underflows in the facet
+        # velocities (1e-200 squared is 0) and would answer 0 N: invalid input, not a value.
+        raise ValueError(f'invalid_input: twist has no direction (norm {norm:.3g} < '
+                         f'{MIN_TWIST_NORM:g}; m/s and rad/s)')
     # Repair what a CAD export gets wrong: degenerate facets (dropped with a warning) and
     # inconsistent or inward winding (RFT needs outward normals).
-    mesh, report = clean_mesh(read_stl(args.mesh, units=args.units))
+    try:
+        mesh, report = clean_mesh(read_stl(args.mesh, units=args.units))
+    except MeshError as exc:
+        if str(args.mesh) in str(exc):
+            raise
+        raise MeshError(f'{args.mesh}: {exc}') from None
     position = np.asarray(args.position, dtype=float)
     rot = rpy_matrix(*np.radians(args.rpy))
     facets = mesh.facets().transformed(rot, position)

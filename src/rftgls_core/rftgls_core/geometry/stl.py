@@ -29,6 +29,14 @@ UNIT_SCALE: dict[str, float] = {'mm': 1e-3, 'cm': 1e-2, 'm': 1.0}
 # coordinates (binary STL) carry ~6e-8 relative noise; 1e-6 absorbs that and stays far below
 # any real feature of a leg mesh.
 WELD_RTOL = 1e-6
+# ... but never more than this fraction of the median edge (the mesh's feature size): one
+# stray triangle far away inflates the bounding box, and a box-relative tolerance would then
+# weld every real vertex into one point and the whole mesh into nothing.
+WELD_FEATURE_RTOL = 1e-3
+# A leg or body mesh needs ~1e2..1e4 facets; beyond this a file is a scan or a mistake, and
+# RFT on it would only exhaust memory.
+MAX_TRIANGLES = 1_000_000
+MAX_FILE_BYTES = 300 * MAX_TRIANGLES      # ASCII STL: ~250 bytes per triangle
 
 _HEADER_BYTES = 80
 _RECORD = np.dtype([('normal', '<f4', (3,)), ('vertices', '<f4', (3, 3)), ('attr', '<u2')])
@@ -55,11 +63,13 @@ def _scale(units: str) -> float:
 # ----------------------------------------------------------------------------------- welding
 
 def weld_triangles(triangles: np.ndarray, rtol: float = WELD_RTOL) -> TriMesh:
-    """Indexed mesh from a triangle soup (F, 3, 3), merging vertices closer than rtol * diag.
+    """Indexed mesh from a triangle soup (F, 3, 3), merging vertices closer than
+    min(rtol * diag, WELD_FEATURE_RTOL * median edge length).
 
     diag is the bounding-box diagonal, so the tolerance scales with the mesh and does not
-    depend on the unit. Exact duplicates (the common case) are merged by np.unique; near
-    duplicates by a k-d tree on the unique points, grouped transitively.
+    depend on the unit; the median-edge cap keeps a far-away stray facet from inflating it.
+    Exact duplicates (the common case) are merged by np.unique; near duplicates by a k-d tree
+    on the unique points, grouped transitively.
     """
     tri = np.asarray(triangles, dtype=float)
     if tri.ndim != 3 or tri.shape[1:] != (3, 3):
@@ -70,7 +80,9 @@ def weld_triangles(triangles: np.ndarray, rtol: float = WELD_RTOL) -> TriMesh:
     uniq, inverse = np.unique(corners, axis=0, return_inverse=True)
     inverse = inverse.reshape(-1)
     diag = float(np.linalg.norm(uniq.max(axis=0) - uniq.min(axis=0)))
-    tol = rtol * diag
+    edges = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2)
+    feature = float(np.median(edges[edges > 0.0])) if np.any(edges > 0.0) else 0.0
+    tol = min(rtol * diag, WELD_FEATURE_RTOL * feature)
     if tol > 0.0 and len(uniq) > 1:
         pairs = cKDTree(uniq).query_pairs(tol, output_type='ndarray')
         if len(pairs):
@@ -96,12 +108,20 @@ def read_stl(path: str | os.PathLike, units: str = 'mm', weld_rtol: float = WELD
     scale = _scale(units)
     path = Path(path)
     try:
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise MeshError(f'{path}: {size / 1e6:.0f} MB is larger than the '
+                            f'{MAX_FILE_BYTES / 1e6:.0f} MB this tool reads (at most '
+                            f'{MAX_TRIANGLES} triangles)')
         data = path.read_bytes()
     except OSError as exc:
         raise MeshError(f'{path}: cannot read STL file ({exc.strerror or exc})') from None
     if not data:
         raise MeshError(f'{path}: empty file, not an STL')
     tri = _parse_stl(data, path)
+    if len(tri) > MAX_TRIANGLES:
+        raise MeshError(f'{path}: {len(tri)} triangles, more than the {MAX_TRIANGLES} this '
+                        'tool accepts (simplify the mesh)')
     if len(tri) == 0:
         raise MeshError(f'{path}: STL file contains zero triangles')
     if not np.all(np.isfinite(tri)):

@@ -31,6 +31,10 @@ from .stl import MeshError
 # A facet whose height (2 * area / longest edge) is below this fraction of the bounding-box
 # diagonal is degenerate: its normal is numerical noise.
 DEGENERATE_RTOL = 1e-9
+# A component farther from the largest one than this many times the largest one's size is a
+# stray facet of a CAD export, not part of the body: RFT would put a buried lever arm of that
+# length into the moment, so the mesh is refused rather than silently used.
+STRAY_FACTOR = 100.0
 
 
 class MeshWarning(UserWarning):
@@ -128,6 +132,7 @@ def clean_mesh(mesh: TriMesh, degenerate_rtol: float = DEGENERATE_RTOL
 
     edges = _edges(faces)
     labels, n_comp, flip = _consistent_winding(faces, edges)
+    _refuse_strays(vertices, faces, labels, n_comp)
     closed_comp = _closed_components(edges, labels, n_comp)
     # Signed volume per component about the bounding-box centre (smaller round-off than the
     # origin for meshes far from it).
@@ -158,6 +163,25 @@ def clean_mesh(mesh: TriMesh, degenerate_rtol: float = DEGENERATE_RTOL
                       f'{report.inconsistent_edges} inconsistent edge(s))', MeshWarning,
                       stacklevel=2)
     return TriMesh(vertices, faces), report
+
+
+def _refuse_strays(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray,
+                   n_comp: int) -> None:
+    """MeshError when a component lies more than STRAY_FACTOR x the main body's size away."""
+    if n_comp < 2:
+        return
+    tri_c = vertices[faces].mean(axis=1)
+    main = int(np.argmax(np.bincount(labels, minlength=n_comp)))
+    pts = vertices[np.unique(faces[labels == main])]
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    size = float(np.linalg.norm(hi - lo))
+    # distance of every facet centroid from the main component's bounding box
+    gap = np.linalg.norm(np.maximum(lo - tri_c, 0.0) + np.maximum(tri_c - hi, 0.0), axis=1)
+    far = gap > STRAY_FACTOR * size
+    if np.any(far):
+        raise MeshError(f'{int(np.count_nonzero(far))} stray facet(s) up to '
+                        f'{float(gap.max()):.3g} m from the main body (size {size:.3g} m, '
+                        f'limit {STRAY_FACTOR:g}x): remove them from the mesh')
 
 
 def _drop_degenerate(vertices: np.ndarray, faces: np.ndarray, rtol: float

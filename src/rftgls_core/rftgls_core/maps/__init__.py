@@ -7,7 +7,7 @@
     build.py        build_map: AnchorModel at every node; local processes or Dask
     accuracy.py     map vs. a reference method at cell centres and random states
     bench.py        map_query_us and map_build_s figures
-    shipped.py      where the shipped maps live
+    shipped.py      resolve_map: the one resolver of map names and paths; shipped hashes
 
 The query side (grid, hdf5, interpolate, query) imports no RFT code, so the onboard node loads
 fast; build/accuracy/bench are imported on first use.
@@ -15,9 +15,10 @@ fast; build/accuracy/bench are imported on first use.
 from __future__ import annotations
 
 from .grid import MapGrid, default_grid
-from .hdf5 import SCHEMA, SCHEMA_VERSION, MapData, MapFileError, load_map, save_map
+from .hdf5 import (SCHEMA, SCHEMA_VERSION, MapData, MapFileError, MapIntegrityWarning,
+                   content_sha256, load_map, save_map)
 from .query import BatchAnswer, CapacityMap
-from .shipped import SHIPPED, maps_dir, shipped_map_path
+from .shipped import SHIPPED, SHIPPED_SHA256, maps_dir, resolve_map, shipped_map_path
 
 _LAZY = {'build_map': 'build', 'BuildSpec': 'build', 'accuracy_report': 'accuracy'}
 
@@ -30,5 +31,6 @@ def __getattr__(name: str):
 
 
 __all__ = ['MapGrid', 'default_grid', 'SCHEMA', 'SCHEMA_VERSION', 'MapData', 'MapFileError',
-           'load_map', 'save_map', 'BatchAnswer', 'CapacityMap', 'build_map', 'BuildSpec',
-           'accuracy_report', 'SHIPPED', 'maps_dir', 'shipped_map_path']
+           'MapIntegrityWarning', 'content_sha256', 'load_map', 'save_map', 'BatchAnswer', 'CapacityMap', 'build_map', 'BuildSpec',
+           'accuracy_report', 'SHIPPED', 'SHIPPED_SHA256', 'maps_dir', 'resolve_map',
+           'shipped_map_path']

@@ -17,6 +17,10 @@ Schema `rftgls.capacity_map`, version 1 (SCHEMA_VERSION). P = number of pull ori
                                parameters, RFT model, method, n_twists, scaling
         build_time_utc         ISO time of the build; the ONLY attribute that differs between
                                two builds from the same inputs (VOLATILE_ATTRS)
+        content_sha256         hex SHA-256 of everything that defines the answers
+                               (content_sha256(): ANSWER_ATTRS, every axis, the pull labels, the
+                               value arrays, status and reason codes and their name tables);
+                               written by save_map, checked by load_map
     /axes/h                    (Nh,) float64, attrs units='m', human_unit='mm', human_values
     /axes/theta_b              (Nb,) float64, rad (human: deg)
     /axes/theta_l1             (N1,) float64, rad (human: deg)
@@ -37,11 +41,19 @@ Axes are strictly increasing, finite, with >= 2 nodes. Every axis and value arra
 with exactly these shapes and dtype kinds; a file that fails any check raises MapFileError with
 one line naming the file and the problem. Data arrays are gzip-compressed (shuffle, level 4);
 compression is deterministic, so two builds differ only in build_time_utc.
+
+Integrity (docs/design/map-integrity.md): the shape checks above cannot see a capacity doubled
+or two pull labels swapped, so load_map recomputes content_sha256 and refuses a mismatch; a
+shipped map (a SHIPPED file in maps_dir()) must also match the hash recorded in the package
+(shipped.SHIPPED_SHA256), so re-hashing a tampered file does not help. A file without the
+attribute (a user map written before it existed) loads with a MapIntegrityWarning.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -50,6 +62,7 @@ import numpy as np
 
 from ..types import Status
 from .grid import AXIS_HUMAN, AXIS_UNITS, STATE_AXES, MapGrid, check_axis
+from .shipped import SHIPPED_SHA256, maps_dir
 
 SCHEMA = 'rftgls.capacity_map'
 SCHEMA_VERSION = 1
@@ -59,10 +72,22 @@ REQUIRED_ATTRS = ('schema', 'schema_version', 'robot', 'medium', 'method', 'rft_
                   'n_twists', 'scaling_force_N', 'scaling_length_m', 'package_version',
                   'build_command', 'provenance_json')
 AXES = STATE_AXES + ('phi',)
+HASH_ATTR = 'content_sha256'
+# The root attributes that change what a query answers (the rest describe the build).
+ANSWER_ATTRS = ('robot', 'medium', 'method', 'rft_model', 'n_twists', 'scaling_force_N',
+                'scaling_length_m', 'provenance_json')
+# Status names earlier versions wrote into /status's table. Allowed in the table as long as no
+# node uses them ('extrapolated' was never stored at a node: maps hold node values only).
+RETIRED_STATUS_NAMES = ('extrapolated',)
 
 
 class MapFileError(ValueError):
-    """A map file that cannot be used: unreadable, truncated, wrong schema, inconsistent."""
+    """A map file that cannot be used: unreadable, truncated, wrong schema, inconsistent,
+    or its content does not match its hash (tampered or damaged)."""
+
+
+class MapIntegrityWarning(UserWarning):
+    """A map that carries no content hash: nothing proves its values are the built ones."""
 
 
 @dataclass(eq=False)
@@ -81,6 +106,10 @@ class MapData:
     reason: np.ndarray
     reason_names: tuple[str, ...]
     attrs: dict = field(default_factory=dict)
+    # How load_map established the content: 'shipped' (matches the hash recorded in the
+    # package), 'verified' (matches its own content_sha256), 'unverified' (no hash stored),
+    # '' (built in memory, not loaded).
+    integrity: str = ''
 
     @property
     def provenance(self) -> dict:
@@ -95,6 +124,60 @@ class MapData:
         """The status array as an object array of Status (for reports, not hot paths)."""
         table = np.array([Status(n) for n in STATUS_NAMES], dtype=object)
         return table[self.status]
+
+
+def _canon_attr(value) -> bytes:
+    """Type-tagged, exact text of an attribute (h5py gives back int, float or str)."""
+    if isinstance(value, (bool, np.bool_)):
+        return b'b:%d' % int(value)
+    if isinstance(value, (int, np.integer)):
+        return b'i:%d' % int(value)
+    if isinstance(value, (float, np.floating)):
+        return b'f:' + float(value).hex().encode()
+    return b's:' + str(value).encode('utf-8')
+
+
+def content_sha256(grid: MapGrid, capacity_N, slip_twist_scaled, slip_twist, status,
+                   status_names, reason, reason_names, attrs: dict) -> str:
+    """Hex SHA-256 over everything that defines a map's answers, in the stored dtypes.
+
+    Each item is fed as name, dtype, shape and little-endian C-order bytes (or tagged text for
+    attributes and name tables), so a changed value, a relabelled pull, a flipped bit in an
+    axis or a re-ordered status table all change the digest.
+    """
+    h = hashlib.sha256(b'rftgls.capacity_map/content/1\0')
+
+    def feed(name: str, payload: bytes) -> None:
+        h.update(name.encode() + b'\0' + len(payload).to_bytes(8, 'little') + payload)
+
+    def array(name: str, a, dtype: str) -> None:
+        a = np.ascontiguousarray(np.asarray(a).astype(dtype, copy=False))
+        feed(name, f'{a.dtype.str}{a.shape}'.encode() + b'\0' + a.tobytes())
+
+    for key in ANSWER_ATTRS:
+        feed(f'@{key}', _canon_attr(attrs.get(key, '')))
+    for name in AXES:
+        array(f'axes/{name}', getattr(grid, name), '<f8')
+    feed('axes/pull', '\n'.join(grid.pulls).encode())
+    array('capacity_N', capacity_N, '<f4')
+    array('slip_twist_scaled', slip_twist_scaled, '<f4')
+    array('slip_twist', slip_twist, '<f4')
+    array('status', status, 'u1')
+    feed('status_names', '\n'.join(map(str, status_names)).encode())
+    array('reason', reason, 'u1')
+    feed('reason_names', '\n'.join(map(str, reason_names)).encode())
+    return h.hexdigest()
+
+
+def _shipped_hash(path: Path) -> str | None:
+    """The hash recorded in the package if `path` is a shipped map in its installed place."""
+    try:
+        here = path.resolve()
+        if here.parent != maps_dir().resolve():
+            return None
+    except OSError:
+        return None
+    return SHIPPED_SHA256.get(here.name)
 
 
 def _write_axis(group: h5py.Group, name: str, values: np.ndarray) -> None:
@@ -120,12 +203,16 @@ def save_map(path: str | Path, data: MapData) -> Path:
     if missing:
         raise ValueError(f'map attributes missing: {", ".join(missing)}')
     comp = {'compression': 'gzip', 'compression_opts': 4, 'shuffle': True, 'track_times': False}
+    reason_names = list(data.reason_names) if data.reason_names else ['']
+    digest = content_sha256(g, data.capacity_N, data.slip_twist_scaled, data.slip_twist,
+                            data.status, STATUS_NAMES, data.reason, reason_names, data.attrs)
     with h5py.File(path, 'w', track_order=True) as f:
         f.attrs['schema'] = SCHEMA
         f.attrs['schema_version'] = SCHEMA_VERSION
         for key in REQUIRED_ATTRS[2:] + VOLATILE_ATTRS:
             if key in data.attrs:
                 f.attrs[key] = data.attrs[key]
+        f.attrs[HASH_ATTR] = digest
         axes = f.create_group('axes', track_order=True)
         for name in AXES:
             _write_axis(axes, name, getattr(g, name))
@@ -138,7 +225,7 @@ def save_map(path: str | Path, data: MapData) -> Path:
         st = f.create_dataset('status', data=data.status.astype(np.uint8), **comp)
         st.attrs['status_names'] = list(STATUS_NAMES)
         rs = f.create_dataset('reason', data=data.reason.astype(np.uint8), **comp)
-        rs.attrs['reason_names'] = list(data.reason_names) if data.reason_names else ['']
+        rs.attrs['reason_names'] = reason_names
     return path
 
 
@@ -164,7 +251,7 @@ def _dataset(f: h5py.File, name: str, shape: tuple, kind: str) -> np.ndarray:
     return ds[()]
 
 
-def _read(f: h5py.File) -> MapData:
+def _read(f: h5py.File, expected_sha256: str | None = None) -> MapData:
     schema = _attr(f.attrs.get('schema'))
     if schema != SCHEMA:
         raise MapFileError(f'not a capacity map (schema attribute {schema!r}, '
@@ -222,20 +309,42 @@ def _read(f: h5py.File) -> MapData:
     if not isinstance(names, list) or not names:
         raise MapFileError('/status has no status_names table')
     known = set(STATUS_NAMES)
-    unknown = [n for n in names if n not in known]
+    unknown = [n for n in names if n not in known and n not in RETIRED_STATUS_NAMES]
     if unknown:
         raise MapFileError(f'/status names unknown statuses: {", ".join(map(str, unknown))}')
     if status.size and int(status.max()) >= len(names):
         raise MapFileError(f'/status code {int(status.max())} is outside its table '
                            f'({len(names)} names)')
-    # Re-code to this version's table, so a file written with another order still reads.
-    recode = np.array([STATUS_NAMES.index(n) for n in names], dtype=np.uint8)
-    status = recode[status]
+    used = set(np.unique(status).tolist()) if status.size else set()
+    retired = sorted({names[c] for c in used if names[c] not in known})
+    if retired:
+        raise MapFileError(f'/status uses the retired status {", ".join(retired)}; rebuild '
+                           'the map with this version')
     reason_names = _attr(f['reason'].attrs.get('reason_names'))
     if not isinstance(reason_names, list) or not reason_names:
         raise MapFileError('/reason has no reason_names table')
     if reason.size and int(reason.max()) >= len(reason_names):
         raise MapFileError(f'/reason code {int(reason.max())} is outside its table')
+
+    stored = _attr(f.attrs.get(HASH_ATTR)) if HASH_ATTR in f.attrs else None
+    digest = None
+    if stored is not None or expected_sha256 is not None:
+        digest = content_sha256(grid, cap, ts, tr, status, names, reason, reason_names, attrs)
+    if expected_sha256 is not None and digest != expected_sha256:
+        raise MapFileError(f'content hash {digest[:12]}... does not match the hash recorded '
+                           f'for this shipped map ({expected_sha256[:12]}...): the file was '
+                           'changed or damaged; reinstall it')
+    if stored is not None and digest != stored:
+        raise MapFileError(f'content hash {digest[:12]}... does not match its '
+                           f'{HASH_ATTR} {str(stored)[:12]}...: the values were changed or '
+                           'damaged after the map was written')
+    integrity = ('shipped' if expected_sha256 is not None
+                 else 'verified' if stored is not None else 'unverified')
+    # Re-code to this version's table, so a file written with another order still reads
+    # (retired names are unused, checked above).
+    recode = np.array([STATUS_NAMES.index(n) if n in known else 255 for n in names],
+                      dtype=np.uint8)
+    status = recode[status]
 
     valued = np.isin(status, [STATUS_NAMES.index(s.value) for s in Status if s.has_value])
     if not np.all(np.isfinite(cap[valued])) or np.any(cap[valued] < 0):
@@ -244,20 +353,34 @@ def _read(f: h5py.File) -> MapData:
     if not np.all(np.abs(norms - 1.0) < 1e-3):
         raise MapFileError('slip_twist_scaled is not a unit vector at a node with a value')
     return MapData(grid=grid, capacity_N=cap, slip_twist_scaled=ts, slip_twist=tr,
-                   status=status, reason=reason, reason_names=tuple(reason_names), attrs=attrs)
+                   status=status, reason=reason, reason_names=tuple(reason_names), attrs=attrs,
+                   integrity=integrity)
 
 
-def load_map(path: str | Path) -> MapData:
-    """Read and validate a map file. Any problem -> MapFileError('<path>: <one line>')."""
+def load_map(path: str | Path, expected_sha256: str | None = None) -> MapData:
+    """Read, validate and verify a map file. Any problem -> MapFileError('<path>: <one line>').
+
+    expected_sha256: the content hash the caller requires; by default the hash recorded in the
+    package when `path` is a shipped map in maps_dir(), else none (the file's own stored hash
+    is always checked). A file without a stored hash loads with a MapIntegrityWarning and
+    `integrity == 'unverified'` (nodes should log it loudly).
+    """
     path = Path(path)
     if not path.is_file():
         raise MapFileError(f'{path}: no such map file')
+    if expected_sha256 is None:
+        expected_sha256 = _shipped_hash(path)
     try:
         with h5py.File(path, 'r') as f:
-            return _read(f)
+            data = _read(f, expected_sha256)
     except MapFileError as exc:
         raise MapFileError(f'{path}: {exc}') from None
     except (OSError, KeyError, TypeError, ValueError, RuntimeError) as exc:
         # h5py reports truncated/corrupt files and unreadable chunks as OSError/KeyError.
         msg = ' '.join(str(exc).split()) or type(exc).__name__
         raise MapFileError(f'{path}: unreadable or corrupt HDF5 map ({msg})') from None
+    if data.integrity == 'unverified':
+        msg = (f'{path}: map has no {HASH_ATTR}: its values cannot be verified (rebuild it, '
+               'or re-save it with save_map, which writes the hash)')
+        warnings.warn(msg, MapIntegrityWarning, stacklevel=2)
+    return data

@@ -6,8 +6,8 @@ Pure functions, two flavours of the same arithmetic:
 - batch query, vectorised numpy over N points (one searchsorted per axis).
 
 Out-of-range coordinates are clamped to the end node; `side` says which way (-1 below,
-+1 above, 0 inside) so the caller can flag the answer. Linear extrapolation is never done: it
-can make a capacity negative.
++1 above, 0 inside) so the caller can refuse the query (CapacityMap answers OUT_OF_RANGE with
+no value). Neither clamped nor linearly extrapolated values are ever returned as answers.
 
 Corners whose weight is exactly zero are dropped (a query on a node or a face uses only the
 nodes it lies on), so an unusable neighbour with zero weight does not poison the answer.

@@ -75,7 +75,7 @@ def _describe_side(name: str, x: float, lo: float, hi: float, side: int) -> str:
     unit, f = AXIS_HUMAN[name]
     edge = lo if side < 0 else hi
     word = 'below' if side < 0 else 'above'
-    return f'{name} {x * f:.4g} {unit} {word} grid, clamped to {edge * f:.4g}'
+    return f'{name} {x * f:.4g} {unit} {word} grid (edge {edge * f:.4g})'
 
 
 class CapacityMap:
@@ -205,6 +205,8 @@ class CapacityMap:
         k, tp, side = locate(axes[4], coords[4])
         if side:
             out = (out or []) + [(4, side)]
+        if out is not None:
+            return self._out_of_grid(coords, out)
         dk = 1 if tp != 0.0 else 0   # on a stored angle: read that angle only
         flat = self._values[p]
         b0 = base + k
@@ -267,16 +269,16 @@ class CapacityMap:
         if norm < LOW_CONFIDENCE:
             detail += (f'; LOW twist confidence (< {LOW_CONFIDENCE}): neighbouring nodes '
                        'disagree on the slip twist')
-        status, reason = Status.OK, ''
-        if out is not None:
-            status, reason = Status.EXTRAPOLATED, 'out_of_grid'
-            detail += '; ' + '; '.join(
-                _describe_side(AXIS_NAMES[a], coords[a], self._axes[a][0], self._axes[a][-1], s)
-                for a, s in out)
-        return CapacityResult(phi=coords[4], status=status, method=METHOD,
+        return CapacityResult(phi=coords[4], status=Status.OK, method=METHOD,
                               capacity_N=max(c, 0.0), slip_twist=raw, slip_twist_scaled=ts,
-                              unchecked_capacity_N=max(c, 0.0),
-                              reason=reason, detail=detail)
+                              unchecked_capacity_N=max(c, 0.0), reason='', detail=detail)
+
+    def _out_of_grid(self, coords, out: list[tuple[int, int]]) -> CapacityResult:
+        detail = '; '.join(
+            _describe_side(AXIS_NAMES[a], coords[a], self._axes[a][0], self._axes[a][-1], s)
+            for a, s in out)
+        return CapacityResult(phi=coords[4], status=Status.OUT_OF_RANGE, method=METHOD,
+                              reason='out_of_grid', detail=detail)
 
     def _bad_cell(self, p: int, phi: float, bad: list[int], n_terms: int) -> CapacityResult:
         codes = self._codes[p]
@@ -346,11 +348,12 @@ class CapacityMap:
             worst_code = np.where(hit, code, worst_code)
         norm = np.linalg.norm(tw, axis=1)
         has_bad = worst < len(_RANK)
-        status = np.where(out.any(axis=1), _CODE[Status.EXTRAPOLATED], _CODE[Status.OK])
-        status = np.where(norm < CANCEL_NORM, _CODE[Status.DEGENERATE], status)
+        status = np.where(norm < CANCEL_NORM, _CODE[Status.DEGENERATE], _CODE[Status.OK])
         status = np.where(has_bad, worst_code, status)
+        # Out of grid wins over the cell's own status, as in `query` (checked first there).
+        status = np.where(out.any(axis=1), _CODE[Status.OUT_OF_RANGE], status)
         status = np.where(finite, status, _CODE[Status.INVALID_INPUT]).astype(np.uint8)
-        ok = np.isin(status, [_CODE[Status.OK], _CODE[Status.EXTRAPOLATED]])
+        ok = status == _CODE[Status.OK]
         safe = np.where(norm >= CANCEL_NORM, norm, 1.0)
         ts = tw / safe[:, None]
         raw = ts * np.array([1.0, 1.0, 1.0 / self._s_lc])

@@ -1,4 +1,17 @@
-"""Where the shipped maps live: `maps/` at the repository root (or $RFTGLS_MAPS_DIR)."""
+"""Where maps are found: the ONE resolver of map names and paths (`resolve_map`).
+
+Search order (docs/design/map-integrity.md):
+1. an explicit path, as written (absolute, or relative to the current directory because the
+   caller wrote it so), e.g. `--map ./my_map.h5` or `map_file:=/data/m.h5`;
+2. the package's installed maps: a robot name ('minirquad'), a shipped file name
+   ('minirquad_m90_sand.h5') or the legacy default 'maps/<shipped file>' always mean the copy in
+   maps_dir(), whose content must match the hash recorded here (SHIPPED_SHA256);
+3. nothing else: the current directory is never searched implicitly, so a file planted there
+   cannot stand in for a shipped map.
+
+maps_dir() is `maps/` at the repository root that holds this package (symlinked and editable
+installs resolve to the source tree), or $RFTGLS_MAPS_DIR.
+"""
 from __future__ import annotations
 
 import os
@@ -6,22 +19,66 @@ from pathlib import Path
 
 SHIPPED = {'prototype': 'prototype_glass_beads.h5', 'minirquad': 'minirquad_m90_sand.h5'}
 
+# Content hashes (hdf5.content_sha256) of the shipped maps, recorded when they were written
+# (maps/README.md has the commands). load_map refuses a shipped map that does not match.
+SHIPPED_SHA256 = {
+    'prototype_glass_beads.h5':
+        '92782e255e50aeb322739f6eb8602bd3d46a8f8674565cef5790c83c9cb023b4',
+    'minirquad_m90_sand.h5':
+        '99d7aab4b3cc2ff410c5b6ec02839c55c8dda42ffb58e4cff3b75dcb2a890aec',
+}
+
 
 def maps_dir() -> Path:
+    """The folder of the installed (shipped) maps."""
     env = os.environ.get('RFTGLS_MAPS_DIR')
     if env:
         return Path(env)
-    # src/rftgls_core/rftgls_core/maps/shipped.py -> repository root (symlinked installs
-    # resolve to the source tree).
+    # src/rftgls_core/rftgls_core/maps/shipped.py -> repository root.
     return Path(__file__).resolve().parents[4] / 'maps'
 
 
-def shipped_map_path(robot: str) -> Path:
-    """Path of the shipped map of a robot; FileNotFoundError (one clear line) if absent."""
-    if robot not in SHIPPED:
-        raise ValueError(f'no shipped map for robot {robot!r}; shipped: {", ".join(SHIPPED)}')
-    path = maps_dir() / SHIPPED[robot]
+def _shipped_name(spec: str) -> str | None:
+    """The shipped file a spec names (robot, file name, 'maps/<file>'), or None."""
+    if spec in SHIPPED:
+        return SHIPPED[spec]
+    p = Path(spec)
+    if p.name in SHIPPED.values() and p.parent in (Path('.'), Path('maps')) \
+            and not spec.startswith(('./', '.' + os.sep)):
+        return p.name
+    return None
+
+
+def resolve_map(spec: str | os.PathLike | None = None, robot: str | None = None) -> Path:
+    """Path of the map a caller means (see the module doc for the order). MapFileError (one
+    line) when there is none.
+
+    spec: explicit path, shipped file name or robot name; None or '' -> the shipped map of
+    `robot`. robot: used only when spec is empty.
+    """
+    from .hdf5 import MapFileError
+    text = '' if spec is None else os.fspath(spec).strip()
+    if not text:
+        if not robot:
+            raise MapFileError('no map given and no robot to pick a shipped map for')
+        key = robot.strip().lower()
+        if key not in SHIPPED:
+            raise MapFileError(f'no shipped map for robot {robot!r}; shipped: '
+                               f'{", ".join(SHIPPED)}')
+        text = key
+    name = _shipped_name(text)
+    if name is not None:
+        path = maps_dir() / name
+        if not path.is_file():
+            raise MapFileError(f'shipped map {path} not found (set RFTGLS_MAPS_DIR to the '
+                               f'folder that holds {name})')
+        return path
+    path = Path(text).expanduser()
     if not path.is_file():
-        raise FileNotFoundError(f'shipped map {path} not found (set RFTGLS_MAPS_DIR to the '
-                                f'folder that holds {SHIPPED[robot]})')
+        raise MapFileError(f'{text}: no such map file')
     return path
+
+
+def shipped_map_path(robot: str) -> Path:
+    """The installed map of a robot: `resolve_map(None, robot)`."""
+    return resolve_map(None, robot)

@@ -14,6 +14,11 @@ from pathlib import Path
 G = 9.81  # m/s^2
 
 
+class MediumError(ValueError):
+    """A medium that cannot be used: unknown preset, unreadable file, missing or ill-typed
+    parameter."""
+
+
 def xi_n_from_friction(rho_c: float, mu_int: float) -> float:
     """Agarwal's media scale xi_n = rho_c g (894 mu^3 - 386 mu^2 + 89 mu), N/m^3."""
     return rho_c * G * (894.0 * mu_int ** 3 - 386.0 * mu_int ** 2 + 89.0 * mu_int)
@@ -40,11 +45,24 @@ class Medium:
     note: str = ''
 
     def __post_init__(self) -> None:
-        for field, value in (('xi_n', self.xi_n), ('zeta', self.zeta)):
+        if not isinstance(self.name, str) or not self.name:
+            raise MediumError(f'medium name must be a non-empty string, got {self.name!r}')
+        for key in ('li_coefficients', 'note'):
+            if not isinstance(getattr(self, key), str):
+                raise MediumError(f'medium {self.name!r}: {key} must be a string, got '
+                                  f'{getattr(self, key)!r}')
+        for key in ('xi_n', 'mu_surf', 'zeta'):
+            value = getattr(self, key)
+            # bool is an int in Python; JSON true/false or null or "3e5" is not a parameter.
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise MediumError(f'medium {self.name!r}: {key} must be a number, got '
+                                  f'{value!r}')
+        for key, value in (('xi_n', self.xi_n), ('zeta', self.zeta)):
             if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f'medium {self.name!r}: {field} must be a positive number, got {value}')
+                raise MediumError(f'medium {self.name!r}: {key} must be a positive number, '
+                                  f'got {value}')
         if not (self.mu_surf >= 0.0):  # also rejects NaN; inf is allowed
-            raise ValueError(f'medium {self.name!r}: mu_surf must be >= 0, got {self.mu_surf}')
+            raise MediumError(f'medium {self.name!r}: mu_surf must be >= 0, got {self.mu_surf}')
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -73,7 +91,7 @@ PRESETS: dict[str, Medium] = {
 def get_medium(name: str) -> Medium:
     key = name.strip().lower().replace('-', '_').replace(' ', '_')
     if key not in PRESETS:
-        raise ValueError(f'unknown medium {name!r}; known media: {", ".join(sorted(PRESETS))}')
+        raise MediumError(f'unknown medium {name!r}; known media: {", ".join(sorted(PRESETS))}')
     return PRESETS[key]
 
 
@@ -81,7 +99,7 @@ def custom_medium(xi_n: float | None = None, mu_surf: float | None = None,
                   zeta: float | None = None) -> Medium:
     """A user medium. Missing values follow from the given ones (zeta = 0.875 xi_n)."""
     if xi_n is None and zeta is None:
-        raise ValueError('give xi_n (Agarwal) or zeta (Li)')
+        raise MediumError('give xi_n (Agarwal) or zeta (Li)')
     if xi_n is None:
         xi_n = zeta / 0.875
     if zeta is None:
@@ -93,10 +111,12 @@ def custom_medium(xi_n: float | None = None, mu_surf: float | None = None,
 def medium_from_dict(d: dict) -> Medium:
     """A Medium from a dict with its field names (extra keys, e.g. confidence intervals of a
     calibration, are ignored)."""
+    if not isinstance(d, dict):
+        raise MediumError(f'a medium description is a JSON object, got {type(d).__name__}')
     names = {f.name for f in fields(Medium)}
     missing = {'name', 'xi_n', 'mu_surf', 'zeta'} - set(d)
     if missing:
-        raise ValueError(f'medium description lacks {", ".join(sorted(missing))}')
+        raise MediumError(f'medium description lacks {", ".join(sorted(missing))}')
     return Medium(**{k: d[k] for k in names if k in d})
 
 
@@ -106,7 +126,10 @@ def load_medium(spec: str) -> Medium:
     if path.suffix == '.json' or path.is_file():
         try:
             data = json.loads(path.read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ValueError(f'cannot read medium file {spec}: {exc}') from None
-        return medium_from_dict(data)
+        except (OSError, UnicodeDecodeError, ValueError) as exc:
+            raise MediumError(f'cannot read medium file {spec}: {exc}') from None
+        try:
+            return medium_from_dict(data)
+        except MediumError as exc:
+            raise MediumError(f'{spec}: {exc}') from None
     return get_medium(spec)

@@ -19,6 +19,7 @@ matters little. The opposite choice swaps the two maps (checked, see README).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -28,6 +29,38 @@ from ..geometry.transforms import rot_y
 from ..types import AnchorState, Pull
 
 G = 9.81  # m/s^2
+
+
+@dataclass(frozen=True)
+class StateRange:
+    """The anchor states a robot can physically be in, SI (bounds inclusive).
+
+    Beyond them a state is a typo, a unit slip (mm for m) or a broken sensor, not a pose, and
+    no capacity is computed for it (OUT_OF_RANGE 'outside_physical_range'). Inside them a state
+    may still hold nothing (no buried leg -> UNSUPPORTED): that is physics, not range.
+    h: winch-point height above the free surface, m. p buried deeper than the body is tall is
+        impossible; far above the sand the robot is carried, not anchored.
+    theta_b: body pitch, rad (beyond +-90 deg the robot lies on its back).
+    theta_leg: each leg angle, rad; the legs turn fully, so any pose is one value in
+        [-pi, pi] (a CLI value beyond it must be wrapped first).
+    """
+
+    h: tuple[float, float] = (-0.05, 0.5)
+    theta_b: tuple[float, float] = (-0.5 * math.pi, 0.5 * math.pi)
+    theta_leg: tuple[float, float] = (-math.pi, math.pi)
+
+    def violations(self, state: AnchorState) -> list[str]:
+        """One text per coordinate outside the range (empty when the state is inside)."""
+        out = []
+        for name, value, (lo, hi), unit, f in (
+                ('h', state.h, self.h, 'm', 1.0),
+                ('theta_b', state.theta_b, self.theta_b, 'deg', 180.0 / math.pi),
+                ('theta_l1', state.theta_l1, self.theta_leg, 'deg', 180.0 / math.pi),
+                ('theta_l2', state.theta_l2, self.theta_leg, 'deg', 180.0 / math.pi)):
+            if not lo <= value <= hi:
+                out.append(f'{name} {value * f:.6g} {unit} outside {lo * f:.6g}..{hi * f:.6g} '
+                           f'{unit}')
+        return out
 
 
 @dataclass(frozen=True)
@@ -47,6 +80,7 @@ class RobotModel:
     plate_length: float                 # body plate from x_B = 0 to plate_length, m
     char_length: float                  # lever arm that makes rotation comparable to translation, m
     notes: dict = field(default_factory=dict, compare=False)
+    state_range: StateRange = field(default_factory=StateRange)
 
     def with_leg_mesh(self, mesh: TriMesh) -> 'RobotModel':
         """The same robot with another leg (e.g. an STL file), in the leg frame above."""

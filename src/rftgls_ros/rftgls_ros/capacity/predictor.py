@@ -9,7 +9,6 @@ status has one (rftgls_core.surfaces.base.CapacityResult).
 """
 from __future__ import annotations
 
-import importlib
 import os
 from pathlib import Path
 from typing import Protocol, runtime_checkable
@@ -17,7 +16,7 @@ from typing import Protocol, runtime_checkable
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull
 
-# Relative to the repository root (or the current directory, or $RFTGLS_MAPS_DIR).
+# The installed (shipped) map; rftgls_core.maps.resolve_map maps this name to maps_dir().
 DEFAULT_MAP = 'maps/minirquad_m90_sand.h5'
 LIVE_METHODS = ('direct', 'twist-mesh', 'alpha', 'ellipsoid')
 
@@ -53,22 +52,10 @@ class LivePredictor:
 
 
 def resolve_map_path(path: str) -> Path:
-    """Absolute path of a map file: as given, else under the current directory, else under
-    $RFTGLS_MAPS_DIR, else under the repository root (where `maps/` is shipped)."""
-    p = Path(path).expanduser()
-    if p.is_absolute():
-        return p
-    candidates = [Path.cwd() / p]
-    if os.environ.get('RFTGLS_MAPS_DIR'):
-        candidates += [Path(os.environ['RFTGLS_MAPS_DIR']) / p,
-                       Path(os.environ['RFTGLS_MAPS_DIR']) / p.name]
-    core = importlib.import_module('rftgls_core')
-    # src/rftgls_core/rftgls_core/__init__.py -> repository root (symlink installs resolve).
-    candidates.append(Path(core.__file__).resolve().parents[3] / p)
-    for c in candidates:
-        if c.is_file():
-            return c
-    return candidates[0]
+    """rftgls_core.maps.resolve_map (the one resolver: explicit path, then the installed maps,
+    never the current directory implicitly); MapFileError when there is no such map."""
+    from rftgls_core.maps import resolve_map
+    return resolve_map(path)
 
 
 class MapPredictor:
@@ -81,11 +68,11 @@ class MapPredictor:
     def __init__(self, path: str | os.PathLike, robot: str | None = None,
                  medium: str | None = None, pull: str | None = None):
         from rftgls_core.maps import CapacityMap, MapFileError
-        self.path = resolve_map_path(str(path))
-        if not self.path.is_file():
-            raise ConfigError(f'map file not found: {path} (looked for {self.path}); build it '
-                              'with `rftgls map build` or set map_file to "" for live '
-                              'computation')
+        try:
+            self.path = resolve_map_path(str(path))
+        except MapFileError as exc:
+            raise ConfigError(f'map file not found: {exc}; build it with `rftgls map build` '
+                              'or set map_file to "" for live computation') from exc
         try:
             self.map = CapacityMap.load(self.path)
         except MapFileError as exc:  # wrong schema, truncated file, ...

@@ -1,6 +1,6 @@
 """ArUco tracking: camera frames + calibration -> planar track (x, z, thetaB) of the winch point.
 
-Per frame (OpenCV 5 API, minirquad-hardware.md 4):
+Per frame (OpenCV 5 API, docs/design/minirquad-hardware.md):
   1. ArucoDetector with SUBPIX corner refinement finds the tank and robot markers;
   2. solvePnPGeneric(SOLVEPNP_IPPE_SQUARE) gives both planar solutions per marker; the tank
      marker keeps the one with the smaller reprojection error, the robot marker the one whose

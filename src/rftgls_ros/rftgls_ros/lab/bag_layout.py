@@ -5,7 +5,7 @@ source of truth (TOPICS). Topic names match capacity_node's inputs, so a replaye
 node with at most two parameters changed (pitch_topic, phi_topic).
 
 Frames:
-    lab_world      the lab world W of the architecture page: z up, free sand surface z = 0,
+    lab_world      the lab world W of docs/design/architecture.md: z up, free sand surface z = 0,
                    x horizontal in the sagittal plane pointing from p toward the axles (the
                    tether pulls p toward -x when phi = 0), y = z x x.
     camera_optical OpenCV camera frame (x right, y down, z forward), m.
@@ -65,9 +65,48 @@ TOPICS: dict[str, tuple[str, str]] = {
 }
 
 
+# Every message type a lab tool will read or replay: a bag's connection names its type as
+# text, and only these texts are ever resolved (to rosbags' typestore or an rclpy message
+# module). Anything else in a bag is skipped or refused, never imported.
+KNOWN_TYPES: frozenset[str] = frozenset(t for t, _ in TOPICS.values())
+
+
+class BagError(ValueError):
+    """A bag that cannot be used as a lab pull test: missing, not rosbag2, truncated or
+    corrupt, a topic with an unexpected type, or malformed metadata. One line."""
+
+
 def _typestore():
     from rosbags.typesys import Stores, get_typestore
     return get_typestore(Stores.ROS2_JAZZY)
+
+
+def _check_types(path, connections) -> None:
+    """BagError when a topic of the layout has another type than TOPICS says."""
+    for c in connections:
+        want = TOPICS.get(c.topic, (None,))[0]
+        if want is not None and c.msgtype != want:
+            raise BagError(f'{path}: topic {c.topic} has type {c.msgtype!r}, the lab layout '
+                           f'says {want!r}')
+
+
+def guard_bag_read(path, read):
+    """Run read() on a bag, turning every failure of the bag's bytes into one BagError.
+
+    rosbags, mcap and CDR decoding raise their own types (ReaderError, struct.error,
+    KeyError, IndexError, UnicodeDecodeError, ...) on truncated or hostile files; a bag is
+    untrusted input, so all of them mean the same thing to the caller.
+    """
+    if not Path(path).exists():
+        raise BagError(f'{path}: no such bag (a rosbag2 folder or .mcap file)')
+    try:
+        return read()
+    except BagError:
+        raise
+    except Exception as exc:  # noqa: BLE001 -- see docstring
+        msg = ' '.join(str(exc).split()) or type(exc).__name__
+        raise BagError(f'{path}: not a readable rosbag2 pull-test bag '
+                       f'({type(exc).__name__}: {msg})') from None
 
 
 @dataclass(frozen=True)
@@ -261,7 +300,8 @@ def write_pull_test(path: str | Path, test: PullTest, storage: str = 'mcap') -> 
         events.append((k, '/joint_states', T['sensor_msgs/msg/JointState'](
             header=header(k, 'base_link'), name=list(JOINT_NAMES),
             position=np.array([l1, l1, l2, l2], float),
-            # Empty velocity/effort are legal; rosbags serialises them exactly (ros2-from-pip 5.3).
+            # Empty velocity/effort are legal; rosbags serialises them exactly
+            # (docs/design/ros2-from-pip.md).
             velocity=np.array([], float), effort=np.array([], float))))
     if test.tracking is not None:
         events += _tracking_events(ts, test.tracking, tns, header)
@@ -344,18 +384,28 @@ def _matrix_from_pose(pose) -> np.ndarray:
 
 
 def read_metadata(path: str | Path) -> PullTestMeta:
-    """Only the metadata (first message of /lab/metadata)."""
+    """Only the metadata (first message of /lab/metadata). BagError on any problem."""
+    return guard_bag_read(path, lambda: _read_metadata(path))
+
+
+def _read_metadata(path) -> PullTestMeta:
     from rosbags.rosbag2 import Reader
     ts = _typestore()
     with Reader(path) as r:
         conns = [c for c in r.connections if c.topic == '/lab/metadata']
+        _check_types(path, conns)
         for c, _, raw in r.messages(connections=conns):
             return PullTestMeta.from_json(ts.deserialize_cdr(raw, c.msgtype).data)
-    raise ValueError(f'{path}: no /lab/metadata message; not a lab pull-test bag')
+    raise BagError(f'{path}: no /lab/metadata message; not a lab pull-test bag')
 
 
 def read_pull_test(path: str | Path, images: bool = False) -> PullTest:
-    """Read a bag written by write_pull_test (or by a recorder following TOPICS)."""
+    """Read a bag written by write_pull_test (or by a recorder following TOPICS).
+    BagError (one line) when the bag is missing, unreadable or not a lab pull test."""
+    return guard_bag_read(path, lambda: _read_pull_test(path, images))
+
+
+def _read_pull_test(path, images: bool) -> PullTest:
     from rosbags.rosbag2 import Reader
 
     ts = _typestore()
@@ -367,6 +417,7 @@ def read_pull_test(path: str | Path, images: bool = False) -> PullTest:
     with Reader(path) as r:
         wanted = [c for c in r.connections if c.topic in TOPICS
                   and (images or c.topic != '/lab/camera/image/compressed')]
+        _check_types(path, wanted)
         for c, k, raw in r.messages(connections=wanted):
             if c.topic == '/lab/camera/image/compressed':
                 imgs.append((k, bytes(ts.deserialize_cdr(raw, c.msgtype).data)))
@@ -398,7 +449,7 @@ def read_pull_test(path: str | Path, images: bool = False) -> PullTest:
             elif c.topic.startswith('/lab/aruco/'):
                 aruco[c.topic.rsplit('/', 1)[1]][k] = _matrix_from_pose(msg.pose)
     if meta is None:
-        raise ValueError(f'{path}: no /lab/metadata message; not a lab pull-test bag')
+        raise BagError(f'{path}: no /lab/metadata message; not a lab pull-test bag')
 
     def sec(k):
         return (np.asarray(k, dtype=np.int64) - t0_ns) * 1e-9

@@ -215,7 +215,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument('bags', nargs='+')
     ap.add_argument('--methods', nargs='+', default=list(METHODS), choices=METHODS)
     ap.add_argument('--map', default=None, help="HDF5 map for method 'map' "
-                    '(default maps/<robot>_glass_beads.h5 if present)')
+                    "(default: the robot's shipped map, if built for the bags' medium)")
     ap.add_argument('--medium', default=None,
                     help='preset name or medium JSON (default: each bag\'s own medium)')
     ap.add_argument('--step', type=float, default=1e-3, help='simulation step, m of p')
@@ -228,11 +228,20 @@ def main(argv: list[str] | None = None) -> int:
         methods = list(args.methods)
         map_path = args.map
         if 'map' in methods and map_path is None:
-            guess = Path('maps') / f'{tests[0].meta.robot}_glass_beads.h5'
-            if guess.exists():
+            # The robot's installed map (never a file in the current directory), and only
+            # if it was built for the bags' medium: a map answers for its own medium only.
+            from rftgls_core.maps import CapacityMap, MapFileError, resolve_map
+            try:
+                guess = resolve_map(None, robot=tests[0].meta.robot)
+                medium_ok = (CapacityMap.load(guess).medium_name
+                             == tests[0].meta.medium.get('name'))
+            except MapFileError:
+                guess, medium_ok = None, False
+            if guess is not None and medium_ok:
                 map_path = guess
             else:
-                print("evaluate: no --map given and none found; skipping 'map'", file=sys.stderr)
+                print("evaluate: no --map given and no shipped map for this robot and medium; "
+                      "skipping 'map'", file=sys.stderr)
                 methods.remove('map')
         medium = load_medium(args.medium) if args.medium else None
         rows, preds = evaluate(tests, methods, map_path, medium, args.step, args.max_travel,

@@ -38,8 +38,12 @@ def make_predictor(method: str, robot: str, medium: Medium, map_path: str | Path
     if method == 'map':
         if map_path is None:
             raise ValueError("method 'map' needs a map file")
-        from rftgls_core.maps import CapacityMap
-        return CapacityMap.load(map_path)   # predict() like AnchorModel
+        from rftgls_core.maps import CapacityMap, resolve_map
+        cmap = CapacityMap.load(resolve_map(map_path))   # predict() like AnchorModel
+        if cmap.robot_name != robot:
+            raise ValueError(f'{cmap.source}: map is for robot {cmap.robot_name!r}, the test '
+                             f'is of {robot!r}')
+        return cmap
     from rftgls_core.anchor import AnchorModel
     return AnchorModel(get_robot(robot), medium, method=method, n_twists=n_twists)
 

@@ -1,7 +1,7 @@
 """Synthetic camera images of ArUco markers at known poses (for tests and sample bags).
 
-Method (minirquad-hardware.md 4.2): a pinhole camera without distortion; each marker image from
-cv2.aruco.generateImageMarker, padded with a one-cell white quiet zone, is warped by the exact
+Method (docs/design/minirquad-hardware.md): a pinhole camera without distortion; each marker
+image from cv2.aruco.generateImageMarker, padded with a one-cell white quiet zone, is warped by the exact
 plane-to-image homography at `supersample` x resolution, alpha-blended on a grey background and
 reduced with INTER_AREA; optional Gaussian blur and noise. Only the marker's bounding box is
 rendered at the high resolution, which keeps a 1280x720 frame at a few ms per marker.

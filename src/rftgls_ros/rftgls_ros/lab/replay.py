@@ -2,7 +2,7 @@
 
 Like `ros2 bag play` (not available from pip): every connection gets a publisher of its type,
 and each message's recorded CDR bytes go out unchanged (Publisher.publish accepts bytes,
-ros2-from-pip.md 5.2). Timing: the original rate (rate=1), faster (rate=k), as fast as
+docs/design/ros2-from-pip.md). Timing: the original rate (rate=1), faster (rate=k), as fast as
 possible (rate=0), or lock-step (step() one message at a time, for tests). /lab/metadata is
 published reliable + transient-local so a late joiner still gets it; everything else reliable
 with a deep queue, so a fast replay does not drop (a best-effort subscriber still may).
@@ -26,13 +26,22 @@ import rclpy
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
+from .bag_layout import KNOWN_TYPES, BagError, guard_bag_read
+
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 LATCHED_TOPICS = ('/lab/metadata',)
 
 
 def message_class(msgtype: str):
-    """'pkg/msg/Name' -> the rclpy message class (rosidl_runtime_py is not in the wheels)."""
+    """'pkg/msg/Name' -> the rclpy message class (rosidl_runtime_py is not in the wheels).
+
+    Only the lab layout's types (bag_layout.KNOWN_TYPES) are resolved: the type text comes
+    from the bag, and importing whatever module a file names would let a bag run code.
+    BagError for anything else.
+    """
+    if msgtype not in KNOWN_TYPES:
+        raise BagError(f'message type {msgtype!r} is not one of the lab layout\'s types')
     pkg, _, name = msgtype.split('/')
     return getattr(importlib.import_module(f'{pkg}.msg'), name)
 
@@ -45,17 +54,25 @@ class BagReplayer:
         from rosbags.rosbag2 import Reader
         self.node = node
         self.reader = Reader(bag)
-        self.reader.open()
+        guard_bag_read(bag, self.reader.open)
         conns = [c for c in self.reader.connections
                  if (topics is None or c.topic in topics)
                  and not (skip_images and 'image' in c.topic)]
+        # Topics of unknown types are not replayed (see message_class); say which.
+        self.skipped = sorted({f'{c.topic} ({c.msgtype})' for c in conns
+                               if c.msgtype not in KNOWN_TYPES})
+        if self.skipped:
+            node.get_logger().warning('not replaying topics of unknown type: '
+                                      + ', '.join(self.skipped))
+        conns = [c for c in conns if c.msgtype in KNOWN_TYPES]
         self.publishers = {}
         for c in conns:
             if c.topic not in self.publishers:
                 qos = LATCHED if c.topic in LATCHED_TOPICS else 100
                 self.publishers[c.topic] = node.create_publisher(message_class(c.msgtype),
                                                                  c.topic, qos)
-        self._it = self.reader.messages(connections=conns)
+        # rosbags reads EVERY connection when given none: an empty selection is no messages.
+        self._it = self.reader.messages(connections=conns) if conns else iter(())
         self.count = 0
 
     def step(self) -> tuple[str, int] | None:
@@ -124,6 +141,9 @@ def main(argv: list[str] | None = None) -> int:
         rep.close()
     except KeyboardInterrupt:
         pass
+    except BagError as exc:
+        print(f'replay: error: {exc}', file=sys.stderr)
+        return 2
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
