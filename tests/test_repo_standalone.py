@@ -44,8 +44,8 @@ _NOTE_STEM = re.compile(r'(?<![\w/.#-])(' + '|'.join(NOTE_STEMS) + r')(?=\s+(?:s
 GENERATED = {'table.md': 'written by rftgls_ros.lab.evaluate (see src/rftgls_ros/lab_README.md)'}
 # Generated files (lab sample bags, shipped maps) are checked in their own test: a failure
 # there is fixed by regenerating them with their recorded command.
-GENERATED = ('src/rftgls_ros/rftgls_ros/lab/', 'maps/prototype_glass_beads.h5',
-              'maps/minirquad_m90_sand.h5')
+GENERATED_FILES = ('src/rftgls_ros/rftgls_ros/lab/', 'maps/prototype_glass_beads.h5',
+                   'maps/minirquad_m90_sand.h5')
 # Directories that are never part of the repository (fallback walk without git).
 _IGNORED_DIRS = {'.git', '.venv', 'build', 'install', 'log', 'out', '__pycache__', '.pytest_cache'}
 
@@ -232,12 +232,12 @@ def problems() -> list[Problem]:
 
 
 def test_every_reference_resolves_inside_the_repository(problems):
-    mine = [p for p in problems if not p.path.startswith(GENERATED)]
+    mine = [p for p in problems if not p.path.startswith(GENERATED_FILES)]
     assert not mine, 'references to files outside the repository:\n' + '\n'.join(map(str, mine))
 
 
 def test_lab_references_resolve_inside_the_repository(problems):
-    lab = [p for p in problems if p.path.startswith(GENERATED)]
+    lab = [p for p in problems if p.path.startswith(GENERATED_FILES)]
     assert not lab, 'references to files outside the repository:\n' + '\n'.join(map(str, lab))
 
 
