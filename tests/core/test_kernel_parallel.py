@@ -103,6 +103,10 @@ def test_float32_costs_little_and_is_opt_in():
     err = np.abs(w32 - w64).max(axis=0) / np.abs(w64).max(axis=0)
     # float32 per pair, float64 sums: about 1e-7 relative; clearly not float64 either.
     assert err.max() < 1e-6 and err.max() > 1e-12
+    # Rate independence holds in float32 too, far beyond float32's range of squares.
+    b32 = BuriedBody(f, model, ref=(0.01, 0.0, 0.02), precision='float32')
+    big = b32.wrench(1e30 * t[:5])
+    assert np.all(np.isfinite(big)) and np.allclose(big, w32[:5], rtol=1e-6, atol=0)
     with pytest.raises(ValueError, match='precision'):
         BuriedBody(f, model, precision='float16')
     with pytest.raises(ValueError, match='fused'):
