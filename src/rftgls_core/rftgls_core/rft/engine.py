@@ -159,8 +159,11 @@ def _run_fused(parallel, serial, k: dict, t: np.ndarray, out: np.ndarray) -> Non
         # RFT is rate independent: unit-size twists keep float32 squares clear of overflow.
         t = t / np.abs(t).max(axis=1, keepdims=True)
     tw = np.ascontiguousarray(t.T, dtype=k['dtype'])  # (width, M): the SIMD lanes run over M
-    run = parallel if kernels.use_parallel(t.shape[0] * k['w'].shape[0]) else serial
-    run(tw, k['r'], k['n'], k['nd'], k['poly'], k['w'], k['mu'], k['c'], out)
+    args = (tw, k['r'], k['n'], k['nd'], k['poly'], k['w'], k['mu'], k['c'], out)
+    if kernels.use_parallel(t.shape[0] * k['w'].shape[0]):
+        kernels.run_parallel(parallel, *args)
+    else:
+        serial(*args)
     out *= k['xi']
 
 

@@ -264,6 +264,20 @@ def set_threads(n: int) -> None:
     numba.set_num_threads(int(n))
 
 
+def run_parallel(kernel, *args) -> None:
+    """Call a *_parallel kernel with blocks handed out one at a time (dynamic schedule).
+
+    A static split waits for the slowest thread; on a shared machine a descheduled thread
+    would hold the whole call, while one-block chunks let the other thread take over.
+    """
+    prev = numba.get_parallel_chunksize()
+    numba.set_parallel_chunksize(1)
+    try:
+        kernel(*args)
+    finally:
+        numba.set_parallel_chunksize(prev)
+
+
 def use_parallel(pairs: int) -> bool:
     """Parallel kernels only for big calls, from the main thread of the main process.
 
