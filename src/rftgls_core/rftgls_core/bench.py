@@ -1,52 +1,36 @@
 """Benchmarks behind `rftgls bench`: named figures, measured in one run so they compare as ratios.
 
 Each figure is the best of several repeats (the machines are shared and noisy; the minimum is
-the least disturbed estimate). Nothing here is a pass/fail test: the budgets of the
-architecture page are printed next to the figures.
+the least disturbed estimate, see timing.py). Nothing here is a pass/fail test: the budgets of
+the architecture page are printed next to the figures.
 """
 from __future__ import annotations
 
 import math
-import time
-from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
+from .geometry.shapes import icosphere
+from .maps.bench import bench_maps
+from .rft import kernels
 from .rft.engine import BuriedBody
 from .rft.media import get_medium
 from .rft.models import make_model
 from .robots.presets import minirquad
 from .surfaces.sampling import fibonacci_sphere
+from .timing import Figure, best_time
 from .types import AnchorState, Pull
 
 # A typical buried MiniRQuad pose: the DH anchor of the paper's Table II.
 TYPICAL_STATE = AnchorState.from_degrees(0.034, 5.0, -40.0, 30.0)
 GLS_TWISTS = 1000
-
-
-@dataclass(frozen=True)
-class Figure:
-    name: str
-    value: float
-    unit: str
-    budget: str = ''
-    note: str = ''
-
-
-def best_time(fn: Callable[[], object], repeats: int = 7, min_total: float = 0.2) -> float:
-    """Smallest wall time of one call, s (repeats at least `repeats` times or `min_total` s)."""
-    fn()  # warm up: JIT compile, caches
-    times, total = [], 0.0
-    while len(times) < repeats or total < min_total:
-        t0 = time.perf_counter()
-        fn()
-        dt = time.perf_counter() - t0
-        times.append(dt)
-        total += dt
-        if len(times) > 1000:
-            break
-    return min(times)
+# The generic 6D workload: a 5,120-facet icosphere (4 subdivisions) of 5 cm radius, centre
+# 10 cm deep (all facets buried), 1,000 random spatial twists about its centre.
+SPHERE_SUBDIVISIONS = 4
+SPHERE_RADIUS_M = 0.05
+SPHERE_DEPTH_M = 0.10
+SPHERE_TWISTS = 1000
 
 
 def unit_twists(n: int, char_length: float) -> np.ndarray:
@@ -72,7 +56,8 @@ def bench_rft() -> list[Figure]:
             body = BuriedBody(posed.facets, model, ref=posed.ref, backend=backend)
         except ValueError:
             continue
-        t = best_time(lambda: body.planar_wrench(twists, use_symmetry=False), repeats=3)
+        with _threads(1):
+            t = best_time(lambda: body.planar_wrench(twists, use_symmetry=False), repeats=3)
         pairs = body.facets_active * len(twists)
         figures.append(Figure('rft_pairs_per_s' + ('' if backend == 'numba' else '_numpy'),
                               pairs / t, 'pairs/s', note=f'{backend} backend, one core, '
@@ -82,6 +67,58 @@ def bench_rft() -> list[Figure]:
                           note=f'MiniRQuad DH pose, {GLS_TWISTS} twists, pose + cull + mirror + '
                                f'wrenches; {robot.leg_mesh.faces.shape[0]} facets per leg'))
     return figures
+
+
+def sphere_workload(precision: str = 'float64') -> tuple[BuriedBody, np.ndarray]:
+    """The generic 6D workload: the buried icosphere (Agarwal, M90 sand) and its twists."""
+    mesh = icosphere(SPHERE_RADIUS_M, SPHERE_SUBDIVISIONS)
+    centre = np.array([0.0, 0.0, -SPHERE_DEPTH_M])
+    facets = mesh.facets().transformed(np.eye(3), centre)
+    body = BuriedBody(facets, make_model('agarwal', get_medium('m90_sand')), ref=centre,
+                      precision=precision)
+    rng = np.random.default_rng(16)
+    # Angular rates scaled by 1/radius so rotation and translation move facets alike.
+    scale = np.r_[np.ones(3), np.full(3, 1.0 / SPHERE_RADIUS_M)]
+    twists = rng.normal(size=(SPHERE_TWISTS, 6)) * scale
+    return body, twists
+
+
+def bench_rft_6d() -> list[Figure]:
+    """The fused kernel on the generic 6D workload on one core, two cores and all cores."""
+    body, twists = sphere_workload()
+    if not body.fused:
+        return []
+    pairs = body.facets_active * len(twists)
+    what = f'{body.facets_active}-facet sphere x {len(twists)} random 6D twists, Agarwal'
+    cores = kernels.max_threads()
+    times = {}
+    for n in sorted({1, min(2, cores), cores}):
+        with _threads(n):
+            times[n] = best_time(lambda: body.wrench(twists), repeats=5)
+    two = times[2] if 2 in times else math.nan
+    return [
+        Figure('rft_pairs_per_s_1core', pairs / times[1], 'pairs/s', note=f'{what}, one thread'),
+        Figure('rft_pairs_per_s_2core', pairs / two, 'pairs/s', budget='>= 1e8 and >= 1.7x 1core',
+               note=f'{what}, two threads'),
+        Figure('rft_sphere5120_1000_ms', 1e3 * times[cores], 'ms', budget='<= 55',
+               note=f'{what}, all {cores} threads'),
+    ]
+
+
+class _threads:
+    """Run the kernels on n threads inside the block (restores the previous count)."""
+
+    def __init__(self, n: int):
+        self.n = n
+
+    def __enter__(self):
+        self.before = kernels.threads()
+        if kernels.AVAILABLE:
+            kernels.set_threads(self.n)
+
+    def __exit__(self, *exc):
+        if kernels.AVAILABLE:
+            kernels.set_threads(self.before)
 
 
 def bench_capacity() -> list[Figure]:
@@ -108,13 +145,9 @@ def bench_capacity() -> list[Figure]:
     return figures
 
 
-# Sections in run order; maps and nodes register theirs where they live.
-def bench_maps() -> list[Figure]:
-    from .maps.bench import bench_maps as run
-    return run()
-
-
-SECTIONS: dict[str, Callable[[], list[Figure]]] = {'rft': bench_rft, 'capacity': bench_capacity,
+# Sections in run order.
+SECTIONS: dict[str, Callable[[], list[Figure]]] = {'rft': lambda: bench_rft() + bench_rft_6d(),
+                                                  'capacity': bench_capacity,
                                                   'maps': bench_maps}
 
 
@@ -128,10 +161,3 @@ def run_all(only: list[str] | None = None, progress: Callable[[str], None] | Non
             progress(name)
         out.extend(fn())
     return out
-
-
-def format_value(f: Figure) -> str:
-    v = f.value
-    if not math.isfinite(v):
-        return str(v)
-    return f'{v:.3g}' if abs(v) < 1e4 else f'{v:.3e}'

@@ -4,6 +4,7 @@ from __future__ import annotations
 import sys
 
 from .. import bench
+from ..timing import format_value
 from .common import print_json
 
 
@@ -22,7 +23,7 @@ def run(args) -> int:
         return 0
     width = max(len(f.name) for f in figures)
     for f in figures:
-        line = f'{f.name:<{width}}  {bench.format_value(f):>10} {f.unit:<8}'
+        line = f'{f.name:<{width}}  {format_value(f):>10} {f.unit:<8}'
         if f.budget:
             line += f'  budget {f.budget}'
         if f.note:

@@ -1,4 +1,4 @@
-"""Map benchmarks for `rftgls bench` (register `bench_maps` in rftgls_core.bench.SECTIONS).
+"""Map benchmarks for `rftgls bench` (`bench_maps` is a section of rftgls_core.bench).
 
 map_query_us: one CapacityMap.query on the shipped prototype map (paper grid) at random
     in-grid states and pull angles; best time per query over repeated batches.
@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bench import Figure, best_time
+from ..timing import Figure, best_time
 from ..types import AnchorState
 from .grid import prototype_grid
 

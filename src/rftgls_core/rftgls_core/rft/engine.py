@@ -25,6 +25,7 @@ from .base import StressModel
 LEADING_TOL = 1e-12
 # Pairs per chunk: keeps the (chunk x F) temporaries inside the CPU caches.
 _CHUNK_PAIRS = 16384
+_PRECISIONS = {'float64': np.float64, 'float32': np.float32}
 
 
 class BuriedBody:
@@ -34,16 +35,23 @@ class BuriedBody:
     moments (m, world). mirror_y: y of the body's sagittal symmetry plane, or None.
     surface_z: height of the free surface (m). backend: 'auto' uses the fused numba kernel
     when the model offers one (Agarwal) and numba is installed, else 'numpy'.
+    precision: 'float64' (default) or 'float32', the fused kernel's working precision per
+    facet-twist pair (sums stay float64); float32 needs the fused kernel and costs about
+    1e-6 relative (README, performance), so nothing in the stack uses it by default.
     """
 
     def __init__(self, facets: Facets, model: StressModel, ref=(0.0, 0.0, 0.0),
-                 mirror_y: float | None = None, surface_z: float = 0.0, backend: str = 'auto'):
+                 mirror_y: float | None = None, surface_z: float = 0.0, backend: str = 'auto',
+                 precision: str = 'float64'):
         if backend not in ('auto', 'numpy', 'numba'):
             raise ValueError(f"backend must be 'auto', 'numpy' or 'numba', got {backend!r}")
         if backend == 'numba' and not kernels.AVAILABLE:
             raise ValueError('backend numba requested but numba is not installed')
+        if precision not in _PRECISIONS:
+            raise ValueError(f"precision must be 'float64' or 'float32', got {precision!r}")
         self.model = model
         self.backend = backend
+        self.precision = precision
         self.ref = np.asarray(ref, dtype=float).reshape(3)
         self.facets_total = len(facets)
         buried = facets.centroids[:, 2] < surface_z
@@ -55,6 +63,9 @@ class BuriedBody:
             keep = y > -tol
             weight = np.where(y > tol, 2.0, 1.0)[keep]
             self._half = self._bind(facets.subset(buried).subset(keep), surface_z, weight)
+        if precision != 'float64' and self._full['fused'] is None and self.facets_active:
+            raise ValueError(f'precision {precision} needs the fused numba kernel '
+                             f'(backend {backend!r}, model {getattr(model, "name", model)!r})')
 
     @property
     def facets_active(self) -> int:
@@ -67,7 +78,7 @@ class BuriedBody:
         stress = self.model.prepare(f.normals)
         fused = None
         if self.backend != 'numpy' and kernels.AVAILABLE and hasattr(stress, 'fused_arrays'):
-            fused = stress.fused_arrays()
+            fused = _kernel_arrays(stress.fused_arrays(), r, w, _PRECISIONS[self.precision])
         return {'r': np.ascontiguousarray(r), 'n': f.normals, 'w': np.ascontiguousarray(w),
                 'wr': w[:, None] * r, 'stress': stress, 'len': len(w), 'fused': fused}
 
@@ -82,9 +93,7 @@ class BuriedBody:
         out = np.zeros((len(t), 6))
         b = self._full
         if b['fused'] is not None:
-            k = b['fused']
-            kernels.spatial_wrench(t, b['r'], k['n'], k['nd'], k['poly'], b['w'], k['xi'],
-                                   k['mu'], out)
+            _run_fused(kernels.spatial_parallel, kernels.spatial_serial, b['fused'], t, out)
             return out[0] if np.ndim(twists) == 1 else out
         for s in _chunks(len(t), b['len']):
             v, w_ = t[s, :3], t[s, 3:]
@@ -106,9 +115,7 @@ class BuriedBody:
         b = self._half if (use_symmetry and self._half is not None) else self._full
         out = np.zeros((len(t), 3))
         if b['fused'] is not None:
-            k = b['fused']
-            kernels.planar_wrench(t, b['r'], k['n'], k['nd'], k['poly'], b['w'], k['xi'],
-                                  k['mu'], out)
+            _run_fused(kernels.planar_parallel, kernels.planar_serial, b['fused'], t, out)
             return out[0] if np.ndim(twists) == 1 else out
         r = b['r']
         for s in _chunks(len(t), b['len']):
@@ -133,6 +140,31 @@ class BuriedBody:
         lead = (vx * n[:, 0] + vy * n[:, 1] + vz * n[:, 2] >= -LEADING_TOL) & moving
         sx, sy, sz = b['stress'].stress(vx, vy, vz)
         return (np.where(lead, sx, 0.0), np.where(lead, sy, 0.0), np.where(lead, sz, 0.0))
+
+
+def _kernel_arrays(fused: dict, r: np.ndarray, w: np.ndarray, dtype) -> dict:
+    """Per-facet constants as C-contiguous arrays of the kernels' working dtype."""
+    def as_(a):
+        return np.ascontiguousarray(a, dtype=dtype)
+    return {'r': as_(r), 'n': as_(fused['n']), 'nd': as_(fused['nd']),
+            'poly': as_(fused['poly']), 'w': as_(w), 'xi': float(fused['xi']),
+            'mu': dtype(fused['mu']), 'c': kernels.constants(dtype), 'dtype': dtype}
+
+
+def _run_fused(parallel, serial, k: dict, t: np.ndarray, out: np.ndarray) -> None:
+    """Wrenches of twists t (M, width) into out (M, width), float64, via the fused kernels."""
+    if k['w'].shape[0] == 0:
+        return
+    if k['dtype'] is not np.float64:
+        # RFT is rate independent: unit-size twists keep float32 squares clear of overflow.
+        t = t / np.abs(t).max(axis=1, keepdims=True)
+    tw = np.ascontiguousarray(t.T, dtype=k['dtype'])  # (width, M): the SIMD lanes run over M
+    args = (tw, k['r'], k['n'], k['nd'], k['poly'], k['w'], k['mu'], k['c'], out)
+    if kernels.use_parallel(t.shape[0] * k['w'].shape[0]):
+        kernels.run_parallel(parallel, *args)
+    else:
+        serial(*args)
+    out *= k['xi']
 
 
 def _check_twists(twists, width: int) -> np.ndarray:
