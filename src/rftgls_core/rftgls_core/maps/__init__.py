@@ -15,8 +15,16 @@ fast; build/accuracy/bench are imported on first use.
 from __future__ import annotations
 
 from .grid import MapGrid, default_grid
-from .hdf5 import (SCHEMA, SCHEMA_VERSION, MapData, MapFileError, MapIntegrityWarning,
-                   content_sha256, load_map, save_map)
+from .hdf5 import (
+    SCHEMA,
+    SCHEMA_VERSION,
+    MapData,
+    MapFileError,
+    MapIntegrityWarning,
+    content_sha256,
+    load_map,
+    save_map,
+)
 from .query import BatchAnswer, CapacityMap
 from .shipped import SHIPPED, SHIPPED_SHA256, maps_dir, resolve_map, shipped_map_path
 

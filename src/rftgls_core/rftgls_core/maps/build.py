@@ -19,15 +19,15 @@ from __future__ import annotations
 
 import json
 import math
+import multiprocessing
 import os
 import sys
 import threading
+from collections.abc import Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
-from datetime import datetime, timezone
-from typing import Iterator, Sequence
+from datetime import UTC, datetime
 
-import multiprocessing
 import numpy as np
 
 from .. import __version__
@@ -216,7 +216,7 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
              'scaling_length_m': float(probe.scaling.length_m),
              'package_version': __version__, 'build_command': command,
              'provenance_json': json.dumps({**describe, 'backend': backend}, sort_keys=True),
-             'build_time_utc': datetime.now(timezone.utc).isoformat(timespec='seconds')}
+             'build_time_utc': datetime.now(UTC).isoformat(timespec='seconds')}
     return MapData(grid=grid, capacity_N=arrange(cap).astype(np.float32),
                    slip_twist_scaled=arrange(ts).astype(np.float32),
                    slip_twist=arrange(tr).astype(np.float32),

@@ -61,6 +61,7 @@ import h5py
 import numpy as np
 
 from ..types import Status
+from .errors import MapFileError, MapIntegrityWarning
 from .grid import AXIS_HUMAN, AXIS_UNITS, STATE_AXES, MapGrid, check_axis
 from .shipped import SHIPPED_SHA256, maps_dir
 
@@ -79,15 +80,6 @@ ANSWER_ATTRS = ('robot', 'medium', 'method', 'rft_model', 'n_twists', 'scaling_f
 # Status names earlier versions wrote into /status's table. Allowed in the table as long as no
 # node uses them ('extrapolated' was never stored at a node: maps hold node values only).
 RETIRED_STATUS_NAMES = ('extrapolated',)
-
-
-class MapFileError(ValueError):
-    """A map file that cannot be used: unreadable, truncated, wrong schema, inconsistent,
-    or its content does not match its hash (tampered or damaged)."""
-
-
-class MapIntegrityWarning(UserWarning):
-    """A map that carries no content hash: nothing proves its values are the built ones."""
 
 
 @dataclass(eq=False)

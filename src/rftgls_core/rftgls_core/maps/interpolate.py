@@ -15,10 +15,9 @@ nodes it lies on), so an unusable neighbour with zero weight does not poison the
 from __future__ import annotations
 
 from bisect import bisect_right
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
-
 
 # Coordinates within this fraction of a cell of a node ARE on the node, so a measured leg
 # angle of -40.00004 deg (the serial link carries micro-radians) or -40.00000000000001 deg

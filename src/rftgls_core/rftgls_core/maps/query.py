@@ -34,7 +34,7 @@ import numpy as np
 
 from ..surfaces.base import CapacityResult
 from ..types import AnchorState, Pull, Status
-from .grid import AXIS_HUMAN, MapGrid, STATE_AXES
+from .grid import AXIS_HUMAN, STATE_AXES, MapGrid
 from .hdf5 import STATUS_NAMES, MapData, load_map
 from .interpolate import corner_offsets, flat_strides, locate, locate_many, weights4
 

@@ -17,15 +17,17 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from .errors import MapFileError
+
 SHIPPED = {'prototype': 'prototype_glass_beads.h5', 'minirquad': 'minirquad_m90_sand.h5'}
 
 # Content hashes (hdf5.content_sha256) of the shipped maps, recorded when they were written
 # (maps/README.md has the commands). load_map refuses a shipped map that does not match.
 SHIPPED_SHA256 = {
     'prototype_glass_beads.h5':
-        '92782e255e50aeb322739f6eb8602bd3d46a8f8674565cef5790c83c9cb023b4',
+        '6e064e428cec64075d6c120db1abf0a69c9ea953541574690a5e103f16677d46',
     'minirquad_m90_sand.h5':
-        '99d7aab4b3cc2ff410c5b6ec02839c55c8dda42ffb58e4cff3b75dcb2a890aec',
+        '2c34d8559125300cf6df8686c6972957643978f812263c56b8286990b879ed51',
 }
 
 
@@ -56,7 +58,6 @@ def resolve_map(spec: str | os.PathLike | None = None, robot: str | None = None)
     spec: explicit path, shipped file name or robot name; None or '' -> the shipped map of
     `robot`. robot: used only when spec is empty.
     """
-    from .hdf5 import MapFileError
     text = '' if spec is None else os.fspath(spec).strip()
     if not text:
         if not robot:
