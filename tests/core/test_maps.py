@@ -278,3 +278,30 @@ def test_query_is_fast(cmap):
     for _ in range(2000):
         cmap.query(s, -0.1, 'backward')
     assert (time.perf_counter() - t0) / 2000 < 200e-6
+
+
+def test_support_edge_rule_is_opt_in_flagged_and_below_the_valued_blend():
+    # A state whose cell touches unsupported nodes: no value by default (conservative cell
+    # rule); with the opt-in support-edge rule a flagged value that never exceeds the largest
+    # valued corner, and the same answer from the batch path.
+    from rftgls_core.maps import CapacityMap, shipped_map_path
+    strict = CapacityMap.load(shipped_map_path('minirquad'))
+    edge = CapacityMap.load(shipped_map_path('minirquad'), support_edge=True)
+    rng = np.random.default_rng(3)
+    ax = strict.axes
+    found = 0
+    for _ in range(400):
+        st = AnchorState(*(rng.uniform(ax[n][0], ax[n][-1])
+                           for n in ('h', 'theta_b', 'theta_l1', 'theta_l2')))
+        r = strict.query(st, 0.0, 'backward')
+        if r.reason != 'cell_unsupported':
+            continue
+        e = edge.query(st, 0.0, 'backward')
+        if not e.ok:
+            continue
+        found += 1
+        assert e.flags == ('support_edge',) and e.capacity_N >= 0.0
+        b = edge.query_batch([st.as_tuple()], [0.0], 'backward')
+        assert b.support_edge[0] and b.capacity_N[0] == pytest.approx(e.capacity_N, rel=1e-9)
+        assert not strict.query_batch([st.as_tuple()], [0.0], 'backward').support_edge[0]
+    assert found >= 5

@@ -71,6 +71,8 @@ def add_parser(sub) -> None:
     a.add_argument('--reference', default='direct', choices=sorted(METHOD_NAMES),
                    help='reference method (default: %(default)s)')
     a.add_argument('--seed', type=int, default=0)
+    a.add_argument('--support-edge', action='store_true',
+                   help='query with the opt-in support-edge rule (maps/README.md)')
     a.add_argument('--json', action='store_true', help='print JSON')
     a.add_argument('--quiet', action='store_true', help='no progress bar')
     a.set_defaults(run=run_accuracy)
@@ -210,10 +212,14 @@ def run_accuracy(args) -> int:
     from ..maps.shipped import resolve_map
     if args.samples < 1:
         raise ValueError(f'--samples must be >= 1, got {args.samples}')
-    rep = accuracy_report(CapacityMap.load(resolve_map(args.file)), samples=args.samples,
+    rep = accuracy_report(CapacityMap.load(resolve_map(args.file),
+                                           support_edge=args.support_edge),
+                          samples=args.samples,
                           seed=args.seed, reference=args.reference, progress=not args.quiet)
     if args.json:
         d = rep.to_dict()
+        if not math.isfinite(d['capacity_over_N_worst']):
+            d['capacity_over_N_worst'] = None
         for k in ('capacity_N', 'capacity_pct', 'twist_deg'):
             d[k] = {kk: (None if not math.isfinite(v) else v) for kk, v in d[k].items()}
         print_json(d)
@@ -224,6 +230,8 @@ def run_accuracy(args) -> int:
     for label, s in (('capacity error [N]', rep.capacity_N), ('capacity error [%]',
                      rep.capacity_pct), ('slip-twist angle [deg]', rep.twist_deg)):
         print(f'  {label:24s} mean {s.mean:8.3g}   p95 {s.p95:8.3g}   worst {s.worst:8.3g}')
+    print(f'  largest overestimate     {rep.capacity_over_N_worst:+.3g} N (map above the '
+          'reference)')
     if rep.note:
         print(f'note: {rep.note}')
     return 0

@@ -54,6 +54,7 @@ class AccuracyReport:
     capacity_pct: ErrorStats
     twist_deg: ErrorStats
     note: str = ''
+    capacity_over_N_worst: float = float('nan')   # largest (map - reference), N: above it
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -95,7 +96,7 @@ def accuracy_report(cmap: CapacityMap, samples: int = 20, seed: int = 0,
     states = sample_states(cmap.grid, samples, seed)
     ph = cmap.phis
     phis = 0.5 * (ph[:-1] + ph[1:])
-    cap_err, pct_err, ang_err = [], [], []
+    cap_err, pct_err, ang_err, over = [], [], [], []
     mismatch = conservative = 0
     for s in tqdm(states, unit='state', file=sys.stderr, desc='accuracy', disable=not progress):
         state = AnchorState(*map(float, s))
@@ -110,6 +111,7 @@ def accuracy_report(cmap: CapacityMap, samples: int = 20, seed: int = 0,
                 if not m.ok:
                     continue
                 d = abs(m.capacity_N - r.capacity_N)
+                over.append(m.capacity_N - r.capacity_N)
                 cap_err.append(d)
                 if r.capacity_N > 1e-9:
                     pct_err.append(100.0 * d / r.capacity_N)
@@ -119,4 +121,5 @@ def accuracy_report(cmap: CapacityMap, samples: int = 20, seed: int = 0,
                           n_compared=len(cap_err), status_mismatch=mismatch,
                           map_conservative=conservative, capacity_N=ErrorStats.of(cap_err),
                           capacity_pct=ErrorStats.of(pct_err), twist_deg=ErrorStats.of(ang_err),
-                          note=note)
+                          note=note,
+                          capacity_over_N_worst=float(max(over)) if over else float('nan'))

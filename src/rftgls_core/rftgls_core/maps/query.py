@@ -12,10 +12,16 @@ Policies (docs/design/architecture.md, docs/design/limit-surfaces.md):
   one (or none); outside the grid the map knows nothing (README "Statuses").
 - Non-finite state or phi, unknown pull, or a pull orientation the map does not hold:
   INVALID_INPUT, no value.
-- Conservative cell rule: if ANY corner with nonzero weight has no value (unsupported,
-  degenerate, ...), the answer has no value. Its status is the most conservative status among
-  those corners, in the order UNSUPPORTED > DEGENERATE > INVALID_INPUT > STALE; reason
-  'cell_<status>', and `detail` counts the corners and quotes the node's own reason.
+- Support edge (opt-in, `support_edge=True`): a corner that cannot hold the weight
+  (UNSUPPORTED) has capacity 0, the value capacity falls to where the origin leaves the limit
+  surface. A cell whose only valueless corners are unsupported then answers the blend with
+  those corners as 0 N (twists from the valued corners), status OK with the flag
+  'support_edge'. Off by default: capacity falls steeply near the edge, wherever in the cell
+  the edge lies, so such answers can lie far above the live solver (maps/README.md).
+- Conservative cell rule: if any other corner with nonzero weight has no value (degenerate,
+  ...), or no weight has a value, the answer has no value. Its status is the most conservative
+  status among those corners, in the order UNSUPPORTED > DEGENERATE > INVALID_INPUT > STALE;
+  reason 'cell_<status>', and `detail` counts the corners and quotes the node's own reason.
   A query exactly on a valued node or face never looks at zero-weight neighbours.
 - Twists: the scaled-metric components are blended, then renormalised. The pre-normalisation
   norm (1 when all corners agree, -> 0 when they oppose) is the twist confidence, always
@@ -48,6 +54,7 @@ _CODE = {s: STATUS_NAMES.index(s.value) for s in Status}
 _STATUS_OF = [Status(n) for n in STATUS_NAMES]
 _RANK = {_CODE[s]: r for r, s in enumerate(BAD_PRIORITY)}
 _RANK_OF_CODE = np.array([_RANK.get(c, len(_RANK)) for c in range(len(STATUS_NAMES))])
+_UNSUPPORTED = _CODE[Status.UNSUPPORTED]
 
 
 @dataclass(frozen=True)
@@ -57,7 +64,7 @@ class BatchAnswer:
     capacity_N (N,), NaN without value; slip_twist_scaled / slip_twist (N, 3), NaN without
     value; confidence (N,) pre-normalisation twist norm (NaN without value); status (N,)
     uint8 codes into hdf5.STATUS_NAMES; out_of_grid (N, 5) bool per axis (h, theta_b,
-    theta_l1, theta_l2, phi).
+    theta_l1, theta_l2, phi); support_edge (N,) bool, answered by the support-edge rule.
     """
 
     capacity_N: np.ndarray
@@ -66,6 +73,7 @@ class BatchAnswer:
     confidence: np.ndarray
     status: np.ndarray
     out_of_grid: np.ndarray
+    support_edge: np.ndarray
 
     def statuses(self) -> list[Status]:
         return [_STATUS_OF[c] for c in self.status]
@@ -81,9 +89,12 @@ def _describe_side(name: str, x: float, lo: float, hi: float, side: int) -> str:
 class CapacityMap:
     """A loaded capacity map; `query` is the onboard hot path (pure Python, ~10 us)."""
 
-    def __init__(self, data: MapData, source: str = '') -> None:
+    def __init__(self, data: MapData, source: str = '', support_edge: bool = False) -> None:
+        """support_edge: answer cells next to unsupported nodes by the support-edge rule
+        (opt-in: its measured error, maps/README.md, is far larger than the interior's)."""
         self.data = data
         self.source = source
+        self.support_edge = bool(support_edge)
         g = data.grid
         self._axes = [list(map(float, getattr(g, n))) for n in AXIS_NAMES]
         n_pull = len(g.pulls)
@@ -127,9 +138,9 @@ class CapacityMap:
 
     # -- construction and metadata ---------------------------------------------------------
     @classmethod
-    def load(cls, path: str | Path) -> 'CapacityMap':
+    def load(cls, path: str | Path, support_edge: bool = False) -> 'CapacityMap':
         """Read and validate a map file (MapFileError, a ValueError, on any problem)."""
-        return cls(load_map(path), source=str(path))
+        return cls(load_map(path), source=str(path), support_edge=support_edge)
 
     @property
     def grid(self) -> MapGrid:
@@ -213,6 +224,7 @@ class CapacityMap:
         ws = weights4(fr[0], fr[1], fr[2], fr[3])
         bad = None
         n_terms = 0
+        w_valued = 0.0
         c = x0 = x1 = x2 = 0.0
         if dk:
             pairs = self._pairs[p]
@@ -227,6 +239,7 @@ class CapacityMap:
                     bad = (bad or []) + [i for i in (j, j + 1) if flat[i] is None]
                     continue
                 a0, a1, a2, a3, e0, e1, e2, e3 = v
+                w_valued += w
                 c += w * a0
                 x0 += w * a1
                 x1 += w * a2
@@ -248,13 +261,22 @@ class CapacityMap:
                     bad = (bad or []) + [b0 + off]
                     continue
                 a0, a1, a2, a3 = v
+                w_valued += w
                 c += w * a0
                 x0 += w * a1
                 x1 += w * a2
                 x2 += w * a3
         n_corners = n_terms * (1 + dk)
+        flags: tuple[str, ...] = ()
         if bad is not None:
-            return self._bad_cell(p, coords[4], bad, n_corners)
+            # Support edge: corners that cannot hold the weight have capacity 0 (capacity falls
+            # to 0 where the origin leaves the surface), so the blend with them as zeros is the
+            # conservative answer. Any other valueless corner still withholds the value.
+            unsupported = self._codes[p]
+            if not (self.support_edge and w_valued > 0.0
+                    and all(unsupported[k] == _UNSUPPORTED for k in bad)):
+                return self._bad_cell(p, coords[4], bad, n_corners)
+            flags = ('support_edge',)
         norm = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
         if norm < CANCEL_NORM:
             return CapacityResult(phi=coords[4], status=Status.DEGENERATE, method=METHOD,
@@ -266,12 +288,16 @@ class CapacityMap:
         rn = math.sqrt(x0 * x0 + x1 * x1 + r2 * r2)
         raw = (x0 / rn, x1 / rn, r2 / rn)
         detail = f'twist_confidence={norm:.3f}; corners {n_corners}'
+        if flags:
+            detail += (f'; support edge: {len(bad or [])} unsupported corners counted as 0 N '
+                       f'(valued weight {w_valued:.3f})')
         if norm < LOW_CONFIDENCE:
             detail += (f'; LOW twist confidence (< {LOW_CONFIDENCE}): neighbouring nodes '
                        'disagree on the slip twist')
         return CapacityResult(phi=coords[4], status=Status.OK, method=METHOD,
                               capacity_N=max(c, 0.0), slip_twist=raw, slip_twist_scaled=ts,
-                              unchecked_capacity_N=max(c, 0.0), reason='', detail=detail)
+                              unchecked_capacity_N=max(c, 0.0), reason='', detail=detail,
+                              flags=flags)
 
     def _out_of_grid(self, coords, out: list[tuple[int, int]]) -> CapacityResult:
         detail = '; '.join(
@@ -334,20 +360,27 @@ class CapacityMap:
         tw = np.zeros((n, 3))
         worst = np.full(n, len(_RANK), dtype=np.intp)     # rank of the worst bad corner
         worst_code = np.zeros(n, dtype=np.intp)
+        w_valued = np.zeros(n)
+        other_bad = np.zeros(n, dtype=bool)     # a valueless corner that is not unsupported
         for off, bits in zip(self._offsets, self._bits):
             w = np.prod(np.where(bits == 1, frac, 1.0 - frac), axis=1)
             k = base + off
             use = w > 0.0
             good = self._valued[p, k]
+            w_valued += np.where(use & good, w, 0.0)
             cap += np.where(use & good, w * self._cap_flat[p, k], 0.0)
             tw += np.where((use & good)[:, None], w[:, None] * self._ts_flat[p, k], 0.0)
             code = self._status_flat[p, k].astype(np.intp)
+            other_bad |= use & ~good & (code != _UNSUPPORTED)
             rank = _RANK_OF_CODE[code]
             hit = use & ~good & (rank < worst)
             worst = np.where(hit, rank, worst)
             worst_code = np.where(hit, code, worst_code)
         norm = np.linalg.norm(tw, axis=1)
-        has_bad = worst < len(_RANK)
+        # Support edge (as in `query`): unsupported corners count as 0 N when some weight has
+        # a value and no corner has another valueless status.
+        edge = (worst < len(_RANK)) & ~other_bad & (w_valued > 0.0) & self.support_edge
+        has_bad = (worst < len(_RANK)) & ~edge
         status = np.where(norm < CANCEL_NORM, _CODE[Status.DEGENERATE], _CODE[Status.OK])
         status = np.where(has_bad, worst_code, status)
         # Out of grid wins over the cell's own status, as in `query` (checked first there).
@@ -363,4 +396,4 @@ class CapacityMap:
                            slip_twist_scaled=np.where(ok[:, None], ts, nan),
                            slip_twist=np.where(ok[:, None], raw, nan),
                            confidence=np.where(ok, norm, nan), status=status,
-                           out_of_grid=out & finite[:, None])
+                           out_of_grid=out & finite[:, None], support_edge=ok & edge)

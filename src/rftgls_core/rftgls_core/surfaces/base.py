@@ -66,6 +66,8 @@ FLAGS = {
     'multiple_crossings': 'the load ray crosses the surface more than once: the first exit is '
                           'the capacity',
     'folded': 'the surface folds toward the origin at the first exit',
+    'support_edge': 'a map cell next to states that cannot hold the weight: those corners '
+                    'counted as 0 N (conservative)',
 }
 
 
