@@ -14,7 +14,8 @@ setup(
     ],
     install_requires=['setuptools'],
     zip_safe=False,
-    description='RFT-GLS core: granular RFT, limit surfaces, load capacity, slip twist, HDF5 maps. No ROS inside.',
+    description=('RFT-GLS core: granular RFT, limit surfaces, load capacity, slip twist, HDF5 '
+                 'maps. No ROS inside.'),
     license='BSD-3-Clause',
     entry_points={
         'console_scripts': [

@@ -42,7 +42,8 @@ def test_pitched_plate_and_reference_point(plate_stl):
     base = ['wrench', '--mesh', str(plate_stl), '--position', '0.01', '0', '-0.04', '--rpy', '0',
             '30', '0', '--medium', 'm90_sand', '--json']
     a = json.loads(run(*base, '--twist', '1', '0', '0', '0', '0', '0').stdout)
-    b = json.loads(run(*base, '--twist', '1', '0', '0', '0', '0', '0', '--ref', '0', '0', '0').stdout)
+    b = json.loads(run(*base, '--twist', '1', '0', '0', '0', '0', '0',
+                       '--ref', '0', '0', '0').stdout)
     assert np.allclose(a['force_N'], b['force_N'])
     # moment about the origin = moment about the mesh origin + r x F
     r = np.array([0.01, 0, -0.04])

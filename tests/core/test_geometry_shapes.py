@@ -7,10 +7,21 @@ import warnings
 import numpy as np
 import pytest
 
-from rftgls_core.geometry.shapes import (annular_sector_volume, box, c_leg, ellipsoid,
-                                         icosphere, plate)
-from rftgls_core.geometry.validate import (clean_mesh, euler_characteristic, is_closed,
-                                           is_consistently_oriented, surface_area)
+from rftgls_core.geometry.shapes import (
+    annular_sector_volume,
+    box,
+    c_leg,
+    ellipsoid,
+    icosphere,
+    plate,
+)
+from rftgls_core.geometry.validate import (
+    clean_mesh,
+    euler_characteristic,
+    is_closed,
+    is_consistently_oriented,
+    surface_area,
+)
 
 SHAPES = {
     'c_leg_default': lambda: c_leg(),

@@ -11,8 +11,13 @@ from hypothesis import strategies as st
 from rftgls_core.geometry.mesh import TriMesh
 from rftgls_core.geometry.shapes import box, icosphere
 from rftgls_core.geometry.stl import MeshError
-from rftgls_core.geometry.validate import (MeshWarning, clean_mesh, euler_characteristic,
-                                           is_closed, is_consistently_oriented)
+from rftgls_core.geometry.validate import (
+    MeshWarning,
+    clean_mesh,
+    euler_characteristic,
+    is_closed,
+    is_consistently_oriented,
+)
 
 SPHERE = icosphere(1.0, 2)
 

@@ -10,15 +10,23 @@ import warnings
 import h5py
 import numpy as np
 import pytest
+from test_maps import state, synthetic
 
 from rftgls_core.cli.main import main
-from rftgls_core.maps import (SHIPPED, SHIPPED_SHA256, CapacityMap, MapFileError,
-                              MapIntegrityWarning, content_sha256, load_map, maps_dir,
-                              resolve_map, save_map)
+from rftgls_core.maps import (
+    SHIPPED,
+    SHIPPED_SHA256,
+    CapacityMap,
+    MapFileError,
+    MapIntegrityWarning,
+    content_sha256,
+    load_map,
+    maps_dir,
+    resolve_map,
+    save_map,
+)
 from rftgls_core.maps.hdf5 import HASH_ATTR, STATUS_NAMES
 from rftgls_core.types import Status
-
-from test_maps import state, synthetic
 
 
 @pytest.fixture

@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+
 from rftgls_core.surfaces.diagnostics import max_power_check, mesh_topology
 from rftgls_core.surfaces.raycast import all_hits, cast_rays, prepare_mesh, winding_number
 from rftgls_core.surfaces.sampling import fibonacci_sphere

@@ -10,6 +10,7 @@ import inspect
 
 import numpy as np
 import pytest
+
 from rftgls_core.surfaces import GLSProblem, LimitSurface
 from rftgls_core.surfaces.base import CapacityResult, FitSamples
 from rftgls_core.surfaces.registry import METHOD_NAMES, surface_class

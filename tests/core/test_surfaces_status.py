@@ -12,8 +12,7 @@ from rftgls_core.surfaces.alpha_shape import AlphaShapeSurface
 from rftgls_core.surfaces.base import GLSProblem
 from rftgls_core.surfaces.direct import DirectSurface
 from rftgls_core.surfaces.ellipsoid import EllipsoidSurface, conic_to_ellipsoid
-from rftgls_core.surfaces.synthetic import (DEFAULT_SCALING, convex_case, folded_case,
-                                            pinched_case)
+from rftgls_core.surfaces.synthetic import DEFAULT_SCALING, convex_case, folded_case, pinched_case
 from rftgls_core.surfaces.twist_mesh import TwistMeshSurface
 from rftgls_core.types import Status
 

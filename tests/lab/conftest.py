@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 import pytest
-
 from _lab_common import TRUTH  # noqa: E402  (shared with the tests)
+
 CONFIGS = ((-40, 0, 'forward'), (-40, 20, 'backward'), (-20, 0, 'backward'),
            (-20, 20, 'backward'), (0, 40, 'backward'), (-20, 0, 'forward'))
 

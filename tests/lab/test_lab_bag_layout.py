@@ -10,9 +10,17 @@ pytest.importorskip('rosbags')
 
 from rftgls_core.types import AnchorState  # noqa: E402
 from rftgls_ros.lab import planar  # noqa: E402
-from rftgls_ros.lab.bag_layout import (TOPICS, CameraCalibration, MarkerSetup, PullTest,  # noqa: E402
-                                       PullTestMeta, Tracking, read_metadata, read_pull_test,
-                                       write_pull_test)
+from rftgls_ros.lab.bag_layout import (  # noqa: E402
+    TOPICS,
+    CameraCalibration,
+    MarkerSetup,
+    PullTest,
+    PullTestMeta,
+    Tracking,
+    read_metadata,
+    read_pull_test,
+    write_pull_test,
+)
 
 
 def make_test(with_tracking: bool = True) -> PullTest:

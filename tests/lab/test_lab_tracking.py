@@ -8,7 +8,8 @@ import cv2
 import numpy as np
 
 from rftgls_core.types import AnchorState
-from rftgls_ros.lab.aruco_tracking import ArucoTracker, main as tracking_main
+from rftgls_ros.lab.aruco_tracking import ArucoTracker
+from rftgls_ros.lab.aruco_tracking import main as tracking_main
 from rftgls_ros.lab.bag_layout import PullTestMeta, read_pull_test
 from rftgls_ros.lab.render import default_bench, render
 from rftgls_ros.lab.tracking_accuracy import measure

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 
 @dataclass(frozen=True)
@@ -27,7 +27,8 @@ def best_time(fn: Callable[[], object], repeats: int = 7, min_total: float = 0.2
     The minimum is the least disturbed estimate on a shared, noisy machine.
     """
     fn()  # warm up: JIT compile, caches
-    times, total = [], 0.0
+    times: list[float] = []
+    total = 0.0
     while len(times) < repeats or total < min_total:
         t0 = time.perf_counter()
         fn()

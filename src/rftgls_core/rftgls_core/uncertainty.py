@@ -13,9 +13,9 @@ finite differences of any predictor, the medium as a relative sigma of the capac
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from statistics import NormalDist
-from typing import Callable
 
 import numpy as np
 

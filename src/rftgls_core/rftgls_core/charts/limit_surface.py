@@ -49,7 +49,8 @@ def plot_limit_surface(model: AnchorModel, state: AnchorState, pull: Pull | str,
     reach = cap if cap is not None else np.nanmax(np.linalg.norm(curve, axis=1), initial=1.0)
     ray = np.outer([0, 1.3 * reach], d)
     for ax in (ax2,):
-        ax.plot(ray[:, 0], ray[:, 1], 'k--', lw=1, label=f'load ray phi = {math.degrees(phi):.0f} deg')
+        ax.plot(ray[:, 0], ray[:, 1], 'k--', lw=1,
+                label=f'load ray phi = {math.degrees(phi):.0f} deg')
         ax.plot(0, 0, 'k+', ms=10)
     ax3.plot(ray[:, 0], ray[:, 1], ray[:, 2], 'k--', lw=1)
     if cap is not None:

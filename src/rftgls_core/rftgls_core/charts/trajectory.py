@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+
 from .figure_io import pyplot, save
 
 

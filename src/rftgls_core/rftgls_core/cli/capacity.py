@@ -5,8 +5,8 @@ import math
 import time
 
 from ..anchor import DEFAULT_TWISTS, AnchorModel
-from ..surfaces.registry import METHOD_NAMES
 from ..robots.presets import ROBOTS, get_robot
+from ..surfaces.registry import METHOD_NAMES
 from ..types import AnchorState, Pull
 from .common import add_medium_args, finite_float, medium_from_args, print_json, twist_count
 

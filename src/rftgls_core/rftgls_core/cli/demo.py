@@ -44,7 +44,7 @@ def run(args) -> int:
     needs = {m: SLED_FRICTION * m * G for m in SLEDS_KG}
     print(f'MiniRQuad ({robot.mass * 1e3:.0f} g) in M90 sand, backward pulls (winch on its '
           f'back), method {args.method}')
-    print('sled force needed (mu_sled = %.2f): ' % SLED_FRICTION
+    print(f'sled force needed (mu_sled = {SLED_FRICTION:.2f}): '
           + ', '.join(f'{1e3 * m:.0f} g -> {f:.2f} N' for m, f in needs.items()))
     print(f'{"mode":<5}{"h [mm]":>8}{"thetaB":>8}{"L1":>6}{"L2":>6}'
           f'{"cap phi=0 [N]":>15}{"cap phi=-20 [N]":>17}  holds')

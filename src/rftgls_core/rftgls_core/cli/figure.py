@@ -71,7 +71,8 @@ def run(args) -> int:
         medium = load_medium(args.medium or 'm90_sand')
         cov = _medium_covariance(args)
         model = AnchorModel(get_robot('minirquad'), medium, method=args.method)
-        caps, lows = {}, {}
+        caps: dict[str, dict] = {}
+        lows: dict[str, dict] = {}
         for mode, state in ANCHOR_MODES.items():
             caps[mode], lows[mode] = {}, {}
             for phi in (0.0, -20.0):

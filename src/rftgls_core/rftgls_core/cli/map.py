@@ -19,8 +19,8 @@ import shlex
 import numpy as np
 
 from ..anchor import DEFAULT_METHOD, DEFAULT_TWISTS
-from ..surfaces.registry import METHOD_NAMES
 from ..robots.presets import ROBOTS
+from ..surfaces.registry import METHOD_NAMES
 from .common import add_medium_args, medium_from_args, print_json
 
 GRID_FLAGS = (('h', 'h_mm', 'MM'), ('theta_b', 'theta_b_deg', 'DEG'),
@@ -44,7 +44,8 @@ def add_parser(sub) -> None:
     b.add_argument('--out', required=True, help='output .h5 file (overwritten)')
     g = b.add_argument_group('grid (mm and degrees; default: the robot\'s grid)')
     g.add_argument('--h', dest='h_mm', metavar='MM', help="winch-point height, e.g. 5:5:30")
-    g.add_argument('--theta-b', dest='theta_b_deg', metavar='DEG', help='body pitch, e.g. -20:10:20')
+    g.add_argument('--theta-b', dest='theta_b_deg', metavar='DEG',
+                   help='body pitch, e.g. -20:10:20')
     g.add_argument('--theta-l1', dest='theta_l1_deg', metavar='DEG', help='proximal leg angle')
     g.add_argument('--theta-l2', dest='theta_l2_deg', metavar='DEG', help='distal leg angle')
     g.add_argument('--phi', dest='phi_deg', metavar='DEG',

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import math
 
-from ..surfaces.registry import METHOD_NAMES
 from ..charts.limit_surface import plot_limit_surface
+from ..surfaces.registry import METHOD_NAMES
 from .capacity import add_state_args, model_from_args, state_from_args
 
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.stl import MeshError, read_stl
-from ..geometry.validate import clean_mesh
 from ..geometry.transforms import rpy_matrix
+from ..geometry.validate import clean_mesh
 from ..rft.engine import BuriedBody
 from ..rft.models import make_model
 from .common import add_medium_args, finite_float, medium_from_args, print_json

@@ -9,12 +9,11 @@ which keeps the winding outward.
 from __future__ import annotations
 
 import math
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
 from .mesh import TriMesh
-
 
 # ------------------------------------------------------------------------ structured blocks
 

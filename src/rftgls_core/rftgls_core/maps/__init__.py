@@ -1,4 +1,5 @@
-"""State-space capacity maps: precomputed capacity and slip twist over (h, thetaB, thetaL1, thetaL2).
+"""State-space capacity maps: precomputed capacity and slip twist over the anchor state
+(h, thetaB, thetaL1, thetaL2).
 
     grid.py         MapGrid (axes in SI), default grids (paper prototype, MiniRQuad Table II)
     hdf5.py         file schema, save_map, load_map (validation), MapFileError
@@ -39,6 +40,7 @@ def __getattr__(name: str):
 
 
 __all__ = ['MapGrid', 'default_grid', 'SCHEMA', 'SCHEMA_VERSION', 'MapData', 'MapFileError',
-           'MapIntegrityWarning', 'content_sha256', 'load_map', 'save_map', 'BatchAnswer', 'CapacityMap', 'build_map', 'BuildSpec',
+           'MapIntegrityWarning', 'content_sha256', 'load_map', 'save_map', 'BatchAnswer',
+           'CapacityMap', 'build_map', 'BuildSpec',
            'accuracy_report', 'SHIPPED', 'SHIPPED_SHA256', 'maps_dir', 'resolve_map',
            'shipped_map_path']

@@ -78,7 +78,7 @@ def sample_states(grid, samples: int, seed: int = 0) -> np.ndarray:
 
 def reference_model(cmap: CapacityMap, reference: str = 'direct') -> tuple[AnchorModel, str]:
     spec = spec_from_map(cmap.data)
-    kwargs = dict(model=spec.model, n_twists=spec.n_twists, backend=spec.backend)
+    kwargs: dict = dict(model=spec.model, n_twists=spec.n_twists, backend=spec.backend)
     robot = get_robot(spec.robot)
     try:
         return AnchorModel(robot, spec.medium, method=reference, **kwargs), ''
@@ -108,7 +108,8 @@ def accuracy_report(cmap: CapacityMap, samples: int = 20, seed: int = 0,
                     mismatch += 1
                     conservative += int(r.ok and not m.ok)
                     continue
-                if not m.ok:
+                if (m.capacity_N is None or r.capacity_N is None or m.slip_twist_scaled is None
+                        or r.slip_twist_scaled is None):
                     continue
                 d = abs(m.capacity_N - r.capacity_N)
                 over.append(m.capacity_N - r.capacity_N)
@@ -119,7 +120,9 @@ def accuracy_report(cmap: CapacityMap, samples: int = 20, seed: int = 0,
                 ang_err.append(float(np.degrees(np.arccos(cosang))))
     return AccuracyReport(reference=model.method, n_states=len(states),
                           n_compared=len(cap_err), status_mismatch=mismatch,
-                          map_conservative=conservative, capacity_N=ErrorStats.of(cap_err),
-                          capacity_pct=ErrorStats.of(pct_err), twist_deg=ErrorStats.of(ang_err),
+                          map_conservative=conservative,
+                          capacity_N=ErrorStats.of(np.asarray(cap_err)),
+                          capacity_pct=ErrorStats.of(np.asarray(pct_err)),
+                          twist_deg=ErrorStats.of(np.asarray(ang_err)),
                           note=note,
                           capacity_over_N_worst=float(max(over)) if over else float('nan'))

@@ -81,14 +81,14 @@ def _anchor_model(spec: BuildSpec) -> AnchorModel:
 def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResult:
     """Run the AnchorModel at the flat state indices ks for every pull and pull angle."""
     model = _anchor_model(spec)
-    ks = np.asarray(ks, dtype=np.intp)
-    n, P, K = len(ks), len(grid.pulls), len(grid.phi)
+    idx = np.asarray(ks, dtype=np.intp)
+    n, P, K = len(idx), len(grid.pulls), len(grid.phi)
     cap = np.full((n, P, K), np.nan)
     ts = np.full((n, P, K, 3), np.nan)
     tr = np.full((n, P, K, 3), np.nan)
     status = np.zeros((n, P, K), dtype=np.uint8)
     reason = [[[''] * K for _ in range(P)] for _ in range(n)]
-    for a, k in enumerate(ks.tolist()):
+    for a, k in enumerate(idx.tolist()):
         state = grid.state(k)
         for p, pull in enumerate(grid.pulls):
             for j, r in enumerate(model.predict_many(state, grid.phi, pull)):
@@ -98,7 +98,7 @@ def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResul
                     cap[a, p, j] = r.capacity_N
                     ts[a, p, j] = r.slip_twist_scaled
                     tr[a, p, j] = r.slip_twist
-    return ChunkResult(ks, cap, ts, tr, status, reason)
+    return ChunkResult(idx, cap, ts, tr, status, reason)
 
 
 def chunk_indices(n_states: int, workers: int, per_worker: int = 8) -> list[np.ndarray]:

@@ -105,7 +105,7 @@ class MapGrid:
 
     @property
     def state_shape(self) -> tuple[int, int, int, int]:
-        return tuple(len(a) for a in self.axes)
+        return (len(self.h), len(self.theta_b), len(self.theta_l1), len(self.theta_l2))
 
     @property
     def n_states(self) -> int:

@@ -323,10 +323,12 @@ def _read(f: h5py.File, expected_sha256: str | None = None) -> MapData:
     if stored is not None or expected_sha256 is not None:
         digest = content_sha256(grid, cap, ts, tr, status, names, reason, reason_names, attrs)
     if expected_sha256 is not None and digest != expected_sha256:
+        assert digest is not None
         raise MapFileError(f'content hash {digest[:12]}... does not match the hash recorded '
                            f'for this shipped map ({expected_sha256[:12]}...): the file was '
                            'changed or damaged; reinstall it')
     if stored is not None and digest != stored:
+        assert digest is not None
         raise MapFileError(f'content hash {digest[:12]}... does not match its '
                            f'{HASH_ATTR} {str(stored)[:12]}...: the values were changed or '
                            'damaged after the map was written')

@@ -79,6 +79,12 @@ class BatchAnswer:
         return [_STATUS_OF[c] for c in self.status]
 
 
+def _pair(a: tuple[float, ...] | None, b: tuple[float, ...] | None
+          ) -> tuple[float, ...] | None:
+    """Values at two neighbouring stored angles as one tuple, None if either has none."""
+    return None if a is None or b is None else a + b
+
+
 def _describe_side(name: str, x: float, lo: float, hi: float, side: int) -> str:
     unit, f = AXIS_HUMAN[name]
     edge = lo if side < 0 else hi
@@ -117,15 +123,14 @@ class CapacityMap:
         valued = np.isin(status, [_CODE[s] for s in Status if s.has_value])
         self._values, self._pairs, self._codes, self._reasons = [], [], [], []
         for p in range(n_pull):
-            vals = [None] * cap.shape[1]
+            vals: list[tuple[float, ...] | None] = [None] * cap.shape[1]
             for j in np.flatnonzero(valued[p]).tolist():
                 vals[j] = (float(cap[p, j]), float(ts[p, j, 0]), float(ts[p, j, 1]),
                            float(ts[p, j, 2]))
             self._values.append(vals)
             # (value at k) + (value at k + 1) as one 8-tuple, None if either has no value:
             # one lookup and one unpack per corner when phi lies between stored angles.
-            self._pairs.append([None if (j + 1) % n_phi == 0 or vals[j] is None
-                                or vals[j + 1] is None else vals[j] + vals[j + 1]
+            self._pairs.append([_pair(vals[j], vals[j + 1]) if (j + 1) % n_phi else None
                                 for j in range(len(vals))])
             self._codes.append(status[p].tolist())
             self._reasons.append(reason[p].tolist())

@@ -54,7 +54,7 @@ def interval_errors(cmap: CapacityMap, samples: int = 6, seed: int = 0,
             m = cmap.query(state, phi, pull)
             if r.ok != m.ok:
                 mismatched += 1
-            elif r.ok and r.capacity_N > 1e-9:
+            elif r.capacity_N is not None and m.capacity_N is not None and r.capacity_N > 1e-9:
                 errs.append(100.0 * abs(m.capacity_N - r.capacity_N) / r.capacity_N)
         p95 = float(np.percentile(errs, 95)) if errs else float('nan')
         out.append(IntervalError(STATE_AXES[k], float(axes[k][j]), float(axes[k][j + 1]), p95,

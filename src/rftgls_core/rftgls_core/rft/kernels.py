@@ -40,7 +40,7 @@ try:
     import numba
     AVAILABLE = True
 except ImportError:  # pragma: no cover - exercised only on machines without numba
-    numba = None
+    numba = None  # type: ignore[assignment]
     AVAILABLE = False
 _prange = numba.prange if AVAILABLE else range
 
@@ -262,7 +262,7 @@ def threads() -> int:
 
 def max_threads() -> int:
     """Threads numba started with (NUMBA_NUM_THREADS, by default the CPU count); 1 without."""
-    return numba.config.NUMBA_NUM_THREADS if AVAILABLE else 1
+    return int(getattr(numba.config, 'NUMBA_NUM_THREADS', 1)) if AVAILABLE else 1
 
 
 def set_threads(n: int) -> None:

@@ -101,6 +101,7 @@ def custom_medium(xi_n: float | None = None, mu_surf: float | None = None,
     if xi_n is None and zeta is None:
         raise MediumError('give xi_n (Agarwal) or zeta (Li)')
     if xi_n is None:
+        assert zeta is not None
         xi_n = zeta / 0.875
     if zeta is None:
         zeta = 0.875 * xi_n

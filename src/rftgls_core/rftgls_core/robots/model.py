@@ -1,4 +1,5 @@
-"""Sagittal robot models: legs on two axles posed from an anchor state (h, thetaB, thetaL1, thetaL2).
+"""Sagittal robot models: legs on two axles posed from an anchor state
+(h, thetaB, thetaL1, thetaL2).
 
 Frames (docs/design/architecture.md). World W: z up, free surface z = 0. Body B: origin at the
 winch point p, x_B along the body from p toward the axles, z_B up out of the body plate,
@@ -103,8 +104,7 @@ class RobotModel:
         if pull is Pull.BACKWARD:  # reflected facets: normals reflect too and stay outward
             base = Facets(base.centroids @ leg_flip, base.normals @ leg_flip, base.areas)
         left = []
-        for axle, (ax, ly, angle) in enumerate(zip(self.axle_x, self.leg_y,
-                                                   (state.theta_l1, state.theta_l2))):
+        for ax, ly, angle in zip(self.axle_x, self.leg_y, (state.theta_l1, state.theta_l2)):
             rot = body_rot @ rot_y(-angle)
             hip = p + body_rot @ np.array([ax, ly, self.axle_z])
             left.append(base.transformed(rot, hip))
