@@ -1,16 +1,16 @@
 """Plain (no ROS) tests of the behaviour: required force, energy model, mode chooser, tether,
 and the state machine driven in closed loop by the simulator's robot model (SimRobot, the
-same physics minirquad_sim runs, stepped in-process)."""
+same physics minirquad_sim runs, stepped in-process; tests/stack/plant.py)."""
 from __future__ import annotations
 
 import math
 
 import pytest
 
-from rftgls_core.types import AnchorState, Status
-from rftgls_ros.behavior import (ANCHOR_MODES, BehaviorConfig, BehaviorMachine, EnergyModel,
-                                 ForceNeed, MapPredictor, ModeChooser, Observation, State,
-                                 TetherTracker, write_report)
+from rftgls_core.types import Status
+from rftgls_ros.behavior import (ANCHOR_MODES, BehaviorMachine, EnergyModel, ForceNeed,
+                                 MapPredictor, ModeChooser, State, TetherTracker,
+                                 write_report)
 from rftgls_ros.behavior.report import read_csv
 
 G = 9.81
@@ -96,73 +96,7 @@ def test_tether_length_and_phi():
 
 
 # ------------------------------------------------------------------ closed loop, no ROS
-class Plant:
-    """SimRobot from minirquad_driver's simulator, with commands applied directly and the
-    observation (capacity from the same map, as capacity_node would give) built each step."""
-
-    def __init__(self, sled_mass: float, predictor, heavier_at: float | None = None,
-                 heavier_mass: float = 0.0):
-        from minirquad_driver.gaits import GAITS
-        from minirquad_driver.protocol.messages import BurrowMode
-        from minirquad_driver.sim.robot import SimRobot
-        from minirquad_driver.sim.winch import WinchSled
-        self.gaits, self.burrow_modes = GAITS, BurrowMode
-        self.robot = SimRobot(winch=WinchSled(sled_mass=sled_mass))
-        self.predictor = predictor
-        self.t = 0.0
-        self.energy = 0.0
-        self.slip = 0.0
-        self.heavier_at, self.heavier_mass = heavier_at, heavier_mass
-        self.link_ok = True
-
-    def apply(self, cmd) -> None:
-        r = self.robot
-        for topic, value in cmd.oneshots:
-            if topic == 'gait':
-                g = self.gaits[value]
-                r.set_gait(g.kind, g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
-            else:
-                r.burrow(int(getattr(self.burrow_modes, value)))
-        r.set_winch(cmd.winch)
-        self.h, self.phi = cmd.height, cmd.phi
-
-    def advance(self, dt: float) -> Observation:
-        r = self.robot
-        x0 = r.x_p
-        r.step(dt)
-        if r.slipping:
-            self.slip += abs(r.x_p - x0)
-        self.t += dt
-        self.energy += r.power * dt
-        if self.heavier_at is not None and r.winch.spool_position >= self.heavier_at:
-            r.winch.sled_mass, self.heavier_at = self.heavier_mass, None
-        a = r.leg_angles()
-        state = AnchorState(self.h, r.theta_b, 0.5 * (a[0] + a[1]), 0.5 * (a[2] + a[3]))
-        cap, status = self.predictor(state, self.phi)
-        return Observation(
-            t=self.t, legs=(state.theta_l1, state.theta_l2), t_legs=self.t,
-            theta_b=r.theta_b, tension=r.winch.tension, t_tension=self.t,
-            spool=r.winch.spool_position, spool_velocity=r.winch.spool_velocity,
-            energy=self.energy, link_ok=self.link_ok,
-            capacity=cap if cap is not None else float('nan'), capacity_status=str(status),
-            t_capacity=self.t, slip_twist=(0.0, 0.0, 0.0))
-
-
-def run_loop(machine, plant, t_max=120.0, dt=0.01, on_step=None):
-    obs = Observation(t=0.0)
-    while plant.t < t_max and not machine.done:
-        plant.apply(machine.step(obs))
-        for _ in range(int(round(dt / 0.002))):
-            obs = plant.advance(0.002)
-        if on_step:
-            on_step(plant, machine)
-    return machine
-
-
-def fast_config(**kw) -> BehaviorConfig:
-    base = dict(cycles=2, walk_time=1.5, idle_measure_time=0.3)
-    base.update(kw)
-    return BehaviorConfig(**base)
+from plant import Plant, fast_config, run_loop  # noqa: E402  (tests/stack/plant.py)
 
 
 def test_machine_400g_chooses_sh_and_completes_cycles(predictor):

@@ -245,13 +245,17 @@ class SimRobot:
         w.reel(dt)
         dist, phi = w.geometry(self.x_p, self.h)
         demand = w.rope_k * max(0.0, dist - w.free_length())
+        self.slipping = False
+        w.sled_moving = False
+        if demand <= 0.0:
+            # A slack rope loads nothing: no need to ask the (live, costly) ground.
+            w.tension = 0.0
+            return
         pred = self.ground.predict(self.anchor_state(), phi)
         self.last_prediction = pred
         friction = 0.4 * self.mass * 9.81
         cap = pred.capacity if (pred.status.has_value and pred.capacity is not None) \
             else friction
-        self.slipping = False
-        w.sled_moving = False
         if demand <= min(cap, w.sled_friction):
             w.tension = demand
         elif w.sled_friction <= cap:
