@@ -25,7 +25,8 @@ class Plant:
         self.predictor = predictor
         self.t = 0.0
         self.energy = 0.0
-        self.slip = 0.0
+        self.slip = 0.0          # m p moved while the rope pulled it (also dragged walking)
+        self.tug_slip = 0.0      # m of that while the winch reeled in
         self.heavier_at, self.heavier_mass = heavier_at, heavier_mass
         self.link_ok = True
         self.dead = False
@@ -52,6 +53,8 @@ class Plant:
         r.step(dt)
         if r.slipping:
             self.slip += abs(r.x_p - x0)
+            if r.winch.command > 0.0:
+                self.tug_slip += abs(r.x_p - x0)   # the anchor giving way under a tug
         self.t += dt
         self.energy += r.power * dt
         if self.heavier_at is not None and r.winch.spool_position >= self.heavier_at:

@@ -40,9 +40,9 @@ def run_stack(tmp_path, spawn, sled, params=(), sim=None, sim_args=(), timeout=6
     logs = {n: open(tmp_path / f'{n}.log', 'w') for n in ('bridge', 'capacity', 'behavior')}
     spawn([*_ros2('minirquad_driver', 'bridge_node'), '--ros-args', '-p', f'port:={tty}'],
           stdout=logs['bridge'], stderr=logs['bridge'], cwd=REPO, env=env)
-    spawn([*_ros2('rftgls_ros', 'capacity_node'), '--ros-args', '--params-file',
-           'ros2_ws/params/capacity_node.yaml', '-p', 'phi_topic:=/winch/phi'],
-          stdout=logs['capacity'], stderr=logs['capacity'], cwd=REPO, env=env)
+    cap_proc = spawn([*_ros2('rftgls_ros', 'capacity_node'), '--ros-args', '--params-file',
+                      'ros2_ws/params/capacity_node.yaml', '-p', 'phi_topic:=/winch/phi'],
+                     stdout=logs['capacity'], stderr=logs['capacity'], cwd=REPO, env=env)
     argv = [*_ros2('rftgls_ros', 'behavior_node'), '--ros-args', '--params-file',
             'ros2_ws/params/behavior_node.yaml', '-p', f'sled_mass:={sled}',
             '-p', 'cycles:=1', '-p', 'exit_when_done:=true',
@@ -50,6 +50,7 @@ def run_stack(tmp_path, spawn, sled, params=(), sim=None, sim_args=(), timeout=6
     for kv in (*FAST, *params):
         argv += ['-p', kv]
     beh = spawn(argv, stdout=logs['behavior'], stderr=logs['behavior'], cwd=REPO, env=env)
+    run_stack.procs = {'sim': sim_proc, 'capacity': cap_proc, 'behavior': beh}
     deadline = time.monotonic() + timeout
     text = ''
     while time.monotonic() < deadline and beh.poll() is None:
@@ -150,10 +151,19 @@ def _heavier_sim(argv):
                 own.heavier_at = None
 
     class SlipRecorder(SimRobot):
+        def set_winch(self, speed):
+            if speed <= 0.0 < self.winch.command:
+                print(f'SLIP_AT_STOP {slip["m"]:.6f} at {self.time:.3f} s', flush=True)
+            elif speed > 0.0 >= self.winch.command:
+                print(f'SLIP_AT_REEL_IN {slip["m"]:.6f} at {self.time:.3f} s', flush=True)
+            super().set_winch(speed)
+
         def _resolve_rope(self, dt):
             x0 = self.x_p
             super()._resolve_rope(dt)
             if self.slipping:
+                if not slip['m']:
+                    print(f'SLIP_START at {self.time:.3f} s', flush=True)
                 slip['m'] += abs(self.x_p - x0)
 
     sim_main.WinchSled = HeavierSled

@@ -107,7 +107,7 @@ def test_machine_400g_chooses_sh_and_completes_cycles(predictor):
     assert m.state == State.FINISHED, m.reason
     assert [r.mode for r in m.records] == ['SH', 'SH']
     assert all(r.outcome == 'ok' for r in m.records)
-    assert plant.slip < 1e-3
+    assert plant.tug_slip < 1e-3
     assert all(r.burrow_j > 0 and r.walk_j > 0 and r.tug_j > 0 for r in m.records)
     kinds = {e['kind'] for e in m.events}
     assert {'transition', 'decision', 'live', 'cycle'} <= kinds
@@ -120,7 +120,7 @@ def test_machine_600g_never_sh(predictor):
     run_loop(m, plant)
     assert m.state == State.FINISHED, m.reason
     assert m.records[0].mode == 'DL' and m.records[0].outcome == 'ok'
-    assert plant.slip < 1e-3
+    assert plant.tug_slip < 1e-3
 
 
 def test_machine_refuses_too_heavy_sled(predictor):
@@ -139,7 +139,7 @@ def test_machine_heavier_mid_tug_stops_then_reburrows(predictor):
     run_loop(m, plant)
     texts = [e['text'] for e in m.events]
     assert any('margin guard' in t for t in texts), texts
-    assert plant.slip < 2e-3
+    assert plant.tug_slip < 2e-3
     assert m.records[0].mode.startswith('SH+')
     assert m.state == State.FINISHED and m.records[0].outcome == 'ok'
 
@@ -149,7 +149,7 @@ def test_machine_heavier_without_stronger_mode_holds(predictor):
     m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
     plant = Plant(0.4, predictor, heavier_at=0.05, heavier_mass=2.0)
     run_loop(m, plant)
-    assert plant.slip < 2e-3
+    assert plant.tug_slip < 2e-3
     assert m.state == State.FINISHED and m.records[0].outcome == 'stopped', m.reason
     assert 'stopped before slip' in m.reason
 

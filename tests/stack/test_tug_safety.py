@@ -204,7 +204,7 @@ def _weak_sand(predictor, sled, scale):
     def watch(p, mach):
         if 'slip_at_detect' not in seen and any(
                 str(e.get('reason', '')).startswith('slip_') for e in mach.events):
-            seen['slip_at_detect'] = p.slip
+            seen['slip_at_detect'] = p.tug_slip
             seen['mode'] = mach.mode
     run_loop(m, plant, t_max=90, on_step=watch)
     return m, plant, seen
@@ -219,7 +219,7 @@ def test_weaker_sand_400g_sh_slips_is_detected_and_reburrows(predictor):
     rec = m.records[0]
     assert rec.mode.startswith('SH+'), rec               # re-burrowed into a stronger mode
     assert rec.outcome == 'ok' and m.state == State.FINISHED, m.reason
-    assert plant.slip <= 0.025                           # no further slip after re-burrowing
+    assert plant.tug_slip <= 0.025                           # no further slip after re-burrowing
 
 
 def test_weaker_sand_1kg_dh_slips_is_detected_and_refused(predictor):
@@ -231,7 +231,7 @@ def test_weaker_sand_1kg_dh_slips_is_detected_and_refused(predictor):
     rec = m.records[0]
     assert (rec.mode, rec.outcome, rec.reason) == ('DH', 'stopped', 'slip_pitch'), rec
     assert m.state == State.FINISHED and 'after a slip' in m.reason
-    assert plant.slip <= 0.025 and plant.winch_cmd == 0.0
+    assert plant.tug_slip <= 0.025 and plant.winch_cmd == 0.0
 
 
 def test_weaker_sand_600g_dl_slips_is_detected_and_reburrows_dh(predictor):
@@ -248,5 +248,5 @@ def test_weaker_sand_600g_dl_slips_is_detected_and_reburrows_dh(predictor):
 def test_30_percent_weaker_sand_600g_dl_holds_without_false_alarm(predictor):
     m, plant, seen = _weak_sand(predictor, 0.6, 0.7)
     assert 'slip_at_detect' not in seen
-    assert plant.slip < 1e-3
+    assert plant.tug_slip < 1e-3
     assert m.records[0].mode == 'DL' and m.records[0].outcome == 'ok'

@@ -158,6 +158,12 @@ class LiveAnchorModel:
                 f'({self.robot.mass:.3f} kg), medium {self.medium.name} '
                 f'(xi_n {self.medium.xi_n:.3g} N/m^3)')
 
+    def warm_up(self) -> None:
+        """Answer each Table II final pose once (JIT compilation, twist-sphere build, and the
+        poses a tug starts from), so the first tug does not stall a real-time loop."""
+        for seq in TABLE_II.values():
+            self.predict(AnchorState(seq.h, seq.theta_b, *seq.final), 0.0)
+
     def _key(self, state: AnchorState) -> tuple[int, int, int, int]:
         h, a, _ = self.steps
         return (round(state.h / h), round(state.theta_b / a), round(state.theta_l1 / a),

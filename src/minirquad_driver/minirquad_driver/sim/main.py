@@ -194,8 +194,10 @@ def _ground(args: argparse.Namespace):
     """The true ground, built once so its cache outlives MCU resets."""
     if args.ground != 'live':
         return make_ground(args.ground)
-    return make_ground('live', robot=args.true_robot, medium=args.true_medium,
-                       medium_scale=args.true_medium_scale, mass_scale=args.true_mass_scale)
+    ground = make_ground('live', robot=args.true_robot, medium=args.true_medium,
+                         medium_scale=args.true_medium_scale, mass_scale=args.true_mass_scale)
+    ground.warm_up()   # compile and cache before the link opens: no stall mid-run
+    return ground
 
 
 def _split(data: bytes) -> list[bytes]:
