@@ -115,7 +115,7 @@ class BehaviorConfig:
     min_speed_fraction: float = 0.1
     taut_tension: float = 0.3
     estimate_timeout_s: float = 0.06
-    evidence_grace_s: float = 0.5
+    evidence_grace_s: float = 2.0
     evidence_settle_s: float = 0.3
     evidence_wait_s: float = 10.0
     max_aborts: int = 2
@@ -244,7 +244,7 @@ class BehaviorMachine:
         self._hold_kind = ''
         self._gap: tuple[float, float | None] | None = None
         self._good: tuple[float, float | None] | None = None
-        self._stop_watch: tuple[float, float | None, str] | None = None
+        self._stop_watch: tuple[float, float | None, str, str] | None = None
         self._last_value_status = False
 
     # ------------------------------------------------------------------ helpers
@@ -351,11 +351,11 @@ class BehaviorMachine:
         w, o = self._stop_watch, self.obs
         if w is None or o.spool is None or abs(o.spool_velocity) > 1e-6:
             return
-        t0, spool0, reason = w
+        t0, spool0, reason, since = w
         self._stop_watch = None
         reel = (o.spool - spool0) if spool0 is not None else float('nan')
         self._event('stop', f'winch standing after {reason}: {1e3 * reel:.1f} mm reeled in '
-                            f'since the last usable estimate ({1e3 * (o.t - t0):.0f} ms before)',
+                            f'since {since} ({1e3 * (o.t - t0):.0f} ms before)',
                     reason=reason, reel_m=reel, since_s=o.t - t0)
 
     # ------------------------------------------------------------------ states
@@ -583,6 +583,9 @@ class BehaviorMachine:
             return
         if source == 'capacity_node':
             self._last_value_status = True
+        if self._gap is not None:
+            # Evidence back before the encoder showed the spool standing: nothing to report.
+            self._stop_watch = None
         self._gap = None
         self._good = (o.t, o.spool)
         capacity *= self.chooser.scale
@@ -634,7 +637,7 @@ class BehaviorMachine:
         if self._gap is None:
             self._gap = (o.t, o.spool)
             good_t, good_spool = self._good or (o.t, o.spool)
-            self._stop_watch = (good_t, good_spool, v.reason)
+            self._stop_watch = (good_t, good_spool, v.reason, 'the last usable estimate')
             self._event('warn', f'tug evidence lost ({v.reason}: {v.detail}): winch stopped',
                         reason=v.reason)
         if not v.transient or o.t - self._gap[0] >= self.cfg.evidence_grace_s:
@@ -688,7 +691,7 @@ class BehaviorMachine:
         predicted, then re-burrow into a mode that is strong enough with that correction."""
         o = self.obs
         self._winch = 0.0
-        self._stop_watch = (o.t, o.spool, ev.reason)
+        self._stop_watch = (o.t, o.spool, ev.reason, 'the slip was detected')
         self._finish_tug('slip')
         predicted = o.capacity if (o.capacity is not None and math.isfinite(o.capacity)) \
             else self.own_capacity()[0]
