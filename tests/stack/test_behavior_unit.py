@@ -176,6 +176,28 @@ def test_machine_link_loss_mid_tug_waits_then_resumes(predictor):
     assert 'link stale during TUG' in texts and 're-checking' in texts
 
 
+def test_machine_legs_moved_during_link_loss_reburrows(predictor):
+    # During the outage the robot stands up (as after an MCU reset): the checked anchor is
+    # gone, so the machine burrows again instead of re-checking at the assumed height.
+    cfg = fast_config(sled_mass=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    plant = Plant(0.4, predictor)
+    seen = {}
+
+    def cut(p, mach):
+        if mach.state == State.TUG and 'cut' not in seen and mach._elapsed() > 1.0:
+            seen['cut'] = p.t
+            p.link_ok = False
+            g = p.gaits['stand']
+            p.robot.set_gait(g.kind, g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
+        if 'cut' in seen and not p.link_ok and p.t - seen['cut'] > 1.0:
+            p.link_ok = True
+    run_loop(m, plant, on_step=cut)
+    texts = ' '.join(e['text'] for e in m.events)
+    assert 'left the SH pose during the outage' in texts, texts
+    assert m.records[0].mode == 'SH+SH' and m.records[0].outcome == 'ok', m.records
+
+
 def test_report_csv_and_png(tmp_path, predictor):
     cfg = fast_config(sled_mass=0.4, cycles=1)
     m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))

@@ -227,7 +227,6 @@ class BehaviorMachine:
         self._link_back_at: float | None = None
         self._idle_power = 0.0
         self._tug_hist: deque[tuple[float, float]] = deque()
-        self._cap_missing_since: float | None = None
         self._last_live = -math.inf
         self._weakest: float | None = None
         self._burrows = 0
@@ -782,6 +781,12 @@ class BehaviorMachine:
         if resume in (State.TUG, State.HOLD, State.CHECK, State.CYCLE_DONE):
             if resume == State.TUG:
                 self._finish_tug('interrupted')
+            if not self._at_final_pose():
+                # The legs moved during the outage (an MCU reset, a stand): the anchor that
+                # was checked is gone, and the assumed Table II height no longer applies.
+                self._burrow(self.mode, f'link back after {self._elapsed():.1f} s: the legs '
+                                        f'left the {self.mode} pose during the outage')
+                return
             self._go(State.CHECK, f'link back after {self._elapsed():.1f} s: re-checking '
                                   f'the {self.mode} anchor before resuming the tug')
         elif resume == State.WALK:
@@ -794,6 +799,11 @@ class BehaviorMachine:
             self._go(State.SLACKEN, 'link back: slacken again')
         else:
             self._go(resume, f'link back after {self._elapsed():.1f} s')
+
+    def _at_final_pose(self) -> bool:
+        legs, m = self.obs.legs, ANCHOR_MODES.get(self.mode or '')
+        return m is not None and legs is not None and max(
+            abs(legs[0] - m.final[0]), abs(legs[1] - m.final[1])) <= self.cfg.burrow_tolerance
 
     @property
     def done(self) -> bool:
