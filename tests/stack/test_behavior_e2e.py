@@ -117,8 +117,11 @@ def test_e2e_heavier_sled_mid_tug_stops_before_slip(tmp_path, spawn):
 
 @pytest.mark.slow
 def test_e2e_disconnect_mid_tug_stops_and_waits(tmp_path, spawn):
-    log = run_stack(tmp_path, spawn, 0.6,
-                    sim_args=['--disconnect-at', '12.0', '--disconnect-for', '1.5'])
+    # Unplugged once the tug has reeled in 50 mm (after the walk paid out ~40 mm): mid-tug
+    # whatever the load of the machine.
+    sim = [sys.executable, __file__, '--heavier-at', '99', '--heavier-mass', '0.6',
+           '--disconnect-after-reel', '0.05']
+    log = run_stack(tmp_path, spawn, 0.6, sim=sim, sim_args=['--disconnect-for', '1.5'])
     assert 'link stale during TUG: winch stopped, waiting' in log \
         or 'stale during TUG' in log, log
     after = log.split('during TUG')[1]
@@ -141,8 +144,17 @@ def _heavier_sim(argv):
     ap = argparse.ArgumentParser()
     ap.add_argument('--heavier-at', type=float, required=True)
     ap.add_argument('--heavier-mass', type=float, required=True)
+    ap.add_argument('--disconnect-after-reel', type=float,
+                    help='unplug (--disconnect-for s) once the spool has reeled this far, m')
     own, rest = ap.parse_known_args(argv)
     slip = {'m': 0.0}
+    holder = {}
+    run = sim_main.run
+
+    def keep_args(args):
+        holder['args'] = args
+        return run(args)
+    sim_main.run = keep_args
 
     class HeavierSled(WinchSled):
         def reel(self, dt):
@@ -151,6 +163,11 @@ def _heavier_sim(argv):
                 print(f'HEAVIER sled {self.sled_mass} -> {own.heavier_mass} kg', flush=True)
                 self.sled_mass = own.heavier_mass
                 own.heavier_at = None
+            if own.disconnect_after_reel is not None and 'args' in holder \
+                    and self.spool_position >= own.disconnect_after_reel:
+                print(f'UNPLUG at spool {self.spool_position:.3f} m', flush=True)
+                holder['args'].disconnect_at = 0.0      # the run loop unplugs at once
+                own.disconnect_after_reel = None
 
     class SlipRecorder(SimRobot):
         def set_winch(self, speed):

@@ -39,8 +39,8 @@ def predictor():
     ('extrapolated', 7.45, 'status_extrapolated', False),
     ('stale', NAN, 'status_stale', True),
     ('something_new', 3.0, 'status_something_new', False),
-    ('ok', NAN, evidence.NO_VALUE, False),
-    ('ok', -1.0, evidence.NO_VALUE, False),
+    ('ok', NAN, evidence.NO_VALUE, True),
+    ('ok', -1.0, evidence.NO_VALUE, True),
 ])
 def test_judge_refuses_every_status_without_a_usable_value(status, capacity, reason, transient):
     v = evidence.judge(10.0, capacity, status, 9.99, 0.06)

@@ -25,32 +25,27 @@ from test_behavior_e2e import run_stack
 HERE = Path(__file__).resolve().parent
 
 
-def _wait_for(path: Path, pattern: str, timeout: float, proc=None) -> str:
-    deadline = time.monotonic() + timeout
-    text = ''
-    while time.monotonic() < deadline:
-        text = path.read_text()
-        if re.search(pattern, text):
-            return text
-        if proc is not None and proc.poll() is not None:
-            break
-        time.sleep(0.1)
-    return path.read_text()
-
-
 @pytest.mark.slow
 def test_e2e_capacity_node_killed_mid_tug_stops_the_winch(tmp_path, spawn):
     run_stack(tmp_path, spawn, 0.4, params=['evidence_wait_s:=1.0'], timeout=60,
               until=lambda t: re.search(r'\[live\] tug SH: T 1\.\d+ N', t) is not None)
     procs = run_stack.procs
     assert procs['behavior'].poll() is None, (tmp_path / 'behavior.log').read_text()
+    before = len((tmp_path / 'behavior.log').read_text())
     procs['capacity'].send_signal(signal.SIGKILL)
     procs['capacity'].wait(5)
-    log = _wait_for(tmp_path / 'behavior.log', r'winch standing after', 10)
-    assert 'tug evidence lost (estimate_timeout' in log, log
-    m = re.search(r'winch standing after estimate_timeout: ([\d.]+) mm reeled in', log)
-    assert m, log
-    assert float(m.group(1)) <= 5.0, log
+    # Only what behavior_node said after the kill (a loaded machine may have late estimates
+    # before it, each a short stop of its own).
+    pattern = r'winch standing after estimate_timeout: ([\d.]+) mm reeled in'
+    deadline = time.monotonic() + 10
+    after = ''
+    while time.monotonic() < deadline and not re.search(pattern, after):
+        time.sleep(0.1)
+        after = (tmp_path / 'behavior.log').read_text()[before:]
+    assert 'tug evidence lost (estimate_timeout' in after, after
+    m = re.search(pattern, after)
+    assert m, after
+    assert float(m.group(1)) <= 5.0, after
     procs['behavior'].wait(20)           # evidence never returns: it gives up and exits
     log = (tmp_path / 'behavior.log').read_text()
     assert 'giving up, winch braked' in log, log
