@@ -36,16 +36,18 @@ def test_e2e_capacity_node_killed_mid_tug_stops_the_winch(tmp_path, spawn):
     procs['capacity'].wait(5)
     # Only what behavior_node said after the kill (a loaded machine may have late estimates
     # before it, each a short stop of its own).
-    pattern = r'winch standing after estimate_timeout: ([\d.]+) mm reeled in'
+    # On a loaded host the robot's own inputs may go stale in the same moment: then the link
+    # rule stops the winch first (link_stale), and the abort follows in CHECK.
+    pattern = r'winch standing after (estimate_timeout|link_stale): ([\d.]+) mm reeled in'
     deadline = time.monotonic() + 10
     after = ''
     while time.monotonic() < deadline and not re.search(pattern, after):
         time.sleep(0.1)
         after = (tmp_path / 'behavior.log').read_text()[before:]
-    assert 'tug evidence lost (estimate_timeout' in after, after
     m = re.search(pattern, after)
     assert m, after
-    assert float(m.group(1)) <= 5.0, after
+    assert m.group(1) == 'link_stale' or 'tug evidence lost (estimate_timeout' in after, after
+    assert float(m.group(2)) <= 5.0, after
     procs['behavior'].wait(20)           # evidence never returns: it gives up and exits
     log = (tmp_path / 'behavior.log').read_text()
     assert 'giving up, winch braked' in log, log

@@ -334,6 +334,8 @@ class BehaviorMachine:
                 self.cycle.walk_s += self._elapsed()
             self._resume = self.state
             self._winch = 0.0
+            if self.state == State.TUG and self._stop_watch is None and self._good:
+                self._stop_watch = (*self._good, 'link_stale', 'the last usable estimate')
             what = 'link stale' if not obs.link_ok else 'joint_states/tension stale'
             self._go(State.WAIT_LINK, f'{what} during {self._resume}: winch stopped, waiting')
         handler = getattr(self, f'_do_{self.state.value.lower()}', None)
