@@ -40,9 +40,9 @@ def run_stack(tmp_path, spawn, sled, params=(), sim=None, sim_args=(), timeout=6
     logs = {n: open(tmp_path / f'{n}.log', 'w') for n in ('bridge', 'capacity', 'behavior')}
     spawn([*_ros2('minirquad_driver', 'bridge_node'), '--ros-args', '-p', f'port:={tty}'],
           stdout=logs['bridge'], stderr=logs['bridge'], cwd=REPO, env=env)
-    spawn([*_ros2('rftgls_ros', 'capacity_node'), '--ros-args', '--params-file',
-           'ros2_ws/params/capacity_node.yaml', '-p', 'phi_topic:=/winch/phi'],
-          stdout=logs['capacity'], stderr=logs['capacity'], cwd=REPO, env=env)
+    cap_proc = spawn([*_ros2('rftgls_ros', 'capacity_node'), '--ros-args', '--params-file',
+                      'ros2_ws/params/capacity_node.yaml', '-p', 'phi_topic:=/winch/phi'],
+                     stdout=logs['capacity'], stderr=logs['capacity'], cwd=REPO, env=env)
     argv = [*_ros2('rftgls_ros', 'behavior_node'), '--ros-args', '--params-file',
             'ros2_ws/params/behavior_node.yaml', '-p', f'sled_mass:={sled}',
             '-p', 'cycles:=1', '-p', 'exit_when_done:=true',
@@ -50,6 +50,7 @@ def run_stack(tmp_path, spawn, sled, params=(), sim=None, sim_args=(), timeout=6
     for kv in (*FAST, *params):
         argv += ['-p', kv]
     beh = spawn(argv, stdout=logs['behavior'], stderr=logs['behavior'], cwd=REPO, env=env)
+    run_stack.procs = {'sim': sim_proc, 'capacity': cap_proc, 'behavior': beh}
     deadline = time.monotonic() + timeout
     text = ''
     while time.monotonic() < deadline and beh.poll() is None:
@@ -116,12 +117,17 @@ def test_e2e_heavier_sled_mid_tug_stops_before_slip(tmp_path, spawn):
 
 @pytest.mark.slow
 def test_e2e_disconnect_mid_tug_stops_and_waits(tmp_path, spawn):
-    log = run_stack(tmp_path, spawn, 0.6,
-                    sim_args=['--disconnect-at', '12.0', '--disconnect-for', '1.5'])
+    # Unplugged once the tug has reeled in 50 mm (after the walk paid out ~40 mm): mid-tug
+    # whatever the load of the machine.
+    sim = [sys.executable, __file__, '--heavier-at', '99', '--heavier-mass', '0.6',
+           '--disconnect-after-reel', '0.05']
+    log = run_stack(tmp_path, spawn, 0.6, sim=sim, sim_args=['--disconnect-for', '1.5'])
     assert 'link stale during TUG: winch stopped, waiting' in log \
         or 'stale during TUG' in log, log
     after = log.split('during TUG')[1]
-    assert 'WAIT_LINK -> CHECK' in after and 're-checking' in after, log
+    # Re-check the anchor, or burrow again if the legs left the pose during the outage.
+    assert ('WAIT_LINK -> CHECK' in after and 're-checking' in after) \
+        or 'left the DL pose during the outage' in after, log
     assert 'CHECK -> TUG' in after, log
     assert re.search(r'cycle 1 \(600 g sled\): \w+ ok', log), log
 
@@ -138,8 +144,17 @@ def _heavier_sim(argv):
     ap = argparse.ArgumentParser()
     ap.add_argument('--heavier-at', type=float, required=True)
     ap.add_argument('--heavier-mass', type=float, required=True)
+    ap.add_argument('--disconnect-after-reel', type=float,
+                    help='unplug (--disconnect-for s) once the spool has reeled this far, m')
     own, rest = ap.parse_known_args(argv)
     slip = {'m': 0.0}
+    holder = {}
+    run = sim_main.run
+
+    def keep_args(args):
+        holder['args'] = args
+        return run(args)
+    sim_main.run = keep_args
 
     class HeavierSled(WinchSled):
         def reel(self, dt):
@@ -148,12 +163,26 @@ def _heavier_sim(argv):
                 print(f'HEAVIER sled {self.sled_mass} -> {own.heavier_mass} kg', flush=True)
                 self.sled_mass = own.heavier_mass
                 own.heavier_at = None
+            if own.disconnect_after_reel is not None and 'args' in holder \
+                    and self.spool_position >= own.disconnect_after_reel:
+                print(f'UNPLUG at spool {self.spool_position:.3f} m', flush=True)
+                holder['args'].disconnect_at = 0.0      # the run loop unplugs at once
+                own.disconnect_after_reel = None
 
     class SlipRecorder(SimRobot):
+        def set_winch(self, speed):
+            if speed <= 0.0 < self.winch.command:
+                print(f'SLIP_AT_STOP {slip["m"]:.6f} at {self.time:.3f} s', flush=True)
+            elif speed > 0.0 >= self.winch.command:
+                print(f'SLIP_AT_REEL_IN {slip["m"]:.6f} at {self.time:.3f} s', flush=True)
+            super().set_winch(speed)
+
         def _resolve_rope(self, dt):
             x0 = self.x_p
             super()._resolve_rope(dt)
             if self.slipping:
+                if not slip['m']:
+                    print(f'SLIP_START at {self.time:.3f} s', flush=True)
                 slip['m'] += abs(self.x_p - x0)
 
     sim_main.WinchSled = HeavierSled

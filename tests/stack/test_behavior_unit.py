@@ -1,16 +1,16 @@
 """Plain (no ROS) tests of the behaviour: required force, energy model, mode chooser, tether,
 and the state machine driven in closed loop by the simulator's robot model (SimRobot, the
-same physics minirquad_sim runs, stepped in-process)."""
+same physics minirquad_sim runs, stepped in-process; tests/stack/plant.py)."""
 from __future__ import annotations
 
 import math
 
 import pytest
 
-from rftgls_core.types import AnchorState, Status
-from rftgls_ros.behavior import (ANCHOR_MODES, BehaviorConfig, BehaviorMachine, EnergyModel,
-                                 ForceNeed, MapPredictor, ModeChooser, Observation, State,
-                                 TetherTracker, write_report)
+from rftgls_core.types import Status
+from rftgls_ros.behavior import (ANCHOR_MODES, BehaviorMachine, EnergyModel, ForceNeed,
+                                 MapPredictor, ModeChooser, State, TetherTracker,
+                                 write_report)
 from rftgls_ros.behavior.report import read_csv
 
 G = 9.81
@@ -96,73 +96,7 @@ def test_tether_length_and_phi():
 
 
 # ------------------------------------------------------------------ closed loop, no ROS
-class Plant:
-    """SimRobot from minirquad_driver's simulator, with commands applied directly and the
-    observation (capacity from the same map, as capacity_node would give) built each step."""
-
-    def __init__(self, sled_mass: float, predictor, heavier_at: float | None = None,
-                 heavier_mass: float = 0.0):
-        from minirquad_driver.gaits import GAITS
-        from minirquad_driver.protocol.messages import BurrowMode
-        from minirquad_driver.sim.robot import SimRobot
-        from minirquad_driver.sim.winch import WinchSled
-        self.gaits, self.burrow_modes = GAITS, BurrowMode
-        self.robot = SimRobot(winch=WinchSled(sled_mass=sled_mass))
-        self.predictor = predictor
-        self.t = 0.0
-        self.energy = 0.0
-        self.slip = 0.0
-        self.heavier_at, self.heavier_mass = heavier_at, heavier_mass
-        self.link_ok = True
-
-    def apply(self, cmd) -> None:
-        r = self.robot
-        for topic, value in cmd.oneshots:
-            if topic == 'gait':
-                g = self.gaits[value]
-                r.set_gait(g.kind, g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
-            else:
-                r.burrow(int(getattr(self.burrow_modes, value)))
-        r.set_winch(cmd.winch)
-        self.h, self.phi = cmd.height, cmd.phi
-
-    def advance(self, dt: float) -> Observation:
-        r = self.robot
-        x0 = r.x_p
-        r.step(dt)
-        if r.slipping:
-            self.slip += abs(r.x_p - x0)
-        self.t += dt
-        self.energy += r.power * dt
-        if self.heavier_at is not None and r.winch.spool_position >= self.heavier_at:
-            r.winch.sled_mass, self.heavier_at = self.heavier_mass, None
-        a = r.leg_angles()
-        state = AnchorState(self.h, r.theta_b, 0.5 * (a[0] + a[1]), 0.5 * (a[2] + a[3]))
-        cap, status = self.predictor(state, self.phi)
-        return Observation(
-            t=self.t, legs=(state.theta_l1, state.theta_l2), t_legs=self.t,
-            theta_b=r.theta_b, tension=r.winch.tension, t_tension=self.t,
-            spool=r.winch.spool_position, spool_velocity=r.winch.spool_velocity,
-            energy=self.energy, link_ok=self.link_ok,
-            capacity=cap if cap is not None else float('nan'), capacity_status=str(status),
-            t_capacity=self.t, slip_twist=(0.0, 0.0, 0.0))
-
-
-def run_loop(machine, plant, t_max=120.0, dt=0.01, on_step=None):
-    obs = Observation(t=0.0)
-    while plant.t < t_max and not machine.done:
-        plant.apply(machine.step(obs))
-        for _ in range(int(round(dt / 0.002))):
-            obs = plant.advance(0.002)
-        if on_step:
-            on_step(plant, machine)
-    return machine
-
-
-def fast_config(**kw) -> BehaviorConfig:
-    base = dict(cycles=2, walk_time=1.5, idle_measure_time=0.3)
-    base.update(kw)
-    return BehaviorConfig(**base)
+from plant import Plant, fast_config, run_loop  # noqa: E402  (tests/stack/plant.py)
 
 
 def test_machine_400g_chooses_sh_and_completes_cycles(predictor):
@@ -173,7 +107,7 @@ def test_machine_400g_chooses_sh_and_completes_cycles(predictor):
     assert m.state == State.FINISHED, m.reason
     assert [r.mode for r in m.records] == ['SH', 'SH']
     assert all(r.outcome == 'ok' for r in m.records)
-    assert plant.slip < 1e-3
+    assert plant.tug_slip < 1e-3
     assert all(r.burrow_j > 0 and r.walk_j > 0 and r.tug_j > 0 for r in m.records)
     kinds = {e['kind'] for e in m.events}
     assert {'transition', 'decision', 'live', 'cycle'} <= kinds
@@ -186,7 +120,7 @@ def test_machine_600g_never_sh(predictor):
     run_loop(m, plant)
     assert m.state == State.FINISHED, m.reason
     assert m.records[0].mode == 'DL' and m.records[0].outcome == 'ok'
-    assert plant.slip < 1e-3
+    assert plant.tug_slip < 1e-3
 
 
 def test_machine_refuses_too_heavy_sled(predictor):
@@ -205,7 +139,7 @@ def test_machine_heavier_mid_tug_stops_then_reburrows(predictor):
     run_loop(m, plant)
     texts = [e['text'] for e in m.events]
     assert any('margin guard' in t for t in texts), texts
-    assert plant.slip < 2e-3
+    assert plant.tug_slip < 2e-3
     assert m.records[0].mode.startswith('SH+')
     assert m.state == State.FINISHED and m.records[0].outcome == 'ok'
 
@@ -215,7 +149,7 @@ def test_machine_heavier_without_stronger_mode_holds(predictor):
     m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
     plant = Plant(0.4, predictor, heavier_at=0.05, heavier_mass=2.0)
     run_loop(m, plant)
-    assert plant.slip < 2e-3
+    assert plant.tug_slip < 2e-3
     assert m.state == State.FINISHED and m.records[0].outcome == 'stopped', m.reason
     assert 'stopped before slip' in m.reason
 
@@ -240,6 +174,28 @@ def test_machine_link_loss_mid_tug_waits_then_resumes(predictor):
     assert m.state == State.FINISHED and m.records[0].outcome == 'ok'
     texts = ' '.join(e['text'] for e in m.events)
     assert 'link stale during TUG' in texts and 're-checking' in texts
+
+
+def test_machine_legs_moved_during_link_loss_reburrows(predictor):
+    # During the outage the robot stands up (as after an MCU reset): the checked anchor is
+    # gone, so the machine burrows again instead of re-checking at the assumed height.
+    cfg = fast_config(sled_mass=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    plant = Plant(0.4, predictor)
+    seen = {}
+
+    def cut(p, mach):
+        if mach.state == State.TUG and 'cut' not in seen and mach._elapsed() > 1.0:
+            seen['cut'] = p.t
+            p.link_ok = False
+            g = p.gaits['stand']
+            p.robot.set_gait(g.kind, g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
+        if 'cut' in seen and not p.link_ok and p.t - seen['cut'] > 1.0:
+            p.link_ok = True
+    run_loop(m, plant, on_step=cut)
+    texts = ' '.join(e['text'] for e in m.events)
+    assert 'left the SH pose during the outage' in texts, texts
+    assert m.records[0].mode == 'SH+SH' and m.records[0].outcome == 'ok', m.records
 
 
 def test_report_csv_and_png(tmp_path, predictor):

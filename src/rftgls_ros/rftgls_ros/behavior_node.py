@@ -8,7 +8,9 @@ Subscribed: /joint_states (sensor_msgs/JointState: legs rad, ``winch_rope`` m / 
   /imu (sensor_msgs/Imu: thetaB = asin(2(qx qz - qw qy)), nose up positive),
   /winch/tension (geometry_msgs/WrenchStamped, N), /energy (std_msgs/Float64, J),
   /minirquad/link_state (std_msgs/String ok|stale), /capacity_node/capacity (WrenchStamped,
-  N along the tether: |force|), /capacity_node/slip_twist (TwistStamped), /capacity_node/status.
+  N along the tether: |force|), /capacity_node/slip_twist (TwistStamped), /capacity_node/status,
+  /diagnostics (only capacity_node's status: its `assumed_inputs` value, comma-separated
+  input names, tells which inputs an `assumed` estimate assumed).
 Published: /gait, /burrow (std_msgs/String), /winch/speed (std_msgs/Float64, m/s reel-in
   positive), /winch/height (Float64, m: h of p, the burrowed mode's Table II mean; MiniRQuad
   does not measure it), /winch/phi (Float64, rad: tether angle from the tether length),
@@ -28,6 +30,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import Imu, JointState
+from diagnostic_msgs.msg import DiagnosticArray
 from std_msgs.msg import Float64, String
 
 from .behavior import (BehaviorConfig, BehaviorMachine, MapPredictor, ModeChooser, Observation,
@@ -52,6 +55,11 @@ class BehaviorNode(Node):
         values = {}
         for f in fields(BehaviorConfig):
             default = getattr(defaults, f.name)
+            if f.name == 'accept_assumed_inputs':
+                # A string list as one comma-separated string: an empty list has no ROS type.
+                raw = self.declare_parameter(f.name, ','.join(default)).value
+                values[f.name] = tuple(x.strip() for x in str(raw).split(',') if x.strip())
+                continue
             if isinstance(default, tuple):
                 default = [float(v) for v in default]
             elif isinstance(default, float):
@@ -92,10 +100,15 @@ class BehaviorNode(Node):
         self.create_subscription(WrenchStamped, f'{cap_ns}/capacity', self.on_capacity, 10)
         self.create_subscription(TwistStamped, f'{cap_ns}/slip_twist', self.on_twist, 10)
         self.create_subscription(String, f'{cap_ns}/status', self.on_status, LATCHED)
+        self.cap_name = cap_ns.rsplit('/', 1)[-1]
+        self.create_subscription(DiagnosticArray, '/diagnostics', self.on_diagnostics, 10)
         self.create_timer(1.0 / rate, self.step)
         self.get_logger().info(
             f'sled {1e3 * self.cfg.sled_mass:.0f} g (mu {self.cfg.sled_mu}), {self.cfg.cycles} '
-            f'cycles, safety factor {self.cfg.safety_factor}, map {predictor.path}')
+            f'cycles, safety factor {self.cfg.safety_factor}, map {predictor.path}; tugs only '
+            f'on capacity_node estimates younger than {1e3 * self.cfg.estimate_timeout_s:.0f} '
+            f'ms with status ok' + (f' or assumed {",".join(self.cfg.accept_assumed_inputs)}'
+                                    if self.cfg.accept_assumed_inputs else ''))
 
     def now_s(self) -> float:
         return time.monotonic()
@@ -140,7 +153,18 @@ class BehaviorNode(Node):
         self.obs.slip_twist = (msg.twist.linear.x, msg.twist.linear.z, msg.twist.angular.y)
 
     def on_status(self, msg: String) -> None:
+        if msg.data != self.obs.capacity_status:
+            self.obs.assumed_inputs = None   # names belong to one status; wait for new ones
         self.obs.capacity_status = msg.data
+
+    def on_diagnostics(self, msg: DiagnosticArray) -> None:
+        for st in msg.status:
+            if not st.name.startswith(f'{self.cap_name}:'):
+                continue
+            values = {kv.key: kv.value for kv in st.values}
+            if values.get('status') == self.obs.capacity_status and 'assumed_inputs' in values:
+                self.obs.assumed_inputs = frozenset(
+                    x.strip() for x in values['assumed_inputs'].split(',') if x.strip())
 
     # ------------------------------------------------------------------ step
     def step(self) -> None:

@@ -11,6 +11,10 @@ child (SIGINT -> timed wait -> SIGTERM -> kill), and writes the merged cycle rep
 
 DDS stays on loopback (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST unless set) and the demo uses
 its own ROS_DOMAIN_ID when none is set (reserved like ROS 2's domain_coordinator).
+
+Exit status: 0 when every sled ran its cycles; 3 when a tug was aborted for lack of evidence
+(a cycle with outcome ``aborted``) unless ``--allow-aborts``; 1 when a sled produced no
+report (behavior_node did not finish); 130 on Ctrl-C.
 """
 from __future__ import annotations
 
@@ -169,6 +173,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--port', help='serial port of a real MiniRQuad (no simulator)')
     p.add_argument('--sim-arg', action='append', help='extra minirquad_sim argument')
     p.add_argument('--timeout', type=float, default=75.0, help='per sled, s')
+    p.add_argument('--allow-aborts', action='store_true',
+                   help='exit 0 even if a tug was aborted (fault-injection runs)')
     args = p.parse_args(argv)
 
     env = dict(os.environ)
@@ -194,6 +200,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f'behavior_demo: ROS_DOMAIN_ID={env["ROS_DOMAIN_ID"]}, DDS discovery '
           f'{env["ROS_AUTOMATIC_DISCOVERY_RANGE"]}, logs in {out / "logs"}', flush=True)
     records = []
+    missing = []
     try:
         for sled in args.sleds:
             if _stop.is_set():
@@ -201,6 +208,8 @@ def main(argv: list[str] | None = None) -> int:
             csv_path = run_set(args, sled, env, out, params)
             if csv_path:
                 records += read_csv(csv_path)
+            else:
+                missing.append(sled)
     finally:
         if lock:
             lock.close()
@@ -210,15 +219,28 @@ def main(argv: list[str] | None = None) -> int:
     csv_path, png_path = write_report(records, out)
     print(f'\n=== summary ({time.monotonic() - t0:.0f} s) ===')
     print(f'{"sled":>6} {"cycle":>5} {"mode":>8} {"outcome":>8} {"walk J":>7} {"burrow J":>8} '
-          f'{"tug J":>6} {"dist m":>7}')
+          f'{"tug J":>6} {"dist m":>7}  reason')
     for r in records:
         print(f'{1e3 * r.sled_kg:>4.0f} g {r.cycle:>5} {r.mode:>8} {r.outcome:>8} '
-              f'{r.walk_j:>7.2f} {r.burrow_j:>8.2f} {r.tug_j:>6.2f} {r.distance_m:>7.3f}')
+              f'{r.walk_j:>7.2f} {r.burrow_j:>8.2f} {r.tug_j:>6.2f} {r.distance_m:>7.3f}  '
+              f'{r.reason}')
     for sled in sorted({r.sled_kg for r in records}):
         modes = sorted({r.mode for r in records if r.sled_kg == sled})
         print(f'{1e3 * sled:.0f} g sled -> {", ".join(modes)}')
     print(f'cycle report: {csv_path} and {png_path}')
-    return 130 if _stop.is_set() else 0
+    if _stop.is_set():
+        return 130
+    aborted = [r for r in records if r.outcome == 'aborted']
+    for r in aborted:
+        print(f'behavior_demo: {1e3 * r.sled_kg:.0f} g cycle {r.cycle} ABORTED ({r.reason})',
+              file=sys.stderr)
+    if missing:
+        print('behavior_demo: no cycle report for '
+              + ', '.join(f'{1e3 * m:.0f} g' for m in missing), file=sys.stderr)
+        return 1
+    if aborted and not args.allow_aborts:
+        return 3
+    return 0
 
 
 if __name__ == '__main__':

@@ -1,8 +1,13 @@
 """The ground as the simulator sees it: anchor capacity and slip direction for a pose.
 
-``MapAnchorModel`` (default) answers from an rftgls_core state-space map (the shipped
-MiniRQuad map in M90 sand), i.e. the same RFT-GLS prediction capacity_node makes, at ~20 us
-per query. ``TableAnchorModel`` is a clearly labelled PLACEHOLDER kept for tests that want
+``LiveAnchorModel`` (default) is the simulator's own truth: the live RFT-GLS solver of
+rftgls_core (``direct``, the reference method) on a settable "true" robot and medium, by
+default the stack's preset (MiniRQuad in M90 sand) and optionally scaled (``medium_scale``
+0.7 = sand 30 % weaker than the stack believes). It never reads the shipped map that
+capacity_node and behavior_node predict with, so a test can make the prediction wrong.
+Answers are cached per quantised state (1 mm, 1 deg) so the simulator stays real time.
+``MapAnchorModel`` answers from an rftgls_core state-space map (the prediction itself, ~20 us
+per query). ``TableAnchorModel`` is a clearly labelled PLACEHOLDER kept for tests that want
 hand-set capacities: per-mode values chosen to reproduce the paper's Fig. 10(b) outcome.
 
 Slip twists here follow rftgls_core: (vx, vz, wy) at p in world axes, wy about +y (so the
@@ -10,7 +15,9 @@ body pitch thetaB changes by -wy per unit of travel), scaled so |(vx, vz)| = 1.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections import OrderedDict
 from typing import NamedTuple, Protocol
 
 from rftgls_core.types import AnchorState, Status
@@ -101,18 +108,129 @@ class MapAnchorModel:
             res = self.map.query(state, phi, self.pull)
         if not res.status.has_value or res.slip_twist is None:
             return AnchorPrediction(None, (0.0, 0.0, 0.0), res.status)
-        vx, vz, wy = res.slip_twist
-        n = math.hypot(vx, vz)
-        if n < 1e-9:  # pure rotation about p: move p a little along the pull instead
-            return AnchorPrediction(res.capacity_N, _unit_slip(phi), res.status)
-        return AnchorPrediction(res.capacity_N, (vx / n, vz / n, wy / n), res.status)
+        return AnchorPrediction(res.capacity_N, _unit_twist(res.slip_twist, phi), res.status)
+
+
+def _unit_twist(raw, phi: float) -> tuple[float, float, float]:
+    """Raw (vx, vz, wy) rescaled so |(vx, vz)| = 1 (wy in rad per m of travel of p)."""
+    vx, vz, wy = raw
+    n = math.hypot(vx, vz)
+    if n < 1e-9:  # pure rotation about p: move p a little along the pull instead
+        return _unit_slip(phi)
+    return (vx / n, vz / n, wy / n)
+
+
+class LiveAnchorModel:
+    """The simulator's true ground: rftgls_core's live solver on its own robot and medium.
+
+    robot, medium: preset names (the medium may also be a medium JSON file as written by
+    ``rftgls calibrate``); medium_scale: multiplies the medium's stress scales (xi_n, zeta),
+    e.g. 0.7 for sand 30 % weaker than the preset; mass_scale: multiplies the true robot's
+    mass (its weight presses the legs into the sand); method: 'direct' (reference), with
+    ``fallback_method`` answering the few states where it has no root (issue 11: direct
+    says 'degenerate' at some states that do hold). h_step (m) and angle_step (rad): the
+    state grid the answers are cached on; each grid state is fitted once and every pull
+    angle (phi_step grid) is asked of that fit, so a quasi-static tug costs one fit.
+    """
+
+    def __init__(self, robot: str = 'minirquad', medium: str = 'm90_sand',
+                 medium_scale: float = 1.0, mass_scale: float = 1.0, method: str = 'direct',
+                 fallback_method: str | None = 'twist-mesh', pull: str = 'backward',
+                 h_step: float = 1e-3, angle_step: float = math.radians(1.0),
+                 phi_step: float = math.radians(1.0), cache_size: int = 512):
+        from rftgls_core.anchor import AnchorModel as CoreAnchorModel
+        from rftgls_core.rft.media import load_medium
+        from rftgls_core.robots.presets import get_robot
+        if not (math.isfinite(medium_scale) and medium_scale > 0.0):
+            raise ValueError(f'medium_scale must be a positive number, got {medium_scale}')
+        if not (math.isfinite(mass_scale) and mass_scale > 0.0):
+            raise ValueError(f'mass_scale must be a positive number, got {mass_scale}')
+        base = load_medium(medium)
+        self.medium = dataclasses.replace(
+            base, name=f'{base.name} x{medium_scale:g}' if medium_scale != 1.0 else base.name,
+            xi_n=base.xi_n * medium_scale, zeta=base.zeta * medium_scale)
+        body = get_robot(robot)
+        self.robot = dataclasses.replace(body, mass=body.mass * mass_scale) \
+            if mass_scale != 1.0 else body
+        self.models = [CoreAnchorModel(self.robot, self.medium, method=method)]
+        if fallback_method and fallback_method != method:
+            self.models.append(CoreAnchorModel(self.robot, self.medium, method=fallback_method))
+        self.pull = pull
+        self.steps = (h_step, angle_step, phi_step)
+        self.cache_size = cache_size
+        self._fits: OrderedDict = OrderedDict()      # state key -> [(surface|None, failure)]
+        self._answers: dict = {}                      # (state key, phi key) -> prediction
+        self.fits = 0                                 # count of states fitted (for tests)
+
+    def describe(self) -> str:
+        return (f'live {self.models[0].method} solver, robot {self.robot.name} '
+                f'({self.robot.mass:.3f} kg), medium {self.medium.name} '
+                f'(xi_n {self.medium.xi_n:.3g} N/m^3)')
+
+    def warm_up(self) -> None:
+        """Answer each Table II final pose once (JIT compilation, twist-sphere build, and the
+        poses a tug starts from), so the first tug does not stall a real-time loop."""
+        for seq in TABLE_II.values():
+            self.predict(AnchorState(seq.h, seq.theta_b, *seq.final), 0.0)
+
+    def _key(self, state: AnchorState) -> tuple[int, int, int, int]:
+        h, a, _ = self.steps
+        return (round(state.h / h), round(state.theta_b / a), round(state.theta_l1 / a),
+                round(state.theta_l2 / a))
+
+    def _fit(self, key):
+        fits = self._fits.get(key)
+        if fits is not None:
+            self._fits.move_to_end(key)
+            return fits
+        h, a, _ = self.steps
+        state = AnchorState(key[0] * h, key[1] * a, key[2] * a, key[3] * a)
+        fits = [m.fit(state, self.pull) for m in self.models]
+        self.fits += 1
+        self._fits[key] = fits
+        if len(self._fits) > self.cache_size:
+            old, _ = self._fits.popitem(last=False)
+            self._answers = {k: v for k, v in self._answers.items() if k[0] != old}
+        return fits
+
+    def predict(self, state: AnchorState, phi: float) -> AnchorPrediction:
+        if not (state.is_finite() and math.isfinite(phi)):
+            return AnchorPrediction(None, (0.0, 0.0, 0.0), Status.INVALID_INPUT)
+        key = self._key(state)
+        pk = round(phi / self.steps[2])
+        hit = self._answers.get((key, pk))
+        if hit is not None:
+            return hit
+        phi_q = pk * self.steps[2]
+        status = Status.UNSUPPORTED
+        pred = None
+        for surface, failure in self._fit(key):
+            res = surface.capacity_many([phi_q])[0] if surface is not None else failure
+            if res.status.has_value and res.capacity_N is not None \
+                    and res.slip_twist is not None:
+                pred = AnchorPrediction(res.capacity_N, _unit_twist(res.slip_twist, phi_q),
+                                        res.status)
+                break
+            status = res.status
+        if pred is None:
+            pred = AnchorPrediction(None, (0.0, 0.0, 0.0), status)
+        self._answers[(key, pk)] = pred
+        return pred
+
+
+def make_ground(kind: str = 'live', **options) -> AnchorModel:
+    """'live' (default: rftgls_core's live solver, options as LiveAnchorModel), 'map'
+    (options: path) or 'table' (the placeholder)."""
+    if kind == 'live':
+        return LiveAnchorModel(**options)
+    if kind == 'map':
+        return MapAnchorModel(**options)
+    if kind == 'table':
+        return TableAnchorModel(**options)
+    raise ValueError(f'unknown ground {kind!r}; known: live, map, table')
 
 
 def default_ground() -> AnchorModel:
-    """The RFT-GLS map ground when the shipped map is found, else the placeholder table."""
-    try:
-        return MapAnchorModel()
-    except (OSError, ValueError) as exc:
-        import warnings
-        warnings.warn(f'RFT-GLS map not available ({exc}); using the placeholder ground table')
-        return TableAnchorModel()
+    """The simulator's own truth: the live RFT-GLS solver on the stack's preset robot and
+    medium (not the map the stack predicts with)."""
+    return LiveAnchorModel()

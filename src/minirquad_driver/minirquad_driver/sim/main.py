@@ -18,6 +18,7 @@ from collections import deque
 from ..protocol import messages as m
 from ..protocol.codec import encode_frame
 from .faults import FaultConfig, FaultInjector
+from .ground import make_ground
 from .mcu import McuConfig, SimMcu
 from .pty_link import LinkPathError, PtyLink
 from .robot import SimRobot
@@ -38,6 +39,17 @@ def build_parser() -> argparse.ArgumentParser:
                    help='emulate a UART: write at most baud/10 bytes per second (0: off)')
     p.add_argument('--record', help='append one JSON line per telemetry frame built')
     p.add_argument('--duration', type=float, default=0.0, help='exit after this many s')
+    t = p.add_argument_group('true ground (what the sand really holds; the stack never sees it)')
+    t.add_argument('--ground', choices=('live', 'map', 'table'), default='live',
+                   help='live: rftgls_core solver (default); map: the shipped map the stack '
+                        'predicts with; table: placeholder')
+    t.add_argument('--true-robot', default='minirquad', help='robot preset of the live ground')
+    t.add_argument('--true-medium', default='m90_sand',
+                   help='medium preset or medium JSON file of the live ground')
+    t.add_argument('--true-medium-scale', type=float, default=1.0,
+                   help='multiplies the true medium stress scale (0.7 = 30%% weaker sand)')
+    t.add_argument('--true-mass-scale', type=float, default=1.0,
+                   help='multiplies the true robot mass seen by the live ground')
     g = p.add_argument_group('fault injection')
     g.add_argument('--garbage-rate', type=float, default=0.0)
     g.add_argument('--drop-rate', type=float, default=0.0)
@@ -74,6 +86,11 @@ class _Recorder:
 
 
 def run(args: argparse.Namespace) -> int:
+    try:
+        ground = _ground(args)
+    except (OSError, ValueError) as exc:
+        print(f'minirquad_sim: error: true ground: {exc}', file=sys.stderr)
+        return 2
     stop = False
 
     def _stop(_sig, _frm):
@@ -95,7 +112,8 @@ def run(args: argparse.Namespace) -> int:
 
     start = time.monotonic()
     wall_minus_mono = time.time() - start    # the simulator owns both clocks: exact truth
-    mcu = SimMcu(robot_factory=lambda: SimRobot(winch=WinchSled(sled_mass=args.sled_mass)),
+    mcu = SimMcu(robot_factory=lambda: SimRobot(ground=ground,
+                                                winch=WinchSled(sled_mass=args.sled_mass)),
                  config=McuConfig(telemetry_hz=args.telemetry_hz, power_hz=args.power_hz,
                                   watchdog_s=args.watchdog, clock_start_ms=args.clock_start_ms),
                  on_telemetry=lambda s, t, tel: pending_tel.append((s, t, tel)), now=start)
@@ -173,6 +191,16 @@ def run(args: argparse.Namespace) -> int:
     print(json.dumps({'faults': dict(faults.counts), 'resets': mcu.resets,
                       'rx_crc_errors': mcu.rx_crc_errors}), flush=True)
     return 0
+
+
+def _ground(args: argparse.Namespace):
+    """The true ground, built once so its cache outlives MCU resets."""
+    if args.ground != 'live':
+        return make_ground(args.ground)
+    ground = make_ground('live', robot=args.true_robot, medium=args.true_medium,
+                         medium_scale=args.true_medium_scale, mass_scale=args.true_mass_scale)
+    ground.warm_up()   # compile and cache before the link opens: no stall mid-run
+    return ground
 
 
 def _split(data: bytes) -> list[bytes]:

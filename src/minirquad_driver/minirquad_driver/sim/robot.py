@@ -12,12 +12,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from rftgls_core.types import AnchorState
+from rftgls_core.types import AnchorState, Status
 
 from ..protocol.messages import BurrowMode, Flag, GaitKind, Mode
 from .burrow import TABLE_II
 from .gait import BuehlerClock, wrap_angle
-from .ground import AnchorModel, default_ground
+from .ground import AnchorModel, AnchorPrediction, default_ground
 from .power import PowerModel
 from .servo import Servo
 from .winch import WinchSled
@@ -245,13 +245,23 @@ class SimRobot:
         w.reel(dt)
         dist, phi = w.geometry(self.x_p, self.h)
         demand = w.rope_k * max(0.0, dist - w.free_length())
-        pred = self.ground.predict(self.anchor_state(), phi)
-        self.last_prediction = pred
-        friction = 0.4 * self.mass * 9.81
-        cap = pred.capacity if (pred.status.has_value and pred.capacity is not None) \
-            else friction
         self.slipping = False
         w.sled_moving = False
+        if demand <= 0.0:
+            # A slack rope loads nothing: no need to ask the (live, costly) ground.
+            w.tension = 0.0
+            return
+        friction = 0.4 * self.mass * 9.81
+        if self.mode in (Mode.WALKING, Mode.BURROW_RETRACT, Mode.BURROW_FINAL) \
+                or self._unburrowing:
+            # Legs in motion: no settled anchor, the body drags on its friction. (This also
+            # keeps the live ground's fits to settled poses, so the simulator stays real time.)
+            pred = AnchorPrediction(friction, _drag_twist(phi), Status.OK)
+        else:
+            pred = self.ground.predict(self.anchor_state(), phi)
+        self.last_prediction = pred
+        cap = pred.capacity if (pred.status.has_value and pred.capacity is not None) \
+            else friction
         if demand <= min(cap, w.sled_friction):
             w.tension = demand
         elif w.sled_friction <= cap:
@@ -293,6 +303,11 @@ class SimRobot:
         if self.watchdog:
             return Mode.WATCHDOG
         return self.mode
+
+
+def _drag_twist(phi: float) -> tuple[float, float, float]:
+    """A body dragged along the tether: p moves along the pull, no rotation."""
+    return (-math.cos(phi), 0.0, 0.0)
 
 
 def _nearest(current: float, target: float) -> float:

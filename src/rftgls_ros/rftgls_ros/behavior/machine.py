@@ -2,10 +2,16 @@
 
     WAIT_INPUTS -> IDLE_MEASURE -> [ WALK -> CHOOSE -> BURROW -> CHECK -> TUG -> CYCLE_DONE ] x N
                                                  |          ^        |     |
-                                                 v          +-SLACKEN<-HOLD (margin guard)
-                                              REFUSED                     |
+                                                 v          +-SLACKEN<-HOLD (margin guard,
+                                              REFUSED                     |  slip, short)
                                                                      FINISHED (no stronger mode)
+    CHECK, TUG --evidence lost--> WAIT_EVIDENCE --evidence back--> CHECK (next cycle)
+                                       +--no evidence in time / too many aborts--> FINISHED
     any active state --link lost / inputs stale--> WAIT_LINK --back--> resume
+
+A tug runs only on live evidence (``evidence.judge``; docs/design/tug-safety.md): without a
+fresh, value-carrying, accepted estimate from capacity_node the winch is stopped in the same
+step, and the attempt is recorded ``aborted`` with the reason code.
 
 ``step(obs)`` takes an ``Observation`` (SI values and their times, s) and returns the
 ``Commands`` to publish. Every transition and decision is appended to ``events`` (dicts with a
@@ -20,9 +26,11 @@ from dataclasses import dataclass, field
 
 from rftgls_core.types import AnchorState
 
+from . import evidence
 from .model import (ANCHOR_MODES, Decision, EnergyModel, ForceNeed, ModeChooser,
                     TetherTracker)
 from .report import CycleRecord
+from .slip import SlipDetector, SlipEvent
 
 
 class State(str, enum.Enum):
@@ -37,6 +45,7 @@ class State(str, enum.Enum):
     SLACKEN = 'SLACKEN'
     CYCLE_DONE = 'CYCLE_DONE'
     WAIT_LINK = 'WAIT_LINK'
+    WAIT_EVIDENCE = 'WAIT_EVIDENCE'
     REFUSED = 'REFUSED'
     FINISHED = 'FINISHED'
 
@@ -45,7 +54,7 @@ class State(str, enum.Enum):
 
 
 ACTIVE = {State.IDLE_MEASURE, State.WALK, State.CHOOSE, State.BURROW, State.CHECK, State.TUG,
-          State.HOLD, State.SLACKEN, State.CYCLE_DONE}
+          State.HOLD, State.SLACKEN, State.CYCLE_DONE, State.WAIT_EVIDENCE}
 TERMINAL = {State.REFUSED, State.FINISHED}
 
 
@@ -61,11 +70,28 @@ class BehaviorConfig:
     held at the final pose before the check; tug_speed: reel-in speed; arrive_length: the tug
     ends when this much tether remains (sled close behind the robot); slow_ratio / stop_ratio:
     tension/capacity at which the tug slows down / stops (margin guard); min_speed_fraction:
-    slowest reel speed inside the slow band, as a fraction of tug_speed; capacity_timeout:
-    age after which a capacity is not used; input_timeout: joint_states/tension age that
-    counts as lost; link_settle: time the link must be back before resuming; reburrow: on a
-    guard stop, re-burrow into a stronger mode if one suffices; tug_energy_window: the paper
-    counts only the last 8 s of each tug.
+    slowest reel speed inside the slow band, as a fraction of tug_speed; input_timeout:
+    joint_states/tension age that counts as lost; link_settle: time the link must be back
+    before resuming; reburrow: on a guard stop or a slip, re-burrow into a stronger mode if
+    one suffices; tug_energy_window: the paper counts only the last 8 s of each tug.
+
+    Evidence (docs/design/tug-safety.md): estimate_timeout_s: age (receipt time) after which
+    capacity_node's estimate is not evidence; the winch stops in the step that sees it, so
+    the reel after the last estimate is at most (timeout + one step) x tug_speed.
+    evidence_grace_s: after a *transient* loss (no estimate, too old, 'stale') the winch stays
+    stopped and the attempt is aborted if evidence is not back within this time; explicit
+    no-value statuses abort at once. capacity_wait: time CHECK waits for a usable estimate
+    before the tug starts (the pose has just settled). Retry policy: after an abort the
+    machine waits, winch braked, for evidence usable for evidence_settle_s, then re-checks the
+    same anchor and tugs again as the next cycle; it gives up (FINISHED) if evidence is not
+    back within evidence_wait_s or after max_aborts aborts in one run.
+    accept_assumed_inputs: inputs capacity_node may assume (status 'assumed') and still
+    count as evidence, e.g. ('height',); default none. own_capacity_fallback: when (and only
+    when) capacity_node has gone silent after a value-carrying status, use this node's map
+    prediction at the Table II height; off by default, never over an explicit no-value status.
+
+    Slip (slip.py): slip_detect on/off, slip_pitch_rad, slip_leg_rad (change under load),
+    slip_tension_drop (fraction below the tug's peak while reeling at least slip_min_reel_m).
     """
 
     cycles: int = 3
@@ -88,7 +114,12 @@ class BehaviorConfig:
     stop_ratio: float = 0.97
     min_speed_fraction: float = 0.1
     taut_tension: float = 0.3
-    capacity_timeout: float = 0.3
+    estimate_timeout_s: float = 0.05
+    evidence_grace_s: float = 2.0
+    evidence_settle_s: float = 0.3
+    evidence_wait_s: float = 10.0
+    max_aborts: int = 2
+    accept_assumed_inputs: tuple[str, ...] = ()
     capacity_wait: float = 1.0
     input_timeout: float = 0.6
     link_settle: float = 0.5
@@ -104,7 +135,12 @@ class BehaviorConfig:
     need_alpha: float = 0.5
     energy_prior_sh: float = 1.0
     pose_snap: float = math.radians(0.5)
-    own_capacity_fallback: bool = True
+    own_capacity_fallback: bool = False
+    slip_detect: bool = True
+    slip_pitch_rad: float = math.radians(1.0)
+    slip_leg_rad: float = math.radians(2.0)
+    slip_tension_drop: float = 0.15
+    slip_min_reel_m: float = 0.003
 
 
 @dataclass
@@ -114,7 +150,9 @@ class Observation:
     legs: (thetaL1, thetaL2) rad (left/right averaged); theta_b rad; tension N; spool m
     reeled since MCU boot and spool_velocity m/s (reel-in positive); energy J since bridge
     start; power W; link_ok from /minirquad/link_state; capacity N along the tether and its
-    status word from capacity_node; slip_twist (vx, vz, wy) unit direction in the anchor frame.
+    status word from capacity_node; assumed_inputs the input names capacity_node reported
+    as assumed (None = not received); slip_twist (vx, vz, wy) unit direction in the anchor
+    frame.
     """
 
     t: float
@@ -131,6 +169,7 @@ class Observation:
     capacity: float | None = None
     capacity_status: str = 'stale'
     t_capacity: float = -math.inf
+    assumed_inputs: frozenset[str] | None = None
     slip_twist: tuple[float, float, float] | None = None
 
 
@@ -158,6 +197,7 @@ class _Cycle:
     tug_s: float = 0.0
     sled_distance: float = 0.0
     outcome: str = ''
+    reason: str = ''
     need_n: float = 0.0
     min_margin: float = math.inf
     tensions: list[float] = field(default_factory=list)
@@ -187,7 +227,6 @@ class BehaviorMachine:
         self._link_back_at: float | None = None
         self._idle_power = 0.0
         self._tug_hist: deque[tuple[float, float]] = deque()
-        self._cap_missing_since: float | None = None
         self._last_live = -math.inf
         self._weakest: float | None = None
         self._burrows = 0
@@ -197,6 +236,15 @@ class BehaviorMachine:
         self.obs = Observation(t=0.0)
         self.capacity_source = ''
         self._fallback_warned = False
+        self.aborts = 0
+        self.slip = SlipDetector(config.slip_pitch_rad, config.slip_leg_rad,
+                                 config.slip_tension_drop, config.slip_min_reel_m,
+                                 config.taut_tension)
+        self._hold_kind = ''
+        self._gap: tuple[float, float | None] | None = None
+        self._good: tuple[float, float | None] | None = None
+        self._stop_watch: tuple[float, float | None, str, str] | None = None
+        self._last_value_status = False
 
     # ------------------------------------------------------------------ helpers
     def _event(self, kind: str, text: str, **extra) -> None:
@@ -228,7 +276,8 @@ class BehaviorMachine:
         """Height of p (m): not measured on MiniRQuad; the burrowed mode's Table II mean."""
         if self.mode and self.state in (State.BURROW, State.CHECK, State.TUG, State.HOLD,
                                         State.SLACKEN, State.CYCLE_DONE, State.REFUSED,
-                                        State.FINISHED, State.WAIT_LINK):
+                                        State.FINISHED, State.WAIT_LINK,
+                                        State.WAIT_EVIDENCE):
             return ANCHOR_MODES[self.mode].h
         return self.cfg.h_walk
 
@@ -237,11 +286,15 @@ class BehaviorMachine:
         return (o.link_ok and o.t - o.t_legs <= self.cfg.input_timeout
                 and o.t - o.t_tension <= self.cfg.input_timeout)
 
-    def capacity_valid(self) -> bool:
+    def evidence(self) -> evidence.Verdict:
+        """Is capacity_node's last estimate usable evidence for tugging now?"""
         o = self.obs
-        return (o.capacity is not None and math.isfinite(o.capacity)
-                and o.capacity_status in ('ok', 'extrapolated')
-                and o.t - o.t_capacity <= self.cfg.capacity_timeout)
+        return evidence.judge(o.t, o.capacity, o.capacity_status, o.t_capacity,
+                              self.cfg.estimate_timeout_s, o.assumed_inputs,
+                              frozenset(self.cfg.accept_assumed_inputs))
+
+    def capacity_valid(self) -> bool:
+        return self.evidence().usable
 
     def measured_state(self) -> AnchorState | None:
         if self.mode is None or self.obs.legs is None:
@@ -281,14 +334,30 @@ class BehaviorMachine:
                 self.cycle.walk_s += self._elapsed()
             self._resume = self.state
             self._winch = 0.0
+            if self.state == State.TUG and self._stop_watch is None and self._good:
+                self._stop_watch = (*self._good, 'link_stale', 'the last usable estimate')
             what = 'link stale' if not obs.link_ok else 'joint_states/tension stale'
             self._go(State.WAIT_LINK, f'{what} during {self._resume}: winch stopped, waiting')
         handler = getattr(self, f'_do_{self.state.value.lower()}', None)
         if handler:
             handler()
+        self._watch_stop()
         out = Commands(self._oneshots, self._winch, self.height, self.tether.phi(self.height))
         self._oneshots = []
         return out
+
+    def _watch_stop(self) -> None:
+        """After a safety stop, report once how far the spool went after the last usable
+        estimate (m) when the encoder shows it standing still: what the robot measured."""
+        w, o = self._stop_watch, self.obs
+        if w is None or o.spool is None or abs(o.spool_velocity) > 1e-6:
+            return
+        t0, spool0, reason, since = w
+        self._stop_watch = None
+        reel = (o.spool - spool0) if spool0 is not None else float('nan')
+        self._event('stop', f'winch standing after {reason}: {1e3 * reel:.1f} mm reeled in '
+                            f'since {since} ({1e3 * (o.t - t0):.0f} ms before)',
+                    reason=reason, reel_m=reel, since_s=o.t - t0)
 
     # ------------------------------------------------------------------ states
     def _do_wait_inputs(self) -> None:
@@ -391,7 +460,31 @@ class BehaviorMachine:
                      f'burrow timeout ({self.cfg.burrow_timeout:.0f} s): checking the pose '
                      'reached')
 
+    def _enter_check(self) -> None:
+        self._winch = 0.0
+        self._checked = False
+
     def _do_check(self) -> None:
+        if not self._checked:
+            self._check_prediction()
+            return
+        # The prediction holds; the tug starts only on capacity_node's live evidence.
+        v = self.evidence()
+        if not v.usable:
+            if self._elapsed() >= self.cfg.capacity_wait:
+                self._abort(v, in_tug=False)
+            return
+        cap = self.obs.capacity * self.chooser.scale
+        required = self.cfg.safety_factor * self.need.value
+        if cap < required:
+            self._event('decision', f'capacity_node: {self.mode} holds {cap:.2f} N < '
+                                    f'{required:.2f} N required', mode=self.mode)
+            self._reselect(f'{self.mode} insufficient per capacity_node', cap)
+            return
+        self._go(State.TUG, f'{self.mode} holds at the measured pose ({self._check_why}; '
+                            f'capacity_node {cap:.2f} N >= {required:.2f} N)')
+
+    def _check_prediction(self) -> None:
         state = self.measured_state()
         if state is None:
             return
@@ -407,7 +500,8 @@ class BehaviorMachine:
                                 f'{"sufficient" if c.sufficient else "insufficient"} '
                                 f'({c.why})', mode=self.mode, capacities=c.capacities)
         if c.sufficient:
-            self._go(State.TUG, f'{self.mode} holds at the measured pose ({c.why})')
+            self._checked, self._check_why = True, c.why
+            self._do_check()
             return
         self._reselect(f'{self.mode} insufficient at the measured pose', c.weakest)
 
@@ -429,7 +523,9 @@ class BehaviorMachine:
         self._winch = 0.0
         self.cycle.outcome = 'stopped'
         self._record()
-        self._go(State.FINISHED, f'stopped before slip, winch braked: {reason}')
+        what = 'stopped after a slip' if self.cycle.reason.startswith('slip_') \
+            else 'stopped before slip'
+        self._go(State.FINISHED, f'{what}, winch braked: {reason}')
 
     def _enter_slacken(self) -> None:
         self._winch = -self.cfg.slacken_speed
@@ -441,11 +537,13 @@ class BehaviorMachine:
 
     def _enter_tug(self) -> None:
         self._tug_hist.clear()
-        self._cap_missing_since = None
+        self._gap = None
+        self._good = (self.obs.t, self.obs.spool)
         self._last_live = -math.inf
         self._tug_tensions: list[float] = []
         self._tug_start_t = self.obs.t
         self._fallback_warned = False
+        self.slip.reset()
 
     def _do_tug(self) -> None:
         cfg, o = self.cfg, self.obs
@@ -462,28 +560,43 @@ class BehaviorMachine:
             self._finish_tug('timeout')
             self._stop_cycle(f'tug timeout ({cfg.tug_timeout:.0f} s)')
             return
+        if cfg.slip_detect:
+            ev = self.slip.update(o.tension, o.spool, o.theta_b, o.legs)
+            if ev is not None:
+                self._on_slip(ev)
+                return
+        v = self.evidence()
         capacity, source = o.capacity, 'capacity_node'
-        if not self.capacity_valid() and cfg.own_capacity_fallback:
+        if not v.usable and cfg.own_capacity_fallback and self._last_value_status \
+                and v.reason in (evidence.NO_ESTIMATE, evidence.TIMEOUT):
+            # capacity_node went silent after a value: only then, and only when configured.
             cap, status = self.own_capacity()
-            if cap is not None:
+            if cap is not None and status == 'ok':
                 if not self._fallback_warned:
                     self._fallback_warned = True
-                    self._event('warn', f'capacity_node status {o.capacity_status}: using '
-                                        f'behavior_node\'s own map prediction ({status}) at the '
-                                        f'measured pose (snapped to Table II within '
-                                        f'{math.degrees(cfg.pose_snap):.1f} deg)')
+                    self._event('warn', f'capacity_node silent ({v.detail}): using '
+                                        f'behavior_node\'s own map prediction at the measured '
+                                        f'pose and the Table II height (own_capacity_fallback)')
                 capacity, source = cap, 'own map'
-        if capacity is None or not math.isfinite(capacity) or (
-                source == 'capacity_node' and not self.capacity_valid()):
-            self._winch = 0.0
-            if self._cap_missing_since is None:
-                self._cap_missing_since = o.t
-            if o.t - self._cap_missing_since >= cfg.capacity_wait:
-                self._finish_tug('no capacity')
-                self._go(State.HOLD, f'no valid capacity from capacity_node (status '
-                                     f'{o.capacity_status}): winch braked')
+                v = evidence.Verdict(True, evidence.USABLE, False, 'own map')
+        if not v.usable:
+            self._evidence_gap(v)
             return
-        self._cap_missing_since = None
+        if source == 'capacity_node':
+            self._last_value_status = True
+        if self._gap is not None:
+            # Evidence back before the encoder showed the spool standing: nothing to report.
+            self._stop_watch = None
+        self._gap = None
+        self._good = (o.t, o.spool)
+        capacity *= self.chooser.scale
+        required = cfg.safety_factor * self.need.value
+        if capacity < required:
+            self._winch = 0.0
+            self._finish_tug('short')
+            self._hold('short', f'capacity {capacity:.2f} N ({source}) below the required '
+                                f'{required:.2f} N: winch stopped', 'capacity_short')
+            return
         self.capacity_source = source
         tension = o.tension or 0.0
         ratio = tension / capacity if capacity > 0 else math.inf
@@ -493,9 +606,9 @@ class BehaviorMachine:
             self._finish_tug('guard stop')
             self.need.raise_floor(tension)
             twist = self._twist_text()
-            self._go(State.HOLD, f'margin guard: tension {tension:.2f} N >= {cfg.stop_ratio:.2f}'
-                                 f' x capacity {capacity:.2f} N ({source}), winch stopped before the '
-                                 f'predicted slip {twist}')
+            self._hold('guard', f'margin guard: tension {tension:.2f} N >= {cfg.stop_ratio:.2f}'
+                                f' x capacity {capacity:.2f} N ({source}), winch stopped before '
+                                f'the predicted slip {twist}', 'margin_guard')
             return
         band = max(cfg.stop_ratio - cfg.slow_ratio, 1e-6)
         frac = min(1.0, max(cfg.min_speed_fraction, (cfg.stop_ratio - ratio) / band))
@@ -512,6 +625,88 @@ class BehaviorMachine:
                                 f'{o.capacity_status}, reel {1e3 * self._winch:.0f} mm/s, '
                                 f'tether {self.tether.free_length:.3f} m',
                         tension=tension, capacity=capacity, source=source)
+
+    def _hold(self, kind: str, text: str, reason: str) -> None:
+        self._hold_kind = kind
+        self.cycle.reason = reason
+        self._go(State.HOLD, text)
+
+    def _evidence_gap(self, v: evidence.Verdict) -> None:
+        """No usable evidence in TUG: winch stopped now; abort now or after the grace time."""
+        o = self.obs
+        self._winch = 0.0
+        if self._gap is None:
+            self._gap = (o.t, o.spool)
+            good_t, good_spool = self._good or (o.t, o.spool)
+            self._stop_watch = (good_t, good_spool, v.reason, 'the last usable estimate')
+            self._event('warn', f'tug evidence lost ({v.reason}: {v.detail}): winch stopped',
+                        reason=v.reason)
+        if not v.transient or o.t - self._gap[0] >= self.cfg.evidence_grace_s:
+            self._abort(v, in_tug=True)
+
+    def _abort(self, v: evidence.Verdict, in_tug: bool) -> None:
+        """Record this attempt as aborted (reason code) and wait for evidence (retry policy)."""
+        self._winch = 0.0
+        if in_tug:
+            self._finish_tug('aborted')
+        self.aborts += 1
+        self.cycle.outcome = 'aborted'
+        self.cycle.reason = v.reason
+        self._record()
+        self._go(State.WAIT_EVIDENCE, f'tug aborted, winch stopped: {v.reason} ({v.detail}); '
+                                      f'abort {self.aborts}/{self.cfg.max_aborts}')
+
+    def _enter_wait_evidence(self) -> None:
+        self._winch = 0.0
+        self._usable_since: float | None = None
+
+    def _do_wait_evidence(self) -> None:
+        cfg, o = self.cfg, self.obs
+        self._winch = 0.0
+        if self.aborts > cfg.max_aborts:
+            self._give_up(f'{self.aborts} aborted tugs (max_aborts {cfg.max_aborts})')
+            return
+        if self.evidence().usable:
+            if self._usable_since is None:
+                self._usable_since = o.t
+            if o.t - self._usable_since >= cfg.evidence_settle_s:
+                mode = self.mode
+                self._new_cycle()
+                self.cycle.modes.append(mode)
+                self._burrows = 1
+                self._go(State.CHECK, f'evidence back: re-checking the {mode} anchor before '
+                                      f'tugging again (cycle {self.cycle.index})')
+            return
+        self._usable_since = None
+        if self._elapsed() >= cfg.evidence_wait_s:
+            self._give_up(f'no usable capacity estimate within {cfg.evidence_wait_s:.0f} s '
+                          f'(status {o.capacity_status})')
+
+    def _give_up(self, why: str) -> None:
+        self._winch = 0.0
+        self._oneshots.append(('gait', 'stand'))
+        self._go(State.FINISHED, f'giving up, winch braked: {why}')
+
+    def _on_slip(self, ev: SlipEvent) -> None:
+        """The anchor moved under load: stop, learn how much weaker the ground is than
+        predicted, then re-burrow into a mode that is strong enough with that correction."""
+        o = self.obs
+        self._winch = 0.0
+        self._stop_watch = (o.t, o.spool, ev.reason, 'the slip was detected')
+        self._finish_tug('slip')
+        predicted = o.capacity if (o.capacity is not None and math.isfinite(o.capacity)) \
+            else self.own_capacity()[0]
+        note = ''
+        if predicted and predicted > 0 and ev.peak_tension > 0:
+            k = min(1.0, ev.peak_tension / (predicted * self.chooser.scale)) * self.chooser.scale
+            if k < self.chooser.scale:
+                self.chooser.scale = k
+                note = (f'; the anchor held {ev.peak_tension:.2f} N where {predicted:.2f} N was '
+                        f'predicted: predictions scaled by {k:.2f} from now on')
+        self._weakest = ev.peak_tension
+        self._event('warn', f'anchor slip detected ({ev.reason}: {ev.detail}){note}',
+                    reason=ev.reason, peak_tension=ev.peak_tension, scale=self.chooser.scale)
+        self._hold('slip', f'anchor slip ({ev.reason}): winch stopped', ev.reason)
 
     def _twist_text(self) -> str:
         tw = self.obs.slip_twist
@@ -538,15 +733,20 @@ class BehaviorMachine:
                                     f'{self.need.value:.2f} N')
 
     def _do_hold(self) -> None:
-        if self.reason.startswith('margin guard') and self.cfg.reburrow:
-            self._reselect('margin guard stop', self._weakest)
+        self._winch = 0.0
+        if self._hold_kind in ('guard', 'slip', 'short') and self.cfg.reburrow:
+            kind = {'guard': 'margin guard stop', 'slip': 'anchor slip',
+                    'short': 'capacity below need'}[self._hold_kind]
+            self._hold_kind = ''
+            self._reselect(kind, self._weakest)
         elif self._elapsed() > 0.5:
             self._stop_cycle(self.reason)
 
     def _do_cycle_done(self) -> None:
         self.cycle.outcome = 'ok'
         self._record()
-        if self.cycle.index >= self.cfg.cycles:
+        # Aborted attempts are retried as extra cycles: count the ones that ran their course.
+        if sum(r.outcome != 'aborted' for r in self.records) >= self.cfg.cycles:
             self._oneshots.append(('gait', 'stand'))
             self._go(State.FINISHED, f'{self.cfg.cycles} cycles done')
             return
@@ -564,7 +764,8 @@ class BehaviorMachine:
             distance_m=c.walk_s * self.cfg.walk_speed, sled_distance_m=c.sled_distance,
             need_n=self.need.value,
             tension_median_n=xs[len(xs) // 2] if xs else float('nan'),
-            min_margin_n=c.min_margin if math.isfinite(c.min_margin) else float('nan')))
+            min_margin_n=c.min_margin if math.isfinite(c.min_margin) else float('nan'),
+            reason=c.reason))
         self._event('cycle', self.records[-1].summary())
 
     def _do_wait_link(self) -> None:
@@ -582,6 +783,12 @@ class BehaviorMachine:
         if resume in (State.TUG, State.HOLD, State.CHECK, State.CYCLE_DONE):
             if resume == State.TUG:
                 self._finish_tug('interrupted')
+            if not self._at_final_pose():
+                # The legs moved during the outage (an MCU reset, a stand): the anchor that
+                # was checked is gone, and the assumed Table II height no longer applies.
+                self._burrow(self.mode, f'link back after {self._elapsed():.1f} s: the legs '
+                                        f'left the {self.mode} pose during the outage')
+                return
             self._go(State.CHECK, f'link back after {self._elapsed():.1f} s: re-checking '
                                   f'the {self.mode} anchor before resuming the tug')
         elif resume == State.WALK:
@@ -594,6 +801,11 @@ class BehaviorMachine:
             self._go(State.SLACKEN, 'link back: slacken again')
         else:
             self._go(resume, f'link back after {self._elapsed():.1f} s')
+
+    def _at_final_pose(self) -> bool:
+        legs, m = self.obs.legs, ANCHOR_MODES.get(self.mode or '')
+        return m is not None and legs is not None and max(
+            abs(legs[0] - m.final[0]), abs(legs[1] - m.final[1])) <= self.cfg.burrow_tolerance
 
     @property
     def done(self) -> bool:

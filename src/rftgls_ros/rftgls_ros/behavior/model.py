@@ -189,7 +189,11 @@ class Decision:
 
 class ModeChooser:
     """Cheapest sufficient mode: a mode is sufficient when every pull angle in ``phis`` has a
-    valid prediction with capacity >= safety_factor * need (N). Ties go to the stronger."""
+    valid prediction with capacity >= safety_factor * need (N). Ties go to the stronger.
+
+    Only a measured ``ok`` prediction counts (``assumed``, ``extrapolated`` and every
+    no-value status do not). ``scale`` (<= 1) multiplies every prediction once the robot has
+    seen its anchor slip below the prediction (the ground is weaker than the model)."""
 
     def __init__(self, predictor: Predictor, safety_factor: float = 1.0,
                  phis: Sequence[float] = (0.0, math.radians(-20.0)),
@@ -198,12 +202,14 @@ class ModeChooser:
         self.safety_factor = safety_factor
         self.phis = tuple(phis)
         self.modes = modes or ANCHOR_MODES
+        self.scale = 1.0
 
     def evaluate(self, mode: str, state: AnchorState, need: float, energy: float) -> Candidate:
         caps, stats = [], []
         for phi in self.phis:
             cap, status = self.predictor(state, phi)
-            caps.append(cap if status.has_value else None)
+            ok = status == Status.OK and cap is not None and math.isfinite(cap)
+            caps.append(cap * self.scale if ok else None)
             stats.append(str(status))
         required = self.safety_factor * need
         if any(c is None for c in caps):

@@ -32,6 +32,7 @@ class CycleRecord:
     need_n: float
     tension_median_n: float
     min_margin_n: float
+    reason: str = ''     # safety reason code of the cycle ('' = none), e.g. estimate_timeout
 
     @property
     def energy_j(self) -> float:
@@ -39,7 +40,7 @@ class CycleRecord:
 
     def summary(self) -> str:
         return (f'cycle {self.cycle} ({1e3 * self.sled_kg:.0f} g sled): {self.mode} '
-                f'{self.outcome}; energy walk {self.walk_j:.2f} J, burrow {self.burrow_j:.2f} J'
+                f'{self.outcome}' + (f' ({self.reason})' if self.reason else '') + f'; energy walk {self.walk_j:.2f} J, burrow {self.burrow_j:.2f} J'
                 f', tug {self.tug_j:.2f} J (last window; whole tug {self.tug_total_j:.2f} J); '
                 f'walked ~{self.distance_m:.3f} m, sled moved {self.sled_distance_m:.3f} m')
 
@@ -50,7 +51,7 @@ def read_csv(path: str | Path) -> list[CycleRecord]:
         for row in csv.DictReader(f):
             kw = {}
             for fl in fields(CycleRecord):
-                v = row[fl.name]
+                v = row.get(fl.name, fl.default)
                 kw[fl.name] = int(v) if fl.type in ('int', int) else (
                     v if fl.type in ('str', str) else float(v))
             out.append(CycleRecord(**kw))

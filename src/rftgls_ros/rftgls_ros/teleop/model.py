@@ -2,8 +2,10 @@
 
 Guard: reeling in while tension >= ``limit_fraction`` x capacity needs a deliberate override
 (press ``!`` then reel in within ``override_window`` s); the screen shows it in red. When the
-capacity status is not valid (not ok/extrapolated, or older than ``stale_after``), reeling in
-is refused and a running reel-in is stopped; paying out and stopping always work.
+estimate is not evidence (``behavior.evidence.judge``: status other than a measured ``ok``, or
+``assumed`` with an input outside ``accept_assumed_inputs`` (default none), no finite value, or
+older than ``stale_after``), reeling in is refused and a running reel-in is stopped; paying
+out and stopping always work. ``extrapolated`` is never accepted.
 Units: N, m/s (reel-in positive), s.
 """
 from __future__ import annotations
@@ -11,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ..behavior.evidence import judge
 from ..behavior.model import ANCHOR_MODES, TetherTracker
 
 RED, GREEN, YELLOW, BOLD, RESET = '\x1b[1;31m', '\x1b[32m', '\x1b[33m', '\x1b[1m', '\x1b[0m'
@@ -33,6 +36,7 @@ class TeleopConfig:
     rope_length: float = 0.50     # m, tether paid out at start (for phi)
     attach_height: float = 0.01   # m
     h_stand: float = 0.060        # m, height of p when not burrowed
+    accept_assumed_inputs: tuple[str, ...] = ()   # inputs an 'assumed' estimate may assume
 
 
 class TeleopModel:
@@ -45,6 +49,7 @@ class TeleopModel:
         self.capacity = math.nan
         self.status = 'stale'
         self.t_capacity = -math.inf
+        self.assumed_inputs: frozenset[str] | None = None
         self.slip_twist = (math.nan, math.nan, math.nan)
         self.mode: str | None = None
         self.override_until = -math.inf
@@ -57,8 +62,8 @@ class TeleopModel:
 
     # ------------------------------------------------------------------ state
     def valid(self) -> bool:
-        return (self.status in ('ok', 'extrapolated') and math.isfinite(self.capacity)
-                and self.t - self.t_capacity <= self.cfg.stale_after)
+        return judge(self.t, self.capacity, self.status, self.t_capacity, self.cfg.stale_after,
+                     self.assumed_inputs, frozenset(self.cfg.accept_assumed_inputs)).usable
 
     def ratio(self) -> float:
         if not self.valid() or self.capacity <= 0 or not math.isfinite(self.tension):

@@ -1,0 +1,87 @@
+"""Is the capacity estimate good enough to keep tugging? (docs/design/tug-safety.md)
+
+A tug runs only on live evidence: a capacity estimate from capacity_node that is fresh, has a
+value, and whose status is measured ``ok`` (or ``assumed`` with every assumed input named in
+the accept-list). ``judge`` turns what behavior_node last received into a ``Verdict``:
+
+- usable: the winch may reel in on this estimate.
+- reason: a stable code (tests and reports use it, not the wording).
+- transient: the evidence is only *missing, late or inconsistent* (no estimate yet, older than
+  the timeout, ``stale``, a value-carrying status next to no value, or ``assumed`` before the
+  names of its assumed inputs arrived). The winch stops at
+  once, and the attempt is aborted if the evidence is not back within the grace time. Every
+  other failure is an explicit "no value" from capacity_node and aborts at once.
+
+Times in s on one clock (behavior_node's monotonic receipt times).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+# Statuses of rftgls_core.types.Status, by name so this module needs no core import.
+MEASURED_OK = 'ok'
+ASSUMED = 'assumed'
+STALE = 'stale'
+
+# Reason codes (stable; the cycle report's `reason` column carries them).
+USABLE = 'ok'
+NO_ESTIMATE = 'estimate_missing'
+TIMEOUT = 'estimate_timeout'
+NO_VALUE = 'no_value'
+ASSUMED_NOT_ACCEPTED = 'assumed_not_accepted'
+ASSUMED_UNKNOWN = 'assumed_inputs_unknown'
+
+
+def status_reason(status: str) -> str:
+    """Reason code for a non-value status word: 'status_<word>' (e.g. status_unsupported)."""
+    word = ''.join(c if c.isalnum() else '_' for c in (status or 'empty').lower())
+    return f'status_{word}'
+
+
+@dataclass(frozen=True)
+class Verdict:
+    usable: bool
+    reason: str
+    transient: bool
+    detail: str
+
+
+def judge(t: float, capacity: float | None, status: str, t_capacity: float,
+          timeout_s: float, assumed_inputs: frozenset[str] | None = None,
+          accept_assumed: frozenset[str] = frozenset()) -> Verdict:
+    """Verdict on the last estimate received at ``t_capacity`` (s), judged at ``t`` (s).
+
+    capacity: N along the tether (None or NaN = no value); status: capacity_node's status
+    word; assumed_inputs: the names capacity_node gave for an ``assumed`` status (None =
+    not received); accept_assumed: assumed inputs this robot tolerates (default none).
+    """
+    if not math.isfinite(t_capacity):
+        return Verdict(False, NO_ESTIMATE, True, 'no capacity estimate received yet')
+    age = t - t_capacity
+    if age > timeout_s:
+        return Verdict(False, TIMEOUT, True, f'last capacity estimate {1e3 * age:.0f} ms old '
+                                             f'(timeout {1e3 * timeout_s:.0f} ms)')
+    if status == STALE:
+        return Verdict(False, status_reason(status), True,
+                       'capacity_node reports stale inputs')
+    if status not in (MEASURED_OK, ASSUMED):
+        # unsupported, degenerate, out_of_range, invalid_input, extrapolated (deprecated: a
+        # clamped value is not evidence), or a word this node does not know.
+        return Verdict(False, status_reason(status), False,
+                       f'capacity_node status {status!r}: no usable value')
+    if capacity is None or not math.isfinite(capacity) or capacity < 0.0:
+        # Status and value travel on two topics: a value-carrying status next to a NaN is
+        # most often the other estimate's status read out of order. The winch stops anyway.
+        return Verdict(False, NO_VALUE, True,
+                       f'capacity_node status {status!r} without a finite capacity')
+    if status == ASSUMED:
+        if assumed_inputs is None:
+            return Verdict(False, ASSUMED_UNKNOWN, True,
+                           'status assumed, names of the assumed inputs not received')
+        extra = sorted(set(assumed_inputs) - set(accept_assumed))
+        if extra:
+            return Verdict(False, ASSUMED_NOT_ACCEPTED, False,
+                           f'assumed inputs {", ".join(extra)} not in accept_assumed_inputs '
+                           f'({", ".join(sorted(accept_assumed)) or "empty"})')
+    return Verdict(True, USABLE, False, f'{status}, {1e3 * age:.0f} ms old')
