@@ -224,10 +224,12 @@ class LimitSurface(ABC):
                                   f'{sv[0]:.3g} .. {sv[-1]:.3g}): no limit surface')
         wind = winding_number(ws, sphere.faces)
         self.fit_info.diagnostics.update(n_twists=sphere.n, winding_number=wind)
-        if abs(wind) < 0.5 and _near_origin(sphere, ws) and sphere.n < SUPPORT_CHECK_TWISTS:
+        if sphere.n < SUPPORT_CHECK_TWISTS and _near_origin(sphere, ws):
             # The sampled surface passes within a triangle of the origin: its chords may cut
-            # off a thin sliver that holds the weight. Decide on a denser sphere and, if it
-            # holds, fit on that sphere (only such edge states pay for it).
+            # off a thin sliver that holds the weight, or a fold may wrap the origin that the
+            # true surface leaves outside (both seen against a 4e5-twist reference). The denser
+            # sphere decides, both ways; when only it holds, the method fits on it (only such
+            # edge states pay for it).
             dense = TwistSphere.build(SUPPORT_CHECK_TWISTS)
             wd, why = evaluate_wrenches(problem, dense.twists_raw(problem.scaling))
             if wd is None:
@@ -236,8 +238,10 @@ class LimitSurface(ABC):
             wind_d = winding_number(wsd, dense.faces)
             self.fit_info.diagnostics.update(support_check_twists=dense.n,
                                              support_check_winding=wind_d)
-            if abs(wind_d) >= 0.5:
-                sphere, w, ws, wind = dense, wd, wsd, wind_d
+            if abs(wind_d) < 0.5:
+                wind = wind_d                       # outside after all: unsupported below
+            elif abs(wind) < 0.5:
+                sphere, w, ws, wind = dense, wd, wsd, wind_d   # held: fit where it holds
         if abs(wind) < 0.5:
             return self._fail_fit(Status.UNSUPPORTED, 'origin_outside',
                                   f'origin outside the sampled limit surface (winding '
@@ -292,7 +296,7 @@ class LimitSurface(ABC):
 
 
 # Twists of the denser sphere that decides the weight-held check next to the support edge.
-SUPPORT_CHECK_TWISTS = 4_000
+SUPPORT_CHECK_TWISTS = 8_000
 
 
 def _near_origin(sphere: TwistSphere, ws: np.ndarray) -> bool:
