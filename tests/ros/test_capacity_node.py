@@ -1,5 +1,5 @@
 """capacity_node in process, real rclpy and DDS on loopback: a probe feeds inputs and checks
-every output for every status (extrapolated: see test_capacity_map.py)."""
+every output for every status (out_of_range: see test_capacity_map.py)."""
 from __future__ import annotations
 
 import math
@@ -17,7 +17,7 @@ from rftgls_core.types import Pull, pull_direction  # noqa: E402
 from rftgls_ros.capacity.predictor import ConfigError  # noqa: E402
 from rftgls_ros.capacity_node import CapacityNode  # noqa: E402
 
-LIVE = {'map_file': '', 'live_method': 'twist-mesh', 'phi_rad': PHI}
+LIVE = {'map_file': '', 'live_method': 'twist-mesh', 'phi_rad': PHI, 'phi_topic': '/winch/phi'}
 
 
 @pytest.fixture
@@ -29,7 +29,7 @@ def make(ros_context):
         node = CapacityNode(context=ros_context, parameter_overrides=[
             Parameter(k, value=v) for k, v in params.items()])
         ex = SingleThreadedExecutor(context=ros_context)
-        probe = Probe(ros_context, ex)
+        probe = Probe(ros_context, ex, expect_phi=bool(params.get('phi_topic')))
         ex.add_node(node)
         ex.add_node(probe.node)
         made.append((ex, node, probe))
@@ -48,6 +48,7 @@ def send(probe, node, state, tension, spread=(0.0, 0.0)):
     probe.state(state, spread)
     est = node.estimator
     assert probe.spin_until(lambda: est._inputs.get('height') is not None
+                            and (not node.params['phi_topic'] or 'phi' in est._inputs)
                             and est._inputs['height'].value == state.h
                             and 'pitch' in est._inputs
                             and abs(est._inputs['pitch'].value - state.theta_b) < 1e-12
@@ -150,12 +151,12 @@ def test_unsupported_publishes_zero_capacity(make):
     assert math.isnan(tw.linear.x)
 
 
-def test_leg_disagreement_in_diagnostics(make):
+def test_leg_disagreement_is_invalid_input(make):
     node, probe = make(leg_tolerance_rad=math.radians(2.0))
-    send(probe, node, DH, 1.0, spread=(math.radians(6.0), 0.0))
-    assert probe.wait_status('ok')
-    assert probe.wait_diag_level(DiagnosticStatus.WARN)
-    assert 'leg_disagreement' in probe.last_diag().message
+    cap = send(probe, node, DH, 1.0, spread=(math.radians(6.0), 0.0))
+    assert probe.wait_status('invalid_input') and math.isnan(cap.wrench.force.x)
+    assert probe.wait_diag_level(DiagnosticStatus.ERROR)
+    assert 'leg_disagreement:joint_states' in probe.last_diag().message
 
 
 @pytest.mark.parametrize('params, words', [

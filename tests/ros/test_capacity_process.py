@@ -26,13 +26,13 @@ def ros2_run(*ros_args):
     if ros2 is None:
         pytest.skip('no ros2 on PATH (run `make setup` and source tools/env.sh)')
     return [ros2, 'run', 'rftgls_ros', 'capacity_node', '--ros-args',
-            '--params-file', str(PARAMS), *ros_args]
+            '--params-file', str(PARAMS), '-p', 'phi_topic:=/winch/phi', *ros_args]
 
 
 @pytest.fixture
 def probe(ros_context):
     ex = SingleThreadedExecutor(context=ros_context)
-    p = Probe(ros_context, ex)
+    p = Probe(ros_context, ex, expect_phi=True)
     ex.add_node(p.node)
     yield p
     ex.shutdown()
