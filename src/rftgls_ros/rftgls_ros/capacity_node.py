@@ -45,7 +45,7 @@ LEVELS = {Status.OK: DiagnosticStatus.OK, Status.ASSUMED: DiagnosticStatus.WARN,
           Status.OUT_OF_RANGE: DiagnosticStatus.ERROR,
           Status.UNSUPPORTED: DiagnosticStatus.ERROR, Status.DEGENERATE: DiagnosticStatus.ERROR,
           Status.INVALID_INPUT: DiagnosticStatus.ERROR, Status.STALE: DiagnosticStatus.STALE}
-TENSION_AXES = ('x', 'y', 'z')
+TENSION_AXES = ('x', 'y', 'z', 'tether')
 FRESHNESS_SOURCES = ('header_stamp', 'receipt_time')
 
 # name -> default; the type of the default is the parameter type.
@@ -63,7 +63,9 @@ PARAMETERS = {
     'imu_topic': '/imu',
     'pitch_topic': '',                # std_msgs/Float64 theta_B in rad; replaces the IMU if set
     'tension_topic': '/winch/tension',
-    'tension_component': 'x',         # load cell axis: signed force.x (or 'y', 'z')
+    # signed tension: force.x (load cell axis; or 'y', 'z'), or 'tether': force . d(phi), a
+    # force vector in world axes (the lab bags) projected on the tether direction
+    'tension_component': 'x',
     'height_topic': '/winch/height',  # std_msgs/Float64 h in m; '' = parameter height_m only
     'phi_topic': '',                  # std_msgs/Float64 phi in rad; '' = parameter phi_rad only
     'joint_proximal_left': 'leg_proximal_left',
@@ -116,8 +118,8 @@ class CapacityNode(Node):
         self.tension_component = p['tension_component']
         if self.tension_component not in TENSION_AXES:
             # 'norm' (|force|) was removed: it turned a -5 N reading into +5 N.
-            raise ConfigError(f"tension_component must be the load cell axis 'x', 'y' or 'z' "
-                              f"(signed), got {self.tension_component!r}")
+            raise ConfigError(f"tension_component must be the load cell axis 'x', 'y' or 'z', "
+                              f"or 'tether' (all signed), got {self.tension_component!r}")
         if p['freshness_source'] not in FRESHNESS_SOURCES:
             raise ConfigError(f'freshness_source must be one of {", ".join(FRESHNESS_SOURCES)}, '
                               f'got {p["freshness_source"]!r}')
@@ -262,7 +264,12 @@ class CapacityNode(Node):
     def on_tension(self, msg: WrenchStamped, info) -> None:
         # Signed along the load cell axis: a negative reading stays negative (invalid below the
         # dead band), it is never folded into a positive tension.
-        t = getattr(msg.wrench.force, self.tension_component)
+        f = msg.wrench.force
+        if self.tension_component == 'tether':
+            d = pull_direction(self.estimator.current_phi())
+            t = f.x * d[0] + f.z * d[1]
+        else:
+            t = getattr(f, self.tension_component)
         self.estimator.update('tension', self.sample_time(msg.header), t)
         self._input_done('tension', msg.header.stamp, info)
 

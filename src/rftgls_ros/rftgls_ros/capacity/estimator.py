@@ -236,6 +236,10 @@ class CapacityEstimator:
         else:
             self._inputs[name] = Sample(t, math.nan)
 
+    def current_phi(self) -> float:
+        """The tether angle in use, rad: the latest sample, else the assumed phi_rad."""
+        return self._value('phi', self.config.phi_rad)
+
     # -- output -----------------------------------------------------------------------------
     def estimate(self, now: float) -> Estimate:
         cfg = self.config
