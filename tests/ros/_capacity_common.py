@@ -18,7 +18,8 @@ JOINT_NAMES = ('leg_proximal_left', 'leg_proximal_right', 'leg_distal_left', 'le
 class Probe:
     """A test node that plays the robot (inputs) and the consumer (outputs) of capacity_node."""
 
-    def __init__(self, context, executor=None, name='capacity_probe', expect_phi=False):
+    def __init__(self, context, executor=None, name='capacity_probe', expect_phi=False,
+                 expect_height=True):
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
         from geometry_msgs.msg import TwistStamped, WrenchStamped
@@ -44,14 +45,18 @@ class Probe:
                               lambda m: self.out['diagnostics'].append(m), 10)
         self.executor = executor
         self.expect_phi = expect_phi  # the node under test subscribes to /winch/phi
+        self.expect_height = expect_height  # ... and to /winch/height
         self._stamp_ns = 0
 
     # -- inputs -------------------------------------------------------------------------------
     def next_stamp(self, age_s: float = 0.0):
-        """A unique header stamp: now (system clock, the node's clock) minus age_s, strictly
-        increasing so a stamp identifies the outputs one input produced."""
+        """A header stamp: now on the system clock (the node's clock), strictly increasing so
+        a stamp identifies the outputs one input produced; or age_s seconds in the past."""
         from builtin_interfaces.msg import Time
-        ns = time.time_ns() - int(age_s * 1e9)
+        if age_s:  # an old stamp, on purpose
+            ns = time.time_ns() - int(age_s * 1e9)
+            return Time(sec=ns // 10**9, nanosec=ns % 10**9)
+        ns = time.time_ns()
         self._stamp_ns = ns if ns > self._stamp_ns else self._stamp_ns + 1000
         return Time(sec=self._stamp_ns // 10**9, nanosec=self._stamp_ns % 10**9)
 
@@ -115,7 +120,8 @@ class Probe:
         return cond()
 
     def wait_matched(self, timeout=5.0):
-        pubs = (self.pub_joints, self.pub_imu, self.pub_tension, self.pub_height)
+        pubs = (self.pub_joints, self.pub_imu, self.pub_tension)
+        pubs += (self.pub_height,) if self.expect_height else ()
         pubs += (self.pub_phi,) if self.expect_phi else ()
         assert self.spin_until(lambda: all(p.get_subscription_count() > 0 for p in pubs),
                                timeout), 'capacity_node subscriptions not discovered'

@@ -17,7 +17,10 @@ from rftgls_core.types import Pull, pull_direction  # noqa: E402
 from rftgls_ros.capacity.predictor import ConfigError  # noqa: E402
 from rftgls_ros.capacity_node import CapacityNode  # noqa: E402
 
-LIVE = {'map_file': '', 'live_method': 'twist-mesh', 'phi_rad': PHI, 'phi_topic': '/winch/phi'}
+# Generous input timeouts: a lock-step test on a loaded machine may take a while between an
+# input and the output it waits for (the stale tests set their own).
+LIVE = {'map_file': '', 'live_method': 'twist-mesh', 'phi_rad': PHI, 'phi_topic': '/winch/phi',
+        **{f'{n}_timeout_s': 5.0 for n in ('joint_states', 'pitch', 'tension', 'height', 'phi')}}
 
 
 @pytest.fixture
@@ -29,7 +32,8 @@ def make(ros_context):
         node = CapacityNode(context=ros_context, parameter_overrides=[
             Parameter(k, value=v) for k, v in params.items()])
         ex = SingleThreadedExecutor(context=ros_context)
-        probe = Probe(ros_context, ex, expect_phi=bool(params.get('phi_topic')))
+        probe = Probe(ros_context, ex, expect_phi=bool(params.get('phi_topic')),
+                      expect_height=params.get('height_topic', '/winch/height') != '')
         ex.add_node(node)
         ex.add_node(probe.node)
         made.append((ex, node, probe))
@@ -170,3 +174,64 @@ def test_bad_parameters_raise(ros_context, params, words):
     with pytest.raises(ConfigError, match=words):
         CapacityNode(context=ros_context, parameter_overrides=[
             Parameter(k, value=v) for k, v in {**LIVE, **params}.items()])
+
+
+# -- bad inputs over real DDS (the full set runs ROS-free in test_capacity_bad_inputs.py) ------
+def diag_values(probe):
+    return {kv.key: kv.value for kv in probe.last_diag().values}
+
+
+def test_negative_tension_over_dds_is_invalid(make):
+    node, probe = make()
+    send(probe, node, DH, 1.0)
+    assert probe.wait_status('ok')
+    cap = probe.output_for(probe.tension(-5.0).header.stamp)
+    assert probe.wait_status('invalid_input') and math.isnan(cap.wrench.force.x)
+    assert probe.spin_until(lambda: 'negative_tension:tension' in probe.last_diag().message)
+
+
+def test_upside_down_imu_over_dds_is_invalid(make):
+    node, probe = make()
+    send(probe, node, DH, 1.0)
+    probe.imu(DH.theta_b, upside_down=True)
+    assert probe.spin_until(lambda: 'pitch' in node.estimator._malformed)
+    cap = probe.output_for(probe.tension(1.0).header.stamp)
+    assert probe.wait_status('invalid_input') and math.isnan(cap.wrench.force.x)
+    assert probe.spin_until(lambda: 'implausible_gravity:pitch' in probe.last_diag().message)
+
+
+def test_stamps_10_s_old_over_dds_are_stale_and_named(make):
+    node, probe = make()
+    send(probe, node, DH, 1.0)
+    cap = probe.output_for(probe.tension(1.0, age_s=10.0).header.stamp)
+    assert probe.wait_status('stale') and math.isnan(cap.wrench.force.x)
+    assert probe.spin_until(lambda: diag_values(probe)['stale_inputs'] == 'tension')
+    assert 'stale_input:tension' in probe.last_diag().message
+
+
+def test_height_from_the_parameter_is_never_a_plain_ok(make):
+    node, probe = make(height_topic='', height_m=DH.h, lower_bound_level=0.0)
+    lowers = []
+    from geometry_msgs.msg import WrenchStamped
+    probe.node.create_subscription(WrenchStamped, '/capacity_node/capacity_lower',
+                                   lowers.append, 10)
+    statuses = set()
+    probe.node.create_subscription(
+        __import__('std_msgs.msg', fromlist=['String']).String, '/capacity_node/status',
+        lambda m: statuses.add(m.data), 10)
+    est = node.estimator
+    probe.state(DH)
+    assert probe.spin_until(lambda: 'pitch' in est._inputs and len(est._joints) == 4
+                            and 'phi' in est._inputs)
+    caps = [probe.output_for(probe.tension(1.0).header.stamp) for _ in range(3)]
+    assert probe.wait_status('assumed')
+    assert all(math.isfinite(f_along(c)) for c in caps)  # a value, flagged as assumed
+    assert probe.wait_diag_level(DiagnosticStatus.WARN)
+    assert diag_values(probe)['assumed_inputs'] == 'height'
+    assert 'assumed_input:height' in probe.last_diag().message
+    # the lower bound over the assumed range is published although the sigma bound is off
+    assert probe.spin_until(lambda: any(w.header.stamp == caps[-1].header.stamp
+                                        for w in lowers))
+    low = next(w for w in lowers if w.header.stamp == caps[-1].header.stamp)
+    assert 0.0 <= f_along(low) < f_along(caps[-1])
+    assert 'ok' not in statuses and 'ok' not in {m.data for m in probe.out['status']}
