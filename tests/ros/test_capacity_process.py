@@ -102,3 +102,55 @@ def test_bad_map_schema_one_line(spawn, tmp_path):
     _, err = proc.communicate(timeout=20.0)
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert proc.returncode == 2 and len(lines) == 1 and 'bad map file' in lines[0], err
+
+
+def _copy_map(src, dst):
+    import shutil as _sh
+    _sh.copyfile(src, dst)
+    return dst
+
+
+def test_map_without_content_hash_is_logged_loudly(spawn, tmp_path, small_map):
+    import h5py
+    path = _copy_map(small_map, tmp_path / 'user_map.h5')
+    with h5py.File(path, 'r+') as f:  # a user map as older tools wrote it: no content hash
+        for key in [k for k in f.attrs if 'hash' in k.lower() or 'sha256' in k.lower()]:
+            del f.attrs[key]
+    proc = spawn(ros2_run('-p', f'map_file:={path}'), stdout=subprocess.PIPE,
+                 stderr=subprocess.STDOUT, text=True)
+    import selectors
+    sel = selectors.DefaultSelector()
+    sel.register(proc.stdout, selectors.EVENT_READ)
+    lines = []
+    end = time.monotonic() + 20.0
+    while time.monotonic() < end and not any('CONTENT HASH' in ln for ln in lines):
+        if not sel.select(timeout=max(0.0, end - time.monotonic())):
+            break
+        line = proc.stdout.readline()
+        if not line:
+            break
+        lines.append(line)
+    proc.send_signal(signal.SIGINT)
+    assert any('[ERROR]' in ln and 'MAP WITHOUT CONTENT HASH' in ln for ln in lines), lines
+
+
+def test_tampered_map_is_refused_with_one_line(spawn, tmp_path, small_map):
+    import h5py
+    import numpy as np
+
+    from rftgls_ros.capacity.predictor import map_content_hash
+    if map_content_hash(CapacityMap.load(small_map)) is None:
+        pytest.skip('maps built by rftgls_core carry no content hash yet')
+    path = _copy_map(small_map, tmp_path / 'tampered.h5')
+    with h5py.File(path, 'r+') as f:  # one capacity value changed, nothing else
+        cap = f['capacity_N']
+        flat = np.array(cap).ravel()
+        i = int(np.flatnonzero(np.isfinite(flat) & (flat > 0))[0])
+        flat[i] *= 2.0
+        cap[...] = flat.reshape(cap.shape)
+    proc = spawn(ros2_run('-p', f'map_file:={path}'), stdout=subprocess.PIPE,
+                 stderr=subprocess.PIPE, text=True)
+    _, err = proc.communicate(timeout=20.0)
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert proc.returncode == 2 and len(lines) == 1, err
+    assert lines[0].startswith('capacity_node: error: bad map file'), err
