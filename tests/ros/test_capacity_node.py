@@ -211,14 +211,14 @@ def test_stamps_10_s_old_over_dds_are_stale_and_named(make):
 
 def test_height_from_the_parameter_is_never_a_plain_ok(make):
     node, probe = make(height_topic='', height_m=DH.h, lower_bound_level=0.0)
-    lowers = []
     from geometry_msgs.msg import WrenchStamped
+    from std_msgs.msg import String
+    lowers = []
     probe.node.create_subscription(WrenchStamped, '/capacity_node/capacity_lower',
                                    lowers.append, 10)
-    statuses = set()
-    probe.node.create_subscription(
-        __import__('std_msgs.msg', fromlist=['String']).String, '/capacity_node/status',
-        lambda m: statuses.add(m.data), 10)
+    statuses = set()  # every status message, not only the latched last one
+    probe.node.create_subscription(String, '/capacity_node/status',
+                                   lambda m: statuses.add(m.data), 10)
     est = node.estimator
     probe.state(DH)
     assert probe.spin_until(lambda: 'pitch' in est._inputs and len(est._joints) == 4
