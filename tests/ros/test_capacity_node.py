@@ -3,6 +3,7 @@ every output for every status (out_of_range: see test_capacity_map.py)."""
 from __future__ import annotations
 
 import math
+import time
 
 import pytest
 
@@ -235,3 +236,27 @@ def test_height_from_the_parameter_is_never_a_plain_ok(make):
     low = next(w for w in lowers if w.header.stamp == caps[-1].header.stamp)
     assert 0.0 <= f_along(low) < f_along(caps[-1])
     assert 'ok' not in statuses and 'ok' not in {m.data for m in probe.out['status']}
+
+
+@pytest.mark.parametrize('latency_s', [0.0, 0.4])
+def test_a_stream_with_400_ms_link_latency_is_never_ok(make, latency_s):
+    # Inputs at ~100 Hz, each stamped when it was sampled: latency_s before it is published.
+    node, probe = make(**{f'{n}_timeout_s': 0.25 for n in ('joint_states', 'pitch', 'tension')})
+    from std_msgs.msg import String
+    statuses = []
+    probe.node.create_subscription(String, '/capacity_node/status',
+                                   lambda m: statuses.append(m.data), 100)
+    probe.height(DH.h)
+    probe.phi(PHI)
+    end = time.monotonic() + 1.5
+    while time.monotonic() < end:
+        probe.joints(DH.theta_l1, DH.theta_l2, stamp=probe.next_stamp(latency_s))
+        probe.imu(DH.theta_b, stamp=probe.next_stamp(latency_s))
+        probe.tension(1.0, age_s=latency_s)
+        probe.spin_until(lambda: False, 0.01)
+    probe.spin_until(lambda: False, 0.2)
+    if latency_s == 0.0:  # the same stream on time: the node answers ok
+        assert 'ok' in statuses, statuses
+    else:
+        assert statuses and 'ok' not in statuses and 'stale' in statuses, set(statuses)
+        assert all(math.isnan(c.wrench.force.x) for c in probe.out['capacity'])
