@@ -118,20 +118,15 @@ def test_map_without_content_hash_is_logged_loudly(spawn, tmp_path, small_map):
             del f.attrs[key]
     proc = spawn(ros2_run('-p', f'map_file:={path}'), stdout=subprocess.PIPE,
                  stderr=subprocess.STDOUT, text=True)
-    import selectors
-    sel = selectors.DefaultSelector()
-    sel.register(proc.stdout, selectors.EVENT_READ)
-    lines = []
+    import threading
+    lines = []  # read by a thread: a buffered pipe and select() do not mix
+    reader = threading.Thread(target=lambda: lines.extend(proc.stdout), daemon=True)
+    reader.start()
     end = time.monotonic() + 20.0
-    while time.monotonic() < end and not any('CONTENT HASH' in ln for ln in lines):
-        if not sel.select(timeout=max(0.0, end - time.monotonic())):
-            break
-        line = proc.stdout.readline()
-        if not line:
-            break
-        lines.append(line)
+    while time.monotonic() < end and not any('CONTENT HASH' in ln for ln in list(lines)):
+        time.sleep(0.05)
     proc.send_signal(signal.SIGINT)
-    assert any('[ERROR]' in ln and 'MAP WITHOUT CONTENT HASH' in ln for ln in lines), lines
+    assert any('[ERROR]' in ln and 'MAP WITHOUT CONTENT HASH' in ln for ln in list(lines)), lines
 
 
 def test_tampered_map_is_refused_with_one_line(spawn, tmp_path, small_map):
