@@ -8,15 +8,21 @@ STAMP := $(VENV)/.installed-stamp
 WS := ros2_ws
 PKGS := rftgls_core minirquad_driver rftgls_ros
 PKG_FILES := $(foreach p,$(PKGS),src/$(p)/setup.py src/$(p)/setup.cfg src/$(p)/package.xml)
-# DDS stays on loopback for everything started from here.
+# DDS stays on loopback for everything started from here (discovery and sockets).
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
+export FASTRTPS_DEFAULT_PROFILES_FILE := $(CURDIR)/ros2_ws/params/fastdds_localhost.xml
+export FASTDDS_DEFAULT_PROFILES_FILE := $(FASTRTPS_DEFAULT_PROFILES_FILE)
 export MPLBACKEND := Agg
 ENV := source tools/env.sh
 PYTEST_ARGS ?= -n 2
 
 .PHONY: setup build demo test lint bench lock clean
 
-setup: $(STAMP) $(WS)/install/.built-stamp
+setup: $(STAMP) $(BIN)/ros2 $(WS)/install/.built-stamp
+
+# The ros2 stand-in is re-installed when it changes (it applies the DDS loopback profile).
+$(BIN)/ros2: tools/ros2 $(STAMP)
+	install -m 755 tools/ros2 $@
 
 $(STAMP): requirements/lock.txt $(PKG_FILES)
 	@test -x $(BIN)/python || $(PY) -m venv $(VENV)

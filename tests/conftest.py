@@ -3,7 +3,9 @@
 ROS isolation: every pytest process (each xdist worker) reserves its own ROS_DOMAIN_ID for
 the whole session by binding a loopback TCP port (32768 + id, the same scheme as ROS 2's
 domain_coordinator), so parallel workers and parallel test runs on one machine never see
-each other's nodes. DDS discovery is kept on loopback. Core tests never import rclpy.
+each other's nodes. DDS discovery is kept on loopback, and the Fast DDS profile
+ros2_ws/params/fastdds_localhost.xml binds DDS sockets to 127.0.0.1. Core tests never import
+rclpy.
 """
 from __future__ import annotations
 
@@ -43,8 +45,15 @@ def _reserve_domain_id() -> int:
     raise RuntimeError('no free ROS domain id in 1..100')
 
 
+# Fast DDS profile that binds every DDS receive socket to 127.0.0.1 (2.x and 3.x names).
+DDS_PROFILE = REPO / 'ros2_ws' / 'params' / 'fastdds_localhost.xml'
+DDS_PROFILE_VARS = ('FASTRTPS_DEFAULT_PROFILES_FILE', 'FASTDDS_DEFAULT_PROFILES_FILE')
+
+
 def pytest_configure(config):
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    for var in DDS_PROFILE_VARS:
+        os.environ[var] = str(DDS_PROFILE)
     os.environ.setdefault('MPLBACKEND', 'Agg')
     os.environ['ROS_DOMAIN_ID'] = str(_reserve_domain_id())
 

@@ -18,7 +18,8 @@ JOINT_NAMES = ('leg_proximal_left', 'leg_proximal_right', 'leg_distal_left', 'le
 class Probe:
     """A test node that plays the robot (inputs) and the consumer (outputs) of capacity_node."""
 
-    def __init__(self, context, executor=None, name='capacity_probe'):
+    def __init__(self, context, executor=None, name='capacity_probe', expect_phi=False,
+                 expect_height=True):
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
         from geometry_msgs.msg import TwistStamped, WrenchStamped
@@ -31,6 +32,7 @@ class Probe:
         self.pub_imu = n.create_publisher(Imu, '/imu', 10)
         self.pub_tension = n.create_publisher(WrenchStamped, '/winch/tension', 10)
         self.pub_height = n.create_publisher(Float64, '/winch/height', 10)
+        self.pub_phi = n.create_publisher(Float64, '/winch/phi', 10)
         self.out = {'capacity': [], 'margin': [], 'slip_twist': [], 'status': [],
                     'diagnostics': []}
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -42,12 +44,20 @@ class Probe:
         n.create_subscription(DiagnosticArray, '/diagnostics',
                               lambda m: self.out['diagnostics'].append(m), 10)
         self.executor = executor
-        self._stamp_ns = 1_000_000_000
+        self.expect_phi = expect_phi  # the node under test subscribes to /winch/phi
+        self.expect_height = expect_height  # ... and to /winch/height
+        self._stamp_ns = 0
 
     # -- inputs -------------------------------------------------------------------------------
-    def next_stamp(self):
+    def next_stamp(self, age_s: float = 0.0):
+        """A header stamp: now on the system clock (the node's clock), strictly increasing so
+        a stamp identifies the outputs one input produced; or age_s seconds in the past."""
         from builtin_interfaces.msg import Time
-        self._stamp_ns += 10_000_000
+        if age_s:  # an old stamp, on purpose
+            ns = time.time_ns() - int(age_s * 1e9)
+            return Time(sec=ns // 10**9, nanosec=ns % 10**9)
+        ns = time.time_ns()
+        self._stamp_ns = ns if ns > self._stamp_ns else self._stamp_ns + 1000
         return Time(sec=self._stamp_ns // 10**9, nanosec=self._stamp_ns % 10**9)
 
     def joints(self, l1, l2, spread=(0.0, 0.0), stamp=None):
@@ -60,15 +70,19 @@ class Probe:
         self.pub_joints.publish(m)
         return m
 
-    def imu(self, theta_b, stamp=None, no_orientation=False):
+    def imu(self, theta_b, stamp=None, no_orientation=False, upside_down=False):
         from sensor_msgs.msg import Imu
         m = Imu()
         m.header.stamp = stamp or self.next_stamp()
         m.header.frame_id = 'imu_link'
         beta = -theta_b  # REP-103 pitch is nose-down positive
         m.orientation.y, m.orientation.w = math.sin(beta / 2), math.cos(beta / 2)
+        if upside_down:  # then a roll of 180 deg: q_pitch * q_roll(pi) = (w, 0, y, 0) -> ...
+            y, w = m.orientation.y, m.orientation.w
+            m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w = w, 0.0, -y, 0.0
         if no_orientation:
             m.orientation_covariance[0] = -1.0
+        m.linear_acceleration_covariance[0] = -1.0  # REP-145: not provided
         self.pub_imu.publish(m)
         return m
 
@@ -76,19 +90,25 @@ class Probe:
         from std_msgs.msg import Float64
         self.pub_height.publish(Float64(data=float(h)))
 
-    def tension(self, t, stamp=None):
+    def tension(self, t, stamp=None, age_s=0.0):
         from geometry_msgs.msg import WrenchStamped
         m = WrenchStamped()
-        m.header.stamp = stamp or self.next_stamp()
+        m.header.stamp = stamp or self.next_stamp(age_s)
         m.header.frame_id = 'winch_link'
         m.wrench.force.x = float(t)
         self.pub_tension.publish(m)
         return m
 
-    def state(self, state: AnchorState, spread=(0.0, 0.0)):
+    def phi(self, phi):
+        from std_msgs.msg import Float64
+        self.pub_phi.publish(Float64(data=float(phi)))
+
+    def state(self, state: AnchorState, spread=(0.0, 0.0), phi=PHI):
         self.joints(state.theta_l1, state.theta_l2, spread)
         self.imu(state.theta_b)
         self.height(state.h)
+        if phi is not None and self.expect_phi:
+            self.phi(phi)
 
     # -- waiting ------------------------------------------------------------------------------
     def spin_until(self, cond, timeout=5.0):
@@ -100,7 +120,9 @@ class Probe:
         return cond()
 
     def wait_matched(self, timeout=5.0):
-        pubs = (self.pub_joints, self.pub_imu, self.pub_tension, self.pub_height)
+        pubs = (self.pub_joints, self.pub_imu, self.pub_tension)
+        pubs += (self.pub_height,) if self.expect_height else ()
+        pubs += (self.pub_phi,) if self.expect_phi else ()
         assert self.spin_until(lambda: all(p.get_subscription_count() > 0 for p in pubs),
                                timeout), 'capacity_node subscriptions not discovered'
 

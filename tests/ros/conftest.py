@@ -17,7 +17,8 @@ def small_map(tmp_path_factory):
 
     h = 30, 40, 200 mm (the 200 mm nodes have no buried leg -> unsupported cells above 40 mm),
     theta_b 0..10 deg, theta_l1 -40..-20 deg, theta_l2 20..30 deg, phi -20 and 0 deg,
-    backward pull only. Queries: DH -> ok, theta_b 15 deg -> out_of_range, h 0.1 -> unsupported.
+    backward pull only. Queries: DH -> ok, theta_b 15 deg -> off the grid (out_of_range),
+    h 0.1 -> unsupported.
     """
     from rftgls_core.maps import MapGrid, build_map, save_map
     grid = MapGrid.from_degrees([30.0, 40.0, 200.0], [0.0, 10.0], [-40.0, -20.0],

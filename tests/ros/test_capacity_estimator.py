@@ -71,31 +71,39 @@ def test_stale_input(est, late):
     assert e.capacity_N is None and e.margin_N is None and e.slip_twist is None
 
 
-def test_never_received_is_stale_but_height_and_phi_fall_back(live_predictor):
+def test_never_received_is_stale_and_parameter_inputs_are_assumed(live_predictor):
     est = CapacityEstimator(live_predictor, EstimatorConfig(height_m=DH.h, phi_rad=PHI))
-    assert est.estimate(0.0).status is Status.STALE
+    e = est.estimate(0.0)
+    assert e.status is Status.STALE and 'no_data:tension' in e.reason_codes
     est.update_joints(0.0, {'proximal_left': DH.theta_l1, 'proximal_right': DH.theta_l1,
                             'distal_left': DH.theta_l2, 'distal_right': DH.theta_l2})
     est.update('pitch', 0.0, DH.theta_b)
     e = est.estimate(0.0)
-    assert e.status is Status.STALE and 'tension (no data)' in e.detail
+    assert e.status is Status.STALE and e.stale == ('tension',)
     est.update('tension', 0.0, 1.0)
     e = est.estimate(0.0)
-    assert e.status is Status.OK and e.state == DH and e.phi_rad == PHI
+    # height and phi from parameters: a value, but never a plain ok
+    assert e.status is Status.ASSUMED and e.has_value and e.state == DH and e.phi_rad == PHI
+    assert set(e.reason_codes) == {'assumed_input:height', 'assumed_input:phi'}
+    assert e.assumed == ('height', 'phi')
+    est.update('height', 0.0, DH.h)
+    assert est.estimate(0.0).reason_codes == ('assumed_input:phi',)
+    est.update('phi', 0.0, PHI)
+    assert est.estimate(0.0).status is Status.OK
 
 
-@pytest.mark.parametrize('name, value, words', [
-    ('tension', math.nan, 'tension not finite'),
-    ('tension', -1.0, 'tension = -1'),
-    ('height', 0.5, 'height = 0.5'),
-    ('pitch', math.inf, 'pitch not finite'),
-    ('phi', 2.0, 'phi = 2'),
+@pytest.mark.parametrize('name, value, code', [
+    ('tension', math.nan, 'not_finite:tension'),
+    ('tension', -1.0, 'negative_tension:tension'),
+    ('height', 0.5, 'outside_limits:height'),
+    ('pitch', math.inf, 'not_finite:pitch'),
+    ('phi', 2.0, 'outside_limits:phi'),
 ])
-def test_invalid_scalar_input(est, name, value, words):
+def test_invalid_scalar_input(est, name, value, code):
     feed(est, 0.0)
     est.update(name, 0.0, value)
     e = est.estimate(0.0)
-    assert e.status is Status.INVALID_INPUT and words in e.detail
+    assert e.status is Status.INVALID_INPUT and e.reason_codes == (code,)
     assert e.capacity_N is None and e.margin_N is None and e.slip_twist is None
 
 
@@ -104,20 +112,21 @@ def test_invalid_joint_and_malformed(est):
     est.update_joints(0.0, {'distal_right': math.nan})
     e = est.estimate(0.0)
     assert e.status is Status.INVALID_INPUT and 'distal_right' in e.detail
+    assert e.reason_codes == ('not_finite:joint_states',)
     feed(est, 0.1)
     assert est.estimate(0.1).status is Status.OK
     est.mark_malformed('pitch', 0.1, 'IMU publishes no orientation')
     e = est.estimate(0.1)
-    assert e.status is Status.INVALID_INPUT and 'no orientation' in e.detail
+    assert e.status is Status.INVALID_INPUT and e.reason_codes == ('malformed:pitch',)
     est.update('pitch', 0.2, DH.theta_b)  # a good message clears it
     assert est.estimate(0.2).status is Status.OK
 
 
-def test_leg_disagreement_is_reported_and_legs_are_averaged(est):
-    spread = (math.radians(10.0), math.radians(1.0))
+def test_small_leg_spread_is_combined(est):
+    spread = (math.radians(4.0), math.radians(1.0))  # inside the 5 deg tolerance
     feed(est, 0.0, spread=spread)
     e = est.estimate(0.0)
-    assert e.status is Status.OK and e.warnings == ('leg_disagreement',)
+    assert e.status is Status.OK and e.warnings == ()
     assert e.leg_spread_rad == pytest.approx(spread)
     assert e.state.theta_l1 == pytest.approx(DH.theta_l1)
     assert e.state.theta_l2 == pytest.approx(DH.theta_l2)
@@ -137,6 +146,8 @@ def test_unsupported_reports_zero_capacity(est):
     ({'pull': 'sideways'}, 'pull'),
     ({'height_m': 1.0}, 'height_m'),
     ({'leg_tolerance_rad': -0.1}, 'leg_tolerance_rad'),
+    ({'clock_tolerance_s': -1.0}, 'clock_tolerance_s'),
+    ({'assumed_height_range_m': math.nan}, 'assumed_height_range_m'),
 ])
 def test_bad_config(live_predictor, kwargs, words):
     with pytest.raises(ConfigError, match=words):

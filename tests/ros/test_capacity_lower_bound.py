@@ -54,11 +54,11 @@ def test_node_publishes_the_lower_bound(ros_context, cmap):
     from _capacity_common import PHI, Probe
 
     params = {'map_file': str(shipped_map_path('minirquad')), 'phi_rad': PHI,
-              'lower_bound_level': 0.95, 'capacity_rel_sigma': 0.1}
+              'phi_topic': '/winch/phi', 'lower_bound_level': 0.95, 'capacity_rel_sigma': 0.1}
     node = CapacityNode(context=ros_context, parameter_overrides=[
         Parameter(k, value=v) for k, v in params.items()])
     ex = SingleThreadedExecutor(context=ros_context)
-    probe = Probe(ros_context, ex)
+    probe = Probe(ros_context, ex, expect_phi=True)
     lowers = []
     probe.node.create_subscription(WrenchStamped, '/capacity_node/capacity_lower',
                                    lowers.append, 10)
@@ -68,7 +68,8 @@ def test_node_publishes_the_lower_bound(ros_context, cmap):
         probe.wait_matched()
         probe.state(DH)
         assert probe.spin_until(lambda: len(node.estimator._joints) == 4
-                                and 'pitch' in node.estimator._inputs)
+                                and 'pitch' in node.estimator._inputs
+                                and 'phi' in node.estimator._inputs)
         m = probe.tension(1.0)
         cap = probe.output_for(m.header.stamp)
         assert probe.spin_until(lambda: any(w.header.stamp == m.header.stamp for w in lowers))

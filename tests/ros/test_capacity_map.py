@@ -1,5 +1,5 @@
-"""capacity_node and its estimator with a real (small) HDF5 map: ok, out_of_range, unsupported,
-and the start-up errors of bad map files."""
+"""capacity_node and its estimator with a real (small) HDF5 map: ok, out_of_range (no value;
+or the live solver when configured), unsupported, and the start-up errors of bad map files."""
 from __future__ import annotations
 
 import math
@@ -10,34 +10,59 @@ from _capacity_common import DH, PHI, Probe
 from rftgls_core.maps import CapacityMap
 from rftgls_core.types import AnchorState, Status
 from rftgls_ros.capacity.estimator import CapacityEstimator, EstimatorConfig
-from rftgls_ros.capacity.predictor import ConfigError, MapPredictor, make_predictor
+from rftgls_ros.capacity.predictor import (ConfigError, LiveFallback, MapPredictor,
+                                           make_predictor)
 
 OUTSIDE = AnchorState(DH.h, math.radians(15.0), DH.theta_l1, DH.theta_l2)   # theta_b > 10 deg
 HIGH = AnchorState(0.10, DH.theta_b, DH.theta_l1, DH.theta_l2)             # cell touches 200 mm
 
 
-def estimator_for(path, state, tension=1.0):
-    est = CapacityEstimator(MapPredictor(path, 'minirquad', 'm90_sand', 'backward'),
+def estimator_for(path, state, tension=1.0, predictor=None):
+    est = CapacityEstimator(predictor or MapPredictor(path, 'minirquad', 'm90_sand', 'backward'),
                             EstimatorConfig(pull='backward', phi_rad=PHI))
     est.update_joints(0.0, {'proximal_left': state.theta_l1, 'proximal_right': state.theta_l1,
                             'distal_left': state.theta_l2, 'distal_right': state.theta_l2})
-    for name, v in (('pitch', state.theta_b), ('height', state.h), ('tension', tension)):
+    for name, v in (('pitch', state.theta_b), ('height', state.h), ('tension', tension),
+                    ('phi', PHI)):
         est.update(name, 0.0, v)
     return est.estimate(0.0)
 
 
-@pytest.mark.parametrize('state, status', [(DH, Status.OK), (OUTSIDE, Status.OUT_OF_RANGE),
-                                           (HIGH, Status.UNSUPPORTED)])
+@pytest.mark.parametrize('state, status', [(DH, Status.OK), (HIGH, Status.UNSUPPORTED)])
 def test_estimator_statuses_from_the_map(small_map, state, status):
     e = estimator_for(small_map, state)
     direct = CapacityMap.load(small_map).query(state, PHI, 'backward')
     assert e.status is status and direct.status is status
-    if status.has_value:
+    if status is Status.OK:
         assert e.capacity_N == direct.capacity_N and e.slip_twist == direct.slip_twist
     elif status is Status.UNSUPPORTED:
         assert e.capacity_N == 0.0 and e.margin_N == -1.0 and e.slip_twist is None
     else:   # no value at all off the grid
         assert e.capacity_N is None and e.slip_twist is None
+
+
+def test_off_grid_state_has_no_value(small_map):
+    # The core map answers a state outside its grid with out_of_range (formerly a clamped
+    # 'extrapolated' value); capacity_node publishes it with no value either way.
+    direct = CapacityMap.load(small_map).query(OUTSIDE, PHI, 'backward')
+    assert direct.status in (Status.OUT_OF_RANGE, Status.EXTRAPOLATED)
+    e = estimator_for(small_map, OUTSIDE)
+    assert e.status is Status.OUT_OF_RANGE and not e.has_value
+    assert e.capacity_N is None and e.margin_N is None and e.slip_twist is None
+    assert e.capacity_lower_N is None
+
+
+def test_off_grid_state_answered_by_the_live_solver_when_configured(small_map, live_predictor):
+    fb = LiveFallback(MapPredictor(small_map, 'minirquad', 'm90_sand', 'backward'),
+                      live_predictor)
+    e = estimator_for(small_map, OUTSIDE, predictor=fb)
+    live = live_predictor.model.predict(OUTSIDE, PHI, 'backward')
+    assert live.status is Status.OK  # the reference has a value there
+    assert e.status is Status.OK and e.capacity_N == pytest.approx(live.capacity_N, rel=1e-12)
+    assert 'live_fallback' in e.reason_codes
+    # inside the grid the map still answers
+    inside = estimator_for(small_map, DH, predictor=fb)
+    assert inside.capacity_N == CapacityMap.load(small_map).query(DH, PHI, 'backward').capacity_N
 
 
 def test_bad_map_files(tmp_path, small_map):
@@ -68,9 +93,10 @@ def test_node_with_map_out_of_range_and_ok(ros_context, small_map):
 
     from rftgls_ros.capacity_node import CapacityNode
     node = CapacityNode(context=ros_context, parameter_overrides=[
-        Parameter('map_file', value=str(small_map)), Parameter('phi_rad', value=PHI)])
+        Parameter('map_file', value=str(small_map)), Parameter('phi_rad', value=PHI),
+        Parameter('phi_topic', value='/winch/phi')])
     ex = SingleThreadedExecutor(context=ros_context)
-    probe = Probe(ros_context, ex)
+    probe = Probe(ros_context, ex, expect_phi=True)
     ex.add_node(node)
     ex.add_node(probe.node)
     try:
@@ -81,10 +107,8 @@ def test_node_with_map_out_of_range_and_ok(ros_context, small_map):
         assert f_along(cap) == pytest.approx(cmap.query(DH, PHI, 'backward').capacity_N)
         cap = send(probe, node, OUTSIDE, 1.0)
         assert probe.wait_status('out_of_range')
-        assert cmap.query(OUTSIDE, PHI, 'backward').capacity_N is None
-        assert not f_along(cap) > 0.0      # no value published off the grid
+        assert math.isnan(f_along(cap))
         assert probe.wait_diag_level(DiagnosticStatus.ERROR)
-        assert 'out_of_grid' in probe.last_diag().message
         cap = send(probe, node, HIGH, 1.0)
         assert probe.wait_status('unsupported')
         assert (cap.wrench.force.x, cap.wrench.force.z) == (0.0, 0.0)

@@ -3,6 +3,7 @@ every output for every status (out_of_range: see test_capacity_map.py)."""
 from __future__ import annotations
 
 import math
+import time
 
 import pytest
 
@@ -17,7 +18,10 @@ from rftgls_core.types import Pull, pull_direction  # noqa: E402
 from rftgls_ros.capacity.predictor import ConfigError  # noqa: E402
 from rftgls_ros.capacity_node import CapacityNode  # noqa: E402
 
-LIVE = {'map_file': '', 'live_method': 'twist-mesh', 'phi_rad': PHI}
+# Generous input timeouts: a lock-step test on a loaded machine may take a while between an
+# input and the output it waits for (the stale tests set their own).
+LIVE = {'map_file': '', 'live_method': 'twist-mesh', 'phi_rad': PHI, 'phi_topic': '/winch/phi',
+        **{f'{n}_timeout_s': 5.0 for n in ('joint_states', 'pitch', 'tension', 'height', 'phi')}}
 
 
 @pytest.fixture
@@ -29,7 +33,8 @@ def make(ros_context):
         node = CapacityNode(context=ros_context, parameter_overrides=[
             Parameter(k, value=v) for k, v in params.items()])
         ex = SingleThreadedExecutor(context=ros_context)
-        probe = Probe(ros_context, ex)
+        probe = Probe(ros_context, ex, expect_phi=bool(params.get('phi_topic')),
+                      expect_height=params.get('height_topic', '/winch/height') != '')
         ex.add_node(node)
         ex.add_node(probe.node)
         made.append((ex, node, probe))
@@ -48,6 +53,7 @@ def send(probe, node, state, tension, spread=(0.0, 0.0)):
     probe.state(state, spread)
     est = node.estimator
     assert probe.spin_until(lambda: est._inputs.get('height') is not None
+                            and (not node.params['phi_topic'] or 'phi' in est._inputs)
                             and est._inputs['height'].value == state.h
                             and 'pitch' in est._inputs
                             and abs(est._inputs['pitch'].value - state.theta_b) < 1e-12
@@ -150,12 +156,12 @@ def test_unsupported_publishes_zero_capacity(make):
     assert math.isnan(tw.linear.x)
 
 
-def test_leg_disagreement_in_diagnostics(make):
+def test_leg_disagreement_is_invalid_input(make):
     node, probe = make(leg_tolerance_rad=math.radians(2.0))
-    send(probe, node, DH, 1.0, spread=(math.radians(6.0), 0.0))
-    assert probe.wait_status('ok')
-    assert probe.wait_diag_level(DiagnosticStatus.WARN)
-    assert 'leg_disagreement' in probe.last_diag().message
+    cap = send(probe, node, DH, 1.0, spread=(math.radians(6.0), 0.0))
+    assert probe.wait_status('invalid_input') and math.isnan(cap.wrench.force.x)
+    assert probe.wait_diag_level(DiagnosticStatus.ERROR)
+    assert 'leg_disagreement:joint_states' in probe.last_diag().message
 
 
 @pytest.mark.parametrize('params, words', [
@@ -169,3 +175,93 @@ def test_bad_parameters_raise(ros_context, params, words):
     with pytest.raises(ConfigError, match=words):
         CapacityNode(context=ros_context, parameter_overrides=[
             Parameter(k, value=v) for k, v in {**LIVE, **params}.items()])
+
+
+# -- bad inputs over real DDS (the full set runs ROS-free in test_capacity_bad_inputs.py) ------
+def diag_values(probe):
+    return {kv.key: kv.value for kv in probe.last_diag().values}
+
+
+def test_negative_tension_over_dds_is_invalid(make):
+    node, probe = make()
+    send(probe, node, DH, 1.0)
+    assert probe.wait_status('ok')
+    cap = probe.output_for(probe.tension(-5.0).header.stamp)
+    assert probe.wait_status('invalid_input') and math.isnan(cap.wrench.force.x)
+    assert probe.spin_until(lambda: 'negative_tension:tension' in probe.last_diag().message)
+
+
+def test_upside_down_imu_over_dds_is_invalid(make):
+    node, probe = make()
+    send(probe, node, DH, 1.0)
+    probe.imu(DH.theta_b, upside_down=True)
+    assert probe.spin_until(lambda: 'pitch' in node.estimator._malformed)
+    cap = probe.output_for(probe.tension(1.0).header.stamp)
+    assert probe.wait_status('invalid_input') and math.isnan(cap.wrench.force.x)
+    assert probe.spin_until(lambda: 'implausible_gravity:pitch' in probe.last_diag().message)
+
+
+def test_stamps_10_s_old_over_dds_are_stale_and_named(make):
+    node, probe = make()
+    send(probe, node, DH, 1.0)
+    cap = probe.output_for(probe.tension(1.0, age_s=10.0).header.stamp)
+    assert probe.wait_status('stale') and math.isnan(cap.wrench.force.x)
+    assert probe.spin_until(lambda: diag_values(probe)['stale_inputs'] == 'tension')
+    assert 'stale_input:tension' in probe.last_diag().message
+
+
+def test_height_from_the_parameter_is_never_a_plain_ok(make):
+    node, probe = make(height_topic='', height_m=DH.h, lower_bound_level=0.0)
+    from geometry_msgs.msg import WrenchStamped
+    from std_msgs.msg import String
+    lowers = []
+    probe.node.create_subscription(WrenchStamped, '/capacity_node/capacity_lower',
+                                   lowers.append, 10)
+    statuses = set()  # every status message, not only the latched last one
+    probe.node.create_subscription(String, '/capacity_node/status',
+                                   lambda m: statuses.add(m.data), 10)
+    est = node.estimator
+    probe.state(DH)
+    assert probe.spin_until(lambda: 'pitch' in est._inputs and len(est._joints) == 4
+                            and 'phi' in est._inputs)
+    caps = [probe.output_for(probe.tension(1.0).header.stamp) for _ in range(3)]
+    assert probe.wait_status('assumed')
+    assert all(math.isfinite(f_along(c)) for c in caps)  # a value, flagged as assumed
+    assert probe.wait_diag_level(DiagnosticStatus.WARN)
+    assert diag_values(probe)['assumed_inputs'] == 'height'
+    assert 'assumed_input:height' in probe.last_diag().message
+    # the lower bound over the assumed range is published although the sigma bound is off
+    assert probe.spin_until(lambda: any(w.header.stamp == caps[-1].header.stamp
+                                        for w in lowers))
+    low = next(w for w in lowers if w.header.stamp == caps[-1].header.stamp)
+    assert 0.0 <= f_along(low) < f_along(caps[-1])
+    assert 'ok' not in statuses and 'ok' not in {m.data for m in probe.out['status']}
+
+
+@pytest.mark.parametrize('latency_s', [0.0, 0.4])
+def test_a_stream_with_400_ms_link_latency_is_never_ok(make, latency_s):
+    # Inputs at ~100 Hz, each stamped when it was sampled: latency_s before it is published.
+    # The shipped 0.25 s timeouts for the late stream; the on-time control stream gets 2 s so
+    # that a loaded test machine cannot make it stale (the 0.25 s boundary itself is tested
+    # without ROS in test_capacity_bad_inputs.py).
+    timeout_s = 0.25 if latency_s else 2.0
+    node, probe = make(**{f'{n}_timeout_s': timeout_s
+                          for n in ('joint_states', 'pitch', 'tension')})
+    from std_msgs.msg import String
+    statuses = []
+    probe.node.create_subscription(String, '/capacity_node/status',
+                                   lambda m: statuses.append(m.data), 100)
+    probe.height(DH.h)
+    probe.phi(PHI)
+    end = time.monotonic() + 1.5
+    while time.monotonic() < end:
+        probe.joints(DH.theta_l1, DH.theta_l2, stamp=probe.next_stamp(latency_s))
+        probe.imu(DH.theta_b, stamp=probe.next_stamp(latency_s))
+        probe.tension(1.0, age_s=latency_s)
+        probe.spin_until(lambda: False, 0.01)
+    probe.spin_until(lambda: False, 0.2)
+    if latency_s == 0.0:  # the same stream on time: the node answers ok
+        assert 'ok' in statuses, statuses
+    else:
+        assert statuses and 'ok' not in statuses and 'stale' in statuses, set(statuses)
+        assert all(math.isnan(c.wrench.force.x) for c in probe.out['capacity'])

@@ -26,13 +26,13 @@ def ros2_run(*ros_args):
     if ros2 is None:
         pytest.skip('no ros2 on PATH (run `make setup` and source tools/env.sh)')
     return [ros2, 'run', 'rftgls_ros', 'capacity_node', '--ros-args',
-            '--params-file', str(PARAMS), *ros_args]
+            '--params-file', str(PARAMS), '-p', 'phi_topic:=/winch/phi', *ros_args]
 
 
 @pytest.fixture
 def probe(ros_context):
     ex = SingleThreadedExecutor(context=ros_context)
-    p = Probe(ros_context, ex)
+    p = Probe(ros_context, ex, expect_phi=True)
     ex.add_node(p.node)
     yield p
     ex.shutdown()
@@ -102,3 +102,50 @@ def test_bad_map_schema_one_line(spawn, tmp_path):
     _, err = proc.communicate(timeout=20.0)
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert proc.returncode == 2 and len(lines) == 1 and 'bad map file' in lines[0], err
+
+
+def _copy_map(src, dst):
+    import shutil as _sh
+    _sh.copyfile(src, dst)
+    return dst
+
+
+def test_map_without_content_hash_is_logged_loudly(spawn, tmp_path, small_map):
+    import h5py
+    path = _copy_map(small_map, tmp_path / 'user_map.h5')
+    with h5py.File(path, 'r+') as f:  # a user map as older tools wrote it: no content hash
+        for key in [k for k in f.attrs if 'hash' in k.lower() or 'sha256' in k.lower()]:
+            del f.attrs[key]
+    proc = spawn(ros2_run('-p', f'map_file:={path}'), stdout=subprocess.PIPE,
+                 stderr=subprocess.STDOUT, text=True)
+    import threading
+    lines = []  # read by a thread: a buffered pipe and select() do not mix
+    reader = threading.Thread(target=lambda: lines.extend(proc.stdout), daemon=True)
+    reader.start()
+    end = time.monotonic() + 20.0
+    while time.monotonic() < end and not any('CONTENT HASH' in ln for ln in list(lines)):
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    assert any('[ERROR]' in ln and 'MAP WITHOUT CONTENT HASH' in ln for ln in list(lines)), lines
+
+
+def test_tampered_map_is_refused_with_one_line(spawn, tmp_path, small_map):
+    import h5py
+    import numpy as np
+
+    from rftgls_ros.capacity.predictor import map_content_hash
+    if map_content_hash(CapacityMap.load(small_map)) is None:
+        pytest.skip('maps built by rftgls_core carry no content hash yet')
+    path = _copy_map(small_map, tmp_path / 'tampered.h5')
+    with h5py.File(path, 'r+') as f:  # one capacity value changed, nothing else
+        cap = f['capacity_N']
+        flat = np.array(cap).ravel()
+        i = int(np.flatnonzero(np.isfinite(flat) & (flat > 0))[0])
+        flat[i] *= 2.0
+        cap[...] = flat.reshape(cap.shape)
+    proc = spawn(ros2_run('-p', f'map_file:={path}'), stdout=subprocess.PIPE,
+                 stderr=subprocess.PIPE, text=True)
+    _, err = proc.communicate(timeout=20.0)
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert proc.returncode == 2 and len(lines) == 1, err
+    assert lines[0].startswith('capacity_node: error: bad map file'), err

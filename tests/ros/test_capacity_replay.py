@@ -67,7 +67,9 @@ def test_lock_step_replay_matches_core(ros_context, tmp_path, live_predictor):
     ts = get_typestore(Stores.ROS2_JAZZY)
     node = CapacityNode(context=ros_context, parameter_overrides=[
         Parameter('map_file', value=''), Parameter('live_method', value='twist-mesh'),
-        Parameter('phi_rad', value=PHI)])
+        Parameter('phi_rad', value=PHI),
+        # recorded stamps are in the past: a replay is aged by receipt time
+        Parameter('freshness_source', value='receipt_time')])
     ex = SingleThreadedExecutor(context=ros_context)
     probe = Probe(ros_context, ex)
     ex.add_node(node)

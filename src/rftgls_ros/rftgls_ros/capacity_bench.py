@@ -60,7 +60,10 @@ class Rig:
         from geometry_msgs.msg import WrenchStamped
         from sensor_msgs.msg import Imu, JointState
         from std_msgs.msg import Float64
+        # phi on its topic: a measured phi, so the node runs its `ok` path (an assumed phi
+        # would add the assumed-range lower bound to every new state)
         params = {'map_file': map_file, 'live_method': 'twist-mesh', 'phi_rad': PHI,
+                  'phi_topic': '/winch/phi',
                   'trigger_inputs': ['joint_states'], 'publish_rate_hz': 1.0,
                   **{f'{n}_timeout_s': 30.0 for n in ('joint_states', 'pitch', 'tension',
                                                       'height', 'phi')}}
@@ -71,6 +74,8 @@ class Rig:
         self.pub_imu = self.probe.create_publisher(Imu, '/imu', 10)
         self.pub_tension = self.probe.create_publisher(WrenchStamped, '/winch/tension', 10)
         self.pub_height = self.probe.create_publisher(Float64, '/winch/height', 10)
+        self.pub_phi = self.probe.create_publisher(Float64, '/winch/phi', 10)
+        self.last_ns = 0
         self.sent: dict[int, float] = {}    # stamp ns -> perf_counter at publish
         self.latency: dict[int, float] = {}  # stamp ns -> s
         self.statuses: set[str] = set()
@@ -92,13 +97,16 @@ class Rig:
         imu.orientation.y, imu.orientation.w = math.sin(-DH[1] / 2), math.cos(-DH[1] / 2)
         self.pub_imu.publish(imu)
         self.pub_height.publish(self.Float64(data=DH[0]))
+        self.pub_phi.publish(self.Float64(data=PHI))
         w = WrenchStamped()
         w.wrench.force.x = 1.0
         self.pub_tension.publish(w)
 
     def send(self, k: int) -> int:
-        """Publish joint_states number k (stamp = k ms + 1 s, theta_L1 wiggled by k)."""
-        ns = 10**9 + k * 10**6
+        """Publish joint_states number k (stamp = now, strictly increasing: capacity_node
+        ages inputs by their stamps; theta_L1 wiggled by k)."""
+        ns = max(time.time_ns(), self.last_ns + 1000)
+        self.last_ns = ns
         self.msg.header.stamp.sec, self.msg.header.stamp.nanosec = divmod(ns, 10**9)
         l1 = DH[2] + math.radians(2.0) * math.sin(0.37 * k)
         self.msg.position = [l1, l1, DH[3], DH[3]]
@@ -134,7 +142,7 @@ def run(map_file: str, n: int) -> dict:
     ex.add_node(rig.probe)
     out = {'predictor': rig.node.estimator.predictor.name}
     try:
-        pubs = (rig.pub_joints, rig.pub_imu, rig.pub_tension, rig.pub_height)
+        pubs = (rig.pub_joints, rig.pub_imu, rig.pub_tension, rig.pub_height, rig.pub_phi)
         if not spin_until(ex, lambda: all(p.get_subscription_count() for p in pubs), 10.0):
             raise RuntimeError('capacity_node subscriptions were not discovered')
         if not spin_until(ex, lambda: rig.probe.count_publishers('/capacity_node/capacity'),
@@ -227,6 +235,12 @@ def main(args=None) -> int:
     ap.add_argument('--json', action='store_true', help='print JSON')
     ns = ap.parse_args(args if args is not None else sys.argv[1:])
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    import rftgls_core  # src/rftgls_core/rftgls_core/__init__.py -> repository root
+    profile = (Path(rftgls_core.__file__).resolve().parents[3] / 'ros2_ws' / 'params'
+               / 'fastdds_localhost.xml')
+    if profile.is_file():  # DDS sockets on 127.0.0.1 (docs/design/capacity-inputs.md)
+        os.environ.setdefault('FASTRTPS_DEFAULT_PROFILES_FILE', str(profile))
+        os.environ.setdefault('FASTDDS_DEFAULT_PROFILES_FILE', str(profile))
     note = ''
     with tempfile.TemporaryDirectory() as tmp:
         if ns.live:

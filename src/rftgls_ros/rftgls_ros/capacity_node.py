@@ -5,6 +5,11 @@ into SI values, feeds the estimator, and publishes its Estimate. Topics, units a
 listed in src/rftgls_ros/README.md. Output frame (`frame_id`, default 'anchor'): world-aligned
 axes (x horizontal in the sagittal plane, pointing from p toward the axles; z up) with the
 origin at the winch point p, the frame of the architecture page's planar wrenches and twists.
+
+Time: an input's age is judged by its header stamp (the time its sample was taken, on the host
+clock), messages without a header (std_msgs/Float64) by their receipt time; parameter
+`freshness_source: receipt_time` switches to receipt times for replaying recorded bags whose
+stamps are in the past. Inputs, checks and statuses: docs/design/capacity-inputs.md.
 """
 from __future__ import annotations
 
@@ -28,14 +33,20 @@ from std_msgs.msg import Float64, String
 from rftgls_core.types import Status, pull_direction
 
 from .capacity.estimator import (DEFAULT_TIMEOUTS_S, JOINTS, CapacityEstimator, Estimate,
-                                 EstimatorConfig, pitch_from_quaternion)
+                                 EstimatorConfig)
+from .capacity.inputs import gravity_problem, pitch_from_quaternion
 from .capacity.predictor import DEFAULT_MAP, ConfigError, make_predictor
 
 NAN = float('nan')
 TRIGGERS = ('joint_states', 'pitch', 'tension', 'height', 'phi')
-LEVELS = {Status.OK: DiagnosticStatus.OK, Status.OUT_OF_RANGE: DiagnosticStatus.ERROR,
+# Diagnostic level per status; anything not listed (a status this node does not expect,
+# e.g. the deprecated 'extrapolated') is an ERROR.
+LEVELS = {Status.OK: DiagnosticStatus.OK, Status.ASSUMED: DiagnosticStatus.WARN,
+          Status.OUT_OF_RANGE: DiagnosticStatus.ERROR,
           Status.UNSUPPORTED: DiagnosticStatus.ERROR, Status.DEGENERATE: DiagnosticStatus.ERROR,
           Status.INVALID_INPUT: DiagnosticStatus.ERROR, Status.STALE: DiagnosticStatus.STALE}
+TENSION_AXES = ('x', 'y', 'z', 'tether')
+FRESHNESS_SOURCES = ('header_stamp', 'receipt_time')
 
 # name -> default; the type of the default is the parameter type.
 PARAMETERS = {
@@ -43,6 +54,7 @@ PARAMETERS = {
     'map_file': DEFAULT_MAP,          # '' = live computation with live_method
     'live_method': 'direct',
     'live_n_twists': 0,               # 0 = rftgls_core default
+    'out_of_range_live_method': '',   # '' = none; else the live solver answers off-grid states
     'robot': 'minirquad',
     'medium': 'm90_sand',
     'pull': 'backward',
@@ -51,7 +63,9 @@ PARAMETERS = {
     'imu_topic': '/imu',
     'pitch_topic': '',                # std_msgs/Float64 theta_B in rad; replaces the IMU if set
     'tension_topic': '/winch/tension',
-    'tension_component': 'norm',      # 'norm' = |force|, 'x' = force.x (tether along x)
+    # signed tension: force.x (load cell axis; or 'y', 'z'), or 'tether': force . d(phi), a
+    # force vector in world axes (the lab bags) projected on the tether direction
+    'tension_component': 'x',
     'height_topic': '/winch/height',  # std_msgs/Float64 h in m; '' = parameter height_m only
     'phi_topic': '',                  # std_msgs/Float64 phi in rad; '' = parameter phi_rad only
     'joint_proximal_left': 'leg_proximal_left',
@@ -65,6 +79,12 @@ PARAMETERS = {
     'h_min_m': -0.05,
     'h_max_m': 0.30,
     'tension_max_N': 200.0,
+    'tension_deadband_N': 0.05,       # a reading down to -deadband counts as zero
+    'imu_tilt_limit_rad': math.radians(80.0),  # body up axis this far from vertical: invalid
+    # assumed inputs (height_m, phi_rad without a topic): half-width of the range they may
+    # really take; ~/capacity_lower is the smallest capacity over it
+    'assumed_height_range_m': 0.01,
+    'assumed_phi_range_rad': math.radians(10.0),
     # conservative lower bound on ~/capacity_lower (0 = off; e.g. 0.95)
     'lower_bound_level': 0.0,
     'h_sigma_m': 0.002,
@@ -72,6 +92,8 @@ PARAMETERS = {
     'capacity_rel_sigma': 0.0,        # e.g. sigma(xi_n)/xi_n from `rftgls calibrate`
     # timing
     **{f'{name}_timeout_s': t for name, t in DEFAULT_TIMEOUTS_S.items()},
+    'freshness_source': 'header_stamp',  # or 'receipt_time' (bag replay only)
+    'clock_offset_tolerance_s': 0.05,  # stamps up to this far in the future are accepted
     'publish_rate_hz': 20.0,          # minimum output rate (heartbeat when no trigger arrives)
     'trigger_inputs': ['tension'],    # inputs whose every message produces an output
     'diagnostics_period_s': 1.0,
@@ -94,9 +116,17 @@ class CapacityNode(Node):
         self.estimator = self._make_estimator(p)
         self.frame_id = p['frame_id']
         self.tension_component = p['tension_component']
-        if self.tension_component not in ('norm', 'x'):
-            raise ConfigError(f"tension_component must be 'norm' or 'x', "
-                              f"got {self.tension_component!r}")
+        if self.tension_component not in TENSION_AXES:
+            # 'norm' (|force|) was removed: it turned a -5 N reading into +5 N.
+            raise ConfigError(f"tension_component must be the load cell axis 'x', 'y' or 'z', "
+                              f"or 'tether' (all signed), got {self.tension_component!r}")
+        if p['freshness_source'] not in FRESHNESS_SOURCES:
+            raise ConfigError(f'freshness_source must be one of {", ".join(FRESHNESS_SOURCES)}, '
+                              f'got {p["freshness_source"]!r}')
+        self.use_stamps = p['freshness_source'] == 'header_stamp'
+        tilt = p['imu_tilt_limit_rad']
+        if not (math.isfinite(tilt) and 0.0 < tilt < math.pi):
+            raise ConfigError(f'imu_tilt_limit_rad must lie in (0, pi), got {tilt!r}')
         self.triggers = frozenset(p['trigger_inputs'])
         if not self.triggers <= set(TRIGGERS):
             raise ConfigError(f'trigger_inputs must be a subset of {list(TRIGGERS)}, '
@@ -144,7 +174,19 @@ class CapacityNode(Node):
         self.create_timer(self.period_s, self.on_timer)
         self.get_logger().info(
             f'predictor {self.estimator.predictor.name}, pull {p["pull"]}, '
-            f'triggers {sorted(self.triggers)}, heartbeat {rate:g} Hz')
+            f'triggers {sorted(self.triggers)}, heartbeat {rate:g} Hz, freshness from '
+            f'{p["freshness_source"]}')
+        cmap = getattr(self.estimator.predictor, 'primary', self.estimator.predictor)
+        if getattr(cmap, 'integrity', None) == 'no_hash':
+            self.get_logger().error(
+                f'MAP WITHOUT CONTENT HASH: {cmap.path} cannot be checked for integrity; '
+                'answers from it are only as good as the file. Rebuild it with `rftgls map '
+                'build` to get a hashed map.')
+        for name, topic in (('height', p['height_topic']), ('phi', p['phi_topic'])):
+            if not topic:
+                self.get_logger().warning(
+                    f'{name} is ASSUMED from parameter {name}_{"m" if name == "height" else "rad"}'
+                    ' (no topic): every estimate is `assumed`, not `ok`')
 
     # -- set-up -------------------------------------------------------------------------------
     @staticmethod
@@ -153,19 +195,32 @@ class CapacityNode(Node):
         config = EstimatorConfig(
             pull=p['pull'], timeouts_s=timeouts, leg_tolerance_rad=p['leg_tolerance_rad'],
             height_m=p['height_m'], phi_rad=p['phi_rad'], h_range_m=(p['h_min_m'], p['h_max_m']),
-            tension_max_N=p['tension_max_N'], lower_bound_level=p['lower_bound_level'],
+            tension_max_N=p['tension_max_N'], tension_deadband_N=p['tension_deadband_N'],
+            clock_tolerance_s=p['clock_offset_tolerance_s'],
+            assumed_height_range_m=p['assumed_height_range_m'],
+            assumed_phi_range_rad=p['assumed_phi_range_rad'],
+            lower_bound_level=p['lower_bound_level'],
             h_sigma_m=p['h_sigma_m'], theta_b_sigma_rad=p['theta_b_sigma_rad'],
             capacity_rel_sigma=p['capacity_rel_sigma']).check()
         predictor = make_predictor(p['map_file'], p['live_method'], p['robot'], p['medium'],
-                                   p['live_n_twists'], p['pull'])
+                                   p['live_n_twists'], p['pull'], p['out_of_range_live_method'])
         return CapacityEstimator(predictor, config)
 
     def now_s(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
+    def sample_time(self, header) -> float:
+        """When a message's sample was taken, s on this node's clock: its header stamp
+        (freshness_source header_stamp), else (no or zero stamp, or receipt_time) now."""
+        if self.use_stamps and header is not None:
+            st = header.stamp
+            if st.sec != 0 or st.nanosec != 0:
+                return st.sec + st.nanosec * 1e-9
+        return self.now_s()
+
     # -- inputs ---------------------------------------------------------------------------------
     def on_joint_states(self, msg: JointState, info) -> None:
-        now = self.now_s()
+        now = self.sample_time(msg.header)
         angles = {}
         for i, name in enumerate(msg.name):
             key = self.joint_keys.get(name)
@@ -182,13 +237,22 @@ class CapacityNode(Node):
             self._input_done('joint_states', msg.header.stamp, info)
 
     def on_imu(self, msg: Imu, info) -> None:
-        now = self.now_s()
-        q = msg.orientation
-        if msg.orientation_covariance[0] == -1.0:  # REP-145: orientation not provided
+        now = self.sample_time(msg.header)
+        o = msg.orientation
+        q = (o.x, o.y, o.z, o.w)
+        a = msg.linear_acceleration
+        # REP-145: covariance[0] = -1 means the field is not provided.
+        accel = None if msg.linear_acceleration_covariance[0] == -1.0 else (a.x, a.y, a.z)
+        if msg.orientation_covariance[0] == -1.0:
             self.estimator.mark_malformed('pitch', now, 'IMU publishes no orientation')
         else:
             try:
-                self.estimator.update('pitch', now, pitch_from_quaternion(q.x, q.y, q.z, q.w))
+                why = gravity_problem(q, accel, self.params['imu_tilt_limit_rad'])
+                if why is not None:
+                    self.estimator.mark_malformed('pitch', now, f'IMU: {why}',
+                                                  code='implausible_gravity')
+                else:
+                    self.estimator.update('pitch', now, pitch_from_quaternion(*q))
             except ValueError as exc:
                 self.estimator.mark_malformed('pitch', now, str(exc))
         self._input_done('pitch', msg.header.stamp, info)
@@ -198,10 +262,15 @@ class CapacityNode(Node):
         self._input_done('pitch', None, info)
 
     def on_tension(self, msg: WrenchStamped, info) -> None:
+        # Signed along the load cell axis: a negative reading stays negative (invalid below the
+        # dead band), it is never folded into a positive tension.
         f = msg.wrench.force
-        t = math.sqrt(f.x * f.x + f.y * f.y + f.z * f.z) if self.tension_component == 'norm' \
-            else f.x
-        self.estimator.update('tension', self.now_s(), t)
+        if self.tension_component == 'tether':
+            d = pull_direction(self.estimator.current_phi())
+            t = f.x * d[0] + f.z * d[1]
+        else:
+            t = getattr(f, self.tension_component)
+        self.estimator.update('tension', self.sample_time(msg.header), t)
         self._input_done('tension', msg.header.stamp, info)
 
     def on_scalar(self, name: str, msg: Float64, info) -> None:
@@ -264,7 +333,7 @@ class CapacityNode(Node):
         self.pub_status.publish(String(data=str(est.status)))
         self.pub_capacity.publish(cap)
         self.pub_margin.publish(margin)
-        if self.estimator.config.lower_bound_level > 0.0:
+        if self.estimator.config.lower_bound_level > 0.0 or est.assumed:
             self.pub_lower.publish(lower)
         self.pub_twist.publish(twist)
         self.last_estimate = est
@@ -285,7 +354,7 @@ class CapacityNode(Node):
 
     def diagnostics(self, est: Estimate) -> DiagnosticArray:
         level = LEVELS.get(est.status, DiagnosticStatus.ERROR)
-        if est.warnings and level == DiagnosticStatus.OK:
+        if (est.warnings or est.assumed) and level == DiagnosticStatus.OK:
             level = DiagnosticStatus.WARN
         message = str(est.status)
         if est.reason and est.reason != message:
@@ -310,7 +379,10 @@ class CapacityNode(Node):
                                else ' '.join(f'{x:.4g}' for x in est.leg_spread_rad)),
             'slip_twist': ('nan' if est.slip_twist is None
                            else ' '.join(f'{x:.4g}' for x in est.slip_twist)),
+            'assumed_inputs': ','.join(est.assumed), 'stale_inputs': ','.join(est.stale),
+            'reason': est.reason,
             'predictor': est.predictor, 'pull': self.params['pull'],
+            'freshness_source': self.params['freshness_source'],
             'processing_ms': f'{self.processing_s * 1e3:.3f}',
             'input_to_output_ms_median': (f'{statistics.median(self.latency_s) * 1e3:.3f}'
                                           if self.latency_s else 'nan'),
@@ -329,8 +401,8 @@ def main(args=None) -> int:
     try:
         node = CapacityNode()
     except (ConfigError, ParameterException) as exc:
-        # One clear line, no traceback: a bad parameter is a user error.
-        print(f'capacity_node: error: {exc}', file=sys.stderr)
+        # One clear line, no traceback: a bad parameter or map file is a user error.
+        print(f'capacity_node: error: {" ".join(str(exc).split())}', file=sys.stderr)
         rclpy.try_shutdown()
         return 2
     executor = SingleThreadedExecutor()

@@ -1,20 +1,27 @@
 """ROS-free core of capacity_node: timestamped inputs in, a status-carrying estimate out.
 
-Inputs (SI, the conventions of docs/design/architecture.md#frames-and-signs):
+Inputs (SI, the conventions of docs/design/architecture.md#frames-and-signs; rules and tolerances in
+docs/design/capacity-inputs.md):
   joints   leg angles, rad, from -z_B about the axles: proximal_left/right (theta_L1),
-           distal_left/right (theta_L2). The two legs of one axle are averaged (the sagittal
-           model shares one angle per axle); a spread beyond `leg_tolerance_rad` is reported.
+           distal_left/right (theta_L2). Angles are wrapped to [-pi, pi); the two legs of one
+           axle are combined on the circle and must agree within `leg_tolerance_rad`,
+           otherwise the estimate is `invalid_input` (leg_disagreement): never an average of
+           two legs that are somewhere else.
   pitch    body pitch theta_B, rad, positive when the axle end of the body is above p.
-  tension  winch tension T >= 0, N, along the tether.
+  tension  winch tension T, N, signed along the load cell axis (positive pulls p toward the
+           sled); below -tension_deadband_N it is `invalid_input` (negative_tension).
   height   h, m, height of the winch point p above the sand surface (optional topic; the
-           `height_m` fallback is used until the first sample arrives).
+           `height_m` parameter is ASSUMED until the first sample arrives).
   phi      tether angle, rad: tension along (-cos phi, 0, sin phi) in world axes
-           (optional topic; `phi_rad` fallback until the first sample arrives).
-Times are seconds on one clock (the node uses its clock at message receipt).
+           (optional topic; `phi_rad` parameter ASSUMED until the first sample arrives).
+Times are seconds on one clock: the time each sample was taken (the node uses the header
+stamp where there is one, else the receipt time). A sample older than its timeout is stale;
+one stamped more than `clock_tolerance_s` in the future is invalid (future_stamp).
 
-Status precedence: stale (any required input older than its timeout or never received)
-> invalid_input (NaN / out of range / malformed) > the predictor's status. A value (capacity,
-margin, slip twist) is present only when the status is ok or extrapolated.
+Status precedence: stale > invalid_input > the predictor's status, then ok -> assumed when an
+input came from a parameter. A value (capacity, margin, slip twist) is present only for ok and
+assumed. Reasons are machine-readable `code:input` items joined by ';' (e.g.
+`stale_input:tension`, `negative_tension:tension`, `assumed_input:height`); `detail` is prose.
 """
 from __future__ import annotations
 
@@ -26,6 +33,7 @@ from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull, Status
 from rftgls_core.uncertainty import capacity_lower_bound
 
+from .inputs import axle_angle, pitch_from_quaternion, wrap_angle  # noqa: F401 (re-export)
 from .predictor import ConfigError, Predictor
 
 JOINTS = ('proximal_left', 'proximal_right', 'distal_left', 'distal_right')
@@ -33,6 +41,25 @@ JOINTS = ('proximal_left', 'proximal_right', 'distal_left', 'distal_right')
 INPUTS = ('joint_states', 'pitch', 'tension', 'height', 'phi')
 DEFAULT_TIMEOUTS_S = {'joint_states': 0.25, 'pitch': 0.25, 'tension': 0.25, 'height': 1.0,
                       'phi': 1.0}
+# Inputs with a parameter fallback: used (and reported as assumed) until measured once.
+ASSUMABLE = ('height', 'phi')
+# Samples per assumed axis when the lower bound scans the assumed range.
+RANGE_SAMPLES = 5
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One reason an input is not usable: code (reason vocabulary), input name, prose."""
+
+    code: str
+    input: str
+    text: str
+
+
+def reason_of(problems: list[Problem]) -> str:
+    """'code:input;code:input' without repeats, in order."""
+    seen = dict.fromkeys(f'{p.code}:{p.input}' for p in problems)
+    return ';'.join(seen)
 
 
 @dataclass(frozen=True)
@@ -42,15 +69,22 @@ class EstimatorConfig:
     pull: str = 'backward'
     timeouts_s: Mapping[str, float] = field(default_factory=lambda: dict(DEFAULT_TIMEOUTS_S))
     leg_tolerance_rad: float = math.radians(5.0)
-    height_m: float = 0.03            # fallback h until a height sample arrives
-    phi_rad: float = math.radians(-20.0)  # fallback phi until a phi sample arrives
+    height_m: float = 0.03            # assumed h until a height sample arrives
+    phi_rad: float = math.radians(-20.0)  # assumed phi until a phi sample arrives
     h_range_m: tuple[float, float] = (-0.05, 0.30)
     pitch_limit_rad: float = math.pi / 2
     leg_limit_rad: float = math.pi
     phi_limit_rad: float = math.pi / 2
     tension_max_N: float = 200.0
     tension_deadband_N: float = 0.05  # a load cell reads slightly below 0 at zero load
-    # Conservative lower bound (capacity/lower_bound.py); level 0 switches it off.
+    # A stamp up to this far ahead of the estimator's clock is accepted (clock offset between
+    # the stamping host clock and this node's clock; both are the same host clock normally).
+    clock_tolerance_s: float = 0.05
+    # Half-widths of the range an assumed input may really take: the lower bound is the
+    # smallest capacity over it (docs/design/capacity-inputs.md).
+    assumed_height_range_m: float = 0.01
+    assumed_phi_range_rad: float = math.radians(10.0)
+    # Conservative lower bound (rftgls_core.uncertainty); level 0 switches the sigma part off.
     lower_bound_level: float = 0.0
     h_sigma_m: float = 0.002
     theta_b_sigma_rad: float = math.radians(1.0)
@@ -74,8 +108,11 @@ class EstimatorConfig:
         for name, v in positive.items():
             if not (math.isfinite(v) and v > 0):
                 raise ConfigError(f'{name} must be positive, got {v!r}')
-        if not (math.isfinite(self.tension_deadband_N) and self.tension_deadband_N >= 0):
-            raise ConfigError(f'tension_deadband_N must be >= 0, got {self.tension_deadband_N!r}')
+        for name in ('tension_deadband_N', 'clock_tolerance_s', 'assumed_height_range_m',
+                     'assumed_phi_range_rad'):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ConfigError(f'{name} must be >= 0, got {v!r}')
         if not (self.lower_bound_level == 0.0 or 0.5 <= self.lower_bound_level < 1.0):
             raise ConfigError(f'lower_bound_level must be 0 (off) or in [0.5, 1), got '
                               f'{self.lower_bound_level!r}')
@@ -95,7 +132,7 @@ class EstimatorConfig:
 
 @dataclass(frozen=True)
 class Sample:
-    t: float      # s, receipt time on the estimator's clock
+    t: float      # s, when the sample was taken (header stamp, else receipt) on one clock
     value: float  # SI
 
 
@@ -105,14 +142,17 @@ class Estimate:
     except `unsupported`, which reports capacity_N = 0 and margin_N = -tension_N.
 
     capacity_N: load capacity along the tether direction d(phi), N.
-    capacity_lower_N: its one-sided lower confidence bound (config.lower_bound_level), N;
-        None when switched off or without a value.
+    capacity_lower_N: a conservative lower bound, N: the one-sided confidence bound
+        (config.lower_bound_level) and, with assumed inputs, the smallest capacity over their
+        assumed range; None when neither applies or without a value.
     margin_N: capacity_N - tension_N, N (negative: the anchor is predicted to slip).
     slip_twist: unit direction (vx, vz, wy) of the predicted slip at p in world axes
         (m/s, m/s, rad/s per unit; RFT is rate independent so only the direction is known);
         given whenever there is a value, `slipping` says whether the tension exceeds capacity.
     state, phi_rad, tension_N: the inputs used (None when missing or not finite).
-    warnings: non-fatal findings, e.g. 'leg_disagreement'.
+    assumed: inputs taken from parameters instead of measurements ('height', 'phi').
+    stale: inputs that are stale or were never received.
+    warnings: non-fatal findings.
     """
 
     t: float
@@ -128,13 +168,20 @@ class Estimate:
     state: AnchorState | None = None
     phi_rad: float | None = None
     leg_spread_rad: tuple[float, float] | None = None
+    assumed: tuple[str, ...] = ()
+    stale: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
     predictor: str = ''
     result: CapacityResult | None = None
 
     @property
     def has_value(self) -> bool:
-        return self.status.has_value
+        return self.status in (Status.OK, Status.ASSUMED)
+
+    @property
+    def reason_codes(self) -> tuple[str, ...]:
+        """The reason's items ('code:input', or a predictor's reason)."""
+        return tuple(r for r in self.reason.split(';') if r)
 
 
 class CapacityEstimator:
@@ -151,7 +198,7 @@ class CapacityEstimator:
         self.pull = Pull(self.config.pull)
         self._joints: dict[str, Sample] = {}
         self._inputs: dict[str, Sample] = {}
-        self._malformed: dict[str, tuple[float, str]] = {}  # input -> (t, why)
+        self._malformed: dict[str, Problem] = {}  # input -> why its latest message is unusable
         self._cache_key: tuple | None = None
         self._cache: CapacityResult | None = None
         self._lower_cache: tuple | None = None
@@ -173,38 +220,54 @@ class CapacityEstimator:
         self._inputs[name] = Sample(t, float(value))
         self._malformed.pop(name, None)
 
-    def mark_malformed(self, name: str, t: float, why: str) -> None:
-        """Record that the latest message of an input could not be parsed (-> invalid_input
-        until a good message of that input arrives)."""
-        self._malformed[name] = (t, why)
+    def mark_malformed(self, name: str, t: float, why: str, code: str = 'malformed') -> None:
+        """Record that the latest message of an input is unusable (-> invalid_input with
+        reason `code:name` until a good message of that input arrives). The message still
+        counts as a sign of life: its time t refreshes the input's age."""
+        if name not in INPUTS:
+            raise KeyError(f'unknown input {name!r}')
+        self._malformed[name] = Problem(code, name, why)
+        if name == 'joint_states':
+            for k in JOINTS:
+                if k in self._joints:
+                    self._joints[k] = Sample(t, self._joints[k].value)
+        elif name in self._inputs:
+            self._inputs[name] = Sample(t, self._inputs[name].value)
+        else:
+            self._inputs[name] = Sample(t, math.nan)
+
+    def current_phi(self) -> float:
+        """The tether angle in use, rad: the latest sample, else the assumed phi_rad."""
+        return self._value('phi', self.config.phi_rad)
 
     # -- output -----------------------------------------------------------------------------
     def estimate(self, now: float) -> Estimate:
         cfg = self.config
-        stale = self._stale_inputs(now)
+        stale_problems = self._stale_inputs(now)
         tension = self._value('tension')
         phi = self._value('phi', cfg.phi_rad)
-        if stale:
-            return Estimate(now, Status.STALE, 'stale_input', 'stale or missing: '
-                            + ', '.join(stale), tension_N=tension, phi_rad=phi,
+        assumed = tuple(n for n in ASSUMABLE if n not in self._inputs)
+        if stale_problems:
+            return Estimate(now, Status.STALE, reason_of(stale_problems),
+                            '; '.join(p.text for p in stale_problems),
+                            tension_N=tension, phi_rad=phi, assumed=assumed,
+                            stale=tuple(dict.fromkeys(p.input for p in stale_problems)),
                             predictor=self.predictor.name)
         legs, spread, problems = self._legs()
         pitch = self._value('pitch')
         h = self._value('height', cfg.height_m)
-        problems += [f'{n}: {why}' for n, (_, why) in self._malformed.items()]
+        problems += self._future_stamps(now)
+        problems += list(self._malformed.values())
         problems += self._range_problems(h, pitch, phi, tension)
-        warnings = ()
-        if spread is not None and max(spread) > cfg.leg_tolerance_rad:
-            warnings = ('leg_disagreement',)
         state = None
         if legs is not None and _finite(h, pitch):
             state = AnchorState(h, pitch, legs[0], legs[1])
         common = dict(tension_N=tension if _finite(tension) else None,
                       phi_rad=phi if _finite(phi) else None, state=state,
-                      leg_spread_rad=spread, warnings=warnings, predictor=self.predictor.name)
+                      leg_spread_rad=spread, assumed=assumed, predictor=self.predictor.name)
         if problems:
-            return Estimate(now, Status.INVALID_INPUT, 'invalid_input', '; '.join(problems),
-                            **common)
+            return Estimate(now, Status.INVALID_INPUT, reason_of(problems),
+                            '; '.join(p.text for p in problems), **common)
         result = self._predict(state, phi)
         if result.status is Status.UNSUPPORTED:
             # No quasi-static balance: the anchor holds nothing. Zero is the safe number here,
@@ -213,14 +276,24 @@ class CapacityEstimator:
             return Estimate(now, Status.UNSUPPORTED, result.reason or 'unsupported',
                             result.detail, capacity_N=0.0, margin_N=-t_pos, slipping=t_pos > 0,
                             result=result, **{**common, 'tension_N': t_pos})
-        if not result.status.has_value or result.capacity_N is None:
-            status = result.status if not result.status.has_value else Status.DEGENERATE
+        if result.status is Status.EXTRAPOLATED:
+            # A clamped answer from outside what was computed is not a value (issue 15).
+            return Estimate(now, Status.OUT_OF_RANGE, result.reason or 'out_of_grid',
+                            result.detail, result=result, **common)
+        if result.status not in (Status.OK, Status.ASSUMED) or result.capacity_N is None:
+            status = result.status if result.status not in (Status.OK, Status.ASSUMED) \
+                else Status.DEGENERATE
             return Estimate(now, status, result.reason or str(status), result.detail,
                             result=result, **common)
         tension = max(tension, 0.0)  # inside the dead band
         margin = result.capacity_N - tension
-        lower = self._lower_bound(state, phi, result.capacity_N)
-        return Estimate(now, result.status, result.reason, result.detail,
+        lower = self._lower_bound(state, phi, result.capacity_N, assumed)
+        status, reason = result.status, result.reason
+        if assumed:
+            status = Status.ASSUMED
+            reason = reason_of([Problem('assumed_input', n, '') for n in assumed]) \
+                + (f';{result.reason}' if result.reason else '')
+        return Estimate(now, status, reason, result.detail,
                         capacity_N=result.capacity_N, capacity_lower_N=lower, margin_N=margin,
                         slip_twist=result.slip_twist, slipping=margin < 0.0, result=result,
                         **{**common, 'tension_N': tension})
@@ -230,39 +303,65 @@ class CapacityEstimator:
         s = self._inputs.get(name)
         return s.value if s is not None else fallback
 
-    def _stale_inputs(self, now: float) -> list[str]:
+    def _samples(self):
+        """(input name, sample time) of every received sample."""
+        for k in JOINTS:
+            if k in self._joints:
+                yield 'joint_states', self._joints[k].t
+        for name, s in self._inputs.items():
+            yield name, s.t
+
+    def _stale_inputs(self, now: float) -> list[Problem]:
         out = []
         timeouts = self.config.timeouts_s
         joints_t = [self._joints[k].t if k in self._joints else None for k in JOINTS]
         if any(t is None for t in joints_t):
-            out.append('joint_states (no data)')
+            out.append(Problem('no_data', 'joint_states', 'joint_states: no data'))
         elif now - min(joints_t) > timeouts['joint_states']:
-            out.append(f'joint_states ({now - min(joints_t):.3f} s old)')
+            out.append(Problem('stale_input', 'joint_states',
+                               f'joint_states: {now - min(joints_t):.3f} s old'))
         for name in ('pitch', 'tension', 'height', 'phi'):
             s = self._inputs.get(name)
             if s is None:
-                if name in ('pitch', 'tension'):  # height and phi fall back to parameters
-                    out.append(f'{name} (no data)')
+                if name not in ASSUMABLE:
+                    out.append(Problem('no_data', name, f'{name}: no data'))
             elif now - s.t > timeouts[name]:
-                out.append(f'{name} ({now - s.t:.3f} s old)')
+                out.append(Problem('stale_input', name, f'{name}: {now - s.t:.3f} s old'))
         return out
 
+    def _future_stamps(self, now: float) -> list[Problem]:
+        tol = self.config.clock_tolerance_s
+        ahead: dict[str, float] = {}
+        for name, t in self._samples():
+            if t - now > tol:
+                ahead[name] = max(ahead.get(name, 0.0), t - now)
+        return [Problem('future_stamp', n, f'{n}: stamped {dt:.3f} s in the future '
+                        f'(tolerance {tol:g} s)') for n, dt in ahead.items()]
+
     def _legs(self):
-        """((theta_l1, theta_l2) axle means, (spread1, spread2), problems)."""
+        """((theta_l1, theta_l2) per-axle angles, (spread1, spread2), problems)."""
         v = {k: self._joints[k].value for k in JOINTS}
         bad = [k for k, x in v.items() if not math.isfinite(x)]
         if bad:
-            return None, None, [f'joint angle not finite: {", ".join(bad)}']
+            return None, None, [Problem('not_finite', 'joint_states',
+                                        f'joint angle not finite: {", ".join(bad)}')]
+        v = {k: wrap_angle(x) for k, x in v.items()}
         lim = self.config.leg_limit_rad
-        problems = [f'{k} = {x:.4g} rad outside [-{lim:.4g}, {lim:.4g}]'
+        problems = [Problem('outside_limits', 'joint_states',
+                            f'{k} = {x:.4g} rad outside [-{lim:.4g}, {lim:.4g}]')
                     for k, x in v.items() if abs(x) > lim]
-        l1 = 0.5 * (v['proximal_left'] + v['proximal_right'])
-        l2 = 0.5 * (v['distal_left'] + v['distal_right'])
-        spread = (abs(v['proximal_left'] - v['proximal_right']),
-                  abs(v['distal_left'] - v['distal_right']))
-        return (l1, l2), spread, problems
+        l1, s1 = axle_angle(v['proximal_left'], v['proximal_right'])
+        l2, s2 = axle_angle(v['distal_left'], v['distal_right'])
+        tol = self.config.leg_tolerance_rad
+        for axle, s in (('proximal', s1), ('distal', s2)):
+            if s > tol:
+                problems.append(Problem(
+                    'leg_disagreement', 'joint_states',
+                    f'{axle} legs {math.degrees(s):.1f} deg apart (tolerance '
+                    f'{math.degrees(tol):.1f} deg)'))
+        return (l1, l2), (s1, s2), problems
 
-    def _range_problems(self, h, pitch, phi, tension) -> list[str]:
+    def _range_problems(self, h, pitch, phi, tension) -> list[Problem]:
         cfg = self.config
         out = []
         checks = [
@@ -272,25 +371,66 @@ class CapacityEstimator:
             ('tension', tension, -cfg.tension_deadband_N, cfg.tension_max_N, 'N'),
         ]
         for name, x, lo, hi, unit in checks:
+            if name in self._malformed:
+                continue  # already reported, its value is the last good one or NaN
             if x is None or not math.isfinite(x):
-                out.append(f'{name} not finite ({x!r})')
+                out.append(Problem('not_finite', name, f'{name} not finite ({x!r})'))
+            elif name == 'tension' and x < lo:
+                out.append(Problem('negative_tension', name,
+                                   f'tension = {x:.4g} N below -{cfg.tension_deadband_N:g} N '
+                                   '(load cell axis reversed or a compressive reading)'))
             elif not lo <= x <= hi:
-                out.append(f'{name} = {x:.4g} {unit} outside [{lo:.4g}, {hi:.4g}]')
+                out.append(Problem('outside_limits', name,
+                                   f'{name} = {x:.4g} {unit} outside [{lo:.4g}, {hi:.4g}]'))
         return out
 
-    def _lower_bound(self, state: AnchorState, phi: float, capacity_N: float) -> float | None:
-        """Lower confidence bound, cached with the prediction it belongs to."""
+    def _lower_bound(self, state: AnchorState, phi: float, capacity_N: float,
+                     assumed: tuple[str, ...]) -> float | None:
+        """Conservative lower bound, cached with the prediction it belongs to.
+
+        Sigma part (lower_bound_level > 0): rftgls_core.uncertainty.capacity_lower_bound at
+        the used state. Assumed part: the smallest capacity over the assumed range of every
+        assumed input (RANGE_SAMPLES points per axis, ends included); a point without a value
+        makes it 0. The bound is the smaller of the two; None when neither applies.
+        """
         cfg = self.config
-        if cfg.lower_bound_level <= 0.0:
+        if cfg.lower_bound_level <= 0.0 and not assumed:
             return None
-        key = (state.as_tuple(), phi)
-        if self._lower_cache is None or self._lower_cache[0] != key:
-            lower = capacity_lower_bound(
+        key = (state.as_tuple(), phi, assumed)
+        if self._lower_cache is not None and self._lower_cache[0] == key:
+            return self._lower_cache[1]
+        bounds = []
+        if cfg.lower_bound_level > 0.0:
+            bounds.append(capacity_lower_bound(
                 lambda st, ph: self.predictor.predict(st, ph, self.pull), state, phi,
                 capacity_N, cfg.lower_bound_level, cfg.h_sigma_m, cfg.theta_b_sigma_rad,
-                cfg.capacity_rel_sigma)
-            self._lower_cache = (key, lower)
-        return self._lower_cache[1]
+                cfg.capacity_rel_sigma))
+        if assumed:
+            bounds.append(self._range_minimum(state, phi, assumed))
+        lower = min(bounds)
+        self._lower_cache = (key, lower)
+        return lower
+
+    def _range_minimum(self, state: AnchorState, phi: float, assumed: tuple[str, ...]) -> float:
+        cfg = self.config
+        hs, phis = [state.h], [phi]
+        if 'height' in assumed:
+            lo = max(cfg.h_range_m[0], state.h - cfg.assumed_height_range_m)
+            hi = min(cfg.h_range_m[1], state.h + cfg.assumed_height_range_m)
+            hs = _linspace(lo, hi, RANGE_SAMPLES)
+        if 'phi' in assumed:
+            lo = max(-cfg.phi_limit_rad, phi - cfg.assumed_phi_range_rad)
+            hi = min(cfg.phi_limit_rad, phi + cfg.assumed_phi_range_rad)
+            phis = _linspace(lo, hi, RANGE_SAMPLES)
+        best = math.inf
+        for h in hs:
+            st = AnchorState(h, state.theta_b, state.theta_l1, state.theta_l2)
+            for ph in phis:
+                r = self.predictor.predict(st, ph, self.pull)
+                if r.status not in (Status.OK, Status.ASSUMED) or r.capacity_N is None:
+                    return 0.0
+                best = min(best, r.capacity_N)
+        return max(0.0, best)
 
     def _predict(self, state: AnchorState, phi: float) -> CapacityResult:
         key = (state.as_tuple(), phi)
@@ -305,19 +445,7 @@ def _finite(*xs) -> bool:
     return all(x is not None and math.isfinite(x) for x in xs)
 
 
-def pitch_from_quaternion(x: float, y: float, z: float, w: float) -> float:
-    """theta_B (rad) from a body orientation quaternion in a z-up world (REP-103 base frame:
-    x forward from p toward the axles, y left, z up).
-
-    theta_B is the elevation of the body x axis above the horizontal. The body x axis in the
-    world is R e_x, whose z component is 2 (x z - w y); so theta_B = asin(2 (x z - w y)).
-    For a pure REP-103 pitch beta (rotation about +y, positive turns the nose DOWN) this gives
-    theta_B = -beta: the sign flip between REP-103 pitch and the anchor state's theta_B.
-    Roll and yaw do not change it. The quaternion is normalised first; raises ValueError if it
-    is not finite or has (near) zero norm.
-    """
-    n = math.sqrt(x * x + y * y + z * z + w * w)
-    if not math.isfinite(n) or n < 1e-6:
-        raise ValueError(f'orientation quaternion is not usable (norm {n!r})')
-    x, y, z, w = x / n, y / n, z / n, w / n
-    return math.asin(max(-1.0, min(1.0, 2.0 * (x * z - w * y))))
+def _linspace(lo: float, hi: float, n: int) -> list[float]:
+    if hi <= lo:
+        return [lo]
+    return [lo + (hi - lo) * i / (n - 1) for i in range(n)]

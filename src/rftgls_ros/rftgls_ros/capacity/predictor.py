@@ -4,17 +4,19 @@ Both answer the same question, `predict(state, phi, pull) -> CapacityResult`:
   state: rftgls_core AnchorState (h m, theta_b rad, theta_l1 rad, theta_l2 rad),
   phi:   tether angle, rad (tension along (-cos phi, 0, sin phi) in world axes),
   pull:  'forward' | 'backward' (C-leg orientation relative to the pull).
-The result carries a status (ok / extrapolated / unsupported / ...) and values only when the
-status has one (rftgls_core.surfaces.base.CapacityResult).
+The result carries a status (ok / out_of_range / unsupported / ...) and values only when the
+status has one (rftgls_core.surfaces.base.CapacityResult). A map answers `out_of_range` (no
+value) outside its grid; `LiveFallback` lets the live solver answer those states instead.
 """
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path
 from typing import Protocol, runtime_checkable
 
 from rftgls_core.surfaces.base import CapacityResult
-from rftgls_core.types import AnchorState, Pull
+from rftgls_core.types import AnchorState, Pull, Status
 
 # The installed (shipped) map; rftgls_core.maps.resolve_map maps this name to maps_dir().
 DEFAULT_MAP = 'maps/minirquad_m90_sand.h5'
@@ -75,10 +77,15 @@ class MapPredictor:
                               'or set map_file to "" for live computation') from exc
         try:
             self.map = CapacityMap.load(self.path)
-        except MapFileError as exc:  # wrong schema, truncated file, ...
-            raise ConfigError(f'bad map file {self.path}: {exc}') from exc
+        except MapFileError as exc:  # wrong schema, truncated file, failed integrity check
+            raise ConfigError(f'bad map file {self.path}: {_one_line(exc)}') from exc
         except OSError as exc:  # not HDF5 at all
-            raise ConfigError(f'cannot read map file {self.path}: {exc}') from exc
+            raise ConfigError(f'cannot read map file {self.path}: {_one_line(exc)}') from exc
+        except (ValueError, KeyError, TypeError) as exc:  # anything else the loader refuses
+            raise ConfigError(f'bad map file {self.path}: {_one_line(exc)}') from exc
+        # 'hashed': the map carries a content hash (verified by the loader); 'no_hash': a map
+        # whose integrity nobody can check (the node logs it loudly at start-up).
+        self.integrity = 'hashed' if map_content_hash(self.map) else 'no_hash'
         checks = (('robot', robot, self.map.robot_name), ('medium', medium, self.map.medium_name))
         for what, want, have in checks:
             if want is not None and want.strip().lower() != str(have).lower():
@@ -93,14 +100,62 @@ class MapPredictor:
         return self.map.query(state, phi, pull)
 
 
+def _one_line(exc: BaseException) -> str:
+    return ' '.join(str(exc).split()) or type(exc).__name__
+
+
+def map_content_hash(cmap) -> str | None:
+    """The content hash a map file carries, or None (looks at the loaded map and its root
+    attributes for a `content_hash`/`*sha256*`/`*hash*` entry; the core's loader verifies it)."""
+    for obj in (cmap, getattr(cmap, 'data', None)):
+        value = getattr(obj, 'content_hash', None)
+        if value:
+            return str(value)
+    attrs = getattr(getattr(cmap, 'data', None), 'attrs', None) or {}
+    for key, value in attrs.items():
+        k = str(key).lower()
+        if ('hash' in k or 'sha256' in k) and value:
+            return str(value)
+    return None
+
+
+class LiveFallback:
+    """A map, with the live solver answering where the map says `out_of_range` (outside its
+    grid). Every other map answer stands; the live answer's reason says it came from the
+    fallback (`live_fallback`, after the solver's own reason if any)."""
+
+    def __init__(self, primary: Predictor, fallback: Predictor):
+        self.primary = primary
+        self.fallback = fallback
+        self.name = f'{primary.name}+{fallback.name}'
+
+    def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
+        r = self.primary.predict(state, phi, pull)
+        if r.status not in (Status.OUT_OF_RANGE, Status.EXTRAPOLATED):
+            return r
+        live = self.fallback.predict(state, phi, pull)
+        reason = ';'.join(x for x in (live.reason, 'live_fallback') if x)
+        return dataclasses.replace(live, reason=reason)
+
+
 def make_predictor(map_file: str, live_method: str = 'direct', robot: str = 'minirquad',
                    medium: str = 'm90_sand', n_twists: int = 0,
-                   pull: str | None = None) -> Predictor:
-    """The map predictor when map_file is set, else the live one. Raises ConfigError."""
+                   pull: str | None = None, out_of_range_live_method: str = '') -> Predictor:
+    """The map predictor when map_file is set (with the live solver `out_of_range_live_method`
+    answering outside its grid when that is set), else the live one. Raises ConfigError."""
     if map_file.strip():
-        return MapPredictor(map_file.strip(), robot, medium, pull)
+        cmap = MapPredictor(map_file.strip(), robot, medium, pull)
+        if out_of_range_live_method.strip():
+            return LiveFallback(cmap, _live(robot, medium, out_of_range_live_method.strip(),
+                                            n_twists, 'out_of_range_live_method'))
+        return cmap
+    return _live(robot, medium, live_method, n_twists, 'live_method')
+
+
+def _live(robot: str, medium: str, live_method: str, n_twists: int,
+          param: str) -> LivePredictor:
     if live_method not in LIVE_METHODS:
-        raise ConfigError(f'live_method must be one of {", ".join(LIVE_METHODS)}, '
+        raise ConfigError(f'{param} must be one of {", ".join(LIVE_METHODS)}, '
                           f'got {live_method!r}')
     if n_twists < 0:
         raise ConfigError(f'live_n_twists must be >= 0 (0 = core default), got {n_twists}')
