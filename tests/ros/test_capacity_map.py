@@ -43,9 +43,9 @@ def test_estimator_statuses_from_the_map(small_map, state, status):
 
 def test_off_grid_state_has_no_value(small_map):
     # The core map answers a state outside its grid with out_of_range (formerly a clamped
-    # 'extrapolated' value); capacity_node publishes it with no value either way.
+    # 'extrapolated' value); capacity_node publishes it with no value.
     direct = CapacityMap.load(small_map).query(OUTSIDE, PHI, 'backward')
-    assert direct.status in (Status.OUT_OF_RANGE, Status.EXTRAPOLATED)
+    assert direct.status is Status.OUT_OF_RANGE
     e = estimator_for(small_map, OUTSIDE)
     assert e.status is Status.OUT_OF_RANGE and not e.has_value
     assert e.capacity_N is None and e.margin_N is None and e.slip_twist is None

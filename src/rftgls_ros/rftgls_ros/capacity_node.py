@@ -177,7 +177,7 @@ class CapacityNode(Node):
             f'triggers {sorted(self.triggers)}, heartbeat {rate:g} Hz, freshness from '
             f'{p["freshness_source"]}')
         cmap = getattr(self.estimator.predictor, 'primary', self.estimator.predictor)
-        if getattr(cmap, 'integrity', None) == 'no_hash':
+        if getattr(cmap, 'integrity', None) == 'unverified':
             self.get_logger().error(
                 f'MAP WITHOUT CONTENT HASH: {cmap.path} cannot be checked for integrity; '
                 'answers from it are only as good as the file. Rebuild it with `rftgls map '

@@ -276,10 +276,6 @@ class CapacityEstimator:
             return Estimate(now, Status.UNSUPPORTED, result.reason or 'unsupported',
                             result.detail, capacity_N=0.0, margin_N=-t_pos, slipping=t_pos > 0,
                             result=result, **{**common, 'tension_N': t_pos})
-        if result.status is Status.EXTRAPOLATED:
-            # A clamped answer from outside what was computed is not a value (issue 15).
-            return Estimate(now, Status.OUT_OF_RANGE, result.reason or 'out_of_grid',
-                            result.detail, result=result, **common)
         if result.status not in (Status.OK, Status.ASSUMED) or result.capacity_N is None:
             status = result.status if result.status not in (Status.OK, Status.ASSUMED) \
                 else Status.DEGENERATE

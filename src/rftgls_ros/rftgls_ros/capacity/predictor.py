@@ -83,9 +83,9 @@ class MapPredictor:
             raise ConfigError(f'cannot read map file {self.path}: {_one_line(exc)}') from exc
         except (ValueError, KeyError, TypeError) as exc:  # anything else the loader refuses
             raise ConfigError(f'bad map file {self.path}: {_one_line(exc)}') from exc
-        # 'hashed': the map carries a content hash (verified by the loader); 'no_hash': a map
-        # whose integrity nobody can check (the node logs it loudly at start-up).
-        self.integrity = 'hashed' if map_content_hash(self.map) else 'no_hash'
+        # 'shipped' / 'verified': the loader checked the content hash; 'unverified': a map
+        # with no hash, whose integrity nobody can check (the node logs it loudly).
+        self.integrity = self.map.data.integrity
         checks = (('robot', robot, self.map.robot_name), ('medium', medium, self.map.medium_name))
         for what, want, have in checks:
             if want is not None and want.strip().lower() != str(have).lower():
@@ -104,21 +104,6 @@ def _one_line(exc: BaseException) -> str:
     return ' '.join(str(exc).split()) or type(exc).__name__
 
 
-def map_content_hash(cmap) -> str | None:
-    """The content hash a map file carries, or None (looks at the loaded map and its root
-    attributes for a `content_hash`/`*sha256*`/`*hash*` entry; the core's loader verifies it)."""
-    for obj in (cmap, getattr(cmap, 'data', None)):
-        value = getattr(obj, 'content_hash', None)
-        if value:
-            return str(value)
-    attrs = getattr(getattr(cmap, 'data', None), 'attrs', None) or {}
-    for key, value in attrs.items():
-        k = str(key).lower()
-        if ('hash' in k or 'sha256' in k) and value:
-            return str(value)
-    return None
-
-
 class LiveFallback:
     """A map, with the live solver answering where the map says `out_of_range` (outside its
     grid). Every other map answer stands; the live answer's reason says it came from the
@@ -131,7 +116,7 @@ class LiveFallback:
 
     def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
         r = self.primary.predict(state, phi, pull)
-        if r.status not in (Status.OUT_OF_RANGE, Status.EXTRAPOLATED):
+        if r.status is not Status.OUT_OF_RANGE:
             return r
         live = self.fallback.predict(state, phi, pull)
         reason = ';'.join(x for x in (live.reason, 'live_fallback') if x)
