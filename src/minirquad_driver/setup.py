@@ -14,7 +14,8 @@ setup(
     ],
     install_requires=['setuptools', 'pyserial', 'numpy'],
     zip_safe=False,
-    description='MiniRQuad serial bridge (COBS + CRC-16 protocol) and a simulated microcontroller on a pty.',
+    description=('MiniRQuad serial bridge (COBS + CRC-16 protocol) and a simulated '
+                 'microcontroller on a pty.'),
     license='BSD-3-Clause',
     entry_points={
         'console_scripts': [

@@ -14,7 +14,8 @@ setup(
     ],
     install_requires=['setuptools'],
     zip_safe=False,
-    description='ROS 2 nodes of the RFT-GLS anchoring stack: capacity_node, behavior_node, teleop, bag replay.',
+    description=('ROS 2 nodes of the RFT-GLS anchoring stack: capacity_node, behavior_node, '
+                 'teleop, bag replay.'),
     license='BSD-3-Clause',
     entry_points={
         'rftgls.commands': [

@@ -8,7 +8,8 @@ host -> MCU delay), and delay, loss and protocol violations are graded on diagno
 """
 from __future__ import annotations
 
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from minirquad_driver.bridge import BridgeConfig, BridgeCore, TelemetrySample
 from minirquad_driver.protocol import messages as m

@@ -2,11 +2,12 @@
 import dataclasses
 import math
 
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from strategies import any_message
 
 from minirquad_driver.protocol import messages as m
 from minirquad_driver.protocol.codec import FrameDecoder, encode_frame
-from strategies import any_message
 
 stamp = st.integers(0, 2**32 - 1)
 seq = st.integers(0, 255)

@@ -1,5 +1,6 @@
 """CRC-16/CCITT-FALSE and COBS against published reference values, plus properties."""
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
 from minirquad_driver.protocol import cobs
 from minirquad_driver.protocol.crc import crc16_ccitt_false

@@ -14,7 +14,8 @@ import time
 
 import pytest
 from bridge_harness import Harness, stamp_s
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from std_msgs.msg import String
 from strategies import mcu_messages
 
@@ -278,7 +279,7 @@ def test_port_that_cannot_be_opened_is_logged_once_shown_and_retried(
         assert port.read_text() == 'not a serial device\n'     # never written to
         port.unlink()
     # The device appears: the retry picks it up, the error clears, telemetry flows.
-    s = sim.start()
+    sim.start()
     assert h.spin_until(lambda: len(h.joints) > 20, 8.0)
     assert h.node.core.open_error is None and h.node.transport.stats.last_open_error is None
     assert h.link()['open_error'] is None

@@ -2,7 +2,6 @@
 import math
 
 import pytest
-from rftgls_core.types import AnchorState, Status
 
 from minirquad_driver.protocol import messages as m
 from minirquad_driver.protocol.codec import FrameDecoder, encode_frame
@@ -14,6 +13,7 @@ from minirquad_driver.sim.mcu import McuConfig, SimMcu
 from minirquad_driver.sim.robot import SimRobot
 from minirquad_driver.sim.servo import Servo
 from minirquad_driver.sim.winch import WinchSled
+from rftgls_core.types import AnchorState, Status
 
 
 def test_buehler_clock_piecewise_linear():

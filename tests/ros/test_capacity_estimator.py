@@ -7,8 +7,7 @@ import pytest
 from _capacity_common import DH, IN_AIR, PHI
 
 from rftgls_core.types import Pull, Status
-from rftgls_ros.capacity.estimator import (CapacityEstimator, EstimatorConfig,
-                                           pitch_from_quaternion)
+from rftgls_ros.capacity.estimator import CapacityEstimator, EstimatorConfig, pitch_from_quaternion
 from rftgls_ros.capacity.predictor import ConfigError, make_predictor
 
 

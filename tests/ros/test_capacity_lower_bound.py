@@ -44,14 +44,13 @@ def test_losing_the_anchor_within_one_sigma_gives_zero(cmap):
 
 
 def test_node_publishes_the_lower_bound(ros_context, cmap):
+    from _capacity_common import PHI, Probe
     from geometry_msgs.msg import WrenchStamped
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
 
     from rftgls_core.types import pull_direction
     from rftgls_ros.capacity_node import CapacityNode
-
-    from _capacity_common import PHI, Probe
 
     params = {'map_file': str(shipped_map_path('minirquad')), 'phi_rad': PHI,
               'phi_topic': '/winch/phi', 'lower_bound_level': 0.95, 'capacity_rel_sigma': 0.1}

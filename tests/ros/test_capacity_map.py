@@ -10,8 +10,7 @@ from _capacity_common import DH, PHI, Probe
 from rftgls_core.maps import CapacityMap
 from rftgls_core.types import AnchorState, Status
 from rftgls_ros.capacity.estimator import CapacityEstimator, EstimatorConfig
-from rftgls_ros.capacity.predictor import (ConfigError, LiveFallback, MapPredictor,
-                                           make_predictor)
+from rftgls_ros.capacity.predictor import ConfigError, LiveFallback, MapPredictor, make_predictor
 
 OUTSIDE = AnchorState(DH.h, math.radians(15.0), DH.theta_l1, DH.theta_l2)   # theta_b > 10 deg
 HIGH = AnchorState(0.10, DH.theta_b, DH.theta_l1, DH.theta_l2)             # cell touches 200 mm

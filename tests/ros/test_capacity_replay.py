@@ -94,7 +94,7 @@ def test_lock_step_replay_matches_core(ros_context, tmp_path, live_predictor):
                 pubs[conn.topic].publish(bytes(raw))  # the recorded bytes, as `ros2 bag play`
                 if conn.topic != '/winch/tension':
                     current[conn.topic] = msg
-                    assert probe.spin_until(lambda: seen[conn.topic](msg)), conn.topic
+                    assert probe.spin_until(lambda c=conn, m=msg: seen[c.topic](m)), conn.topic
                     continue
                 stamp = msg.header.stamp
                 out = probe.output_for(_ros_time(stamp))

@@ -29,8 +29,9 @@ def run_stack(tmp_path, spawn, sled, params=(), sim=None, sim_args=(), timeout=6
     link, tty = tmp_path / 'link', str(tmp_path / 'tty')
     sim_log = open(tmp_path / 'sim.log', 'w')
     sim_argv = sim or _ros2('minirquad_driver', 'minirquad_sim')
-    sim_proc = spawn([*sim_argv, '--link-file', str(link), '--symlink', tty, '--sled-mass', str(sled),
-           *sim_args], stdout=sim_log, stderr=sim_log, cwd=REPO)
+    sim_proc = spawn([*sim_argv, '--link-file', str(link), '--symlink', tty,
+                      '--sled-mass', str(sled), *sim_args],
+                     stdout=sim_log, stderr=sim_log, cwd=REPO)
     deadline = time.monotonic() + 10
     while not link.exists() and time.monotonic() < deadline:
         time.sleep(0.05)

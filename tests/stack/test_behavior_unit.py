@@ -8,9 +8,17 @@ import math
 import pytest
 
 from rftgls_core.types import Status
-from rftgls_ros.behavior import (ANCHOR_MODES, BehaviorMachine, EnergyModel, ForceNeed,
-                                 MapPredictor, ModeChooser, State, TetherTracker,
-                                 write_report)
+from rftgls_ros.behavior import (
+    ANCHOR_MODES,
+    BehaviorMachine,
+    EnergyModel,
+    ForceNeed,
+    MapPredictor,
+    ModeChooser,
+    State,
+    TetherTracker,
+    write_report,
+)
 from rftgls_ros.behavior.report import read_csv
 
 G = 9.81

@@ -12,11 +12,10 @@ from __future__ import annotations
 import math
 
 import pytest
+from plant import Plant, fast_config, run_loop
 
 from minirquad_driver.sim.ground import LiveAnchorModel
-from plant import Plant, fast_config, run_loop
-from rftgls_ros.behavior import BehaviorMachine, MapPredictor, ModeChooser, State
-from rftgls_ros.behavior import evidence
+from rftgls_ros.behavior import BehaviorMachine, MapPredictor, ModeChooser, State, evidence
 from rftgls_ros.behavior.slip import SLIP_LEGS, SLIP_PITCH, SLIP_TENSION_DROP, SlipDetector
 
 NAN = float('nan')

@@ -19,7 +19,6 @@ import time
 from pathlib import Path
 
 import pytest
-
 from test_behavior_e2e import run_stack
 
 HERE = Path(__file__).resolve().parent

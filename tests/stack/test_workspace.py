@@ -55,7 +55,7 @@ def test_ros2_run_lookup_order_args_and_loopback(tmp_path):
         (prefix / 'share/ament_index/resource_index/packages/demo_pkg').touch()
         exe = prefix / 'lib/demo_pkg/show'
         exe.parent.mkdir(parents=True)
-        exe.write_text('#!/bin/sh\necho "%s $ROS_AUTOMATIC_DISCOVERY_RANGE $*"\n' % text)
+        exe.write_text(f'#!/bin/sh\necho "{text} $ROS_AUTOMATIC_DISCOVERY_RANGE $*"\n')
         exe.chmod(0o755)
         return prefix
     first, second = make_prefix('a', 'first'), make_prefix('b', 'second')

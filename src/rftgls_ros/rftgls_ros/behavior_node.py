@@ -25,16 +25,22 @@ import time
 from dataclasses import fields
 
 import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TwistStamped, WrenchStamped
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import Imu, JointState
-from diagnostic_msgs.msg import DiagnosticArray
 from std_msgs.msg import Float64, String
 
-from .behavior import (BehaviorConfig, BehaviorMachine, MapPredictor, ModeChooser, Observation,
-                       write_report)
+from .behavior import (
+    BehaviorConfig,
+    BehaviorMachine,
+    MapPredictor,
+    ModeChooser,
+    Observation,
+    write_report,
+)
 
 LEGS_L1 = ('leg_proximal_left', 'leg_proximal_right')
 LEGS_L2 = ('leg_distal_left', 'leg_distal_right')

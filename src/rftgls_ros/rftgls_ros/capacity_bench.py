@@ -154,7 +154,7 @@ def run(map_file: str, n: int) -> dict:
         processing = []
         for k in range(n):
             key = rig.send(k)
-            if not spin_until(ex, lambda: key in rig.latency, 2.0):
+            if not spin_until(ex, lambda k=key: k in rig.latency, 2.0):
                 raise RuntimeError(f'no output for input {k}')
             processing.append(rig.node.processing_s)
         node_lat = sorted(v * 1e3 for v in list(rig.node.latency_s)[-n:])

@@ -25,15 +25,19 @@ from geometry_msgs.msg import TwistStamped, WrenchStamped
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import (DurabilityPolicy, QoSProfile, ReliabilityPolicy,
-                       qos_profile_sensor_data)
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, String
 
 from rftgls_core.types import Status, pull_direction
 
-from .capacity.estimator import (DEFAULT_TIMEOUTS_S, JOINTS, CapacityEstimator, Estimate,
-                                 EstimatorConfig)
+from .capacity.estimator import (
+    DEFAULT_TIMEOUTS_S,
+    JOINTS,
+    CapacityEstimator,
+    Estimate,
+    EstimatorConfig,
+)
 from .capacity.inputs import gravity_problem, pitch_from_quaternion
 from .capacity.predictor import DEFAULT_MAP, ConfigError, make_predictor
 

@@ -16,7 +16,7 @@ import enum
 import math
 import struct
 from dataclasses import dataclass
-from typing import ClassVar, Union
+from typing import ClassVar
 
 PROTOCOL_VERSION = 1
 LEG_COUNT = 4
@@ -462,7 +462,8 @@ class SetGait:
                 or not 1 <= v[3] <= 6283184 or abs(v[4]) > 3141593 or v[9] not in (1, -1)):
             raise ValueError('bad SET_GAIT payload')
         return cls(kind=v[0], period=v[1] / MILLISECOND, duty=v[2] / DUTY_LSB,
-                   sweep=v[3] / MICRORAD, down=v[4] / MICRORAD, phases=tuple(p / PHASE_LSB for p in v[5:9]),
+                   sweep=v[3] / MICRORAD, down=v[4] / MICRORAD,
+                   phases=tuple(p / PHASE_LSB for p in v[5:9]),
                    direction=v[9])
 
 
@@ -528,8 +529,8 @@ class EStop:
         return cls(bool(v))
 
 
-Message = Union[Telemetry, Power, Ack, ResetNotice, Info, Error, Log, Heartbeat, GetInfo,
-                SetLegs, SetGait, Burrow, Winch, EStop]
+Message = (Telemetry | Power | Ack | ResetNotice | Info | Error | Log | Heartbeat | GetInfo
+           | SetLegs | SetGait | Burrow | Winch | EStop)
 
 MESSAGE_CLASSES: dict[int, type] = {
     cls.TYPE: cls for cls in (Telemetry, Power, Ack, ResetNotice, Info, Error, Log, Heartbeat,

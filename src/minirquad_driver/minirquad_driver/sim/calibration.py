@@ -64,4 +64,5 @@ def calibrate(k_free: float, k_sand: float) -> tuple[float, float]:
 if __name__ == '__main__':   # python -m minirquad_driver.sim.calibration
     from .power import PowerModel
     pm = PowerModel()
-    print('k_hold=%.6g k_contact=%.6g' % calibrate(pm.k_free, pm.k_sand))
+    k_hold, k_contact = calibrate(pm.k_free, pm.k_sand)
+    print(f'k_hold={k_hold:.6g} k_contact={k_contact:.6g}')

@@ -16,8 +16,8 @@ Firmware behaviour it models:
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 from .. import ina219
 from ..protocol import messages as m

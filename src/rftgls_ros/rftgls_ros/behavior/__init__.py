@@ -4,9 +4,18 @@ energy model, the tether bookkeeping, the state machine and the cycle report (pa
 Everything here is plain Python on SI values; ``behavior_node`` only parses messages, calls
 ``BehaviorMachine.step`` and publishes what it returns.
 """
-from .model import (ANCHOR_MODES, AnchorMode, Candidate, Decision, EnergyModel, ForceNeed,
-                    MapPredictor, ModeChooser, TetherTracker)
 from .machine import BehaviorConfig, BehaviorMachine, Commands, Observation, State
+from .model import (
+                    ANCHOR_MODES,
+                    AnchorMode,
+                    Candidate,
+                    Decision,
+                    EnergyModel,
+                    ForceNeed,
+                    MapPredictor,
+                    ModeChooser,
+                    TetherTracker,
+)
 from .report import CycleRecord, write_report
 
 __all__ = ['ANCHOR_MODES', 'AnchorMode', 'Candidate', 'Decision', 'EnergyModel', 'ForceNeed',

@@ -27,8 +27,7 @@ from dataclasses import dataclass, field
 from rftgls_core.types import AnchorState
 
 from . import evidence
-from .model import (ANCHOR_MODES, Decision, EnergyModel, ForceNeed, ModeChooser,
-                    TetherTracker)
+from .model import ANCHOR_MODES, Decision, EnergyModel, ForceNeed, ModeChooser, TetherTracker
 from .report import CycleRecord
 from .slip import SlipDetector, SlipEvent
 

@@ -8,8 +8,8 @@ the sled (the paper's -20 deg when the sled is close).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Callable, Iterable, Sequence
 
 from rftgls_core.types import AnchorState, Status
 

@@ -40,7 +40,8 @@ class CycleRecord:
 
     def summary(self) -> str:
         return (f'cycle {self.cycle} ({1e3 * self.sled_kg:.0f} g sled): {self.mode} '
-                f'{self.outcome}' + (f' ({self.reason})' if self.reason else '') + f'; energy walk {self.walk_j:.2f} J, burrow {self.burrow_j:.2f} J'
+                f'{self.outcome}' + (f' ({self.reason})' if self.reason else '')
+                + f'; energy walk {self.walk_j:.2f} J, burrow {self.burrow_j:.2f} J'
                 f', tug {self.tug_j:.2f} J (last window; whole tug {self.tug_total_j:.2f} J); '
                 f'walked ~{self.distance_m:.3f} m, sled moved {self.sled_distance_m:.3f} m')
 

@@ -2,7 +2,7 @@
 
 Nothing in this sub-package imports rclpy, so tests (and other tools) can drive it directly.
 """
-from .estimator import CapacityEstimator, Estimate, EstimatorConfig, INPUTS
+from .estimator import INPUTS, CapacityEstimator, Estimate, EstimatorConfig
 from .predictor import ConfigError, LivePredictor, MapPredictor, Predictor, make_predictor
 
 __all__ = ['CapacityEstimator', 'ConfigError', 'Estimate', 'EstimatorConfig', 'INPUTS',

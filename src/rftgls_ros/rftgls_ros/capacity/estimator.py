@@ -26,8 +26,8 @@ assumed. Reasons are machine-readable `code:input` items joined by ';' (e.g.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Mapping
 
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull, Status

@@ -21,16 +21,24 @@ import argparse
 import json
 import math
 import sys
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Iterable, Iterator
 
 import cv2
 import numpy as np
 
 from . import planar
-from .bag_layout import (MARKERS, CameraCalibration, MarkerSetup, PullTest, PullTestMeta,
-                         Tracking, read_pull_test, write_pull_test)
+from .bag_layout import (
+    MARKERS,
+    CameraCalibration,
+    MarkerSetup,
+    PullTest,
+    PullTestMeta,
+    Tracking,
+    read_pull_test,
+    write_pull_test,
+)
 from .render import aruco_dictionary, object_corners
 
 

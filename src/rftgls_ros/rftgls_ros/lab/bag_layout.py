@@ -339,7 +339,8 @@ def _tracking_events(ts, tr: Tracking, tns, header) -> list:
                                values=values))
             poses = (tr.marker_poses or {}).get(name)
             if ok and poses is not None:
-                out.append((k, f'/lab/aruco/{name}', _pose_msg(ts, poses[i], header(k, CAMERA_FRAME))))
+                out.append((k, f'/lab/aruco/{name}',
+                            _pose_msg(ts, poses[i], header(k, CAMERA_FRAME))))
         out.append((k, '/lab/tracking', T['diagnostic_msgs/msg/DiagnosticArray'](
             header=header(k, CAMERA_FRAME), status=statuses)))
     return out

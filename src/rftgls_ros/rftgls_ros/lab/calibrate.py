@@ -254,7 +254,8 @@ def calibrate(pulls: list[PullObservation],
     if pulls:
         rms['pull_N'] = float(np.sqrt(np.mean((res[:len(pulls)] * sigma_pull_N) ** 2)))
     if n_pen:
-        rms['penetration_N'] = float(np.sqrt(np.mean((res[len(pulls):] * sigma_penetration_N) ** 2)))
+        res_pen = res[len(pulls):] * sigma_penetration_N
+        rms['penetration_N'] = float(np.sqrt(np.mean(res_pen ** 2)))
     return Calibration(xi_n=float(xi), mu_surf=float(mu), cov=cov,
                        ci95={'xi_n': (float(xi - t * sd[0]), float(xi + t * sd[0])),
                              'mu_surf': (float(mu - t * sd[1]), float(mu + t * sd[1]))},

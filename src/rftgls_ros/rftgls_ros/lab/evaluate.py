@@ -26,8 +26,15 @@ from pathlib import Path
 import numpy as np
 
 from .bag_layout import PullTest, read_pull_test
-from .predict import (METHODS, PredictedPull, initial_pose, load_medium, make_predictor,
-                      medium_from_dict, predict_pull)
+from .predict import (
+    METHODS,
+    PredictedPull,
+    initial_pose,
+    load_medium,
+    make_predictor,
+    medium_from_dict,
+    predict_pull,
+)
 
 MIN_WINDOW_M = 2e-3          # shorter common travel: no slope is reported
 METRICS = (('peak_N', 'F_pull,max (N)', 1.0), ('dz_dx', 'dz/dx', 1.0),
@@ -121,7 +128,7 @@ def table_markdown(summary: dict, title: str = '') -> str:
             cell = f'{mean * scale:.3f} ± {std * scale:.3f}' if n else '–'
             cells.append(cell + f' (n={n}' + (f', {miss} none)' if miss else ')'))
         lines.append(f'| {label} | ' + ' | '.join(cells) + ' |')
-    return '\n'.join(l for l in lines if l != '') + '\n'
+    return '\n'.join(line for line in lines if line != '') + '\n'
 
 
 def plot_fig8(tests: list[PullTest], preds: dict[str, list[PredictedPull]], path: str | Path,

@@ -1,7 +1,8 @@
 """Synthetic camera images of ArUco markers at known poses (for tests and sample bags).
 
 Method (docs/design/minirquad-hardware.md): a pinhole camera without distortion; each marker
-image from cv2.aruco.generateImageMarker, padded with a one-cell white quiet zone, is warped by the exact
+image from cv2.aruco.generateImageMarker, padded with a one-cell white quiet zone, is warped by the
+exact
 plane-to-image homography at `supersample` x resolution, alpha-blended on a grey background and
 reduced with INTER_AREA; optional Gaussian blur and noise. Only the marker's bounding box is
 rendered at the high resolution, which keeps a 1280x720 frame at a few ms per marker.
@@ -112,7 +113,8 @@ def render(cam: CameraCalibration, markers: list[MarkerView], dictionary: str = 
     return np.clip(np.rint(img), 0, 255).astype(np.uint8)
 
 
-def side_camera_pose(distance_m: float, look_at_world: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
+def side_camera_pose(distance_m: float,
+                     look_at_world: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
     """T_world3_cam of a camera on the -y side of the sagittal plane looking along +y at
     world point (x, 0, z), image right = world +x, image up = world +z. 3D world here: x, y, z."""
     T = np.eye(4)

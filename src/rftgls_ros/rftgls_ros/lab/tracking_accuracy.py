@@ -47,9 +47,10 @@ def random_poses(n: int, rng: np.random.Generator) -> np.ndarray:
 
 
 def measure(n: int = 100, noise: float = 2.0, blur: float = 0.6, seed: int = 1,
-            scene: BenchScene | None = None, config: TrackerConfig = TrackerConfig(),
+            scene: BenchScene | None = None, config: TrackerConfig | None = None,
             progress: bool = False) -> AccuracyResult:
     scene = scene or default_bench()
+    config = config or TrackerConfig()
     rng = np.random.default_rng(seed)
     poses = random_poses(n, rng)
     tracker = ArucoTracker(scene.camera, scene.markers, config)
@@ -76,7 +77,8 @@ def main(argv: list[str] | None = None) -> int:
           f"(noise {args.noise} grey levels, blur {args.blur} px, seed {args.seed})")
     for k in ('x', 'z', 'theta_b'):
         v = s[k]
-        print(f"  {k:8s} median {v['median']:.3f}  p95 {v['p95']:.3f}  max {v['max']:.3f} {v['unit']}")
+        print(f"  {k:8s} median {v['median']:.3f}  p95 {v['p95']:.3f}  max {v['max']:.3f} "
+              f"{v['unit']}")
     return 0
 
 

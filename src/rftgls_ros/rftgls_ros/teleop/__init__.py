@@ -3,6 +3,6 @@
 ``model.TeleopModel`` holds the keys, the guard and the screen text without ROS;
 ``main`` is the rclpy node and the raw-mode terminal loop.
 """
-from .model import KEYS, TeleopModel, TeleopConfig
+from .model import KEYS, TeleopConfig, TeleopModel
 
 __all__ = ['KEYS', 'TeleopModel', 'TeleopConfig']
