@@ -156,3 +156,31 @@ def test_estop_refuses_motion():
     mcu.receive(encode_frame(m.EStop(True), 1, 0), 0.0)
     refused = _frames(mcu.receive(encode_frame(m.Burrow(m.BurrowMode.SH), 2, 0), 0.01))
     assert refused == [m.Ack(2, m.MsgType.BURROW, m.AckResult.ESTOPPED)]
+
+
+def test_winch_deadman_stops_a_winch_whose_commands_stop():
+    # The bridge's heartbeats keep the link watchdog fed even when the node that commands the
+    # winch is dead: the MCU stops a non-zero winch speed that is not refreshed in time.
+    mcu = SimMcu(config=McuConfig(watchdog_s=5.0, winch_deadman_s=0.3))
+    seq = 10
+    mcu.receive(encode_frame(m.Winch(0.02), seq, 0), 0.0)
+    out, t = [], 0.0
+    while t < 1.0:                          # refreshed every 0.1 s, heartbeats alongside
+        t = round(t + 0.01, 2)
+        if abs(t * 10 - round(t * 10)) < 1e-9:
+            seq += 1
+            mcu.receive(encode_frame(m.Winch(0.02), seq, 0), t)
+            mcu.receive(encode_frame(m.Heartbeat(), seq + 1000, 0), t)
+        out += mcu.tick(t)
+    assert mcu.robot.winch.command == 0.02 and 'error' not in [k for k, _, _ in out]
+    while t < 1.5:                          # commands stop; heartbeats go on
+        t = round(t + 0.01, 2)
+        mcu.receive(encode_frame(m.Heartbeat(), seq + 2000 + int(100 * t), 0), t)
+        out += mcu.tick(t)
+        if mcu.robot.winch.command == 0.0:
+            break
+    assert mcu.robot.winch.command == 0.0
+    assert 1.3 - 1e-9 <= t <= 1.0 + 0.3 + 0.02   # last command at 1.0 s, deadman 0.3 s
+    errors = [f for k, b, _ in out if k == 'error' for f in _frames(b)]
+    assert errors and errors[0].code == m.ErrorCode.WINCH_DEADMAN
+    assert not mcu.robot.watchdog           # the link itself was fine all along

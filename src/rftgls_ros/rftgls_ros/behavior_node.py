@@ -45,6 +45,7 @@ from .behavior import (
 LEGS_L1 = ('leg_proximal_left', 'leg_proximal_right')
 LEGS_L2 = ('leg_distal_left', 'leg_distal_right')
 ROPE = 'winch_rope'
+WINCH_REFRESH_S = 0.1   # s; well inside the MCU's winch deadman (0.3 s)
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
@@ -181,8 +182,11 @@ class BehaviorNode(Node):
         for topic, value in cmd.oneshots:
             (self.pub_gait if topic == 'gait' else self.pub_burrow).publish(String(data=value))
         t = self.obs.t
+        # A moving winch is refreshed every WINCH_REFRESH_S: the MCU's winch deadman stops it
+        # when commands stop coming (a stalled or dead node must not keep it reeling).
+        refresh = WINCH_REFRESH_S if cmd.winch != 0.0 else 0.5
         if (self._last_winch is None or abs(cmd.winch - self._last_winch) > 5e-4
-                or t - self._last_winch_t > 0.5):
+                or t - self._last_winch_t > refresh):
             self.pub_winch.publish(Float64(data=float(cmd.winch)))
             self._last_winch, self._last_winch_t = cmd.winch, t
         self.pub_height.publish(Float64(data=float(cmd.height)))

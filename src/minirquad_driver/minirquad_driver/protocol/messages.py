@@ -122,6 +122,7 @@ class ErrorCode(enum.IntEnum):
     WINCH_STALL = 3
     SERVO_OVERLOAD = 4
     ANCHOR_SLIP = 5
+    WINCH_DEADMAN = 6      # winch speed not refreshed in time; winch stopped (detail = ms)
 
 
 class FieldRangeError(ValueError):

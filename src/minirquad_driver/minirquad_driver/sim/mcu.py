@@ -11,6 +11,10 @@ Firmware behaviour it models:
   executed again, so the host may retry;
 - the watchdog: no valid host frame for ``watchdog_s`` stops legs and winch, sends an ERROR
   once; a later heartbeat clears the flag but does not restart motion;
+- the winch deadman: a non-zero winch speed not refreshed by a WINCH command for
+  ``winch_deadman_s`` is set to zero (ERROR WINCH_DEADMAN once). The bridge's heartbeats keep
+  the link watchdog fed even when the node that commands the winch stalls or dies, so the
+  winch itself must not outlive its commands (docs/design/tug-safety.md);
 - after a reset it sends a RESET_NOTICE before anything else.
 """
 from __future__ import annotations
@@ -32,6 +36,7 @@ class McuConfig:
     telemetry_hz: int = 100
     power_hz: int = 50
     watchdog_s: float = 0.5
+    winch_deadman_s: float = 0.3   # 0 switches the winch deadman off
     clock_start_ms: int = 0
     physics_dt: float = 0.002   # s; the robot is stepped in substeps of at most this
 
@@ -63,6 +68,7 @@ class SimMcu:
         self._next_tel = now
         self._next_pow = now
         self._last_cmd: tuple[int, int] | None = None
+        self._winch_cmd_t = now
         self._watchdog_reported = False
         self.rx_crc_errors = 0
 
@@ -125,6 +131,7 @@ class SimMcu:
             robot.burrow(msg.mode)
         elif isinstance(msg, m.Winch):
             robot.set_winch(msg.speed)
+            self._winch_cmd_t = now
         else:
             result = m.AckResult.UNSUPPORTED   # an MCU -> host type sent the wrong way
         if result == m.AckResult.OK and robot.watchdog and not isinstance(msg, m.EStop):
@@ -145,6 +152,13 @@ class SimMcu:
         self._last_step = now
         if now - self._last_host_frame > self.config.watchdog_s and not self.robot.watchdog:
             self.robot.set_watchdog(True)
+        deadman = self.config.winch_deadman_s
+        if (deadman > 0 and self.robot.winch.command != 0.0
+                and now - self._winch_cmd_t > deadman):
+            stale_ms = int(1e3 * (now - self._winch_cmd_t))
+            self.robot.set_winch(0.0)
+            out.append(('error', self._frame(m.Error(m.ErrorCode.WINCH_DEADMAN,
+                                                     min(stale_ms, 0xFFFF)), now), None))
         if self.robot.watchdog and not self._watchdog_reported:
             self._watchdog_reported = True
             out.append(('error', self._frame(m.Error(m.ErrorCode.HOST_WATCHDOG, 0), now), None))

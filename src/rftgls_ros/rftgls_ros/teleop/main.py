@@ -85,6 +85,8 @@ class TeleopNode(Node):
     def on_timer(self) -> None:
         m = self.model
         self.send(m.update(time.monotonic()))
+        if m.winch != 0.0:   # refresh: the MCU's winch deadman stops a winch left unrefreshed
+            self.pubs['winch'].publish(Float64(data=float(m.winch)))
         self.pub_h.publish(Float64(data=m.height))
         self.pub_phi.publish(Float64(data=m.tether.phi(m.height)))
 
