@@ -51,6 +51,17 @@ DDS_PROFILE_VARS = ('FASTRTPS_DEFAULT_PROFILES_FILE', 'FASTDDS_DEFAULT_PROFILES_
 
 
 def pytest_configure(config):
+    if os.environ.get('PYTEST_XDIST_WORKER'):
+        # Each worker computes on one core: the RFT kernel's parallel loops would otherwise
+        # take both cores from the node processes of the other worker's end-to-end tests
+        # (seen: a 2.6 s stall of a whole stack mid-tug). Tests that compare thread counts set
+        # their own; speed is measured by `rftgls bench`, not here.
+        os.environ.setdefault('OMP_WAIT_POLICY', 'PASSIVE')   # before numba starts threads
+        try:
+            import numba
+            numba.set_num_threads(1)
+        except ImportError:  # pragma: no cover
+            pass
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
     for var in DDS_PROFILE_VARS:
         os.environ[var] = str(DDS_PROFILE)

@@ -45,7 +45,7 @@ from .behavior import (
 LEGS_L1 = ('leg_proximal_left', 'leg_proximal_right')
 LEGS_L2 = ('leg_distal_left', 'leg_distal_right')
 ROPE = 'winch_rope'
-WINCH_REFRESH_S = 0.1   # s; well inside the MCU's winch deadman (0.3 s)
+WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's deadman (0.1 s)
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
