@@ -15,6 +15,9 @@ from bridge_harness import Harness
 
 from minirquad_driver.bridge_node import JOINT_NAMES
 
+# Real-time end-to-end stacks: `make test` runs them alone (pytest.ini, Makefile).
+pytestmark = pytest.mark.realtime
+
 
 def _published_subset_of_intact(h: Harness, sim) -> int:
     """Every published leg-angle tuple must be one the simulator sent intact."""

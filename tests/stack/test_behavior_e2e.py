@@ -15,6 +15,9 @@ from pathlib import Path
 
 import pytest
 
+# Real-time end-to-end stacks: `make test` runs them alone (pytest.ini, Makefile).
+pytestmark = pytest.mark.realtime
+
 REPO = Path(__file__).resolve().parents[2]
 FAST = ['walk_time:=1.0', 'idle_measure_time:=0.5', 'idle_settle_time:=0.3']
 

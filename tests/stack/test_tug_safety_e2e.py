@@ -21,6 +21,9 @@ from pathlib import Path
 import pytest
 from test_behavior_e2e import run_stack
 
+# Real-time end-to-end stacks: `make test` runs them alone (pytest.ini, Makefile).
+pytestmark = pytest.mark.realtime
+
 HERE = Path(__file__).resolve().parent
 
 
