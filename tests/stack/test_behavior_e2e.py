@@ -7,13 +7,12 @@ reeled in ``--heavier-at`` metres (mid-tug), and which reports how far the ancho
 from __future__ import annotations
 
 import re
-import signal
-import subprocess
 import sys
 import time
 from pathlib import Path
 
 import pytest
+from conftest import stop_process
 
 # Real-time end-to-end stacks: `make test` runs them alone (pytest.ini, Makefile).
 pytestmark = pytest.mark.realtime
@@ -106,13 +105,7 @@ def test_e2e_heavier_sled_mid_tug_stops_before_slip(tmp_path, spawn):
     log = run_stack(tmp_path, spawn, 0.4, sim=sim)
     assert 'margin guard' in log and 'winch stopped before the predicted slip' in log, log
     assert re.search(r're-burrow \w+|then re-burrow (DL|DH)', log), log
-    # stop the simulator (SIGINT) to read its slip report
-    proc = run_stack.sim_proc
-    proc.send_signal(signal.SIGINT)
-    try:
-        proc.wait(5)
-    except subprocess.TimeoutExpired:
-        proc.kill()
+    stop_process(run_stack.sim_proc)   # SIGINT: the simulator prints its slip report
     sim_out = (tmp_path / 'sim.log').read_text()
     assert 'HEAVIER sled 0.4 -> 0.6 kg' in sim_out, sim_out
     slip = float(re.search(r'SLIP_TOTAL ([\d.]+)', sim_out).group(1))

@@ -13,12 +13,12 @@ from __future__ import annotations
 import csv
 import re
 import signal
-import subprocess
 import sys
 import time
 from pathlib import Path
 
 import pytest
+from conftest import stop_process
 from test_behavior_e2e import run_stack
 
 # Real-time end-to-end stacks: `make test` runs them alone (pytest.ini, Makefile).
@@ -68,12 +68,7 @@ def test_e2e_weaker_true_sand_slip_is_detected_and_stopped(tmp_path, spawn):
     assert re.search(r'decision \(expected pose\): DH:', log), log
     assert 'anchor slip detected (slip_pitch' in log, log
     assert re.search(r'cycle 1 \(1000 g sled\): DH stopped \(slip_pitch\)', log), log
-    proc = run_stack.procs['sim']
-    proc.send_signal(signal.SIGINT)
-    try:
-        proc.wait(5)
-    except subprocess.TimeoutExpired:
-        proc.kill()
+    stop_process(run_stack.procs['sim'])   # SIGINT: the simulator prints its slip report
     sim_out = (tmp_path / 'sim.log').read_text()
     # Slip between the last reel-in command and the stop reaching the simulated MCU (the
     # detection's cost; the robot may have been dragged a little while burrowing before).

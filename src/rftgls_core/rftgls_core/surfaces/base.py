@@ -200,6 +200,8 @@ class LimitSurface(ABC):
     def __init__(self, n_twists: int = 2000) -> None:
         self.n_twists = int(n_twists)
         self.problem: GLSProblem | None = None
+        # The support check's dense sphere and scaled wrenches, when this fit evaluated them.
+        self.support_samples_: tuple[TwistSphere, np.ndarray] | None = None
         self.fit_info = FitInfo(status=Status.INVALID_INPUT, reason='not_fitted',
                                 detail='call fit() first')
 
@@ -208,6 +210,7 @@ class LimitSurface(ABC):
         """Fit to `problem`; returns self. Failures are recorded in `fit_info`, never raised."""
         self.problem = problem
         self.fit_info = FitInfo()
+        self.support_samples_ = None
         if self.n_twists < self.min_twists:
             return self._fail_fit(Status.DEGENERATE, 'too_few_twists',
                                   f'{self.n_twists} twists: {self.method} needs at least '
@@ -235,6 +238,7 @@ class LimitSurface(ABC):
             if wd is None:
                 return self._fail_fit(Status.INVALID_INPUT, 'non_finite_wrench', why)
             wsd = problem.scaling.wrench_to_scaled(wd)
+            self.support_samples_ = (dense, wsd)   # a method may reuse them (direct does)
             wind_d = winding_number(wsd, dense.faces)
             self.fit_info.diagnostics.update(support_check_twists=dense.n,
                                              support_check_winding=wind_d)

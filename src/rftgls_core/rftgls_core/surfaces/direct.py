@@ -99,8 +99,11 @@ class DirectSurface(LimitSurface):
         if self._dense is None:
             pr = self._fitted_problem()
             sphere = TwistSphere.build(max(SUPPORT_CHECK_TWISTS, self.n_twists))
-            self.n_wrench_calls += 1
-            ws = pr.scaling.wrench_to_scaled(pr.wrenches(sphere.twists_raw(pr.scaling)))
+            if self.support_samples_ is not None and self.support_samples_[0] is sphere:
+                ws = self.support_samples_[1]      # the fit's support check evaluated them
+            else:
+                self.n_wrench_calls += 1
+                ws = pr.scaling.wrench_to_scaled(pr.wrenches(sphere.twists_raw(pr.scaling)))
             self._dense = (prepare_mesh(ws, sphere.faces), sphere)
         return self._dense
 
