@@ -117,6 +117,12 @@ def spawn():
         stop_process(p)
 
 
+@pytest.fixture
+def stop():
+    """stop_process, for tests that stop a process early (e.g. to read its final report)."""
+    return stop_process
+
+
 @pytest.fixture(scope='session')
 def python_exe() -> str:
     return sys.executable

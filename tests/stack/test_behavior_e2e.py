@@ -12,7 +12,6 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import stop_process
 
 # Real-time end-to-end stacks: `make test` runs them alone (pytest.ini, Makefile).
 pytestmark = pytest.mark.realtime
@@ -100,12 +99,12 @@ def test_e2e_refuses_when_no_mode_suffices(tmp_path, spawn):
 
 
 @pytest.mark.slow
-def test_e2e_heavier_sled_mid_tug_stops_before_slip(tmp_path, spawn):
+def test_e2e_heavier_sled_mid_tug_stops_before_slip(tmp_path, spawn, stop):
     sim = [sys.executable, __file__, '--heavier-at', '0.10', '--heavier-mass', '0.6']
     log = run_stack(tmp_path, spawn, 0.4, sim=sim)
     assert 'margin guard' in log and 'winch stopped before the predicted slip' in log, log
     assert re.search(r're-burrow \w+|then re-burrow (DL|DH)', log), log
-    stop_process(run_stack.sim_proc)   # SIGINT: the simulator prints its slip report
+    stop(run_stack.sim_proc)   # SIGINT: the simulator prints its slip report
     sim_out = (tmp_path / 'sim.log').read_text()
     assert 'HEAVIER sled 0.4 -> 0.6 kg' in sim_out, sim_out
     slip = float(re.search(r'SLIP_TOTAL ([\d.]+)', sim_out).group(1))

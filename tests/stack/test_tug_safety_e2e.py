@@ -18,7 +18,6 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import stop_process
 from test_behavior_e2e import run_stack
 
 # Real-time end-to-end stacks: `make test` runs them alone (pytest.ini, Makefile).
@@ -58,7 +57,7 @@ def test_e2e_capacity_node_killed_mid_tug_stops_the_winch(tmp_path, spawn):
 
 
 @pytest.mark.slow
-def test_e2e_weaker_true_sand_slip_is_detected_and_stopped(tmp_path, spawn):
+def test_e2e_weaker_true_sand_slip_is_detected_and_stopped(tmp_path, spawn, stop):
     # The heavier-sled simulator script of test_behavior_e2e.py (never heavier here) counts
     # the anchor's slip; the true medium is scaled to 0.7 of the stack's.
     sim = [sys.executable, str(HERE / 'test_behavior_e2e.py'), '--heavier-at', '99',
@@ -68,7 +67,7 @@ def test_e2e_weaker_true_sand_slip_is_detected_and_stopped(tmp_path, spawn):
     assert re.search(r'decision \(expected pose\): DH:', log), log
     assert 'anchor slip detected (slip_pitch' in log, log
     assert re.search(r'cycle 1 \(1000 g sled\): DH stopped \(slip_pitch\)', log), log
-    stop_process(run_stack.procs['sim'])   # SIGINT: the simulator prints its slip report
+    stop(run_stack.procs['sim'])   # SIGINT: the simulator prints its slip report
     sim_out = (tmp_path / 'sim.log').read_text()
     # Slip between the last reel-in command and the stop reaching the simulated MCU (the
     # detection's cost; the robot may have been dragged a little while burrowing before).
