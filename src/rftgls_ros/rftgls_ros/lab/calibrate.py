@@ -12,9 +12,17 @@ The capacity is nearly linear in xi_n (RFT stress ~ xi_n; the weight is not scal
 mu_surf moves it only a few percent, so several leg poses are needed and mu_surf stays the
 less certain parameter: the confidence intervals say how much.
 
-Least squares: scipy.optimize.least_squares (trf, bounds) on u = (xi_n / 1e5, mu_surf).
-Covariance: s^2 (J^T J)^-1 at the solution, s^2 = chi^2 / dof (the residual scatter sets the
-noise level, so sigma only weights the two kinds of data). 95 % intervals: Student t (dof).
+Least squares: scipy.optimize.least_squares (trf, bounds) on u = (xi_n / 1e5, log mu_surf):
+friction cannot go negative, its interval is exp of a symmetric one in log mu_surf.
+Uncertainty (docs/design/calibration.md): every pull test and every penetration test is a
+separate experiment. With more tests than fitted parameters the covariance is cluster-robust
+over tests (the scatter BETWEEN tests, not the residuals within one), per parameter never
+narrower than the pooled residual scatter s^2 (J^T J)^-1; with fewer tests only the latter
+('within_test'). 95 %
+intervals: Student t with (tests - fitted parameters) dof. A parameter the data do not
+identify (mu_surf without pull tests) is fixed at its start value: no interval, null in the
+medium file's calibration.ci95, its reason in calibration.fixed.
+A fit/residual plot is written next to the output (medium.json -> medium_fit.png).
 
     python -m rftgls_ros.lab.calibrate BAG [BAG ...] [--penetration trace.csv ...
         --plate-area A]
@@ -145,12 +153,24 @@ class PenetrationTrace:
         return out
 
 
+PARAMS = ('xi_n', 'mu_surf')
+
+
 @dataclass
 class Calibration:
+    """Fitted medium parameters (SI) and how well the data pin them.
+
+    cov: 2x2 covariance over (xi_n N/m^3, mu_surf); the row and column of a parameter that
+    was not fitted are 0 (it is fixed, see `fixed`). ci95: name -> (low, high), or None for a
+    fixed parameter. interval_basis: per fitted parameter 'between_tests' (cluster-robust over
+    separate tests) or 'within_test' (pooled residual scatter: one test, or wider than the
+    between-test estimate).
+    """
+
     xi_n: float
     mu_surf: float
     cov: np.ndarray              # 2x2, SI: (xi_n N/m^3, mu_surf)
-    ci95: dict                   # name -> (low, high)
+    ci95: dict                   # name -> (low, high) | None (not identified, fixed)
     dof: int
     residual_rms: dict           # 'pull_N', 'penetration_N'
     n_pull: int
@@ -158,6 +178,14 @@ class Calibration:
     method: str
     sources: list = field(default_factory=list)
     n_penetration_tests: int = 0
+    fixed: dict = field(default_factory=dict)        # name -> why it was not fitted
+    interval_basis: dict = field(default_factory=dict)   # fitted name -> basis
+    n_tests: int = 0                                  # independent experiments (clusters)
+    test_scatter: dict = field(default_factory=dict)  # 'xi_n_rel_sd' between penetration tests
+    # What the fit/residual plot needs: per penetration test (id, A*depth m^3, force N), and
+    # per pull test (id, measured N, predicted N).
+    penetration_tests: list = field(default_factory=list)
+    pull_fit: list = field(default_factory=list)
 
     @property
     def std(self) -> np.ndarray:
@@ -166,14 +194,18 @@ class Calibration:
     def medium(self, name: str = 'calibrated') -> Medium:
         return Medium(name, xi_n=self.xi_n, mu_surf=self.mu_surf, zeta=PLATE_FACTOR * self.xi_n,
                       note=f'calibrated ({self.method}) on {self.n_pull} pull tests and '
-                           f'{self.n_penetration} penetration samples')
+                           f'{self.n_penetration} penetration samples'
+                           + ''.join(f'; {k} fixed ({v})' for k, v in self.fixed.items()))
 
     def to_json(self, name: str = 'calibrated', command: str = '') -> str:
         d = self.medium(name).to_dict()
+        std = {k: (None if k in self.fixed else float(s)) for k, s in zip(PARAMS, self.std)}
         d['calibration'] = {
-            'covariance': self.cov.tolist(), 'covariance_order': ['xi_n', 'mu_surf'],
-            'std': {'xi_n': self.std[0], 'mu_surf': self.std[1]},
-            'ci95': {k: list(v) for k, v in self.ci95.items()}, 'dof': self.dof,
+            'covariance': self.cov.tolist(), 'covariance_order': list(PARAMS),
+            'std': std,
+            'ci95': {k: (None if v is None else list(v)) for k, v in self.ci95.items()},
+            'fixed': self.fixed, 'interval_basis': self.interval_basis,
+            'n_tests': self.n_tests, 'test_scatter': self.test_scatter, 'dof': self.dof,
             'residual_rms': self.residual_rms, 'n_pull_tests': self.n_pull,
             'n_penetration_samples': self.n_penetration,
             'n_penetration_tests': self.n_penetration_tests, 'surface_method': self.method,
@@ -181,34 +213,73 @@ class Calibration:
         return json.dumps(d, indent=2, allow_nan=False)
 
 
+MU_BOUNDS = (1e-3, 3.0)      # friction coefficient range of the fit (log parametrisation)
+IDENTIFIED_REL = 1e-6        # a Jacobian column below this share of the largest: not identified
+
+
+def _cluster_covariance(J: np.ndarray, r: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """Cluster-robust (CR1) covariance of least-squares parameters, clusters = tests.
+
+    (J^T J)^-1 (sum_g J_g^T r_g r_g^T J_g) (J^T J)^-1 * G/(G-1): the spread of the per-test
+    score contributions, so tests that disagree widen the interval however many samples each
+    test holds (for plate penetration alone it reduces to s_between^2 / G of the per-test
+    xi_n estimates).
+    """
+    bread = np.linalg.pinv(J.T @ J)
+    meat = np.zeros((J.shape[1], J.shape[1]))
+    labels = np.unique(groups)
+    for g in labels:
+        sg = J[groups == g].T @ r[groups == g]
+        meat += np.outer(sg, sg)
+    G = len(labels)
+    return bread @ meat @ bread * (G / (G - 1))
+
+
 def calibrate(pulls: list[PullObservation],
               penetration: PenetrationTrace | list[PenetrationTrace] | None = None,
               method: str = 'twist-mesh', x0: tuple[float, float] = (3.8e5, 0.4),
               sigma_pull_N: float = 0.05, sigma_penetration_N: float = 0.05,
               progress: bool = False) -> Calibration:
-    """Least-squares fit. penetration: one test or a list of tests (each its own plate
-    area); their samples enter the fit side by side."""
+    """Least-squares fit of (xi_n, mu_surf) to pull tests and penetration tests.
+
+    penetration: one test or a list of tests (each its own plate area). Every penetration
+    test and every pull test is a separate experiment (a cluster): with more tests than
+    fitted parameters, each parameter's standard deviation is the wider of the cluster-robust
+    one over tests (`_cluster_covariance`) and the pooled residual one (s^2 (J^T J)^-1), with
+    Student t on tests - fitted parameters dof; otherwise only the residual scatter is known.
+    Parameters: u = (xi_n / XI_SCALE, log mu_surf), so friction cannot go negative and its
+    interval is exp of a symmetric one. mu_surf enters only the pull tests: without them it is
+    not identified and stays fixed at x0[1] (no interval, `fixed`); the same happens when
+    the pull capacities do not move with it (a zero Jacobian column).
+    """
     from scipy import optimize, stats
 
     from rftgls_core.rft.media import custom_medium
 
     tests = [] if penetration is None else (
         [penetration] if isinstance(penetration, PenetrationTrace) else list(penetration))
-    # One trace of every sample: F = 0.875 xi_n A depth is linear in A * depth, so the
-    # tests combine by stacking A * depth next to the forces.
-    penetration = None if not tests else PenetrationTrace(
-        np.concatenate([t.depth_m * t.plate_area_m2 for t in tests]),
-        np.concatenate([t.force_N for t in tests]), 1.0, ','.join(t.test_id for t in tests))
-    n_pen = 0 if penetration is None else len(penetration.depth_m)
+    # F = 0.875 xi_n A depth is linear in A * depth: samples of all tests side by side, with
+    # the test each sample belongs to.
+    pen_x = (np.concatenate([t.depth_m * t.plate_area_m2 for t in tests]) if tests
+             else np.zeros(0))
+    pen_f = np.concatenate([t.force_N for t in tests]) if tests else np.zeros(0)
+    n_pen = len(pen_x)
     if len(pulls) + n_pen < 3:
         raise ValueError('need at least 3 observations for 2 parameters and an error estimate')
+    if not (MU_BOUNDS[0] <= x0[1] <= MU_BOUNDS[1]):
+        raise ValueError(f'mu_surf start {x0[1]} outside {MU_BOUNDS}')
+    # Cluster label of every residual: pull tests first (one each), then penetration tests.
+    groups = np.concatenate([np.arange(len(pulls)),
+                             np.concatenate([np.full(len(t.depth_m), len(pulls) + i)
+                                             for i, t in enumerate(tests)])
+                             if tests else np.zeros(0, dtype=int)]).astype(int)
     bar = None
     if progress:
         from tqdm import tqdm
         bar = tqdm(unit='eval', desc='calibrate', file=sys.stderr)
 
-    def pull_forces(u: np.ndarray) -> np.ndarray:
-        med = custom_medium(xi_n=u[0] * XI_SCALE, mu_surf=u[1])
+    def pull_forces(xi: float, mu: float) -> np.ndarray:
+        med = custom_medium(xi_n=xi, mu_surf=mu)
         models = {}
         out = np.empty(len(pulls))
         for i, ob in enumerate(pulls):
@@ -223,44 +294,158 @@ def calibrate(pulls: list[PullObservation],
         return out
 
     meas = np.array([ob.breakaway_N for ob in pulls])
+    mu_fixed = float(x0[1])
 
-    def residuals(u: np.ndarray) -> np.ndarray:
-        r = [(pull_forces(u) - meas) / sigma_pull_N] if pulls else []
-        if penetration is not None:
-            model = PLATE_FACTOR * u[0] * XI_SCALE * penetration.plate_area_m2 * penetration.depth_m
-            r.append((model - penetration.force_N) / sigma_penetration_N)
+    def unpack(u: np.ndarray, fit_mu: bool) -> tuple[float, float]:
+        return float(u[0]) * XI_SCALE, (math.exp(float(u[1])) if fit_mu else mu_fixed)
+
+    def residuals(u: np.ndarray, fit_mu: bool) -> np.ndarray:
+        xi, mu = unpack(u, fit_mu)
+        r = [(pull_forces(xi, mu) - meas) / sigma_pull_N] if pulls else []
+        if n_pen:
+            r.append((PLATE_FACTOR * xi * pen_x - pen_f) / sigma_penetration_N)
         return np.concatenate(r)
 
-    u0 = np.array([x0[0] / XI_SCALE, x0[1]])
-    # diff_step: relative; 1e-3 keeps the finite differences above the solver's round-off
-    sol = optimize.least_squares(residuals, u0, bounds=([0.1, 0.0], [100.0, 3.0]),
-                                 diff_step=1e-3, x_scale=np.array([1.0, 0.1]), xtol=1e-10,
-                                 ftol=1e-10)
+    def solve(fit_mu: bool):
+        u0 = [x0[0] / XI_SCALE] + ([math.log(x0[1])] if fit_mu else [])
+        lo = [0.1] + ([math.log(MU_BOUNDS[0])] if fit_mu else [])
+        hi = [100.0] + ([math.log(MU_BOUNDS[1])] if fit_mu else [])
+        # diff_step: relative; 1e-3 keeps the finite differences above the solver's round-off
+        return optimize.least_squares(residuals, np.array(u0), args=(fit_mu,),
+                                      bounds=(lo, hi), diff_step=1e-3,
+                                      x_scale=np.array([1.0, 0.25][:len(u0)]), xtol=1e-10,
+                                      ftol=1e-10)
+
+    fixed: dict = {}
+    if pulls:
+        sol = solve(True)
+        col = np.linalg.norm(sol.jac, axis=0)
+        if not col[1] > IDENTIFIED_REL * col.max():
+            fixed['mu_surf'] = (f'not identified: the pull-test capacities do not change with '
+                                f'it; fixed at {mu_fixed:g}')
+            sol = solve(False)
+    else:
+        fixed['mu_surf'] = (f'not identified: no pull test (plate penetration does not depend '
+                            f'on friction); fixed at {mu_fixed:g}')
+        sol = solve(False)
     if bar is not None:
         bar.close()
-    J = sol.jac
-    n = J.shape[0]
-    dof = n - 2
-    chi2 = float(sol.fun @ sol.fun)
-    s2 = chi2 / dof if dof > 0 else 1.0
-    cov_u = s2 * np.linalg.pinv(J.T @ J)
-    S = np.diag([XI_SCALE, 1.0])
-    cov = S @ cov_u @ S
-    xi, mu = sol.x[0] * XI_SCALE, sol.x[1]
-    t = stats.t.ppf(0.975, max(dof, 1))
-    sd = np.sqrt(np.diag(cov))
+    fit_mu = 'mu_surf' not in fixed
+    J, res = sol.jac, sol.fun
+    k = J.shape[1]
+    n_tests = len(np.unique(groups))
+    dof_res = len(res) - k
+    s2 = float(res @ res) / dof_res if dof_res > 0 else 1.0
+    cov_res = s2 * np.linalg.pinv(J.T @ J)
+    sd_res = np.sqrt(np.maximum(np.diag(cov_res), 0.0))
+    if n_tests > k:
+        # Per parameter the wider of the two: cluster-robust over tests (the scatter between
+        # them), and the pooled residual scatter, because with few tests one test that
+        # carries a parameter alone (a single penetration test next to pull tests) has a
+        # score of ~0 at the optimum and would make the cluster-robust variance vanish.
+        sd_cr = np.sqrt(np.maximum(np.diag(_cluster_covariance(J, res, groups)), 0.0))
+        sd_u = np.maximum(sd_cr, sd_res)
+        basis = {n: ('between_tests' if c >= r_ else 'within_test')
+                 for n, c, r_ in zip(PARAMS, sd_cr, sd_res)}
+        dof = n_tests - k
+    else:
+        sd_u = sd_res
+        basis = {n: 'within_test' for n in PARAMS[:k]}
+        dof = max(dof_res, 1)
+    # The residual correlation, scaled to the chosen standard deviations.
+    corr = cov_res / np.outer(np.where(sd_res > 0, sd_res, 1.0), np.where(sd_res > 0, sd_res,
+                                                                          1.0))
+    cov_u = corr * np.outer(sd_u, sd_u)
+    xi, mu = unpack(sol.x, fit_mu)
+    t = float(stats.t.ppf(0.975, dof))
+    # Covariance in SI by the delta method: d xi / d u0 = XI_SCALE, d mu / d log mu = mu.
+    D = np.diag([XI_SCALE] + ([mu] if fit_mu else []))
+    cov_k = D @ cov_u @ D
+    cov = np.zeros((2, 2))
+    cov[:k, :k] = cov_k
+    ci95: dict = {'xi_n': (xi - t * sd_u[0] * XI_SCALE, xi + t * sd_u[0] * XI_SCALE),
+                  'mu_surf': None}
+    if fit_mu:   # symmetric in log mu: the interval stays positive
+        ci95['mu_surf'] = (mu * math.exp(-t * sd_u[1]), mu * math.exp(t * sd_u[1]))
+    ci95 = {n: (None if v is None else (float(v[0]), float(v[1]))) for n, v in ci95.items()}
     rms = {}
-    res = sol.fun
+    pred_pull = meas + res[:len(pulls)] * sigma_pull_N
     if pulls:
         rms['pull_N'] = float(np.sqrt(np.mean((res[:len(pulls)] * sigma_pull_N) ** 2)))
     if n_pen:
         res_pen = res[len(pulls):] * sigma_penetration_N
         rms['penetration_N'] = float(np.sqrt(np.mean(res_pen ** 2)))
-    return Calibration(xi_n=float(xi), mu_surf=float(mu), cov=cov,
-                       ci95={'xi_n': (float(xi - t * sd[0]), float(xi + t * sd[0])),
-                             'mu_surf': (float(mu - t * sd[1]), float(mu + t * sd[1]))},
-                       dof=dof, residual_rms=rms, n_pull=len(pulls), n_penetration=n_pen,
-                       method=method, n_penetration_tests=len(tests))
+    scatter = {}
+    if len(tests) >= 2:
+        per_test = [float(np.sum(tt.depth_m * tt.plate_area_m2 * tt.force_N)
+                          / (PLATE_FACTOR * np.sum((tt.depth_m * tt.plate_area_m2) ** 2)))
+                    for tt in tests]
+        scatter = {'xi_n_per_test': per_test,
+                   'xi_n_rel_sd': float(np.std(per_test, ddof=1) / np.mean(per_test))}
+    return Calibration(xi_n=float(xi), mu_surf=float(mu), cov=cov, ci95=ci95, dof=int(dof),
+                       residual_rms=rms, n_pull=len(pulls), n_penetration=n_pen,
+                       method=method, n_penetration_tests=len(tests), fixed=fixed,
+                       interval_basis=basis, n_tests=n_tests, test_scatter=scatter,
+                       penetration_tests=[(tt.test_id, tt.depth_m * tt.plate_area_m2,
+                                           tt.force_N) for tt in tests],
+                       pull_fit=[(ob.test_id, float(m_), float(p_))
+                                 for ob, m_, p_ in zip(pulls, meas, pred_pull)])
+
+
+def plot_fit(cal: Calibration, path: str | Path) -> None:
+    """Fit and residual plot of one calibration (PNG): penetration force against A * depth
+    per test with the fitted line, pull-test breakaway measured against predicted, and the
+    residuals of both."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    cols = int(bool(cal.penetration_tests)) + int(bool(cal.pull_fit))
+    fig, axes = plt.subplots(2, cols, figsize=(5.5 * cols, 7), squeeze=False)
+    c = 0
+    if cal.penetration_tests:
+        top, bot = axes[0, c], axes[1, c]
+        xmax = max(float(np.max(x)) for _, x, _ in cal.penetration_tests)
+        for tid, x, f in cal.penetration_tests:
+            top.plot(x * 1e6, f, '.', ms=3, label=str(tid))
+            bot.plot(x * 1e6, f - PLATE_FACTOR * cal.xi_n * x, '.', ms=3)
+        xs = np.linspace(0.0, xmax, 2)
+        top.plot(xs * 1e6, PLATE_FACTOR * cal.xi_n * xs, 'k-', lw=1.5,
+                 label=f'fit xi_n = {cal.xi_n:.4g} N/m^3')
+        top.set(xlabel='plate area x depth [cm^3]', ylabel='force [N]',
+                title=f'plate penetration ({cal.n_penetration_tests} tests)')
+        top.legend(fontsize=7, ncol=2)
+        bot.axhline(0.0, color='k', lw=0.8)
+        bot.set(xlabel='plate area x depth [cm^3]', ylabel='residual [N]')
+        c += 1
+    if cal.pull_fit:
+        top, bot = axes[0, c], axes[1, c]
+        meas = np.array([m for _, m, _ in cal.pull_fit])
+        pred = np.array([p for _, _, p in cal.pull_fit])
+        top.plot(pred, meas, 'o')
+        lim = [0.0, 1.05 * float(max(meas.max(), pred.max()))]
+        top.plot(lim, lim, 'k-', lw=0.8)
+        top.set(xlabel='predicted breakaway [N]', ylabel='measured breakaway [N]',
+                title=f'pull tests ({cal.n_pull}), {cal.method}')
+        bot.bar(range(len(meas)), meas - pred)
+        bot.set_xticks(range(len(meas)), [t for t, _, _ in cal.pull_fit], rotation=60,
+                       fontsize=6)
+        bot.axhline(0.0, color='k', lw=0.8)
+        bot.set(ylabel='measured - predicted [N]')
+    mu_txt = ('mu_surf fixed (not identified)' if cal.ci95['mu_surf'] is None
+              else f'mu_surf {cal.mu_surf:.3f}')
+    fig.suptitle(f'calibration: xi_n {cal.xi_n:.4g} N/m^3, {mu_txt}\n95 % interval of xi_n '
+                 f'{cal.ci95["xi_n"][0]:.4g} .. {cal.ci95["xi_n"][1]:.4g} '
+                 f'({cal.interval_basis.get("xi_n", "")})', fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_path(out: str | Path) -> Path:
+    """The fit plot written next to a calibration output: medium.json -> medium_fit.png."""
+    p = Path(out)
+    return p.with_name(p.stem + '_fit.png')
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
@@ -322,13 +507,22 @@ def run(args, command: str) -> int:
                     sigma_penetration_N=args.sigma_penetration, progress=True)
     cal.sources = [str(b) for b in args.bags] + list(args.penetration)
     Path(args.out).write_text(cal.to_json(args.name, command))
+    png = plot_path(args.out)
+    plot_fit(cal, png)
     lo, hi = cal.ci95['xi_n']
-    mlo, mhi = cal.ci95['mu_surf']
-    print(f'xi_n    = {cal.xi_n:.4g} N/m^3  (95% CI {lo:.4g} .. {hi:.4g})')
-    print(f'mu_surf = {cal.mu_surf:.3f}        (95% CI {mlo:.3f} .. {mhi:.3f})')
+    print(f'xi_n    = {cal.xi_n:.4g} N/m^3  (95% CI {lo:.4g} .. {hi:.4g}, '
+          f'{cal.interval_basis["xi_n"]})')
+    if cal.ci95['mu_surf'] is None:
+        print(f'mu_surf = {cal.mu_surf:.3f}        {cal.fixed["mu_surf"]} (no interval)')
+    else:
+        mlo, mhi = cal.ci95['mu_surf']
+        print(f'mu_surf = {cal.mu_surf:.3f}        (95% CI {mlo:.3f} .. {mhi:.3f})')
+    if cal.test_scatter:
+        print(f'between penetration tests: xi_n scatters by '
+              f'{100 * cal.test_scatter["xi_n_rel_sd"]:.1f} % (1 sd)')
     print('residual rms: ' + ', '.join(f'{k} {v:.3g}' for k, v in cal.residual_rms.items())
           + f'; dof {cal.dof}; {cal.n_pull} pull test(s), {cal.n_penetration_tests} '
-          f'penetration test(s); wrote {args.out}')
+          f'penetration test(s); wrote {args.out} and {png}')
     return 0
 
 
