@@ -211,7 +211,9 @@ def with_status(nodes):
 
 def test_cell_touching_unsupported_node_has_no_value():
     g = small_grid()
-    m = with_status([((1, 1, 1, 0, 1, 1), UNSUP)])
+    edge = with_status([((1, 1, 1, 0, 1, 1), UNSUP)])
+    # with the valued-corner rule off (edge_min_weight > 1) the strict cell rule answers
+    m = CapacityMap(edge.data, edge_min_weight=2.0)
     # inside the cell h 10..20, tb 0..10, l1 -20..20, l2 20..40, phi -10..0
     r = m.query(state(15, 5, 0, 30), math.radians(-5), 'backward')
     assert r.status is Status.UNSUPPORTED and r.capacity_N is None and r.slip_twist is None
@@ -224,6 +226,12 @@ def test_cell_touching_unsupported_node_has_no_value():
     face = m.query(state(15, 5, 0, 30), math.radians(0), 'backward')   # phi on a stored angle
     assert face.status is Status.OK
     assert g.phi[1] == pytest.approx(math.radians(-10))
+    # by default the cell centre (valued weight 31/32 >= 0.9) answers the valued corners'
+    # blend, flagged; a point next to the unsupported corner (its weight > 0.1) does not
+    e = edge.query(state(15, 5, 0, 30), math.radians(-5), 'backward')
+    assert e.ok and e.flags == ('edge_valued',) and e.capacity_N is not None
+    near = edge.query(state(11, 1, -19, 21), math.radians(-9), 'backward')
+    assert near.reason == 'cell_unsupported' and near.capacity_N is None
 
 
 def test_conservative_priority_unsupported_over_degenerate():

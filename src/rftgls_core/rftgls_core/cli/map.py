@@ -74,6 +74,9 @@ def add_parser(sub) -> None:
     a.add_argument('--seed', type=int, default=0)
     a.add_argument('--support-edge', action='store_true',
                    help='query with the opt-in support-edge rule (maps/README.md)')
+    a.add_argument('--random', type=int, default=0, metavar='N',
+                   help='instead: coverage and overestimate against the live reference at N '
+                        'random states of the robot (both pulls, phi -30..10 deg)')
     a.add_argument('--json', action='store_true', help='print JSON')
     a.add_argument('--quiet', action='store_true', help='no progress bar')
     a.set_defaults(run=run_accuracy)
@@ -213,6 +216,27 @@ def run_accuracy(args) -> int:
     from ..maps.shipped import resolve_map
     if args.samples < 1:
         raise ValueError(f'--samples must be >= 1, got {args.samples}')
+    if args.random < 0:
+        raise ValueError(f'--random must be >= 0, got {args.random}')
+    if args.random:
+        from ..maps.accuracy import coverage_report
+        cov = coverage_report(CapacityMap.load(resolve_map(args.file),
+                                               support_edge=args.support_edge),
+                              n=args.random, seed=args.seed, reference=args.reference,
+                              progress=not args.quiet)
+        if args.json:
+            d = cov.to_dict()
+            d.update({k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+                      for k, v in d.items()})
+            print_json(d)
+            return 0
+        print(f'{args.file} vs live {cov.reference}: {cov.n_states} random states, reference '
+              f'answers {cov.ref_answers}, map answers {cov.map_answers} of them '
+              f'({cov.coverage_pct:.1f} %), map-only answers {cov.map_only}')
+        print(f'  largest overestimate {cov.over_N_worst:+.3f} N, |error| p95 '
+              f'{cov.err_N_p95:.3f} N; map answers by rule: '
+              + ', '.join(f'{k or "interior"} {v}' for k, v in sorted(cov.by_flag.items())))
+        return 0
     rep = accuracy_report(CapacityMap.load(resolve_map(args.file),
                                            support_edge=args.support_edge),
                           samples=args.samples,

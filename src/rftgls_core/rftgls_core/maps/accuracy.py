@@ -126,3 +126,65 @@ def accuracy_report(cmap: CapacityMap, samples: int = 20, seed: int = 0,
                           twist_deg=ErrorStats.of(np.asarray(ang_err)),
                           note=note,
                           capacity_over_N_worst=float(max(over)) if over else float('nan'))
+
+
+@dataclass(frozen=True)
+class CoverageReport:
+    """How often a map answers where the live reference does, and how far above it.
+
+    Over `n_states` random (state, pull, phi) of the robot's ranges (accuracy.agreement_states:
+    both pulls, phi uniform in -30..10 deg): `ref_answers` states where the reference has a
+    value, `map_answers` of those where the map has one too (coverage_pct), `map_only` states
+    where only the map has a value (an overestimate of a state that cannot hold), worst and
+    p95 of (map - reference) in N where both answer, and `by_flag` how many map answers each
+    rule gave ('' = interior cell).
+    """
+
+    robot: str
+    reference: str
+    n_states: int
+    ref_answers: int
+    map_answers: int
+    coverage_pct: float
+    map_only: int
+    over_N_worst: float
+    err_N_p95: float
+    by_flag: dict
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def coverage_report(cmap: CapacityMap, n: int = 300, seed: int = 0,
+                    reference: str = 'direct', progress: bool = False) -> CoverageReport:
+    """The map against the live reference at n random states of its robot (see CoverageReport).
+    The reference is the live solver at its defaults (capacity_node's live fallback)."""
+    from ..accuracy import agreement_states
+    spec = spec_from_map(cmap.data)
+    model = AnchorModel(get_robot(spec.robot), spec.medium, model=spec.model, method=reference)
+    jobs = agreement_states(spec.robot, n, seed)
+    ref_n = ans = only = 0
+    over: list[float] = []
+    flags: dict[str, int] = {}
+    for state, pull, phi in tqdm(jobs, unit='state', file=sys.stderr, desc='coverage',
+                                 disable=not progress):
+        r = model.predict(state, phi, pull)
+        m = cmap.query(state, phi, pull)
+        if m.capacity_N is not None:
+            key = ','.join(m.flags)
+            flags[key] = flags.get(key, 0) + 1
+        if r.capacity_N is None:
+            only += int(m.capacity_N is not None)
+            continue
+        ref_n += 1
+        if m.capacity_N is not None:
+            ans += 1
+            over.append(m.capacity_N - r.capacity_N)
+    o = np.asarray(over)
+    return CoverageReport(robot=spec.robot, reference=reference, n_states=n, ref_answers=ref_n,
+                          map_answers=ans, coverage_pct=100.0 * ans / ref_n if ref_n else
+                          float('nan'), map_only=only,
+                          over_N_worst=float(o.max()) if o.size else float('nan'),
+                          err_N_p95=float(np.percentile(np.abs(o), 95)) if o.size else
+                          float('nan'), by_flag=flags)
+

@@ -12,7 +12,14 @@ Policies (docs/design/architecture.md, docs/design/limit-surfaces.md):
   one (or none); outside the grid the map knows nothing (README "Statuses").
 - Non-finite state or phi, unknown pull, or a pull orientation the map does not hold:
   INVALID_INPUT, no value.
-- Support edge (opt-in, `support_edge=True`): a corner that cannot hold the weight
+- Support edge, valued-corner rule (default): a cell whose only valueless corners are
+  UNSUPPORTED and whose valued corners carry >= edge_min_weight (EDGE_MIN_WEIGHT, 0.9) of the
+  5-D interpolation weight answers the blend of the valued corners, renormalised by their
+  weight, status OK with the flag 'edge_valued'. The capacity JUMPS at the support edge (it
+  does not fall to 0), so no blend can place the edge; near the valued corners the state
+  measured on the holding side (maps/README.md: 300 random states per robot, no answer where
+  the live solver says unsupported, worst overestimate that of interior cells).
+- Support edge, zeros rule (opt-in, `support_edge=True`): a corner that cannot hold the weight
   (UNSUPPORTED) has capacity 0, the value capacity falls to where the origin leaves the limit
   surface. A cell whose only valueless corners are unsupported then answers the blend with
   those corners as 0 N (twists from the valued corners), status OK with the flag
@@ -47,6 +54,10 @@ from .interpolate import corner_offsets, flat_strides, locate, locate_many, weig
 METHOD = 'map'
 LOW_CONFIDENCE = 0.5
 CANCEL_NORM = 1e-9        # below this the blended twist has no direction
+# Valued-corner rule next to the support edge (maps/README.md): a cell whose valueless corners
+# are all unsupported answers the blend of its valued corners, renormalised, when they carry
+# at least this share of the interpolation weight (measured: 300 random states per robot).
+EDGE_MIN_WEIGHT = 0.9
 # Most conservative first: a cell touching an unsupported node is reported unsupported.
 BAD_PRIORITY = (Status.UNSUPPORTED, Status.DEGENERATE, Status.INVALID_INPUT, Status.STALE)
 AXIS_NAMES = STATE_AXES + ('phi',)
@@ -64,7 +75,8 @@ class BatchAnswer:
     capacity_N (N,), NaN without value; slip_twist_scaled / slip_twist (N, 3), NaN without
     value; confidence (N,) pre-normalisation twist norm (NaN without value); status (N,)
     uint8 codes into hdf5.STATUS_NAMES; out_of_grid (N, 5) bool per axis (h, theta_b,
-    theta_l1, theta_l2, phi); support_edge (N,) bool, answered by the support-edge rule.
+    theta_l1, theta_l2, phi); support_edge (N,) bool, answered by the zeros rule;
+    edge_valued (N,) bool, answered by the valued-corner rule.
     """
 
     capacity_N: np.ndarray
@@ -74,6 +86,7 @@ class BatchAnswer:
     status: np.ndarray
     out_of_grid: np.ndarray
     support_edge: np.ndarray
+    edge_valued: np.ndarray
 
     def statuses(self) -> list[Status]:
         return [_STATUS_OF[c] for c in self.status]
@@ -95,12 +108,19 @@ def _describe_side(name: str, x: float, lo: float, hi: float, side: int) -> str:
 class CapacityMap:
     """A loaded capacity map; `query` is the onboard hot path (pure Python, ~10 us)."""
 
-    def __init__(self, data: MapData, source: str = '', support_edge: bool = False) -> None:
-        """support_edge: answer cells next to unsupported nodes by the support-edge rule
-        (opt-in: its measured error, maps/README.md, is far larger than the interior's)."""
+    def __init__(self, data: MapData, source: str = '', support_edge: bool = False,
+                 edge_min_weight: float = EDGE_MIN_WEIGHT) -> None:
+        """support_edge: answer cells next to unsupported nodes by the zeros rule (opt-in: its
+        measured error, maps/README.md, is far larger than the interior's).
+        edge_min_weight: the valued-corner rule answers a cell whose valueless corners are all
+        unsupported when the valued corners carry at least this share of the weight (> 1
+        switches the rule off)."""
         self.data = data
         self.source = source
         self.support_edge = bool(support_edge)
+        if not (math.isfinite(edge_min_weight) and edge_min_weight > 0.0):
+            raise ValueError(f'edge_min_weight must be a positive share, got {edge_min_weight}')
+        self.edge_min_weight = float(edge_min_weight)
         g = data.grid
         self._axes = [list(map(float, getattr(g, n))) for n in AXIS_NAMES]
         n_pull = len(g.pulls)
@@ -143,9 +163,11 @@ class CapacityMap:
 
     # -- construction and metadata ---------------------------------------------------------
     @classmethod
-    def load(cls, path: str | Path, support_edge: bool = False) -> 'CapacityMap':
+    def load(cls, path: str | Path, support_edge: bool = False,
+             edge_min_weight: float = EDGE_MIN_WEIGHT) -> 'CapacityMap':
         """Read and validate a map file (MapFileError, a ValueError, on any problem)."""
-        return cls(load_map(path), source=str(path), support_edge=support_edge)
+        return cls(load_map(path), source=str(path), support_edge=support_edge,
+                   edge_min_weight=edge_min_weight)
 
     @property
     def grid(self) -> MapGrid:
@@ -231,9 +253,11 @@ class CapacityMap:
         n_terms = 0
         w_valued = 0.0
         c = x0 = x1 = x2 = 0.0
+        up = 1.0
         if dk:
             pairs = self._pairs[p]
             cb = y0 = y1 = y2 = 0.0
+            wa = wb = 0.0     # weight of half-valued pairs at the lower / upper stored angle
             for off, w in zip(self._offs16, ws):
                 if w == 0.0:
                     continue   # before indexing: zero-weight corners may lie past the axis end
@@ -242,6 +266,21 @@ class CapacityMap:
                 if v is None:
                     j = b0 + off
                     bad = (bad or []) + [i for i in (j, j + 1) if flat[i] is None]
+                    # the valued half of the pair still counts for the valued-corner rule
+                    h = flat[j]
+                    if h is not None:
+                        wa += w
+                        c += w * h[0]
+                        x0 += w * h[1]
+                        x1 += w * h[2]
+                        x2 += w * h[3]
+                    h = flat[j + 1]
+                    if h is not None:
+                        wb += w
+                        cb += w * h[0]
+                        y0 += w * h[1]
+                        y1 += w * h[2]
+                        y2 += w * h[3]
                     continue
                 a0, a1, a2, a3, e0, e1, e2, e3 = v
                 w_valued += w
@@ -256,6 +295,8 @@ class CapacityMap:
             up = 1.0 - tp
             c, x0, x1, x2 = (up * c + tp * cb, up * x0 + tp * y0, up * x1 + tp * y1,
                              up * x2 + tp * y2)
+            if bad is not None:   # 5-D valued weight: both angles of the half-valued pairs
+                w_valued += up * wa + tp * wb
         else:
             for off, w in zip(self._offs16, ws):
                 if w == 0.0:
@@ -274,14 +315,22 @@ class CapacityMap:
         n_corners = n_terms * (1 + dk)
         flags: tuple[str, ...] = ()
         if bad is not None:
-            # Support edge: corners that cannot hold the weight have capacity 0 (capacity falls
-            # to 0 where the origin leaves the surface), so the blend with them as zeros is the
-            # conservative answer. Any other valueless corner still withholds the value.
+            # Valueless corners that are all unsupported (any other status withholds the value):
+            # - valued-corner rule: when the valued corners carry >= edge_min_weight of the
+            #   weight, the query lies close to them, on the side that holds (measured, README);
+            #   the answer is their blend, renormalised (flag 'edge_valued');
+            # - opt-in zeros rule (support_edge): the unsupported corners count as 0 N.
             unsupported = self._codes[p]
-            if not (self.support_edge and w_valued > 0.0
-                    and all(unsupported[k] == _UNSUPPORTED for k in bad)):
+            only_unsupported = w_valued > 0.0 and all(unsupported[k] == _UNSUPPORTED
+                                                      for k in bad)
+            if only_unsupported and w_valued >= self.edge_min_weight - 1e-12:
+                inv = 1.0 / w_valued
+                c, x0, x1, x2 = c * inv, x0 * inv, x1 * inv, x2 * inv
+                flags = ('edge_valued',)
+            elif only_unsupported and self.support_edge:
+                flags = ('support_edge',)
+            else:
                 return self._bad_cell(p, coords[4], bad, n_corners)
-            flags = ('support_edge',)
         norm = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
         if norm < CANCEL_NORM:
             return CapacityResult(phi=coords[4], status=Status.DEGENERATE, method=METHOD,
@@ -293,9 +342,12 @@ class CapacityMap:
         rn = math.sqrt(x0 * x0 + x1 * x1 + r2 * r2)
         raw = (x0 / rn, x1 / rn, r2 / rn)
         detail = f'twist_confidence={norm:.3f}; corners {n_corners}'
-        if flags:
+        if flags == ('support_edge',):
             detail += (f'; support edge: {len(bad or [])} unsupported corners counted as 0 N '
                        f'(valued weight {w_valued:.3f})')
+        elif flags:
+            detail += (f'; support edge: blend of the valued corners (weight {w_valued:.3f} >= '
+                       f'{self.edge_min_weight:g}), {len(bad or [])} unsupported corners left out')
         if norm < LOW_CONFIDENCE:
             detail += (f'; LOW twist confidence (< {LOW_CONFIDENCE}): neighbouring nodes '
                        'disagree on the slip twist')
@@ -381,11 +433,16 @@ class CapacityMap:
             hit = use & ~good & (rank < worst)
             worst = np.where(hit, rank, worst)
             worst_code = np.where(hit, code, worst_code)
+        # Support edge (as in `query`): when some weight has a value and no corner has another
+        # valueless status, the valued-corner rule or (opt-in) the zeros rule answers.
+        only_unsup = (worst < len(_RANK)) & ~other_bad & (w_valued > 0.0)
+        valued_rule = only_unsup & (w_valued >= self.edge_min_weight - 1e-12)
+        edge = only_unsup & ~valued_rule & self.support_edge
+        has_bad = (worst < len(_RANK)) & ~edge & ~valued_rule
+        inv = np.where(valued_rule, 1.0 / np.where(w_valued > 0.0, w_valued, 1.0), 1.0)
+        cap = cap * inv
+        tw = tw * inv[:, None]
         norm = np.linalg.norm(tw, axis=1)
-        # Support edge (as in `query`): unsupported corners count as 0 N when some weight has
-        # a value and no corner has another valueless status.
-        edge = (worst < len(_RANK)) & ~other_bad & (w_valued > 0.0) & self.support_edge
-        has_bad = (worst < len(_RANK)) & ~edge
         status = np.where(norm < CANCEL_NORM, _CODE[Status.DEGENERATE], _CODE[Status.OK])
         status = np.where(has_bad, worst_code, status)
         # Out of grid wins over the cell's own status, as in `query` (checked first there).
@@ -401,4 +458,5 @@ class CapacityMap:
                            slip_twist_scaled=np.where(ok[:, None], ts, nan),
                            slip_twist=np.where(ok[:, None], raw, nan),
                            confidence=np.where(ok, norm, nan), status=status,
-                           out_of_grid=out & finite[:, None], support_edge=ok & edge)
+                           out_of_grid=out & finite[:, None], support_edge=ok & edge,
+                           edge_valued=ok & valued_rule)

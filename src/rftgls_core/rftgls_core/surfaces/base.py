@@ -68,6 +68,8 @@ FLAGS = {
     'folded': 'the surface folds toward the origin at the first exit',
     'support_edge': 'a map cell next to states that cannot hold the weight: those corners '
                     'counted as 0 N (conservative)',
+    'edge_valued': 'a map cell next to states that cannot hold the weight, answered by the '
+                   'blend of its valued corners (they carry most of the weight; maps/README.md)',
 }
 
 
