@@ -6,9 +6,10 @@ import math
 import pytest
 from _capacity_common import DH, IN_AIR, PHI
 
+from rftgls_core.conventions import quat_xyzw_to_pitch
 from rftgls_core.types import Pull, Status
-from rftgls_ros.capacity.estimator import CapacityEstimator, EstimatorConfig, pitch_from_quaternion
-from rftgls_ros.capacity.predictor import ConfigError, make_predictor
+from rftgls_ros.capacity.estimator import CapacityEstimator, EstimatorConfig
+from rftgls_ros.capacity.predictor import ConfigError, predictor_from_params
 
 
 def feed(est: CapacityEstimator, t: float, state=DH, tension=1.0, phi=PHI, spread=(0.0, 0.0)):
@@ -153,24 +154,24 @@ def test_bad_config(live_predictor, kwargs, words):
         CapacityEstimator(live_predictor, EstimatorConfig(**kwargs))
 
 
-def test_make_predictor_errors(tmp_path):
+def test_predictor_from_params_errors(tmp_path):
     with pytest.raises(ConfigError, match='live_method'):
-        make_predictor('', live_method='bogus')
+        predictor_from_params('', live_method='bogus')
     with pytest.raises(ConfigError, match='not found|no CapacityMap'):
-        make_predictor(str(tmp_path / 'missing.h5'))
+        predictor_from_params(str(tmp_path / 'missing.h5'))
 
 
-def test_pitch_from_quaternion_sign_and_yaw_invariance():
+def test_quat_xyzw_to_pitch_sign_and_yaw_invariance():
     beta = math.radians(12.0)  # REP-103 pitch: nose down
     q = (0.0, math.sin(beta / 2), 0.0, math.cos(beta / 2))
-    assert pitch_from_quaternion(*q) == pytest.approx(-beta)
+    assert quat_xyzw_to_pitch(*q) == pytest.approx(-beta)
     # add a yaw of 70 deg (q_yaw * q_pitch): elevation of the x axis is unchanged
     cy, sy = math.cos(math.radians(35)), math.sin(math.radians(35))
     w1, x1, y1, z1 = cy, 0.0, 0.0, sy
     w2, x2, y2, z2 = q[3], q[0], q[1], q[2]
     qq = (w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2, w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
           w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2, w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2)
-    assert pitch_from_quaternion(*qq) == pytest.approx(-beta)
-    assert pitch_from_quaternion(0, 0, 0, 2.0) == 0.0  # normalised first
+    assert quat_xyzw_to_pitch(*qq) == pytest.approx(-beta)
+    assert quat_xyzw_to_pitch(0, 0, 0, 2.0) == 0.0  # normalised first
     with pytest.raises(ValueError):
-        pitch_from_quaternion(0, 0, 0, 0)
+        quat_xyzw_to_pitch(0, 0, 0, 0)

@@ -10,7 +10,12 @@ from _capacity_common import DH, PHI, Probe
 from rftgls_core.maps import CapacityMap
 from rftgls_core.types import AnchorState, Status
 from rftgls_ros.capacity.estimator import CapacityEstimator, EstimatorConfig
-from rftgls_ros.capacity.predictor import ConfigError, LiveFallback, MapPredictor, make_predictor
+from rftgls_ros.capacity.predictor import (
+    ConfigError,
+    LiveFallback,
+    MapPredictor,
+    predictor_from_params,
+)
 
 OUTSIDE = AnchorState(DH.h, math.radians(15.0), DH.theta_l1, DH.theta_l2)   # theta_b > 10 deg
 HIGH = AnchorState(0.10, DH.theta_b, DH.theta_l1, DH.theta_l2)             # cell touches 200 mm
@@ -70,17 +75,17 @@ def test_bad_map_files(tmp_path, small_map):
     with h5py.File(wrong, 'w') as f:
         f['something'] = [1, 2, 3]
     with pytest.raises(ConfigError, match='bad map file'):
-        make_predictor(str(wrong))
+        predictor_from_params(str(wrong))
     text = tmp_path / 'not_hdf5.h5'
     text.write_text('hello\n')
     with pytest.raises(ConfigError, match='map file'):
-        make_predictor(str(text))
+        predictor_from_params(str(text))
     with pytest.raises(ConfigError, match='not found'):
-        make_predictor(str(tmp_path / 'missing.h5'))
+        predictor_from_params(str(tmp_path / 'missing.h5'))
     with pytest.raises(ConfigError, match="not 'forward'"):
-        make_predictor(str(small_map), pull='forward')
+        predictor_from_params(str(small_map), pull='forward')
     with pytest.raises(ConfigError, match='robot'):
-        make_predictor(str(small_map), robot='prototype')
+        predictor_from_params(str(small_map), robot='prototype')
 
 
 def test_node_with_map_out_of_range_and_ok(ros_context, small_map):

@@ -7,19 +7,20 @@ import math
 
 import pytest
 
+from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import Status
 from rftgls_ros.behavior import (
     ANCHOR_MODES,
     BehaviorMachine,
     EnergyModel,
     ForceNeed,
-    MapPredictor,
     ModeChooser,
     State,
     TetherTracker,
     write_report,
 )
 from rftgls_ros.behavior.report import read_csv
+from rftgls_ros.capacity.predictor import MapPredictor
 
 G = 9.81
 
@@ -80,9 +81,10 @@ def test_chooser_refuses_with_reason(predictor):
 
 
 def test_chooser_invalid_prediction_is_not_sufficient():
-    def bad(state, phi):
-        return None, Status.UNSUPPORTED
-    d = ModeChooser(bad).choose(1.0, EnergyModel())
+    class Bad:
+        def predict(self, state, phi, pull):
+            return CapacityResult(phi, Status.UNSUPPORTED, 'test', reason='unsupported')
+    d = ModeChooser(Bad()).choose(1.0, EnergyModel())
     assert d.mode is None and 'unsupported' in d.table()
 
 

@@ -14,9 +14,10 @@ import math
 import pytest
 from plant import Plant, fast_config, run_loop
 
-from minirquad_driver.sim.ground import LiveAnchorModel
-from rftgls_ros.behavior import BehaviorMachine, MapPredictor, ModeChooser, State, evidence
+from minirquad_driver.sim.ground import LiveGround
+from rftgls_ros.behavior import BehaviorMachine, ModeChooser, State, evidence
 from rftgls_ros.behavior.slip import SLIP_LEGS, SLIP_PITCH, SLIP_TENSION_DROP, SlipDetector
+from rftgls_ros.capacity.predictor import MapPredictor
 
 NAN = float('nan')
 MAX_REEL_M = 0.005      # issue 15: <= 5 mm of reel after the evidence is gone
@@ -197,7 +198,7 @@ def _weak_sand(predictor, sled, scale):
     """One cycle with the simulator's true medium scaled by ``scale``; slip (m) at detection."""
     cfg = fast_config(sled_mass=sled, cycles=1)
     m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
-    plant = Plant(sled, predictor, ground=LiveAnchorModel(medium_scale=scale))
+    plant = Plant(sled, predictor, ground=LiveGround(medium_scale=scale))
     seen = {}
 
     def watch(p, mach):

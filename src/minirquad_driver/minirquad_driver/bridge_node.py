@@ -17,29 +17,32 @@ Subscribed: /leg_targets (JointState), /gait (String), /burrow (String),
 from __future__ import annotations
 
 import math
+import sys
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import WrenchStamped
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
 from sensor_msgs.msg import BatteryState, Imu, JointState
 from std_msgs.msg import Bool, Float64, String
 
+from rftgls_core.conventions import JOINT_NAMES, LEG_KEYS, pitch_to_quat_xyzw
+
 from .bridge import BridgeConfig, BridgeCore, CommandResult, PowerSample, TelemetrySample
 from .gaits import GAITS
+from .node_main import run_node, usage, wants_help
 from .protocol import messages as m
 from .transport import SerialTransport
 
-JOINT_NAMES = tuple('leg_' + n for n in m.LEG_NAMES) + ('winch_rope',)
+# The JointState names of rftgls_core.conventions, in the MCU's leg order (protocol LEG_NAMES).
+assert LEG_KEYS == m.LEG_NAMES, 'protocol leg order must match the shared conventions'
 _UNKNOWN_VAR = (math.pi ** 2)    # variance for a quantity the robot does not measure
 
 
 class BridgeNode(Node):
     def __init__(self, **kwargs):
-        super().__init__('minirquad_bridge', **kwargs)
+        super().__init__('bridge_node', **kwargs)
         p = self.declare_parameter
         self.port = p('port', '/dev/ttyACM0').value
         baud = p('baud', 115200).value
@@ -134,12 +137,10 @@ class BridgeNode(Node):
         imu = Imu()
         imu.header.stamp = stamp
         imu.header.frame_id = self.imu_frame
-        # REP-103 pitch is about +y with x forward: positive turns the nose DOWN, so the
-        # quaternion angle is -thetaB (thetaB is positive nose up). Roll and yaw are not
-        # measured and set to 0 with a huge variance.
-        half = -0.5 * t.pitch
-        imu.orientation.y = math.sin(half)
-        imu.orientation.w = math.cos(half)
+        # thetaB (nose up) as a body -> world quaternion (rftgls_core.conventions). Roll and
+        # yaw are not measured and set to 0 with a huge variance.
+        o = imu.orientation
+        o.x, o.y, o.z, o.w = pitch_to_quat_xyzw(t.pitch)
         imu.orientation_covariance = [_UNKNOWN_VAR, 0.0, 0.0, 0.0, self.pitch_variance, 0.0,
                                       0.0, 0.0, _UNKNOWN_VAR]
         imu.angular_velocity.y = -t.pitch_rate
@@ -247,19 +248,12 @@ class BridgeNode(Node):
         self._send(m.EStop(bool(msg.data)))
 
 
-def main(args=None) -> None:
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = BridgeNode()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+def main(args=None) -> int:
+    if wants_help(args):
+        print(usage('bridge_node', 'minirquad_driver', __doc__))
+        return 0
+    return run_node(BridgeNode, 'bridge_node', args=args)
 
 
 if __name__ == '__main__':
-    main()
+    sys.exit(main())

@@ -19,17 +19,16 @@ import sys
 import time
 from collections import deque
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TwistStamped, WrenchStamped
-from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, String
 
-from rftgls_core.types import Status, pull_direction
+from minirquad_driver.node_main import run_node, usage, wants_help
+from rftgls_core.conventions import LEG_JOINT_NAMES, LEG_KEYS
+from rftgls_core.types import pull_direction
 
 from .capacity.estimator import (
     DEFAULT_TIMEOUTS_S,
@@ -38,17 +37,10 @@ from .capacity.estimator import (
     Estimate,
     EstimatorConfig,
 )
-from .capacity.inputs import gravity_problem, pitch_from_quaternion
-from .capacity.predictor import DEFAULT_MAP, ConfigError, make_predictor
+from .capacity.inputs import gravity_problem, quat_xyzw_to_pitch
+from .capacity.predictor import DEFAULT_MAP, ConfigError, predictor_from_params, predictor_name
 
-NAN = float('nan')
 TRIGGERS = ('joint_states', 'pitch', 'tension', 'height', 'phi')
-# Diagnostic level per status; anything not listed (a status this node does not expect,
-# e.g. the deprecated 'extrapolated') is an ERROR.
-LEVELS = {Status.OK: DiagnosticStatus.OK, Status.ASSUMED: DiagnosticStatus.WARN,
-          Status.OUT_OF_RANGE: DiagnosticStatus.ERROR,
-          Status.UNSUPPORTED: DiagnosticStatus.ERROR, Status.DEGENERATE: DiagnosticStatus.ERROR,
-          Status.INVALID_INPUT: DiagnosticStatus.ERROR, Status.STALE: DiagnosticStatus.STALE}
 TENSION_AXES = ('x', 'y', 'z', 'tether')
 FRESHNESS_SOURCES = ('header_stamp', 'receipt_time')
 
@@ -72,10 +64,7 @@ PARAMETERS = {
     'tension_component': 'x',
     'height_topic': '/winch/height',  # std_msgs/Float64 h in m; '' = parameter height_m only
     'phi_topic': '',                  # std_msgs/Float64 phi in rad; '' = parameter phi_rad only
-    'joint_proximal_left': 'leg_proximal_left',
-    'joint_proximal_right': 'leg_proximal_right',
-    'joint_distal_left': 'leg_distal_left',
-    'joint_distal_right': 'leg_distal_right',
+    **{f'joint_{k}': name for k, name in zip(LEG_KEYS, LEG_JOINT_NAMES)},
     # fallbacks and limits (SI)
     'height_m': 0.03,
     'phi_rad': math.radians(-20.0),
@@ -177,7 +166,7 @@ class CapacityNode(Node):
         # The timer also keeps the executor waking up, so Ctrl-C / SIGTERM are seen promptly.
         self.create_timer(self.period_s, self.on_timer)
         self.get_logger().info(
-            f'predictor {self.estimator.predictor.name}, pull {p["pull"]}, '
+            f'predictor {predictor_name(self.estimator.predictor)}, pull {p["pull"]}, '
             f'triggers {sorted(self.triggers)}, heartbeat {rate:g} Hz, freshness from '
             f'{p["freshness_source"]}')
         cmap = getattr(self.estimator.predictor, 'primary', self.estimator.predictor)
@@ -206,7 +195,7 @@ class CapacityNode(Node):
             lower_bound_level=p['lower_bound_level'],
             h_sigma_m=p['h_sigma_m'], theta_b_sigma_rad=p['theta_b_sigma_rad'],
             capacity_rel_sigma=p['capacity_rel_sigma']).check()
-        predictor = make_predictor(p['map_file'], p['live_method'], p['robot'], p['medium'],
+        predictor = predictor_from_params(p['map_file'], p['live_method'], p['robot'], p['medium'],
                                    p['live_n_twists'], p['pull'], p['out_of_range_live_method'])
         return CapacityEstimator(predictor, config)
 
@@ -256,7 +245,7 @@ class CapacityNode(Node):
                     self.estimator.mark_malformed('pitch', now, f'IMU: {why}',
                                                   code='implausible_gravity')
                 else:
-                    self.estimator.update('pitch', now, pitch_from_quaternion(*q))
+                    self.estimator.update('pitch', now, quat_xyzw_to_pitch(*q))
             except ValueError as exc:
                 self.estimator.mark_malformed('pitch', now, str(exc))
         self._input_done('pitch', msg.header.stamp, info)
@@ -300,44 +289,27 @@ class CapacityNode(Node):
         stamp (kept on the outputs so consumers can match them), else the node's clock."""
         t0 = time.perf_counter()
         est = self.estimator.estimate(self.now_s())
+        out = self.estimator.outputs(est)
         if stamp is None or (stamp.sec == 0 and stamp.nanosec == 0):
             stamp = self.get_clock().now().to_msg()
-        phi = est.phi_rad if est.phi_rad is not None else NAN
-        d = pull_direction(phi)
-
-        cap = WrenchStamped()
+        cap, margin, lower = WrenchStamped(), WrenchStamped(), WrenchStamped()
         cap.header.stamp = stamp
         cap.header.frame_id = self.frame_id
-        margin = WrenchStamped()
-        margin.header = cap.header
-        # No value -> NaN, so nobody can read a number as a valid capacity.
-        c = est.capacity_N if est.capacity_N is not None else NAN
-        m = est.margin_N if est.margin_N is not None else NAN
-        cap.wrench.force.x, cap.wrench.force.z = c * d[0], c * d[1]
-        margin.wrench.force.x, margin.wrench.force.z = m * d[0], m * d[1]
-        if math.isnan(c):
-            cap.wrench.force.y = margin.wrench.force.y = NAN
-        lower = WrenchStamped()
-        lower.header = cap.header
-        lo = est.capacity_lower_N if est.capacity_lower_N is not None else NAN
-        lower.wrench.force.x, lower.wrench.force.z = lo * d[0], lo * d[1]
-
+        margin.header = lower.header = cap.header
+        cap.wrench.force.x, cap.wrench.force.z = out.capacity_xz
+        margin.wrench.force.x, margin.wrench.force.z = out.margin_xz
+        cap.wrench.force.y = margin.wrench.force.y = out.capacity_y
+        lower.wrench.force.x, lower.wrench.force.z = out.lower_xz
         twist = TwistStamped()
         twist.header = cap.header
-        if est.slip_twist is None:
-            vx = vz = wy = NAN
-        elif est.slipping:
-            vx, vz, wy = est.slip_twist
-        else:  # the anchor holds: predicted motion is zero
-            vx = vz = wy = 0.0
-        twist.twist.linear.x, twist.twist.linear.z, twist.twist.angular.y = vx, vz, wy
+        twist.twist.linear.x, twist.twist.linear.z, twist.twist.angular.y = out.slip_twist
 
         # The status goes out first, so a consumer that reads it next to a value never sees a
         # value under an older status.
-        self.pub_status.publish(String(data=str(est.status)))
+        self.pub_status.publish(String(data=out.status))
         self.pub_capacity.publish(cap)
         self.pub_margin.publish(margin)
-        if self.estimator.config.lower_bound_level > 0.0 or est.assumed:
+        if out.publish_lower:
             self.pub_lower.publish(lower)
         self.pub_twist.publish(twist)
         self.last_estimate = est
@@ -357,71 +329,26 @@ class CapacityNode(Node):
         self.pub_diag.publish(self.diagnostics(est))
 
     def diagnostics(self, est: Estimate) -> DiagnosticArray:
-        level = LEVELS.get(est.status, DiagnosticStatus.ERROR)
-        if (est.warnings or est.assumed) and level == DiagnosticStatus.OK:
-            level = DiagnosticStatus.WARN
-        message = str(est.status)
-        if est.reason and est.reason != message:
-            message += f': {est.reason}'
-        if est.warnings:
-            message += ' [' + ', '.join(est.warnings) + ']'
-
-        def fmt(x):
-            return 'nan' if x is None else f'{x:.6g}'
-
-        st = est.state
-        values = {
-            'status': str(est.status), 'detail': est.detail,
-            'capacity_N': fmt(est.capacity_N), 'capacity_lower_N': fmt(est.capacity_lower_N),
-            'tension_N': fmt(est.tension_N),
-            'margin_N': fmt(est.margin_N), 'slipping': str(est.slipping).lower(),
-            'phi_rad': fmt(est.phi_rad),
-            'h_m': fmt(st.h if st else None), 'theta_b_rad': fmt(st.theta_b if st else None),
-            'theta_l1_rad': fmt(st.theta_l1 if st else None),
-            'theta_l2_rad': fmt(st.theta_l2 if st else None),
-            'leg_spread_rad': ('nan' if est.leg_spread_rad is None
-                               else ' '.join(f'{x:.4g}' for x in est.leg_spread_rad)),
-            'slip_twist': ('nan' if est.slip_twist is None
-                           else ' '.join(f'{x:.4g}' for x in est.slip_twist)),
-            'assumed_inputs': ','.join(est.assumed), 'stale_inputs': ','.join(est.stale),
-            'reason': est.reason,
-            'predictor': est.predictor, 'pull': self.params['pull'],
+        d = self.estimator.diagnostic(est, f'{self.get_name()}: anchor capacity', {
             'freshness_source': self.params['freshness_source'],
             'processing_ms': f'{self.processing_s * 1e3:.3f}',
             'input_to_output_ms_median': (f'{statistics.median(self.latency_s) * 1e3:.3f}'
                                           if self.latency_s else 'nan'),
-        }
-        status = DiagnosticStatus(level=level, name=f'{self.get_name()}: anchor capacity',
-                                  message=message, hardware_id=self.params['robot'],
-                                  values=[KeyValue(key=k, value=v) for k, v in values.items()])
+        })
+        status = DiagnosticStatus(level=bytes([d.level]), name=d.name, message=d.message,
+                                  hardware_id=self.params['robot'],
+                                  values=[KeyValue(key=k, value=v) for k, v in d.values.items()])
         arr = DiagnosticArray(status=[status])
         arr.header.stamp = self.get_clock().now().to_msg()
         return arr
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = CapacityNode()
-    except (ConfigError, ParameterException) as exc:
-        # One clear line, no traceback: a bad parameter or map file is a user error.
-        print(f'capacity_node: error: {" ".join(str(exc).split())}', file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    try:
-        # spin_once with a timeout, not spin(): see docs/design/ros2-from-pip.md#stopping-nodes.
-        while rclpy.ok():
-            executor.spin_once(timeout_sec=0.2)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        executor.remove_node(node)
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    if wants_help(args):
+        print(usage('capacity_node', 'rftgls_ros', __doc__, PARAMETERS))
+        return 0
+    return run_node(CapacityNode, 'capacity_node', config_errors=(ConfigError,), args=args,
+                    spin_period_s=0.2)
 
 
 if __name__ == '__main__':

@@ -14,14 +14,17 @@ fresh, value-carrying, accepted estimate from capacity_node the winch is stopped
 step, and the attempt is recorded ``aborted`` with the reason code.
 
 ``step(obs)`` takes an ``Observation`` (SI values and their times, s) and returns the
-``Commands`` to publish. Every transition and decision is appended to ``events`` (dicts with a
-human ``text``), which the node logs and publishes.
+``Commands`` to publish, with the step's events (dicts with a human ``text``: every
+transition and decision), which the node logs and publishes. ``events`` keeps the recent
+history for inspection. The states are a table: ``_handlers`` (state -> step handler) and
+``_on_enter`` (state -> entry action); why a tug stopped is a ``HoldCause``.
 """
 from __future__ import annotations
 
 import enum
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from rftgls_core.types import AnchorState
@@ -51,6 +54,22 @@ class State(str, enum.Enum):
     def __str__(self) -> str:
         return self.value
 
+
+class HoldCause(enum.Enum):
+    """Why the winch was stopped in a cycle (the HOLD state's cause and the cycle's outcome).
+    The cycle CSV keeps its reason codes (margin_guard, capacity_short, slip_*, evidence)."""
+
+    NONE = 'none'
+    GUARD = 'guard'          # margin guard: tension reached stop_ratio x capacity
+    SHORT = 'short'          # capacity below the required force
+    SLIP = 'slip'            # the anchor moved under load
+    EVIDENCE = 'evidence'    # no usable capacity estimate (aborted attempt)
+
+
+# What a HOLD re-burrow is called in the transition text.
+REBURROW_WHY = {HoldCause.GUARD: 'margin guard stop', HoldCause.SLIP: 'anchor slip',
+                HoldCause.SHORT: 'capacity below need'}
+EVENT_HISTORY = 10000   # events kept in BehaviorMachine.events
 
 ACTIVE = {State.IDLE_MEASURE, State.WALK, State.CHOOSE, State.BURROW, State.CHECK, State.TUG,
           State.HOLD, State.SLACKEN, State.CYCLE_DONE, State.WAIT_EVIDENCE}
@@ -175,12 +194,14 @@ class Observation:
 @dataclass
 class Commands:
     """To publish after a step: one-shot ``gait``/``burrow`` commands (in order), the winch
-    reel-in set-point (m/s, 0 brakes), and h (m) and phi (rad) for capacity_node."""
+    reel-in set-point (m/s, 0 brakes), h (m) and phi (rad) for capacity_node, and the events
+    of this step (to log and publish, in order)."""
 
     oneshots: list[tuple[str, str]]
     winch: float
     height: float
     phi: float
+    events: list[dict] = field(default_factory=list)
 
 
 @dataclass
@@ -196,7 +217,8 @@ class _Cycle:
     tug_s: float = 0.0
     sled_distance: float = 0.0
     outcome: str = ''
-    reason: str = ''
+    reason: str = ''          # the CSV reason code
+    cause: HoldCause = HoldCause.NONE
     need_n: float = 0.0
     min_margin: float = math.inf
     tensions: list[float] = field(default_factory=list)
@@ -212,7 +234,8 @@ class BehaviorMachine:
         self.energy = EnergyModel(prior_sh=config.energy_prior_sh)
         self.tether = TetherTracker(config.rope_length, config.attach_height)
         self.state = State.WAIT_INPUTS
-        self.events: list[dict] = []
+        self.events: deque[dict] = deque(maxlen=EVENT_HISTORY)
+        self._step_events: list[dict] = []
         self.records: list[CycleRecord] = []
         self.decisions: list[Decision] = []
         self.cycle: _Cycle | None = None
@@ -239,16 +262,42 @@ class BehaviorMachine:
         self.slip = SlipDetector(config.slip_pitch_rad, config.slip_leg_rad,
                                  config.slip_tension_drop, config.slip_min_reel_m,
                                  config.taut_tension)
-        self._hold_kind = ''
+        self._hold_cause = HoldCause.NONE
+        # Per-state scratch, (re)set by the entry actions.
+        self._idle_e0: tuple[float, float] | None = None
+        self._checked = False
+        self._check_why = ''
+        self._next_mode: str | None = None
+        self._next_reason = ''
+        self._tug_tensions: list[float] = []
+        self._tug_start_t = 0.0
+        self._usable_since = None
         self._gap: tuple[float, float | None] | None = None
         self._good: tuple[float, float | None] | None = None
         self._stop_watch: tuple[float, float | None, str, str] | None = None
         self._last_value_status = False
+        self._handlers: dict[State, Callable[[], None]] = {
+            State.WAIT_INPUTS: self._do_wait_inputs, State.IDLE_MEASURE: self._do_idle_measure,
+            State.WALK: self._do_walk, State.CHOOSE: self._do_choose,
+            State.BURROW: self._do_burrow, State.CHECK: self._do_check, State.TUG: self._do_tug,
+            State.HOLD: self._do_hold, State.SLACKEN: self._do_slacken,
+            State.CYCLE_DONE: self._do_cycle_done, State.WAIT_LINK: self._do_wait_link,
+            State.WAIT_EVIDENCE: self._do_wait_evidence,
+            # REFUSED and FINISHED are terminal: nothing to do.
+        }
+        self._on_enter: dict[State, Callable[[], None]] = {
+            State.IDLE_MEASURE: self._enter_idle_measure, State.WALK: self._enter_walk,
+            State.BURROW: self._enter_burrow, State.CHECK: self._enter_check,
+            State.TUG: self._enter_tug, State.SLACKEN: self._enter_slacken,
+            State.WAIT_EVIDENCE: self._enter_wait_evidence,
+        }
 
     # ------------------------------------------------------------------ helpers
     def _event(self, kind: str, text: str, **extra) -> None:
-        self.events.append({'t': round(self.obs.t, 3), 'kind': kind, 'state': str(self.state),
-                            'text': text, **extra})
+        ev = {'t': round(self.obs.t, 3), 'kind': kind, 'state': str(self.state), 'text': text,
+              **extra}
+        self.events.append(ev)
+        self._step_events.append(ev)
 
     def _go(self, new: State, reason: str) -> None:
         old = self.state
@@ -258,8 +307,8 @@ class BehaviorMachine:
         self._e_enter = self.obs.energy
         self._event('transition', f'{old} -> {new}: {reason}', **{'from': str(old),
                                                                  'to': str(new)})
-        enter = getattr(self, f'_enter_{new.value.lower()}', None)
-        if enter:
+        enter = self._on_enter.get(new)
+        if enter is not None:
             enter()
 
     def _elapsed(self) -> float:
@@ -312,7 +361,7 @@ class BehaviorMachine:
         state = self.measured_state()
         if state is None:
             return None, 'stale'
-        cap, status = self.chooser.predictor(state, self.tether.phi(self.height))
+        cap, status = self.chooser.capacity(state, self.tether.phi(self.height))
         return cap, str(status)
 
     # ------------------------------------------------------------------ step
@@ -337,12 +386,13 @@ class BehaviorMachine:
                 self._stop_watch = (*self._good, 'link_stale', 'the last usable estimate')
             what = 'link stale' if not obs.link_ok else 'joint_states/tension stale'
             self._go(State.WAIT_LINK, f'{what} during {self._resume}: winch stopped, waiting')
-        handler = getattr(self, f'_do_{self.state.value.lower()}', None)
-        if handler:
+        handler = self._handlers.get(self.state)
+        if handler is not None:
             handler()
         self._watch_stop()
-        out = Commands(self._oneshots, self._winch, self.height, self.tether.phi(self.height))
-        self._oneshots = []
+        out = Commands(self._oneshots, self._winch, self.height, self.tether.phi(self.height),
+                       self._step_events)
+        self._oneshots, self._step_events = [], []
         return out
 
     def _watch_stop(self) -> None:
@@ -365,7 +415,7 @@ class BehaviorMachine:
             self._go(State.IDLE_MEASURE, 'robot link ok, sensors fresh')
 
     def _enter_idle_measure(self) -> None:
-        self._idle_e0: tuple[float, float] | None = None
+        self._idle_e0 = None
         self._oneshots.append(('gait', 'stand'))
         self._winch = 0.0
 
@@ -522,7 +572,7 @@ class BehaviorMachine:
         self._winch = 0.0
         self.cycle.outcome = 'stopped'
         self._record()
-        what = 'stopped after a slip' if self.cycle.reason.startswith('slip_') \
+        what = 'stopped after a slip' if self.cycle.cause is HoldCause.SLIP \
             else 'stopped before slip'
         self._go(State.FINISHED, f'{what}, winch braked: {reason}')
 
@@ -539,31 +589,56 @@ class BehaviorMachine:
         self._gap = None
         self._good = (self.obs.t, self.obs.spool)
         self._last_live = -math.inf
-        self._tug_tensions: list[float] = []
+        self._tug_tensions = []
         self._tug_start_t = self.obs.t
         self._fallback_warned = False
         self.slip.reset()
 
     def _do_tug(self) -> None:
-        cfg, o = self.cfg, self.obs
-        if o.energy is not None:
-            self._tug_hist.append((o.t, o.energy))
+        """One tug step: end or slip first, then evidence, then the margin guard, then reel."""
+        if self.obs.energy is not None:
+            self._tug_hist.append((self.obs.t, self.obs.energy))
+        if self._tug_ended() or self._tug_slipped():
+            return
+        got = self._tug_evidence()
+        if got is None:
+            return
+        capacity, source = got
+        if self._tug_short(capacity, source) or self._tug_guard(capacity, source):
+            return
+        self._tug_reel(capacity, source)
+
+    def _tug_ended(self) -> bool:
+        """The sled arrived or the tug timed out (winch stopped, state changed)."""
+        cfg = self.cfg
         if self.tether.free_length <= cfg.arrive_length:
             self._winch = 0.0
             self._finish_tug('arrived')
             self._go(State.CYCLE_DONE, f'sled arrived ({self.tether.free_length:.3f} m of '
                                        'tether left)')
-            return
+            return True
         if self._elapsed() > cfg.tug_timeout:
             self._winch = 0.0
             self._finish_tug('timeout')
             self._stop_cycle(f'tug timeout ({cfg.tug_timeout:.0f} s)')
-            return
-        if cfg.slip_detect:
-            ev = self.slip.update(o.tension, o.spool, o.theta_b, o.legs)
-            if ev is not None:
-                self._on_slip(ev)
-                return
+            return True
+        return False
+
+    def _tug_slipped(self) -> bool:
+        """The slip detector fired (see _on_slip)."""
+        o = self.obs
+        if not self.cfg.slip_detect:
+            return False
+        ev = self.slip.update(o.tension, o.spool, o.theta_b, o.legs)
+        if ev is None:
+            return False
+        self._on_slip(ev)
+        return True
+
+    def _tug_evidence(self) -> tuple[float, str] | None:
+        """(capacity N scaled by the chooser's slip correction, its source), or None when
+        there is no usable evidence (the winch is stopped by _evidence_gap)."""
+        cfg, o = self.cfg, self.obs
         v = self.evidence()
         capacity, source = o.capacity, 'capacity_node'
         if not v.usable and cfg.own_capacity_fallback and self._last_value_status \
@@ -580,7 +655,8 @@ class BehaviorMachine:
                 v = evidence.Verdict(True, evidence.USABLE, False, 'own map')
         if not v.usable:
             self._evidence_gap(v)
-            return
+            return None
+        assert capacity is not None  # usable evidence carries a value (evidence.judge)
         if source == 'capacity_node':
             self._last_value_status = True
         if self._gap is not None:
@@ -588,27 +664,44 @@ class BehaviorMachine:
             self._stop_watch = None
         self._gap = None
         self._good = (o.t, o.spool)
-        capacity *= self.chooser.scale
-        required = cfg.safety_factor * self.need.value
-        if capacity < required:
-            self._winch = 0.0
-            self._finish_tug('short')
-            self._hold('short', f'capacity {capacity:.2f} N ({source}) below the required '
-                                f'{required:.2f} N: winch stopped', 'capacity_short')
-            return
+        return capacity * self.chooser.scale, source
+
+    def _tug_short(self, capacity: float, source: str) -> bool:
+        """Capacity below the required force: stop and hold (SHORT)."""
+        required = self.cfg.safety_factor * self.need.value
+        if capacity >= required:
+            return False
+        self._winch = 0.0
+        self._finish_tug('short')
+        self._hold(HoldCause.SHORT, f'capacity {capacity:.2f} N ({source}) below the required '
+                                    f'{required:.2f} N: winch stopped', 'capacity_short')
+        return True
+
+    def _tug_guard(self, capacity: float, source: str) -> bool:
+        """Margin guard: tension at stop_ratio x capacity stops the winch before the slip."""
+        cfg = self.cfg
         self.capacity_source = source
-        tension = o.tension or 0.0
+        tension = self.obs.tension or 0.0
         ratio = tension / capacity if capacity > 0 else math.inf
         self.cycle.min_margin = min(self.cycle.min_margin, capacity - tension)
-        if ratio >= cfg.stop_ratio:
-            self._winch = 0.0
-            self._finish_tug('guard stop')
-            self.need.raise_floor(tension)
-            twist = self._twist_text()
-            self._hold('guard', f'margin guard: tension {tension:.2f} N >= {cfg.stop_ratio:.2f}'
-                                f' x capacity {capacity:.2f} N ({source}), winch stopped before '
-                                f'the predicted slip {twist}', 'margin_guard')
-            return
+        if ratio < cfg.stop_ratio:
+            return False
+        self._winch = 0.0
+        self._finish_tug('guard stop')
+        self.need.raise_floor(tension)
+        twist = self._twist_text()
+        self._hold(HoldCause.GUARD, f'margin guard: tension {tension:.2f} N >= '
+                                    f'{cfg.stop_ratio:.2f} x capacity {capacity:.2f} N '
+                                    f'({source}), winch stopped before the predicted slip '
+                                    f'{twist}', 'margin_guard')
+        return True
+
+    def _tug_reel(self, capacity: float, source: str) -> None:
+        """Reel in, slower inside the slow band; sample the sliding tension; a live event
+        every live_period."""
+        cfg, o = self.cfg, self.obs
+        tension = o.tension or 0.0
+        ratio = tension / capacity if capacity > 0 else math.inf
         band = max(cfg.stop_ratio - cfg.slow_ratio, 1e-6)
         frac = min(1.0, max(cfg.min_speed_fraction, (cfg.stop_ratio - ratio) / band))
         self._winch = cfg.tug_speed * frac
@@ -625,9 +718,10 @@ class BehaviorMachine:
                                 f'tether {self.tether.free_length:.3f} m',
                         tension=tension, capacity=capacity, source=source)
 
-    def _hold(self, kind: str, text: str, reason: str) -> None:
-        self._hold_kind = kind
-        self.cycle.reason = reason
+    def _hold(self, cause: HoldCause, text: str, reason: str) -> None:
+        """Winch stopped for `cause`; `reason` is the cycle's CSV reason code."""
+        self._hold_cause = cause
+        self.cycle.cause, self.cycle.reason = cause, reason
         self._go(State.HOLD, text)
 
     def _evidence_gap(self, v: evidence.Verdict) -> None:
@@ -650,7 +744,7 @@ class BehaviorMachine:
             self._finish_tug('aborted')
         self.aborts += 1
         self.cycle.outcome = 'aborted'
-        self.cycle.reason = v.reason
+        self.cycle.cause, self.cycle.reason = HoldCause.EVIDENCE, v.reason
         self._record()
         self._go(State.WAIT_EVIDENCE, f'tug aborted, winch stopped: {v.reason} ({v.detail}); '
                                       f'abort {self.aborts}/{self.cfg.max_aborts}')
@@ -705,7 +799,7 @@ class BehaviorMachine:
         self._weakest = ev.peak_tension
         self._event('warn', f'anchor slip detected ({ev.reason}: {ev.detail}){note}',
                     reason=ev.reason, peak_tension=ev.peak_tension, scale=self.chooser.scale)
-        self._hold('slip', f'anchor slip ({ev.reason}): winch stopped', ev.reason)
+        self._hold(HoldCause.SLIP, f'anchor slip ({ev.reason}): winch stopped', ev.reason)
 
     def _twist_text(self) -> str:
         tw = self.obs.slip_twist
@@ -733,11 +827,10 @@ class BehaviorMachine:
 
     def _do_hold(self) -> None:
         self._winch = 0.0
-        if self._hold_kind in ('guard', 'slip', 'short') and self.cfg.reburrow:
-            kind = {'guard': 'margin guard stop', 'slip': 'anchor slip',
-                    'short': 'capacity below need'}[self._hold_kind]
-            self._hold_kind = ''
-            self._reselect(kind, self._weakest)
+        if self._hold_cause in REBURROW_WHY and self.cfg.reburrow:
+            why = REBURROW_WHY[self._hold_cause]
+            self._hold_cause = HoldCause.NONE
+            self._reselect(why, self._weakest)
         elif self._elapsed() > 0.5:
             self._stop_cycle(self.reason)
 

@@ -16,13 +16,14 @@ import termios
 import time
 import tty
 
-import rclpy
 from geometry_msgs.msg import TwistStamped, WrenchStamped
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64, String
+
+from minirquad_driver.node_main import run_node, usage, wants_help
+from rftgls_core.conventions import WINCH_ROPE_JOINT
 
 from .model import TeleopConfig, TeleopModel
 
@@ -68,8 +69,8 @@ class TeleopNode(Node):
         self.model.tension = msg.wrench.force.x
 
     def on_joints(self, msg) -> None:
-        if 'winch_rope' in msg.name:
-            self.model.tether.update(msg.position[msg.name.index('winch_rope')])
+        if WINCH_ROPE_JOINT in msg.name:
+            self.model.tether.update(msg.position[msg.name.index(WINCH_ROPE_JOINT)])
 
     def on_capacity(self, msg) -> None:
         self.model.capacity = math.hypot(msg.wrench.force.x, msg.wrench.force.z)
@@ -96,44 +97,47 @@ def draw(lines: list[str]) -> None:
     sys.stdout.flush()
 
 
+class Terminal:
+    """The raw tty of the teleop session: keys in (non-blocking), the screen redrawn at
+    refresh_hz; restores the terminal on close."""
+
+    def __init__(self):
+        self.fd = sys.stdin.fileno()
+        self.old = termios.tcgetattr(self.fd) if os.isatty(self.fd) else None
+        if self.old:
+            tty.setcbreak(self.fd)
+        self.next_draw = 0.0
+
+    def tick(self, node: TeleopNode) -> bool:
+        """Keys to the model, redraw when due; False when the session ends."""
+        if node.model.quit:
+            return False
+        ready, _, _ = select.select([self.fd], [], [], 0)
+        if ready:
+            data = os.read(self.fd, 32).decode(errors='ignore')
+            if not data:
+                return False
+            for ch in data:
+                node.send(node.model.key(ch, time.monotonic()))
+            self.next_draw = 0.0
+        if time.monotonic() >= self.next_draw:
+            draw(node.model.screen())
+            self.next_draw = time.monotonic() + 1.0 / max(1.0, node.refresh_hz)
+        return True
+
+    def close(self, node: TeleopNode) -> None:
+        if self.old:
+            termios.tcsetattr(self.fd, termios.TCSADRAIN, self.old)
+        node.send([('winch', 0.0)])
+
+
 def main(args=None) -> int:
-    rclpy.init(args=args)
-    node = TeleopNode()
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    fd = sys.stdin.fileno()
-    old = termios.tcgetattr(fd) if os.isatty(fd) else None
-    if old:
-        tty.setcbreak(fd)
-    period = 1.0 / max(1.0, node.refresh_hz)
-    next_draw = 0.0
-    try:
-        while rclpy.ok() and not node.model.quit:
-            executor.spin_once(timeout_sec=0.02)
-            ready, _, _ = select.select([fd], [], [], 0)
-            if ready:
-                data = os.read(fd, 32).decode(errors='ignore')
-                if not data:
-                    break
-                for ch in data:
-                    node.send(node.model.key(ch, time.monotonic()))
-                next_draw = 0.0
-            if time.monotonic() >= next_draw:
-                draw(node.model.screen())
-                next_draw = time.monotonic() + period
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        try:
-            node.send([('winch', 0.0)])
-        except Exception:  # noqa: BLE001 - context may be gone
-            pass
-        if old:
-            termios.tcsetattr(fd, termios.TCSADRAIN, old)
-        executor.remove_node(node)
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    if wants_help(args):
+        print(usage('teleop', 'rftgls_ros', __doc__))
+        return 0
+    term = Terminal()
+    return run_node(TeleopNode, 'teleop', tick=term.tick, on_exit=term.close,
+                    spin_period_s=0.02, args=args)
 
 
 if __name__ == '__main__':
