@@ -268,7 +268,7 @@ def test_port_that_cannot_be_opened_is_logged_once_shown_and_retried(
     port = tmp_path / 'tty'          # where the simulator's symlink will appear
     if case == 'not_a_tty':
         port.write_text('not a serial device\n')
-    h = harness(str(port), reconnect_period=0.05)
+    h = harness(str(port), reconnect_period_s=0.05)
     h.spin(1.5)
     level, values = _worst(h, LINK, 'open_error')
     assert level == ERROR and values['open_error'] and values['connected'] == 'False'

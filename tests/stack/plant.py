@@ -95,6 +95,6 @@ def run_loop(machine, plant, t_max=120.0, dt=0.01, on_step=None):
 
 
 def fast_config(**kw) -> BehaviorConfig:
-    base = dict(cycles=2, walk_time=1.5, idle_measure_time=0.3)
+    base = dict(cycles=2, walk_time_s=1.5, idle_measure_time_s=0.3)
     base.update(kw)
     return BehaviorConfig(**base)

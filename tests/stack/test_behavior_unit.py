@@ -110,8 +110,8 @@ from plant import Plant, fast_config, run_loop  # noqa: E402  (tests/stack/plant
 
 
 def test_machine_400g_chooses_sh_and_completes_cycles(predictor):
-    cfg = fast_config(sled_mass=0.4)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.4)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.4, predictor)
     run_loop(m, plant)
     assert m.state == State.FINISHED, m.reason
@@ -124,8 +124,8 @@ def test_machine_400g_chooses_sh_and_completes_cycles(predictor):
 
 
 def test_machine_600g_never_sh(predictor):
-    cfg = fast_config(sled_mass=0.6, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.6, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.6, predictor)
     run_loop(m, plant)
     assert m.state == State.FINISHED, m.reason
@@ -134,8 +134,8 @@ def test_machine_600g_never_sh(predictor):
 
 
 def test_machine_refuses_too_heavy_sled(predictor):
-    cfg = fast_config(sled_mass=1.5, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=1.5, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     run_loop(m, Plant(1.5, predictor), t_max=20)
     assert m.state == State.REFUSED
     assert 'no mode suffices' in m.reason
@@ -143,8 +143,8 @@ def test_machine_refuses_too_heavy_sled(predictor):
 
 
 def test_machine_heavier_mid_tug_stops_then_reburrows(predictor):
-    cfg = fast_config(sled_mass=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.4, predictor, heavier_at=0.05, heavier_mass=0.6)
     run_loop(m, plant)
     texts = [e['text'] for e in m.events]
@@ -155,8 +155,8 @@ def test_machine_heavier_mid_tug_stops_then_reburrows(predictor):
 
 
 def test_machine_heavier_without_stronger_mode_holds(predictor):
-    cfg = fast_config(sled_mass=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.4, predictor, heavier_at=0.05, heavier_mass=2.0)
     run_loop(m, plant)
     assert plant.tug_slip < 2e-3
@@ -165,8 +165,8 @@ def test_machine_heavier_without_stronger_mode_holds(predictor):
 
 
 def test_machine_link_loss_mid_tug_waits_then_resumes(predictor):
-    cfg = fast_config(sled_mass=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.4, predictor)
     seen = {}
 
@@ -189,8 +189,8 @@ def test_machine_link_loss_mid_tug_waits_then_resumes(predictor):
 def test_machine_legs_moved_during_link_loss_reburrows(predictor):
     # During the outage the robot stands up (as after an MCU reset): the checked anchor is
     # gone, so the machine burrows again instead of re-checking at the assumed height.
-    cfg = fast_config(sled_mass=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.4, predictor)
     seen = {}
 
@@ -209,8 +209,8 @@ def test_machine_legs_moved_during_link_loss_reburrows(predictor):
 
 
 def test_report_csv_and_png(tmp_path, predictor):
-    cfg = fast_config(sled_mass=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     run_loop(m, Plant(0.4, predictor))
     csv_path, png_path = write_report(m.records, tmp_path)
     rows = read_csv(csv_path)

@@ -31,7 +31,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, String
 
-from minirquad_driver.node_main import run_node, usage, wants_help
+from minirquad_driver.node_main import declare, run_node, usage, wants_help
 from rftgls_core.conventions import (
     LEG_KEYS,
     WINCH_ROPE_JOINT,
@@ -54,6 +54,22 @@ LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
+# Sanity ranges by unit suffix or name (ROS rejects a value outside them, at start-up too).
+_RANGES = {'_m_s': (0.0, 1.0), '_s': (0.0, 3600.0), '_kg': (0.0, 50.0), '_N': (0.0, 1000.0),
+           '_J': (0.0, 1e6)}
+_RATIOS = ('slow_ratio', 'stop_ratio', 'min_speed_fraction', 'slip_tension_drop', 'need_alpha',
+           'sled_mu')
+
+
+def param_range(name: str) -> tuple[float | None, float | None]:
+    """(lo, hi) of a BehaviorConfig parameter, (None, None) without a static range."""
+    if name in _RATIOS:
+        return 0.0, 1.0
+    if name == 'safety_factor':
+        return 0.1, 10.0
+    return next((r for suffix, r in _RANGES.items() if name.endswith(suffix)), (None, None))
+
+
 class BehaviorNode(Node):
     def __init__(self, **kwargs):
         super().__init__('behavior_node', **kwargs)
@@ -61,28 +77,32 @@ class BehaviorNode(Node):
         values = {}
         for f in fields(BehaviorConfig):
             default = getattr(defaults, f.name)
+            text = f'BehaviorConfig.{f.name} (src/rftgls_ros/behavior_README.md)'
             if f.name == 'accept_assumed_inputs':
                 # A string list as one comma-separated string: an empty list has no ROS type.
-                raw = self.declare_parameter(f.name, ','.join(default)).value
+                raw = declare(self, f.name, ','.join(default), text)
                 values[f.name] = tuple(x.strip() for x in str(raw).split(',') if x.strip())
                 continue
             if isinstance(default, tuple):
                 default = [float(v) for v in default]
             elif isinstance(default, float):
                 default = float(default)
-            values[f.name] = self.declare_parameter(f.name, default).value
-        values['phis'] = tuple(values['phis'])
-        self.cfg = BehaviorConfig(**values)
-        self.map_file = self.declare_parameter('map_file', '').value
-        self.report_dir = self.declare_parameter('report_dir', '').value
-        self.report_stem = self.declare_parameter('report_stem', 'cycle_report').value
-        self.exit_when_done = self.declare_parameter('exit_when_done', False).value
-        rate = self.declare_parameter('step_rate_hz', 50.0).value
-        cap_ns = self.declare_parameter('capacity_ns', '/capacity_node').value.rstrip('/')
+            lo, hi = param_range(f.name)
+            values[f.name] = declare(self, f.name, default, text, lo=lo, hi=hi)
+        values['phis_rad'] = tuple(values['phis_rad'])
+        self.cfg = BehaviorConfig(**values).check()
+        self.map_file = declare(self, 'map_file', '', "capacity map; '' = the shipped one")
+        self.report_dir = declare(self, 'report_dir', '', "cycle report directory; '' = none")
+        self.report_stem = declare(self, 'report_stem', 'cycle_report', 'report file stem')
+        self.exit_when_done = declare(self, 'exit_when_done', False, 'exit after the run')
+        rate = declare(self, 'step_rate_hz', 50.0, 'state machine step rate', lo=1.0,
+                       hi=1000.0)
+        cap_ns = declare(self, 'capacity_ns', 'capacity_node',
+                         "capacity_node's name (relative: this node's namespace)").rstrip('/')
 
         predictor = MapPredictor(self.map_file or DEFAULT_MAP)
         self.machine = BehaviorMachine(
-            self.cfg, ModeChooser(predictor, self.cfg.safety_factor, self.cfg.phis))
+            self.cfg, ModeChooser(predictor, self.cfg.safety_factor, self.cfg.phis_rad))
         self.obs = Observation(t=self.now_s())
         self.finished = False
         self._last_winch: float | None = None
@@ -107,10 +127,10 @@ class BehaviorNode(Node):
         self.create_subscription(TwistStamped, f'{cap_ns}/slip_twist', self.on_twist, 10)
         self.create_subscription(String, f'{cap_ns}/status', self.on_status, LATCHED)
         self.cap_name = cap_ns.rsplit('/', 1)[-1]
-        self.create_subscription(DiagnosticArray, '/diagnostics', self.on_diagnostics, 10)
+        self.create_subscription(DiagnosticArray, '/diagnostics', self.on_diagnostics, 10)  # global
         self.create_timer(1.0 / rate, self.step)
         self.get_logger().info(
-            f'sled {1e3 * self.cfg.sled_mass:.0f} g (mu {self.cfg.sled_mu}), {self.cfg.cycles} '
+            f'sled {1e3 * self.cfg.sled_mass_kg:.0f} g (mu {self.cfg.sled_mu}), {self.cfg.cycles} '
             f'cycles, safety factor {self.cfg.safety_factor}, map {predictor.path}; tugs only '
             f'on capacity_node estimates younger than {1e3 * self.cfg.estimate_timeout_s:.0f} '
             f'ms with status ok' + (f' or assumed {",".join(self.cfg.accept_assumed_inputs)}'
@@ -239,7 +259,7 @@ def main(args=None) -> int:
             node.write_report()
 
     return run_node(BehaviorNode, 'behavior_node', tick=keep_going, on_exit=safe_stop,
-                    args=args)
+                    config_errors=(ValueError,), args=args)
 
 
 if __name__ == '__main__':

@@ -21,77 +21,20 @@ from collections import deque
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TwistStamped, WrenchStamped
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.exceptions import InvalidParameterValueException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, String
 
-from minirquad_driver.node_main import run_node, usage, wants_help
-from rftgls_core.conventions import LEG_JOINT_NAMES, LEG_KEYS
+from minirquad_driver.node_main import declare, run_node, usage, wants_help
 from rftgls_core.types import pull_direction
 
-from .capacity.estimator import (
-    DEFAULT_TIMEOUTS_S,
-    JOINTS,
-    CapacityEstimator,
-    Estimate,
-    EstimatorConfig,
-)
+from .capacity.estimator import JOINTS, CapacityEstimator, Estimate
 from .capacity.inputs import gravity_problem, quat_xyzw_to_pitch
-from .capacity.predictor import DEFAULT_MAP, ConfigError, predictor_from_params, predictor_name
-
-TRIGGERS = ('joint_states', 'pitch', 'tension', 'height', 'phi')
-TENSION_AXES = ('x', 'y', 'z', 'tether')
-FRESHNESS_SOURCES = ('header_stamp', 'receipt_time')
-
-# name -> default; the type of the default is the parameter type.
-PARAMETERS = {
-    # predictor
-    'map_file': DEFAULT_MAP,          # '' = live computation with live_method
-    'live_method': 'direct',
-    'live_n_twists': 0,               # 0 = rftgls_core default
-    'out_of_range_live_method': '',   # '' = none; else the live solver answers off-grid states
-    'robot': 'minirquad',
-    'medium': 'm90_sand',
-    'pull': 'backward',
-    # input topics
-    'joint_states_topic': '/joint_states',
-    'imu_topic': '/imu',
-    'pitch_topic': '',                # std_msgs/Float64 theta_B in rad; replaces the IMU if set
-    'tension_topic': '/winch/tension',
-    # signed tension: force.x (load cell axis; or 'y', 'z'), or 'tether': force . d(phi), a
-    # force vector in world axes (the lab bags) projected on the tether direction
-    'tension_component': 'x',
-    'height_topic': '/winch/height',  # std_msgs/Float64 h in m; '' = parameter height_m only
-    'phi_topic': '',                  # std_msgs/Float64 phi in rad; '' = parameter phi_rad only
-    **{f'joint_{k}': name for k, name in zip(LEG_KEYS, LEG_JOINT_NAMES)},
-    # fallbacks and limits (SI)
-    'height_m': 0.03,
-    'phi_rad': math.radians(-20.0),
-    'leg_tolerance_rad': math.radians(5.0),
-    'h_min_m': -0.05,
-    'h_max_m': 0.30,
-    'tension_max_N': 200.0,
-    'tension_deadband_N': 0.05,       # a reading down to -deadband counts as zero
-    'imu_tilt_limit_rad': math.radians(80.0),  # body up axis this far from vertical: invalid
-    # assumed inputs (height_m, phi_rad without a topic): half-width of the range they may
-    # really take; ~/capacity_lower is the smallest capacity over it
-    'assumed_height_range_m': 0.01,
-    'assumed_phi_range_rad': math.radians(10.0),
-    # conservative lower bound on ~/capacity_lower (0 = off; e.g. 0.95)
-    'lower_bound_level': 0.0,
-    'h_sigma_m': 0.002,
-    'theta_b_sigma_rad': math.radians(1.0),
-    'capacity_rel_sigma': 0.0,        # e.g. sigma(xi_n)/xi_n from `rftgls calibrate`
-    # timing
-    **{f'{name}_timeout_s': t for name, t in DEFAULT_TIMEOUTS_S.items()},
-    'freshness_source': 'header_stamp',  # or 'receipt_time' (bag replay only)
-    'clock_offset_tolerance_s': 0.05,  # stamps up to this far in the future are accepted
-    'publish_rate_hz': 20.0,          # minimum output rate (heartbeat when no trigger arrives)
-    'trigger_inputs': ['tension'],    # inputs whose every message produces an output
-    'diagnostics_period_s': 1.0,
-    'frame_id': 'anchor',
-}
+from .capacity.params import PARAMETERS, RUNTIME, configs
+from .capacity.predictor import ConfigError, predictor_from_params, predictor_name
 
 
 class CapacityNode(Node):
@@ -102,34 +45,24 @@ class CapacityNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('capacity_node', **kwargs)
-        for name, default in PARAMETERS.items():
-            self.declare_parameter(name, default)
-        p = {name: self.get_parameter(name).value for name in PARAMETERS}
+        try:
+            p = {name: declare(self, name, spec.default, spec.description, lo=spec.lo,
+                               hi=spec.hi, read_only=name not in RUNTIME)
+                 for name, spec in PARAMETERS.items()}
+        except InvalidParameterValueException as exc:  # outside its range
+            raise ConfigError(str(exc)) from exc
         self.params = p
-        self.estimator = self._make_estimator(p)
+        est_cfg, self.config = configs(p)
+        predictor = predictor_from_params(p['map_file'], p['live_method'], p['robot'],
+                                          p['medium'], p['live_n_twists'], p['pull'],
+                                          p['out_of_range_live_method'])
+        self.estimator = CapacityEstimator(predictor, est_cfg)
         self.frame_id = p['frame_id']
-        self.tension_component = p['tension_component']
-        if self.tension_component not in TENSION_AXES:
-            # 'norm' (|force|) was removed: it turned a -5 N reading into +5 N.
-            raise ConfigError(f"tension_component must be the load cell axis 'x', 'y' or 'z', "
-                              f"or 'tether' (all signed), got {self.tension_component!r}")
-        if p['freshness_source'] not in FRESHNESS_SOURCES:
-            raise ConfigError(f'freshness_source must be one of {", ".join(FRESHNESS_SOURCES)}, '
-                              f'got {p["freshness_source"]!r}')
-        self.use_stamps = p['freshness_source'] == 'header_stamp'
-        tilt = p['imu_tilt_limit_rad']
-        if not (math.isfinite(tilt) and 0.0 < tilt < math.pi):
-            raise ConfigError(f'imu_tilt_limit_rad must lie in (0, pi), got {tilt!r}')
-        self.triggers = frozenset(p['trigger_inputs'])
-        if not self.triggers <= set(TRIGGERS):
-            raise ConfigError(f'trigger_inputs must be a subset of {list(TRIGGERS)}, '
-                              f'got {list(p["trigger_inputs"])}')
-        rate = p['publish_rate_hz']
-        if not (math.isfinite(rate) and rate > 0):
-            raise ConfigError(f'publish_rate_hz must be > 0, got {rate!r}')
-        if not (math.isfinite(p['diagnostics_period_s']) and p['diagnostics_period_s'] > 0):
-            raise ConfigError(f'diagnostics_period_s must be > 0, '
-                              f'got {p["diagnostics_period_s"]!r}')
+        self.tension_component = self.config.tension_component
+        self.use_stamps = self.config.freshness_source == 'header_stamp'
+        self.triggers = self.config.triggers
+        rate = self.config.publish_rate_hz
+        self.add_on_set_parameters_callback(self.on_set_parameters)
         self.joint_keys = {p[f'joint_{k}']: k for k in JOINTS}
 
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -139,6 +72,7 @@ class CapacityNode(Node):
         self.pub_lower = self.create_publisher(WrenchStamped, '~/capacity_lower', 10)
         self.pub_twist = self.create_publisher(TwistStamped, '~/slip_twist', 10)
         self.pub_status = self.create_publisher(String, '~/status', latched)
+        # /diagnostics is global (every node reports there; REP-107), the rest is relative.
         self.pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
 
         sensor = qos_profile_sensor_data
@@ -181,23 +115,21 @@ class CapacityNode(Node):
                     f'{name} is ASSUMED from parameter {name}_{"m" if name == "height" else "rad"}'
                     ' (no topic): every estimate is `assumed`, not `ok`')
 
-    # -- set-up -------------------------------------------------------------------------------
-    @staticmethod
-    def _make_estimator(p: dict) -> CapacityEstimator:
-        timeouts = {name: p[f'{name}_timeout_s'] for name in DEFAULT_TIMEOUTS_S}
-        config = EstimatorConfig(
-            pull=p['pull'], timeouts_s=timeouts, leg_tolerance_rad=p['leg_tolerance_rad'],
-            height_m=p['height_m'], phi_rad=p['phi_rad'], h_range_m=(p['h_min_m'], p['h_max_m']),
-            tension_max_N=p['tension_max_N'], tension_deadband_N=p['tension_deadband_N'],
-            clock_tolerance_s=p['clock_offset_tolerance_s'],
-            assumed_height_range_m=p['assumed_height_range_m'],
-            assumed_phi_range_rad=p['assumed_phi_range_rad'],
-            lower_bound_level=p['lower_bound_level'],
-            h_sigma_m=p['h_sigma_m'], theta_b_sigma_rad=p['theta_b_sigma_rad'],
-            capacity_rel_sigma=p['capacity_rel_sigma']).check()
-        predictor = predictor_from_params(p['map_file'], p['live_method'], p['robot'], p['medium'],
-                                   p['live_n_twists'], p['pull'], p['out_of_range_live_method'])
-        return CapacityEstimator(predictor, config)
+    # -- parameters -----------------------------------------------------------------------
+    def on_set_parameters(self, params) -> SetParametersResult:
+        """A run-time change of RUNTIME parameters: validated as a whole, then applied to the
+        estimator and the node (the next estimate uses it), or rejected with the reason.
+        Read-only (start-up) parameters never get here: rclpy rejects them first."""
+        proposed = {**self.params, **{x.name: x.value for x in params}}
+        try:
+            est_cfg, node_cfg = configs(proposed)
+        except ConfigError as exc:
+            return SetParametersResult(successful=False, reason=' '.join(str(exc).split()))
+        self.estimator.reconfigure(est_cfg)
+        self.params, self.config = proposed, node_cfg
+        self.get_logger().info('parameters changed: ' + ', '.join(
+            f'{x.name}={x.value!r}' for x in params))
+        return SetParametersResult(successful=True)
 
     def now_s(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -240,7 +172,7 @@ class CapacityNode(Node):
             self.estimator.mark_malformed('pitch', now, 'IMU publishes no orientation')
         else:
             try:
-                why = gravity_problem(q, accel, self.params['imu_tilt_limit_rad'])
+                why = gravity_problem(q, accel, self.config.imu_tilt_limit_rad)
                 if why is not None:
                     self.estimator.mark_malformed('pitch', now, f'IMU: {why}',
                                                   code='implausible_gravity')
@@ -322,7 +254,7 @@ class CapacityNode(Node):
         now = time.monotonic()
         key = (est.status, est.reason, est.warnings)  # a change is reported at once
         if key == self.last_diag_key and \
-                now - self.last_diag_time < self.params['diagnostics_period_s']:
+                now - self.last_diag_time < self.config.diagnostics_period_s:
             return
         self.last_diag_key = key
         self.last_diag_time = now
@@ -345,7 +277,8 @@ class CapacityNode(Node):
 
 def main(args=None) -> int:
     if wants_help(args):
-        print(usage('capacity_node', 'rftgls_ros', __doc__, PARAMETERS))
+        print(usage('capacity_node', 'rftgls_ros', __doc__,
+                    {n: spec.default for n, spec in PARAMETERS.items()}))
         return 0
     return run_node(CapacityNode, 'capacity_node', config_errors=(ConfigError,), args=args,
                     spin_period_s=0.2)

@@ -141,7 +141,7 @@ def run_set(args, sled: float, env: dict, out: Path, params: Path | None) -> Pat
         beh = [*_ros2_run('rftgls_ros', 'behavior_node'), '--ros-args']
         if params:
             beh += ['--params-file', str(params)]
-        beh += ['-p', f'sled_mass:={sled}', '-p', f'cycles:={args.cycles}',
+        beh += ['-p', f'sled_mass_kg:={sled}', '-p', f'cycles:={args.cycles}',
                 '-p', f'report_dir:={out / tag}', '-p', 'exit_when_done:=true']
         for kv in args.param or []:
             beh += ['-p', kv]

@@ -246,6 +246,15 @@ class CapacityEstimator:
         self._lower_cache: tuple | None = None
         self.predictions = 0  # predictor calls (cache misses), for diagnostics and tests
 
+    def reconfigure(self, config: EstimatorConfig) -> None:
+        """Use `config` from the next estimate on (a run-time parameter change). The pull
+        cannot change (the predictor was checked for it): ConfigError."""
+        config = config.check()
+        if Pull(config.pull) is not self.pull:
+            raise ConfigError('pull cannot change at run time')
+        self.config = config
+        self._cache_key = self._cache = self._lower_cache = None
+
     # -- inputs -----------------------------------------------------------------------------
     def update_joints(self, t: float, angles: Mapping[str, float]) -> None:
         """Leg angles (rad) for any subset of JOINTS; other joints keep their last sample."""

@@ -22,7 +22,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64, String
 
-from minirquad_driver.node_main import run_node, usage, wants_help
+from minirquad_driver.node_main import declare, run_node, usage, wants_help
 from rftgls_core.conventions import WINCH_ROPE_JOINT
 
 from .model import TeleopConfig, TeleopModel
@@ -31,14 +31,29 @@ LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
+# ROS parameter (unit in the name) -> (TeleopConfig field, meaning, lo, hi). Start-up only.
+PARAMETERS = {
+    'step_m_s': ('step', 'winch speed change per key press', 0.0, 1.0),
+    'max_speed_m_s': ('max_speed', 'largest winch speed', 0.0, 1.0),
+    'limit_fraction': ('limit_fraction', 'tension/capacity beyond which pulling needs the '
+                       'override', 0.0, 1.0),
+    'override_window_s': ('override_window', 'time the override stays armed', 0.0, 600.0),
+    'stale_after_s': ('stale_after', 'capacity output age that is not valid', 0.0, 60.0),
+    'rope_length_m': ('rope_length', 'tether paid out at start (for phi)', 0.0, 100.0),
+    'attach_height_m': ('attach_height', 'tether attachment height on the sled', -1.0, 1.0),
+    'h_stand_m': ('h_stand', 'height of p when not burrowed', -1.0, 1.0),
+}
+
+
 class TeleopNode(Node):
     def __init__(self, **kwargs):
         super().__init__('teleop', **kwargs)
         cfg = TeleopConfig()
-        for name in ('step', 'max_speed', 'limit_fraction', 'override_window', 'stale_after',
-                     'rope_length', 'attach_height', 'h_stand'):
-            setattr(cfg, name, float(self.declare_parameter(name, getattr(cfg, name)).value))
-        self.refresh_hz = self.declare_parameter('refresh_hz', 8.0).value
+        for name, (field, text, lo, hi) in PARAMETERS.items():
+            setattr(cfg, field, float(declare(self, name, float(getattr(cfg, field)), text,
+                                              lo=lo, hi=hi)))
+        self.refresh_hz = declare(self, 'refresh_hz', 8.0, 'screen refresh rate', lo=0.1,
+                                  hi=100.0)
         self.model = TeleopModel(cfg)
         self.pubs = {
             'winch': self.create_publisher(Float64, 'winch/speed', 10),
@@ -51,9 +66,9 @@ class TeleopNode(Node):
         sensor = qos_profile_sensor_data
         self.create_subscription(WrenchStamped, 'winch/tension', self.on_tension, sensor)
         self.create_subscription(JointState, 'joint_states', self.on_joints, sensor)
-        self.create_subscription(WrenchStamped, '/capacity_node/capacity', self.on_capacity, 10)
-        self.create_subscription(TwistStamped, '/capacity_node/slip_twist', self.on_twist, 10)
-        self.create_subscription(String, '/capacity_node/status', self.on_status, LATCHED)
+        self.create_subscription(WrenchStamped, 'capacity_node/capacity', self.on_capacity, 10)
+        self.create_subscription(TwistStamped, 'capacity_node/slip_twist', self.on_twist, 10)
+        self.create_subscription(String, 'capacity_node/status', self.on_status, LATCHED)
         self.create_timer(0.05, self.on_timer)
 
     def send(self, cmds) -> None:
@@ -133,7 +148,8 @@ class Terminal:
 
 def main(args=None) -> int:
     if wants_help(args):
-        print(usage('teleop', 'rftgls_ros', __doc__))
+        print(usage('teleop', 'rftgls_ros', __doc__,
+                    {n: getattr(TeleopConfig(), f) for n, (f, *_) in PARAMETERS.items()}))
         return 0
     term = Terminal()
     return run_node(TeleopNode, 'teleop', tick=term.tick, on_exit=term.close,
