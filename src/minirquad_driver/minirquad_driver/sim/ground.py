@@ -27,11 +27,11 @@ from .burrow import TABLE_II
 
 class AnchorPrediction(NamedTuple):
     """capacity: largest tension T (N) the anchor holds along d(phi), None without a value.
-    slip_twist: direction of motion of p when it fails, (vx, vz, wy) in world axes with
+    slip_twist_per_m: direction of motion of p when it fails, (vx, vz, wy) in world axes with
     |(vx, vz)| = 1 (wy in rad per m of travel). status: see docs/design/architecture.md#statuses."""
 
     capacity: float | None
-    slip_twist: tuple[float, float, float]
+    slip_twist_per_m: tuple[float, float, float]
     status: Status
 
 

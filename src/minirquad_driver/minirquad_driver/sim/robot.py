@@ -274,7 +274,7 @@ class SimRobot:
             w.sled_moving = True
         else:
             # The anchor fails first: p slips along the predicted twist; the sled stays.
-            vx, vz, wy = pred.slip_twist
+            vx, vz, wy = pred.slip_twist_per_m
             ux, uz = tether_direction_xz(phi)               # unit pull direction on p
             along = max(vx * ux + vz * uz, 0.2)
             s = (demand - cap) / w.rope_k / along

@@ -33,7 +33,8 @@ def predictor_name(predictor: Predictor) -> str:
 
 
 class LivePredictor:
-    """rftgls_core.anchor.AnchorModel computed per call (about 10 ms for twist-mesh)."""
+    """rftgls_core.anchor.AnchorModel computed per call (about 10 ms for twist-mesh).
+    n_twists None: DEFAULT_TWISTS for every method (not the model's per-method default)."""
 
     def __init__(self, robot: str = 'minirquad', medium: str = 'm90_sand',
                  method: str = 'direct', n_twists: int | None = None):
@@ -139,7 +140,7 @@ def _live(robot: str, medium: str, live_method: str, n_twists: int,
         raise ConfigError(f'{param} must be one of {", ".join(LIVE_METHODS)}, '
                           f'got {live_method!r}')
     if n_twists < 0:
-        raise ConfigError(f'live_n_twists must be >= 0 (0 = core default), got {n_twists}')
+        raise ConfigError(f'live_n_twists must be >= 0 (0 = DEFAULT_TWISTS), got {n_twists}')
     try:
         return LivePredictor(robot, medium, live_method, n_twists or None)
     except (ValueError, ImportError, AttributeError) as exc:
