@@ -1,6 +1,7 @@
 """The one `main()` shape of every rclpy executable of the stack (bridge_node, capacity_node,
 behavior_node, teleop): `--help`, start-up errors in one line, a spin loop that sees Ctrl-C and
-SIGTERM promptly, a best-effort safe stop, and a clean shutdown.
+SIGTERM promptly, a best-effort safe stop, and a clean shutdown. Executables without a node
+(minirquad_sim, behavior_demo) stop the same way through `stop_on_signals`.
 
 It lives in minirquad_driver, the lowest ROS package (rftgls_core is ROS-free); rftgls_ros
 depends on it for this helper. Why spin_once with a timeout and not rclpy.spin:
@@ -8,7 +9,9 @@ docs/design/ros2-from-pip.md#stopping-nodes.
 """
 from __future__ import annotations
 
+import signal
 import sys
+import threading
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -68,6 +71,18 @@ def usage(executable: str, package: str, doc: str | None,
         for name, default in parameters.items():
             lines.append(f'  {name:<30} {default!r}')
     return '\n'.join(lines)
+
+
+def stop_on_signals(event: threading.Event | None = None) -> threading.Event:
+    """SIGINT (Ctrl-C) and SIGTERM set `event` (a new one if None) instead of raising, so a
+    loop that checks it finishes its iteration and cleans up. Returns the event."""
+    event = event or threading.Event()
+
+    def _set(_sig, _frame) -> None:
+        event.set()
+    signal.signal(signal.SIGINT, _set)
+    signal.signal(signal.SIGTERM, _set)
+    return event
 
 
 def wants_help(argv: Sequence[str] | None) -> bool:

@@ -30,6 +30,8 @@ import threading
 import time
 from pathlib import Path
 
+from minirquad_driver.node_main import stop_on_signals
+
 from .behavior.report import read_csv, write_report
 
 _stop = threading.Event()
@@ -191,10 +193,7 @@ def main(argv: list[str] | None = None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     params = Path(args.params) if args.params and Path(args.params).exists() else None
 
-    def on_signal(_sig, _frm):
-        _stop.set()
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
+    stop_on_signals(_stop)
 
     t0 = time.monotonic()
     print(f'behavior_demo: ROS_DOMAIN_ID={env["ROS_DOMAIN_ID"]}, DDS discovery '
