@@ -175,3 +175,58 @@ def test_quat_xyzw_to_pitch_sign_and_yaw_invariance():
     assert quat_xyzw_to_pitch(0, 0, 0, 2.0) == 0.0  # normalised first
     with pytest.raises(ValueError):
         quat_xyzw_to_pitch(0, 0, 0, 0)
+
+
+# -- the output policy, without ROS (what capacity_node publishes) -----------------------------
+def test_outputs_value_holding_and_slipping(est, live_predictor):
+    feed(est, 0.0, tension=1.0)
+    e = est.estimate(0.0)
+    out = est.outputs(e)
+    d = (-math.cos(PHI), math.sin(PHI))                 # tether direction, world (x, z)
+    assert out.status == 'ok' and not out.publish_lower
+    assert out.capacity_xz == pytest.approx((e.capacity_N * d[0], e.capacity_N * d[1]))
+    assert out.margin_xz == pytest.approx((e.margin_N * d[0], e.margin_N * d[1]))
+    assert out.capacity_y == 0.0
+    assert out.slip_twist == (0.0, 0.0, 0.0)            # holds: no predicted motion
+    est.update('tension', 0.01, 50.0)
+    out = est.outputs(est.estimate(0.01))
+    assert out.slip_twist == pytest.approx(live_predictor.model.predict(
+        DH, PHI, Pull.BACKWARD).slip_twist)             # slipping: the raw twist
+
+
+def test_outputs_without_value_are_nan_and_diagnostic_is_an_error(est):
+    feed(est, 0.0, tension=-1.0)                        # negative tension: invalid_input
+    e = est.estimate(0.0)
+    out = est.outputs(e)
+    assert out.status == 'invalid_input'
+    assert all(math.isnan(v) for v in (*out.capacity_xz, out.capacity_y, *out.margin_xz,
+                                        *out.slip_twist))
+    d = est.diagnostic(e, 'capacity_node: anchor capacity', {'extra_ms': '1.0'})
+    assert d.level == 2 and d.message.startswith('invalid_input: ')
+    assert 'negative_tension:tension' in d.values['reason']
+    assert d.values['capacity_N'] == 'nan' and d.values['extra_ms'] == '1.0'
+
+
+def test_assumed_input_warns_and_publishes_the_lower_bound(live_predictor):
+    est = CapacityEstimator(live_predictor, EstimatorConfig(pull='backward'))
+    feed(est, 0.0, tension=1.0)
+    est._inputs.pop('height')                           # never received: assumed height_m
+    e = est.estimate(0.0)
+    assert e.status is Status.ASSUMED
+    assert est.outputs(e).publish_lower
+    d = est.diagnostic(e, 'x')
+    assert d.level == 1 and d.values['assumed_inputs'] == 'height'
+
+
+def test_reconfigure_applies_from_the_next_estimate(est, live_predictor):
+    import dataclasses
+    feed(est, 0.0, tension=1.0)
+    est._inputs.pop('phi')                              # phi from the parameter
+    before = est.estimate(0.0).capacity_N
+    est.reconfigure(dataclasses.replace(est.config, phi_rad=0.0))
+    after = est.estimate(0.0).capacity_N
+    assert after == pytest.approx(live_predictor.model.predict(DH, 0.0, Pull.BACKWARD)
+                                  .capacity_N, rel=1e-12)
+    assert after != before
+    with pytest.raises(ConfigError):
+        est.reconfigure(dataclasses.replace(est.config, pull='forward'))

@@ -11,10 +11,12 @@ from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import Status
 from rftgls_ros.behavior import (
     ANCHOR_MODES,
+    BehaviorConfig,
     BehaviorMachine,
     EnergyModel,
     ForceNeed,
     ModeChooser,
+    Observation,
     State,
     TetherTracker,
     write_report,
@@ -121,6 +123,30 @@ def test_machine_400g_chooses_sh_and_completes_cycles(predictor):
     assert all(r.burrow_j > 0 and r.walk_j > 0 and r.tug_j > 0 for r in m.records)
     kinds = {e['kind'] for e in m.events}
     assert {'transition', 'decision', 'live', 'cycle'} <= kinds
+
+
+def test_step_returns_its_events_once(predictor):
+    """The node publishes what step returns: every event exactly once, in order."""
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    plant = Plant(0.4, predictor)
+    returned = []
+    obs = Observation(t=0.0)
+    while plant.t < 60.0 and not m.done:
+        cmd = m.step(obs)
+        returned += cmd.events
+        plant.apply(cmd)
+        for _ in range(5):
+            obs = plant.advance(0.002)
+    assert m.done and returned and returned == list(m.events)
+
+
+@pytest.mark.parametrize('bad', [dict(cycles=0), dict(slow_ratio=0.99, stop_ratio=0.9),
+                                 dict(tug_speed_m_s=0.0), dict(phis_rad=(2.0,))])
+def test_behavior_config_check_refuses(bad):
+    with pytest.raises(ValueError):
+        BehaviorConfig(**bad).check()
+    assert BehaviorConfig().check() == BehaviorConfig()
 
 
 def test_machine_600g_never_sh(predictor):

@@ -138,7 +138,7 @@ def run_set(args, sled: float, env: dict, out: Path, params: Path | None) -> Pat
         cap_params = Path('ros2_ws/params/capacity_node.yaml')
         if cap_params.exists():
             cap += ['--params-file', str(cap_params)]
-        cap += ['-p', 'phi_topic:=/winch/phi']
+        cap += ['-p', 'phi_topic:=winch/phi']   # relative: behavior_node's winch/phi
         stack.start('capacity_node', cap)
         beh = [*_ros2_run('rftgls_ros', 'behavior_node'), '--ros-args']
         if params:
