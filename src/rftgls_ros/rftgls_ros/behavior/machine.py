@@ -57,7 +57,8 @@ class State(str, enum.Enum):
 
 class HoldCause(enum.Enum):
     """Why the winch was stopped in a cycle (the HOLD state's cause and the cycle's outcome).
-    The cycle CSV keeps its reason codes (margin_guard, capacity_short, slip_*, evidence)."""
+    The cycle CSV keeps its reason codes: margin_guard, capacity_short, slip_* (slip.py) and
+    the evidence codes of an aborted attempt (evidence.py)."""
 
     NONE = 'none'
     GUARD = 'guard'          # margin guard: tension reached stop_ratio x capacity
@@ -287,7 +288,7 @@ class BehaviorMachine:
         self._next_reason = ''
         self._tug_tensions: list[float] = []
         self._tug_start_t = 0.0
-        self._usable_since = None
+        self._usable_since: float | None = None
         self._gap: tuple[float, float | None] | None = None
         self._good: tuple[float, float | None] | None = None
         self._stop_watch: tuple[float, float | None, str, str] | None = None
@@ -767,7 +768,7 @@ class BehaviorMachine:
 
     def _enter_wait_evidence(self) -> None:
         self._winch = 0.0
-        self._usable_since: float | None = None
+        self._usable_since = None
 
     def _do_wait_evidence(self) -> None:
         cfg, o = self.cfg, self.obs
