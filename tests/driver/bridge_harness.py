@@ -21,7 +21,7 @@ def stamp_s(msg) -> float:
 
 class Harness:
     def __init__(self, ctx, port: str, **params):
-        overrides = [Parameter('port', value=port), Parameter('diagnostics_period', value=0.5)]
+        overrides = [Parameter('port', value=port), Parameter('diagnostics_period_s', value=0.5)]
         overrides += [Parameter(k, value=v) for k, v in params.items()]
         self.node = BridgeNode(context=ctx, parameter_overrides=overrides)
         self.probe = rclpy.create_node('probe', context=ctx)

@@ -90,7 +90,7 @@ FAULT_OVER_S = {'disconnect': 6.5, 'reset': 4.5}
 def test_fault_is_counted_and_survived(sim, harness, tmp_path, fault):
     # The bridge waits for the port before the simulator starts, so the simulator's fault
     # schedule (seconds since its start) is not eaten by the bridge's start-up on a busy host.
-    h = harness(str(tmp_path / 'tty'), reconnect_period=0.05)
+    h = harness(str(tmp_path / 'tty'), reconnect_period_s=0.05)
     s = sim.start(*FAULTS[fault])
     t_sim = time.monotonic()
     h.walk()

@@ -268,7 +268,7 @@ def test_port_that_cannot_be_opened_is_logged_once_shown_and_retried(
     port = tmp_path / 'tty'          # where the simulator's symlink will appear
     if case == 'not_a_tty':
         port.write_text('not a serial device\n')
-    h = harness(str(port), reconnect_period=0.05)
+    h = harness(str(port), reconnect_period_s=0.05)
     h.spin(1.5)
     level, values = _worst(h, LINK, 'open_error')
     assert level == ERROR and values['open_error'] and values['connected'] == 'False'
@@ -283,3 +283,18 @@ def test_port_that_cannot_be_opened_is_logged_once_shown_and_retried(
     assert h.spin_until(lambda: len(h.joints) > 20, 8.0)
     assert h.node.core.open_error is None and h.node.transport.stats.last_open_error is None
     assert h.link()['open_error'] is None
+
+
+def test_run_time_parameter_change_is_rejected_with_a_reason(harness, tmp_path):
+    """bridge_node reads its parameters at start-up: a change is refused, never accepted and
+    ignored (issue 13 item 5); a value outside the declared range is refused at start-up."""
+    from rclpy.exceptions import InvalidParameterValueException
+    from rclpy.parameter import Parameter
+    h = harness(str(tmp_path / 'no_port'))
+    res = h.node.set_parameters([Parameter('stale_timeout_s', value=1.0)])[0]
+    assert not res.successful and 'read-only' in res.reason
+    assert h.node.get_parameter('stale_timeout_s').value == 0.25
+    desc = h.node.describe_parameter('stale_timeout_s')
+    assert desc.floating_point_range[0].from_value > 0 and '[s]' in desc.description
+    with pytest.raises(InvalidParameterValueException):
+        harness(str(tmp_path / 'no_port'), heartbeat_period_s=0.6)   # MCU watchdog is 0.5 s

@@ -8,7 +8,7 @@ from minirquad_driver.protocol.codec import FrameDecoder, encode_frame
 from minirquad_driver.sim.burrow import TABLE_II
 from minirquad_driver.sim.calibration import RATIOS, burrow_energy
 from minirquad_driver.sim.gait import BuehlerClock, wrap_angle
-from minirquad_driver.sim.ground import TableAnchorModel
+from minirquad_driver.sim.ground import TableGround
 from minirquad_driver.sim.mcu import McuConfig, SimMcu
 from minirquad_driver.sim.robot import SimRobot
 from minirquad_driver.sim.servo import Servo
@@ -117,7 +117,7 @@ def test_sh_tugs_a_400_g_sled():
 
 
 def test_placeholder_ground_statuses():
-    g = TableAnchorModel()
+    g = TableGround()
     bad = g.predict(AnchorState(float('nan'), 0, 0, 0), 0.0)
     assert bad.status == Status.INVALID_INPUT and bad.capacity is None
     cap, twist, status = g.predict(AnchorState(0.034, 0.087, -0.698, 0.524), 0.0)

@@ -6,9 +6,10 @@ import math
 import pytest
 from _capacity_common import DH, IN_AIR, PHI
 
+from rftgls_core.conventions import quat_xyzw_to_pitch
 from rftgls_core.types import Pull, Status
-from rftgls_ros.capacity.estimator import CapacityEstimator, EstimatorConfig, pitch_from_quaternion
-from rftgls_ros.capacity.predictor import ConfigError, make_predictor
+from rftgls_ros.capacity.estimator import CapacityEstimator, EstimatorConfig
+from rftgls_ros.capacity.predictor import ConfigError, predictor_from_params
 
 
 def feed(est: CapacityEstimator, t: float, state=DH, tension=1.0, phi=PHI, spread=(0.0, 0.0)):
@@ -34,7 +35,7 @@ def test_ok_matches_core_and_margin(est, live_predictor):
     assert e.status is Status.OK and e.has_value
     assert e.capacity_N == pytest.approx(core.capacity_N, rel=1e-12)
     assert e.margin_N == pytest.approx(core.capacity_N - 1.5)
-    assert e.slip_twist == pytest.approx(core.slip_twist)
+    assert e.slip_twist_raw == pytest.approx(core.slip_twist)
     assert not e.slipping and e.warnings == ()
     assert e.state == DH and e.phi_rad == PHI
 
@@ -43,7 +44,7 @@ def test_tension_above_capacity_predicts_slip(est):
     feed(est, 0.0, tension=50.0)
     e = est.estimate(0.0)
     assert e.status is Status.OK and e.slipping and e.margin_N < 0
-    assert math.hypot(*e.slip_twist) == pytest.approx(1.0)
+    assert math.hypot(*e.slip_twist_raw) == pytest.approx(1.0)
 
 
 def test_new_tension_reuses_the_prediction(est):
@@ -67,7 +68,7 @@ def test_stale_input(est, late):
     e = est.estimate(2.0)
     assert e.status is Status.STALE and not e.has_value
     assert late in e.detail
-    assert e.capacity_N is None and e.margin_N is None and e.slip_twist is None
+    assert e.capacity_N is None and e.margin_N is None and e.slip_twist_raw is None
 
 
 def test_never_received_is_stale_and_parameter_inputs_are_assumed(live_predictor):
@@ -103,7 +104,7 @@ def test_invalid_scalar_input(est, name, value, code):
     est.update(name, 0.0, value)
     e = est.estimate(0.0)
     assert e.status is Status.INVALID_INPUT and e.reason_codes == (code,)
-    assert e.capacity_N is None and e.margin_N is None and e.slip_twist is None
+    assert e.capacity_N is None and e.margin_N is None and e.slip_twist_raw is None
 
 
 def test_invalid_joint_and_malformed(est):
@@ -136,7 +137,7 @@ def test_unsupported_reports_zero_capacity(est):
     e = est.estimate(0.0)
     assert e.status is Status.UNSUPPORTED and not e.has_value
     assert e.capacity_N == 0.0 and e.margin_N == -0.7 and e.slipping
-    assert e.slip_twist is None
+    assert e.slip_twist_raw is None
 
 
 @pytest.mark.parametrize('kwargs, words', [
@@ -153,24 +154,79 @@ def test_bad_config(live_predictor, kwargs, words):
         CapacityEstimator(live_predictor, EstimatorConfig(**kwargs))
 
 
-def test_make_predictor_errors(tmp_path):
+def test_predictor_from_params_errors(tmp_path):
     with pytest.raises(ConfigError, match='live_method'):
-        make_predictor('', live_method='bogus')
+        predictor_from_params('', live_method='bogus')
     with pytest.raises(ConfigError, match='not found|no CapacityMap'):
-        make_predictor(str(tmp_path / 'missing.h5'))
+        predictor_from_params(str(tmp_path / 'missing.h5'))
 
 
-def test_pitch_from_quaternion_sign_and_yaw_invariance():
+def test_quat_xyzw_to_pitch_sign_and_yaw_invariance():
     beta = math.radians(12.0)  # REP-103 pitch: nose down
     q = (0.0, math.sin(beta / 2), 0.0, math.cos(beta / 2))
-    assert pitch_from_quaternion(*q) == pytest.approx(-beta)
+    assert quat_xyzw_to_pitch(*q) == pytest.approx(-beta)
     # add a yaw of 70 deg (q_yaw * q_pitch): elevation of the x axis is unchanged
     cy, sy = math.cos(math.radians(35)), math.sin(math.radians(35))
     w1, x1, y1, z1 = cy, 0.0, 0.0, sy
     w2, x2, y2, z2 = q[3], q[0], q[1], q[2]
     qq = (w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2, w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
           w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2, w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2)
-    assert pitch_from_quaternion(*qq) == pytest.approx(-beta)
-    assert pitch_from_quaternion(0, 0, 0, 2.0) == 0.0  # normalised first
+    assert quat_xyzw_to_pitch(*qq) == pytest.approx(-beta)
+    assert quat_xyzw_to_pitch(0, 0, 0, 2.0) == 0.0  # normalised first
     with pytest.raises(ValueError):
-        pitch_from_quaternion(0, 0, 0, 0)
+        quat_xyzw_to_pitch(0, 0, 0, 0)
+
+
+# -- the output policy, without ROS (what capacity_node publishes) -----------------------------
+def test_outputs_value_holding_and_slipping(est, live_predictor):
+    feed(est, 0.0, tension=1.0)
+    e = est.estimate(0.0)
+    out = est.outputs(e)
+    d = (-math.cos(PHI), math.sin(PHI))                 # tether direction, world (x, z)
+    assert out.status == 'ok' and not out.publish_lower
+    assert out.capacity_xz == pytest.approx((e.capacity_N * d[0], e.capacity_N * d[1]))
+    assert out.margin_xz == pytest.approx((e.margin_N * d[0], e.margin_N * d[1]))
+    assert out.capacity_y == 0.0
+    assert out.slip_twist == (0.0, 0.0, 0.0)            # holds: no predicted motion
+    est.update('tension', 0.01, 50.0)
+    out = est.outputs(est.estimate(0.01))
+    assert out.slip_twist == pytest.approx(live_predictor.model.predict(
+        DH, PHI, Pull.BACKWARD).slip_twist)             # slipping: the raw twist
+
+
+def test_outputs_without_value_are_nan_and_diagnostic_is_an_error(est):
+    feed(est, 0.0, tension=-1.0)                        # negative tension: invalid_input
+    e = est.estimate(0.0)
+    out = est.outputs(e)
+    assert out.status == 'invalid_input'
+    assert all(math.isnan(v) for v in (*out.capacity_xz, out.capacity_y, *out.margin_xz,
+                                        *out.slip_twist))
+    d = est.diagnostic(e, 'capacity_node: anchor capacity', {'extra_ms': '1.0'})
+    assert d.level == 2 and d.message.startswith('invalid_input: ')
+    assert 'negative_tension:tension' in d.values['reason']
+    assert d.values['capacity_N'] == 'nan' and d.values['extra_ms'] == '1.0'
+
+
+def test_assumed_input_warns_and_publishes_the_lower_bound(live_predictor):
+    est = CapacityEstimator(live_predictor, EstimatorConfig(pull='backward'))
+    feed(est, 0.0, tension=1.0)
+    est._inputs.pop('height')                           # never received: assumed height_m
+    e = est.estimate(0.0)
+    assert e.status is Status.ASSUMED
+    assert est.outputs(e).publish_lower
+    d = est.diagnostic(e, 'x')
+    assert d.level == 1 and d.values['assumed_inputs'] == 'height'
+
+
+def test_reconfigure_applies_from_the_next_estimate(est, live_predictor):
+    import dataclasses
+    feed(est, 0.0, tension=1.0)
+    est._inputs.pop('phi')                              # phi from the parameter
+    before = est.estimate(0.0).capacity_N
+    est.reconfigure(dataclasses.replace(est.config, phi_rad=0.0))
+    after = est.estimate(0.0).capacity_N
+    assert after == pytest.approx(live_predictor.model.predict(DH, 0.0, Pull.BACKWARD)
+                                  .capacity_N, rel=1e-12)
+    assert after != before
+    with pytest.raises(ConfigError):
+        est.reconfigure(dataclasses.replace(est.config, pull='forward'))

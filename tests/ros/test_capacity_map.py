@@ -10,7 +10,12 @@ from _capacity_common import DH, PHI, Probe
 from rftgls_core.maps import CapacityMap
 from rftgls_core.types import AnchorState, Status
 from rftgls_ros.capacity.estimator import CapacityEstimator, EstimatorConfig
-from rftgls_ros.capacity.predictor import ConfigError, LiveFallback, MapPredictor, make_predictor
+from rftgls_ros.capacity.predictor import (
+    ConfigError,
+    LiveFallback,
+    MapPredictor,
+    predictor_from_params,
+)
 
 OUTSIDE = AnchorState(DH.h, math.radians(15.0), DH.theta_l1, DH.theta_l2)   # theta_b > 10 deg
 HIGH = AnchorState(0.10, DH.theta_b, DH.theta_l1, DH.theta_l2)             # cell touches 200 mm
@@ -33,11 +38,11 @@ def test_estimator_statuses_from_the_map(small_map, state, status):
     direct = CapacityMap.load(small_map).query(state, PHI, 'backward')
     assert e.status is status and direct.status is status
     if status is Status.OK:
-        assert e.capacity_N == direct.capacity_N and e.slip_twist == direct.slip_twist
+        assert e.capacity_N == direct.capacity_N and e.slip_twist_raw == direct.slip_twist
     elif status is Status.UNSUPPORTED:
-        assert e.capacity_N == 0.0 and e.margin_N == -1.0 and e.slip_twist is None
+        assert e.capacity_N == 0.0 and e.margin_N == -1.0 and e.slip_twist_raw is None
     else:   # no value at all off the grid
-        assert e.capacity_N is None and e.slip_twist is None
+        assert e.capacity_N is None and e.slip_twist_raw is None
 
 
 def test_off_grid_state_has_no_value(small_map):
@@ -47,7 +52,7 @@ def test_off_grid_state_has_no_value(small_map):
     assert direct.status is Status.OUT_OF_RANGE
     e = estimator_for(small_map, OUTSIDE)
     assert e.status is Status.OUT_OF_RANGE and not e.has_value
-    assert e.capacity_N is None and e.margin_N is None and e.slip_twist is None
+    assert e.capacity_N is None and e.margin_N is None and e.slip_twist_raw is None
     assert e.capacity_lower_N is None
 
 
@@ -70,17 +75,17 @@ def test_bad_map_files(tmp_path, small_map):
     with h5py.File(wrong, 'w') as f:
         f['something'] = [1, 2, 3]
     with pytest.raises(ConfigError, match='bad map file'):
-        make_predictor(str(wrong))
+        predictor_from_params(str(wrong))
     text = tmp_path / 'not_hdf5.h5'
     text.write_text('hello\n')
     with pytest.raises(ConfigError, match='map file'):
-        make_predictor(str(text))
+        predictor_from_params(str(text))
     with pytest.raises(ConfigError, match='not found'):
-        make_predictor(str(tmp_path / 'missing.h5'))
+        predictor_from_params(str(tmp_path / 'missing.h5'))
     with pytest.raises(ConfigError, match="not 'forward'"):
-        make_predictor(str(small_map), pull='forward')
+        predictor_from_params(str(small_map), pull='forward')
     with pytest.raises(ConfigError, match='robot'):
-        make_predictor(str(small_map), robot='prototype')
+        predictor_from_params(str(small_map), robot='prototype')
 
 
 def test_node_with_map_out_of_range_and_ok(ros_context, small_map):

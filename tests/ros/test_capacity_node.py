@@ -265,3 +265,65 @@ def test_a_stream_with_400_ms_link_latency_is_never_ok(make, latency_s):
     else:
         assert statuses and 'ok' not in statuses and 'stale' in statuses, set(statuses)
         assert all(math.isnan(c.wrench.force.x) for c in probe.out['capacity'])
+
+
+# -- parameters that take effect (issue 13 item 5) ---------------------------------------------
+def _set_remote(probe, name, value):
+    """Set one parameter through capacity_node's parameter service, as `ros2 param set` does."""
+    from rcl_interfaces.srv import SetParameters
+    client = probe.node.create_client(SetParameters, '/capacity_node/set_parameters')
+    assert client.wait_for_service(timeout_sec=5.0)
+    fut = client.call_async(SetParameters.Request(
+        parameters=[Parameter(name, value=value).to_parameter_msg()]))
+    assert probe.spin_until(fut.done)
+    probe.node.destroy_client(client)
+    return fut.result().results[0]
+
+
+def test_phi_rad_at_run_time_changes_the_published_capacity(make, live_predictor):
+    node, probe = make(phi_topic='')                 # phi comes from the parameter
+    cap = send(probe, node, DH, 0.5)
+    assert probe.wait_status('assumed')
+    before = f_along(cap, PHI)
+    assert before == pytest.approx(live_predictor.model.predict(DH, PHI, 'backward').capacity_N,
+                                   rel=1e-9)
+    new_phi = 0.0
+    res = _set_remote(probe, 'phi_rad', new_phi)
+    assert res.successful, res.reason
+    assert node.get_parameter('phi_rad').value == new_phi
+    cap = send(probe, node, DH, 0.5)
+    after = f_along(cap, new_phi)
+    # Reference: the core's live model at the new angle (independent of the node).
+    assert after == pytest.approx(live_predictor.model.predict(DH, new_phi, 'backward')
+                                  .capacity_N, rel=1e-9)
+    assert abs(after - before) > 1e-3
+
+
+def test_run_time_changes_are_rejected_with_a_reason(make):
+    node, probe = make(phi_topic='')
+    out_of_range = _set_remote(probe, 'phi_rad', 3.0)                 # beyond +-pi/2
+    assert not out_of_range.successful and 'phi_rad' in out_of_range.reason
+    start_up_only = _set_remote(probe, 'map_file', '/tmp/other.h5')   # read-only
+    assert not start_up_only.successful and 'read-only' in start_up_only.reason
+    inconsistent = _set_remote(probe, 'h_min_m', 1.0)                  # above h_max_m
+    assert not inconsistent.successful and 'h range' in inconsistent.reason
+    assert node.get_parameter('phi_rad').value == PHI                  # nothing applied
+    assert node.get_parameter('h_min_m').value == -0.05
+
+
+def test_topics_are_relative_so_namespaces_apply(ros_context):
+    """Inputs and outputs resolve inside the node's namespace (two robots on one domain);
+    /diagnostics stays global. Defaults come from the node's own parameters, no overrides."""
+    node = CapacityNode(context=ros_context, namespace='robot2', parameter_overrides=[
+        Parameter('map_file', value=''), Parameter('live_method', value='twist-mesh')])
+    try:
+        subs = {name for name, _ in node.get_subscriber_names_and_types_by_node(
+            'capacity_node', '/robot2')}
+        pubs = {name for name, _ in node.get_publisher_names_and_types_by_node(
+            'capacity_node', '/robot2')}
+    finally:
+        node.destroy_node()
+    assert {'/robot2/joint_states', '/robot2/imu', '/robot2/winch/tension',
+            '/robot2/winch/height'} <= subs
+    assert {'/robot2/capacity_node/capacity', '/robot2/capacity_node/status',
+            '/diagnostics'} <= pubs

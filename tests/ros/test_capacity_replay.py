@@ -16,8 +16,8 @@ from rclpy.parameter import Parameter  # noqa: E402
 from rosbags.rosbag2 import Reader, Writer  # noqa: E402
 from rosbags.typesys import Stores, get_typestore  # noqa: E402
 
+from rftgls_core.conventions import quat_xyzw_to_pitch  # noqa: E402
 from rftgls_core.types import AnchorState, Pull, Status, pull_direction  # noqa: E402
-from rftgls_ros.capacity.estimator import pitch_from_quaternion  # noqa: E402
 from rftgls_ros.capacity_node import CapacityNode  # noqa: E402
 
 STEPS = 12
@@ -80,7 +80,7 @@ def test_lock_step_replay_matches_core(ros_context, tmp_path, live_predictor):
     seen = {'/joint_states': lambda m: est._joints.get('distal_right') is not None
             and est._joints['distal_right'].value == m.position[3],
             '/imu': lambda m: 'pitch' in est._inputs and est._inputs['pitch'].value
-            == pitch_from_quaternion(m.orientation.x, m.orientation.y, m.orientation.z,
+            == quat_xyzw_to_pitch(m.orientation.x, m.orientation.y, m.orientation.z,
                                      m.orientation.w),
             '/winch/height': lambda m: 'height' in est._inputs
             and est._inputs['height'].value == m.data}
@@ -101,7 +101,7 @@ def test_lock_step_replay_matches_core(ros_context, tmp_path, live_predictor):
                 js, imu, h = (current['/joint_states'], current['/imu'],
                               current['/winch/height'])
                 state = AnchorState(
-                    h.data, pitch_from_quaternion(imu.orientation.x, imu.orientation.y,
+                    h.data, quat_xyzw_to_pitch(imu.orientation.x, imu.orientation.y,
                                                   imu.orientation.z, imu.orientation.w),
                     0.5 * (js.position[0] + js.position[1]),
                     0.5 * (js.position[2] + js.position[3]))

@@ -1,6 +1,7 @@
 """Closed loop without ROS for the behaviour tests: the simulator's robot model (SimRobot, the
 same physics minirquad_sim runs) stepped in-process, with commands applied directly and the
-observation capacity_node would give built each step from the stack's predictor (the map).
+observation capacity_node would give built each step from the stack's predictor (the map;
+an rftgls_core Predictor, asked for backward pulls).
 
 ``capacity_fault(plant) -> None | (capacity, status, assumed_inputs)`` replaces what
 capacity_node says from then on (a status with its value, NaN for none); ``dead`` freezes the
@@ -61,8 +62,10 @@ class Plant:
             r.winch.sled_mass, self.heavier_at = self.heavier_mass, None
         a = r.leg_angles()
         state = AnchorState(self.h, r.theta_b, 0.5 * (a[0] + a[1]), 0.5 * (a[2] + a[3]))
-        cap, status = self.predictor(state, self.phi)
-        cap, status, assumed = (cap if cap is not None else float('nan')), str(status), None
+        res = self.predictor.predict(state, self.phi, 'backward')
+        cap = res.capacity_N if res.status.has_value and res.capacity_N is not None \
+            else float('nan')
+        cap, status, assumed = cap, str(res.status), None
         if self.capacity_fault is not None:
             fault = self.capacity_fault(self)
             if fault is not None:
@@ -92,6 +95,6 @@ def run_loop(machine, plant, t_max=120.0, dt=0.01, on_step=None):
 
 
 def fast_config(**kw) -> BehaviorConfig:
-    base = dict(cycles=2, walk_time=1.5, idle_measure_time=0.3)
+    base = dict(cycles=2, walk_time_s=1.5, idle_measure_time_s=0.3)
     base.update(kw)
     return BehaviorConfig(**base)

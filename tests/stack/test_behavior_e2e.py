@@ -17,7 +17,7 @@ import pytest
 pytestmark = pytest.mark.realtime
 
 REPO = Path(__file__).resolve().parents[2]
-FAST = ['walk_time:=1.0', 'idle_measure_time:=0.5', 'idle_settle_time:=0.3']
+FAST = ['walk_time_s:=1.0', 'idle_measure_time_s:=0.5', 'idle_settle_time_s:=0.3']
 
 
 def _ros2(pkg, exe):
@@ -46,7 +46,7 @@ def run_stack(tmp_path, spawn, sled, params=(), sim=None, sim_args=(), timeout=6
                       'ros2_ws/params/capacity_node.yaml', '-p', 'phi_topic:=/winch/phi'],
                      stdout=logs['capacity'], stderr=logs['capacity'], cwd=REPO, env=env)
     argv = [*_ros2('rftgls_ros', 'behavior_node'), '--ros-args', '--params-file',
-            'ros2_ws/params/behavior_node.yaml', '-p', f'sled_mass:={sled}',
+            'ros2_ws/params/behavior_node.yaml', '-p', f'sled_mass_kg:={sled}',
             '-p', 'cycles:=1', '-p', 'exit_when_done:=true',
             '-p', f'report_dir:={tmp_path / "report"}']
     for kv in (*FAST, *params):

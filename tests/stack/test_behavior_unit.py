@@ -7,19 +7,22 @@ import math
 
 import pytest
 
+from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import Status
 from rftgls_ros.behavior import (
     ANCHOR_MODES,
+    BehaviorConfig,
     BehaviorMachine,
     EnergyModel,
     ForceNeed,
-    MapPredictor,
     ModeChooser,
+    Observation,
     State,
     TetherTracker,
     write_report,
 )
 from rftgls_ros.behavior.report import read_csv
+from rftgls_ros.capacity.predictor import MapPredictor
 
 G = 9.81
 
@@ -80,9 +83,10 @@ def test_chooser_refuses_with_reason(predictor):
 
 
 def test_chooser_invalid_prediction_is_not_sufficient():
-    def bad(state, phi):
-        return None, Status.UNSUPPORTED
-    d = ModeChooser(bad).choose(1.0, EnergyModel())
+    class Bad:
+        def predict(self, state, phi, pull):
+            return CapacityResult(phi, Status.UNSUPPORTED, 'test', reason='unsupported')
+    d = ModeChooser(Bad()).choose(1.0, EnergyModel())
     assert d.mode is None and 'unsupported' in d.table()
 
 
@@ -108,8 +112,8 @@ from plant import Plant, fast_config, run_loop  # noqa: E402  (tests/stack/plant
 
 
 def test_machine_400g_chooses_sh_and_completes_cycles(predictor):
-    cfg = fast_config(sled_mass=0.4)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.4)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.4, predictor)
     run_loop(m, plant)
     assert m.state == State.FINISHED, m.reason
@@ -121,9 +125,33 @@ def test_machine_400g_chooses_sh_and_completes_cycles(predictor):
     assert {'transition', 'decision', 'live', 'cycle'} <= kinds
 
 
+def test_step_returns_its_events_once(predictor):
+    """The node publishes what step returns: every event exactly once, in order."""
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    plant = Plant(0.4, predictor)
+    returned = []
+    obs = Observation(t=0.0)
+    while plant.t < 60.0 and not m.done:
+        cmd = m.step(obs)
+        returned += cmd.events
+        plant.apply(cmd)
+        for _ in range(5):
+            obs = plant.advance(0.002)
+    assert m.done and returned and returned == list(m.events)
+
+
+@pytest.mark.parametrize('bad', [dict(cycles=0), dict(slow_ratio=0.99, stop_ratio=0.9),
+                                 dict(tug_speed_m_s=0.0), dict(phis_rad=(2.0,))])
+def test_behavior_config_check_refuses(bad):
+    with pytest.raises(ValueError):
+        BehaviorConfig(**bad).check()
+    assert BehaviorConfig().check() == BehaviorConfig()
+
+
 def test_machine_600g_never_sh(predictor):
-    cfg = fast_config(sled_mass=0.6, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.6, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.6, predictor)
     run_loop(m, plant)
     assert m.state == State.FINISHED, m.reason
@@ -132,8 +160,8 @@ def test_machine_600g_never_sh(predictor):
 
 
 def test_machine_refuses_too_heavy_sled(predictor):
-    cfg = fast_config(sled_mass=1.5, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=1.5, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     run_loop(m, Plant(1.5, predictor), t_max=20)
     assert m.state == State.REFUSED
     assert 'no mode suffices' in m.reason
@@ -141,8 +169,8 @@ def test_machine_refuses_too_heavy_sled(predictor):
 
 
 def test_machine_heavier_mid_tug_stops_then_reburrows(predictor):
-    cfg = fast_config(sled_mass=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.4, predictor, heavier_at=0.05, heavier_mass=0.6)
     run_loop(m, plant)
     texts = [e['text'] for e in m.events]
@@ -153,8 +181,8 @@ def test_machine_heavier_mid_tug_stops_then_reburrows(predictor):
 
 
 def test_machine_heavier_without_stronger_mode_holds(predictor):
-    cfg = fast_config(sled_mass=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.4, predictor, heavier_at=0.05, heavier_mass=2.0)
     run_loop(m, plant)
     assert plant.tug_slip < 2e-3
@@ -163,8 +191,8 @@ def test_machine_heavier_without_stronger_mode_holds(predictor):
 
 
 def test_machine_link_loss_mid_tug_waits_then_resumes(predictor):
-    cfg = fast_config(sled_mass=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.4, predictor)
     seen = {}
 
@@ -187,8 +215,8 @@ def test_machine_link_loss_mid_tug_waits_then_resumes(predictor):
 def test_machine_legs_moved_during_link_loss_reburrows(predictor):
     # During the outage the robot stands up (as after an MCU reset): the checked anchor is
     # gone, so the machine burrows again instead of re-checking at the assumed height.
-    cfg = fast_config(sled_mass=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.4, predictor)
     seen = {}
 
@@ -207,8 +235,8 @@ def test_machine_legs_moved_during_link_loss_reburrows(predictor):
 
 
 def test_report_csv_and_png(tmp_path, predictor):
-    cfg = fast_config(sled_mass=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     run_loop(m, Plant(0.4, predictor))
     csv_path, png_path = write_report(m.records, tmp_path)
     rows = read_csv(csv_path)

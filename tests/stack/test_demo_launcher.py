@@ -17,7 +17,7 @@ def test_demo_one_cycle_exits_and_writes_report(tmp_path):
     out = tmp_path / 'demo'
     proc = subprocess.run(
         ['ros2', 'run', 'rftgls_ros', 'behavior_demo', '--out', str(out), '--sleds', '0.4',
-         '--cycles', '1', '--param', 'walk_time:=1.0', '--param', 'idle_measure_time:=0.5',
+         '--cycles', '1', '--param', 'walk_time_s:=1.0', '--param', 'idle_measure_time_s:=0.5',
          '--timeout', '60'],
         cwd=REPO, env=env, capture_output=True, text=True, timeout=90)
     text = proc.stdout + proc.stderr

@@ -14,9 +14,10 @@ import math
 import pytest
 from plant import Plant, fast_config, run_loop
 
-from minirquad_driver.sim.ground import LiveAnchorModel
-from rftgls_ros.behavior import BehaviorMachine, MapPredictor, ModeChooser, State, evidence
+from minirquad_driver.sim.ground import LiveGround
+from rftgls_ros.behavior import BehaviorMachine, ModeChooser, State, evidence
 from rftgls_ros.behavior.slip import SLIP_LEGS, SLIP_PITCH, SLIP_TENSION_DROP, SlipDetector
+from rftgls_ros.capacity.predictor import MapPredictor
 
 NAN = float('nan')
 MAX_REEL_M = 0.005      # issue 15: <= 5 mm of reel after the evidence is gone
@@ -67,8 +68,8 @@ def test_judge_freshness_and_assumed_policy():
 # ------------------------------------------------------------------ faults mid-tug
 def _fault_mid_tug(predictor, fault=None, dead=False, t_max=40.0, **cfg_kw):
     """400 g, one cycle; 1 s into the reeling tug the fault starts. Returns what happened."""
-    cfg = fast_config(sled_mass=0.4, cycles=1, evidence_wait_s=1.0, **cfg_kw)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1, evidence_wait_s=1.0, **cfg_kw)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.4, predictor)
     seen = {}
 
@@ -143,8 +144,8 @@ def test_aborted_tug_is_retried_when_evidence_returns(predictor):
         if p.t - flaky.t0 < 1.0:
             return (NAN, 'unsupported', None)
         return None
-    cfg = fast_config(sled_mass=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.4, predictor)
 
     def inject(p, mach):
@@ -162,8 +163,8 @@ def test_aborted_tug_is_retried_when_evidence_returns(predictor):
 def test_no_tug_starts_without_evidence(predictor):
     # capacity_node never gives a value: CHECK waits capacity_wait, records the abort, and the
     # winch never reels in.
-    cfg = fast_config(sled_mass=0.4, cycles=1, evidence_wait_s=0.5)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1, evidence_wait_s=0.5)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.4, predictor)
     plant.capacity_fault = lambda p: (NAN, 'unsupported', None)
     run_loop(m, plant, t_max=30)
@@ -195,9 +196,9 @@ def test_slip_detector_rules():
 # ------------------------------------------------------------------ weaker true sand
 def _weak_sand(predictor, sled, scale):
     """One cycle with the simulator's true medium scaled by ``scale``; slip (m) at detection."""
-    cfg = fast_config(sled_mass=sled, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis))
-    plant = Plant(sled, predictor, ground=LiveAnchorModel(medium_scale=scale))
+    cfg = fast_config(sled_mass_kg=sled, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    plant = Plant(sled, predictor, ground=LiveGround(medium_scale=scale))
     seen = {}
 
     def watch(p, mach):

@@ -17,46 +17,61 @@ Subscribed: /leg_targets (JointState), /gait (String), /burrow (String),
 from __future__ import annotations
 
 import math
+import sys
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import WrenchStamped
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
 from sensor_msgs.msg import BatteryState, Imu, JointState
 from std_msgs.msg import Bool, Float64, String
 
+from rftgls_core.conventions import JOINT_NAMES, LEG_KEYS, pitch_to_quat_xyzw
+
 from .bridge import BridgeConfig, BridgeCore, CommandResult, PowerSample, TelemetrySample
 from .gaits import GAITS
+from .node_main import declare, run_node, usage, wants_help
 from .protocol import messages as m
 from .transport import SerialTransport
 
-JOINT_NAMES = tuple('leg_' + n for n in m.LEG_NAMES) + ('winch_rope',)
+# The JointState names of rftgls_core.conventions, in the MCU's leg order (protocol LEG_NAMES).
+assert LEG_KEYS == m.LEG_NAMES, 'protocol leg order must match the shared conventions'
 _UNKNOWN_VAR = (math.pi ** 2)    # variance for a quantity the robot does not measure
 
 
 class BridgeNode(Node):
     def __init__(self, **kwargs):
-        super().__init__('minirquad_bridge', **kwargs)
-        p = self.declare_parameter
-        self.port = p('port', '/dev/ttyACM0').value
-        baud = p('baud', 115200).value
-        self.heartbeat_period = p('heartbeat_period', 0.1).value
-        self.pitch_variance = p('pitch_variance', math.radians(0.5) ** 2).value
-        self.imu_frame = p('imu_frame', 'imu_link').value
-        self.winch_frame = p('winch_frame', 'winch_link').value
-        cfg = BridgeConfig(r_shunt=p('shunt_ohm', 0.1).value,
-                           stale_timeout=p('stale_timeout', 0.25).value,
-                           ack_timeout=p('ack_timeout', 0.15).value,
-                           max_retries=p('max_retries', 3).value,
-                           energy_max_gap=p('energy_max_gap', 0.5).value,
-                           diag_window=p('diag_window_s', 5.0).value,
-                           delay_warn=p('delay_warn_s', 0.1).value,
-                           delay_error=p('delay_error_s', 0.3).value,
-                           loss_warn=p('loss_warn', 0.02).value,
-                           loss_error=p('loss_error', 0.10).value)
+        super().__init__('bridge_node', **kwargs)
+        def p(name, default, text, lo=None, hi=None):
+            return declare(self, name, default, text, lo=lo, hi=hi)
+        self.port = p('port', '/dev/ttyACM0', 'serial device or pyserial URL of the MCU')
+        baud = p('baud', 115200, 'serial baud rate', 1200, 4_000_000)
+        self.heartbeat_period_s = p('heartbeat_period_s', 0.1, 'heartbeat period to the MCU '
+                                    'watchdog (500 ms on the MCU)', 0.01, 0.45)
+        self.pitch_variance = p('pitch_variance_rad2', math.radians(0.5) ** 2,
+                                'variance of the IMU pitch', 0.0, 10.0)
+        self.imu_frame = p('imu_frame', 'imu_link', 'frame_id of /imu')
+        self.winch_frame = p('winch_frame', 'winch_link', 'frame_id of /winch/tension')
+        cfg = BridgeConfig(r_shunt=p('shunt_ohm', 0.1, 'INA219 shunt resistance', 1e-4, 100.0),
+                           stale_timeout=p('stale_timeout_s', 0.25, 'newest telemetry older '
+                                           'than this (by its stamp): outputs stale', 0.01,
+                                           60.0),
+                           ack_timeout=p('ack_timeout_s', 0.15, 'command ack wait before a '
+                                         'resend', 0.01, 10.0),
+                           max_retries=p('max_retries', 3, 'resends per command', 0, 100),
+                           energy_max_gap=p('energy_max_gap_s', 0.5, 'largest power sample gap '
+                                            'integrated into the energy', 0.01, 60.0),
+                           diag_window=p('diag_window_s', 5.0, 'window of the link statistics',
+                                         0.1, 3600.0),
+                           delay_warn=p('delay_warn_s', 0.1, 'sample age that warns', 0.0,
+                                        60.0),
+                           delay_error=p('delay_error_s', 0.3, 'sample age that is an error',
+                                         0.0, 60.0),
+                           loss_warn=p('loss_warn', 0.02, 'frame loss fraction that warns',
+                                       0.0, 1.0),
+                           loss_error=p('loss_error', 0.10, 'frame loss fraction that is an '
+                                        'error', 0.0, 1.0))
         self.core = BridgeCore(cfg)
 
         self.pub_joints = self.create_publisher(JointState, 'joint_states', 10)
@@ -65,7 +80,7 @@ class BridgeNode(Node):
         self.pub_power = self.create_publisher(BatteryState, 'power', 10)
         self.pub_watts = self.create_publisher(Float64, 'power/watts', 10)
         self.pub_energy = self.create_publisher(Float64, 'energy', 10)
-        self.pub_diag = self.create_publisher(DiagnosticArray, 'diagnostics', 10)
+        self.pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)  # global
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.pub_state = self.create_publisher(String, 'minirquad/link_state', latched)
@@ -79,13 +94,16 @@ class BridgeNode(Node):
         self._state = None
         self.transport = SerialTransport(
             self.port, baud, self._on_bytes, self._on_connection,
-            reconnect_period=p('reconnect_period', 0.25).value,
-            silence_timeout=p('silence_timeout', 1.0).value,
+            reconnect_period=p('reconnect_period_s', 0.25, 'retry period of a failed or lost '
+                               'port', 0.01, 60.0),
+            silence_timeout=p('silence_timeout_s', 1.0, 'silence after which the port is '
+                              'reopened', 0.05, 600.0),
             on_open_error=self._on_open_error)
         # These timers also keep the executor waking up, so SIGINT/SIGTERM are never missed.
-        self.create_timer(self.heartbeat_period, self._on_heartbeat)
+        self.create_timer(self.heartbeat_period_s, self._on_heartbeat)
         self.create_timer(0.05, self._on_watch)
-        self.create_timer(p('diagnostics_period', 1.0).value, self._on_diagnostics)
+        self.create_timer(p('diagnostics_period_s', 1.0, 'period of /diagnostics', 0.01, 3600.0),
+                          self._on_diagnostics)
         self._publish_state()
         self.transport.start()
         self.get_logger().info(f'bridging {self.port} at {baud} baud')
@@ -134,12 +152,10 @@ class BridgeNode(Node):
         imu = Imu()
         imu.header.stamp = stamp
         imu.header.frame_id = self.imu_frame
-        # REP-103 pitch is about +y with x forward: positive turns the nose DOWN, so the
-        # quaternion angle is -thetaB (thetaB is positive nose up). Roll and yaw are not
-        # measured and set to 0 with a huge variance.
-        half = -0.5 * t.pitch
-        imu.orientation.y = math.sin(half)
-        imu.orientation.w = math.cos(half)
+        # thetaB (nose up) as a body -> world quaternion (rftgls_core.conventions). Roll and
+        # yaw are not measured and set to 0 with a huge variance.
+        o = imu.orientation
+        o.x, o.y, o.z, o.w = pitch_to_quat_xyzw(t.pitch)
         imu.orientation_covariance = [_UNKNOWN_VAR, 0.0, 0.0, 0.0, self.pitch_variance, 0.0,
                                       0.0, 0.0, _UNKNOWN_VAR]
         imu.angular_velocity.y = -t.pitch_rate
@@ -247,19 +263,12 @@ class BridgeNode(Node):
         self._send(m.EStop(bool(msg.data)))
 
 
-def main(args=None) -> None:
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = BridgeNode()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+def main(args=None) -> int:
+    if wants_help(args):
+        print(usage('bridge_node', 'minirquad_driver', __doc__))
+        return 0
+    return run_node(BridgeNode, 'bridge_node', args=args)
 
 
 if __name__ == '__main__':
-    main()
+    sys.exit(main())

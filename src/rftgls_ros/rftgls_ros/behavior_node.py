@@ -5,7 +5,7 @@ The logic is ``rftgls_ros.behavior.BehaviorMachine``; this node converts message
 reacts at the tension rate), and publishes the commands, the state and every event.
 
 Subscribed: /joint_states (sensor_msgs/JointState: legs rad, ``winch_rope`` m / m/s),
-  /imu (sensor_msgs/Imu: thetaB = asin(2(qx qz - qw qy)), nose up positive),
+  /imu (sensor_msgs/Imu: thetaB nose up positive, rftgls_core.conventions.quat_xyzw_to_pitch),
   /winch/tension (geometry_msgs/WrenchStamped, N), /energy (std_msgs/Float64, J),
   /minirquad/link_state (std_msgs/String ok|stale), /capacity_node/capacity (WrenchStamped,
   N along the tether: |force|), /capacity_node/slip_twist (TwistStamped), /capacity_node/status,
@@ -24,35 +24,50 @@ import sys
 import time
 from dataclasses import fields
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TwistStamped, WrenchStamped
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, String
 
+from minirquad_driver.node_main import declare, run_node, usage, wants_help
+from rftgls_core.conventions import (
+    LEG_KEYS,
+    WINCH_ROPE_JOINT,
+    axle_angles,
+    leg_keys_from_joint_names,
+    quat_xyzw_to_pitch,
+)
+
 from .behavior import (
     BehaviorConfig,
     BehaviorMachine,
-    MapPredictor,
     ModeChooser,
     Observation,
     write_report,
 )
+from .capacity.predictor import DEFAULT_MAP, MapPredictor
 
-LEGS_L1 = ('leg_proximal_left', 'leg_proximal_right')
-LEGS_L2 = ('leg_distal_left', 'leg_distal_right')
-ROPE = 'winch_rope'
 WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's deadman (0.1 s)
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
-def theta_b_from_quaternion(x: float, y: float, z: float, w: float) -> float:
-    """Elevation of the body x axis (rad, nose up positive) from an orientation quaternion."""
-    return math.asin(max(-1.0, min(1.0, 2.0 * (x * z - w * y))))
+# Sanity ranges by unit suffix or name (ROS rejects a value outside them, at start-up too).
+_RANGES = {'_m_s': (0.0, 1.0), '_s': (0.0, 3600.0), '_kg': (0.0, 50.0), '_N': (0.0, 1000.0),
+           '_J': (0.0, 1e6)}
+_RATIOS = ('slow_ratio', 'stop_ratio', 'min_speed_fraction', 'slip_tension_drop', 'need_alpha',
+           'sled_mu')
+
+
+def param_range(name: str) -> tuple[float | None, float | None]:
+    """(lo, hi) of a BehaviorConfig parameter, (None, None) without a static range."""
+    if name in _RATIOS:
+        return 0.0, 1.0
+    if name == 'safety_factor':
+        return 0.1, 10.0
+    return next((r for suffix, r in _RANGES.items() if name.endswith(suffix)), (None, None))
 
 
 class BehaviorNode(Node):
@@ -62,28 +77,32 @@ class BehaviorNode(Node):
         values = {}
         for f in fields(BehaviorConfig):
             default = getattr(defaults, f.name)
+            text = f'BehaviorConfig.{f.name} (src/rftgls_ros/behavior_README.md)'
             if f.name == 'accept_assumed_inputs':
                 # A string list as one comma-separated string: an empty list has no ROS type.
-                raw = self.declare_parameter(f.name, ','.join(default)).value
+                raw = declare(self, f.name, ','.join(default), text)
                 values[f.name] = tuple(x.strip() for x in str(raw).split(',') if x.strip())
                 continue
             if isinstance(default, tuple):
                 default = [float(v) for v in default]
             elif isinstance(default, float):
                 default = float(default)
-            values[f.name] = self.declare_parameter(f.name, default).value
-        values['phis'] = tuple(values['phis'])
-        self.cfg = BehaviorConfig(**values)
-        self.map_file = self.declare_parameter('map_file', '').value
-        self.report_dir = self.declare_parameter('report_dir', '').value
-        self.report_stem = self.declare_parameter('report_stem', 'cycle_report').value
-        self.exit_when_done = self.declare_parameter('exit_when_done', False).value
-        rate = self.declare_parameter('step_rate_hz', 50.0).value
-        cap_ns = self.declare_parameter('capacity_ns', '/capacity_node').value.rstrip('/')
+            lo, hi = param_range(f.name)
+            values[f.name] = declare(self, f.name, default, text, lo=lo, hi=hi)
+        values['phis_rad'] = tuple(values['phis_rad'])
+        self.cfg = BehaviorConfig(**values).check()
+        self.map_file = declare(self, 'map_file', '', "capacity map; '' = the shipped one")
+        self.report_dir = declare(self, 'report_dir', '', "cycle report directory; '' = none")
+        self.report_stem = declare(self, 'report_stem', 'cycle_report', 'report file stem')
+        self.exit_when_done = declare(self, 'exit_when_done', False, 'exit after the run')
+        rate = declare(self, 'step_rate_hz', 50.0, 'state machine step rate', lo=1.0,
+                       hi=1000.0)
+        cap_ns = declare(self, 'capacity_ns', 'capacity_node',
+                         "capacity_node's name (relative: this node's namespace)").rstrip('/')
 
-        predictor = MapPredictor(self.map_file or None)
+        predictor = MapPredictor(self.map_file or DEFAULT_MAP)
         self.machine = BehaviorMachine(
-            self.cfg, ModeChooser(predictor, self.cfg.safety_factor, self.cfg.phis))
+            self.cfg, ModeChooser(predictor, self.cfg.safety_factor, self.cfg.phis_rad))
         self.obs = Observation(t=self.now_s())
         self.finished = False
         self._last_winch: float | None = None
@@ -108,10 +127,10 @@ class BehaviorNode(Node):
         self.create_subscription(TwistStamped, f'{cap_ns}/slip_twist', self.on_twist, 10)
         self.create_subscription(String, f'{cap_ns}/status', self.on_status, LATCHED)
         self.cap_name = cap_ns.rsplit('/', 1)[-1]
-        self.create_subscription(DiagnosticArray, '/diagnostics', self.on_diagnostics, 10)
+        self.create_subscription(DiagnosticArray, '/diagnostics', self.on_diagnostics, 10)  # global
         self.create_timer(1.0 / rate, self.step)
         self.get_logger().info(
-            f'sled {1e3 * self.cfg.sled_mass:.0f} g (mu {self.cfg.sled_mu}), {self.cfg.cycles} '
+            f'sled {1e3 * self.cfg.sled_mass_kg:.0f} g (mu {self.cfg.sled_mu}), {self.cfg.cycles} '
             f'cycles, safety factor {self.cfg.safety_factor}, map {predictor.path}; tugs only '
             f'on capacity_node estimates younger than {1e3 * self.cfg.estimate_timeout_s:.0f} '
             f'ms with status ok' + (f' or assumed {",".join(self.cfg.accept_assumed_inputs)}'
@@ -125,19 +144,23 @@ class BehaviorNode(Node):
         pos = dict(zip(msg.name, msg.position))
         vel = dict(zip(msg.name, msg.velocity))
         t = self.now_s()
-        if all(n in pos for n in LEGS_L1 + LEGS_L2):
-            l1 = 0.5 * (pos[LEGS_L1[0]] + pos[LEGS_L1[1]])
-            l2 = 0.5 * (pos[LEGS_L2[0]] + pos[LEGS_L2[1]])
-            if math.isfinite(l1) and math.isfinite(l2):
-                self.obs.legs, self.obs.t_legs = (l1, l2), t
-        if ROPE in pos and math.isfinite(pos[ROPE]):
-            self.obs.spool = pos[ROPE]
-            self.obs.spool_velocity = vel.get(ROPE, 0.0)
+        legs = {key: pos[name] for name, key in leg_keys_from_joint_names(pos).items()}
+        if len(legs) == len(LEG_KEYS) and all(math.isfinite(x) for x in legs.values()):
+            # Left/right combined on the circle; the machine checks the pose, capacity_node
+            # rejects legs that disagree, so no tolerance here (inf).
+            axles = axle_angles(legs, math.inf)
+            self.obs.legs, self.obs.t_legs = (axles.theta_l1, axles.theta_l2), t
+        if WINCH_ROPE_JOINT in pos and math.isfinite(pos[WINCH_ROPE_JOINT]):
+            self.obs.spool = pos[WINCH_ROPE_JOINT]
+            self.obs.spool_velocity = vel.get(WINCH_ROPE_JOINT, 0.0)
 
     def on_imu(self, msg: Imu) -> None:
         q = msg.orientation
         if msg.orientation_covariance[0] != -1.0:
-            self.obs.theta_b = theta_b_from_quaternion(q.x, q.y, q.z, q.w)
+            try:
+                self.obs.theta_b = quat_xyzw_to_pitch(q.x, q.y, q.z, q.w)
+            except ValueError:   # zero or non-finite quaternion: keep the last good pitch
+                pass
 
     def on_tension(self, msg: WrenchStamped) -> None:
         if math.isfinite(msg.wrench.force.x):
@@ -191,13 +214,12 @@ class BehaviorNode(Node):
             self._last_winch, self._last_winch_t = cmd.winch, t
         self.pub_height.publish(Float64(data=float(cmd.height)))
         self.pub_phi.publish(Float64(data=float(cmd.phi)))
-        for ev in self.machine.events:
+        for ev in cmd.events:
             if ev['kind'] == 'warn':
                 self.get_logger().warning(f"[warn] {ev['text']}")
             else:
                 self.get_logger().info(f"[{ev['kind']}] {ev['text']}")
             self.pub_events.publish(String(data=json.dumps(ev, default=str)))
-        self.machine.events.clear()
         state = str(self.machine.state)
         if state != self._state_sent:
             self.pub_state.publish(String(data=state))
@@ -220,31 +242,24 @@ class BehaviorNode(Node):
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args)
-    node = BehaviorNode()
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    done_at = None
-    try:
-        while rclpy.ok():
-            executor.spin_once(timeout_sec=0.1)
-            if node.finished and node.exit_when_done:
-                done_at = done_at or time.monotonic()
-                if time.monotonic() - done_at > 0.5:   # let the last messages go out
-                    break
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
+    if wants_help(args):
+        print(usage('behavior_node', 'rftgls_ros', __doc__))
+        return 0
+    done_at: list[float] = []
+
+    def keep_going(node: BehaviorNode) -> bool:
+        if node.finished and node.exit_when_done:
+            done_at[:] = done_at or [time.monotonic()]
+            return time.monotonic() - done_at[0] <= 0.5   # let the last messages go out
+        return True
+
+    def safe_stop(node: BehaviorNode) -> None:
         if not node.finished:
-            try:
-                node.pub_winch.publish(Float64(data=0.0))
-                node.write_report()
-            except Exception:  # noqa: BLE001 - shutting down anyway
-                pass
-        executor.remove_node(node)
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+            node.pub_winch.publish(Float64(data=0.0))
+            node.write_report()
+
+    return run_node(BehaviorNode, 'behavior_node', tick=keep_going, on_exit=safe_stop,
+                    config_errors=(ValueError,), args=args)
 
 
 if __name__ == '__main__':

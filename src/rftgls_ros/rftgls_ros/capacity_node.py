@@ -19,90 +19,22 @@ import sys
 import time
 from collections import deque
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TwistStamped, WrenchStamped
-from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.exceptions import InvalidParameterValueException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, String
 
-from rftgls_core.types import Status, pull_direction
+from minirquad_driver.node_main import declare, run_node, usage, wants_help
+from rftgls_core.types import pull_direction
 
-from .capacity.estimator import (
-    DEFAULT_TIMEOUTS_S,
-    JOINTS,
-    CapacityEstimator,
-    Estimate,
-    EstimatorConfig,
-)
-from .capacity.inputs import gravity_problem, pitch_from_quaternion
-from .capacity.predictor import DEFAULT_MAP, ConfigError, make_predictor
-
-NAN = float('nan')
-TRIGGERS = ('joint_states', 'pitch', 'tension', 'height', 'phi')
-# Diagnostic level per status; anything not listed (a status this node does not expect,
-# e.g. the deprecated 'extrapolated') is an ERROR.
-LEVELS = {Status.OK: DiagnosticStatus.OK, Status.ASSUMED: DiagnosticStatus.WARN,
-          Status.OUT_OF_RANGE: DiagnosticStatus.ERROR,
-          Status.UNSUPPORTED: DiagnosticStatus.ERROR, Status.DEGENERATE: DiagnosticStatus.ERROR,
-          Status.INVALID_INPUT: DiagnosticStatus.ERROR, Status.STALE: DiagnosticStatus.STALE}
-TENSION_AXES = ('x', 'y', 'z', 'tether')
-FRESHNESS_SOURCES = ('header_stamp', 'receipt_time')
-
-# name -> default; the type of the default is the parameter type.
-PARAMETERS = {
-    # predictor
-    'map_file': DEFAULT_MAP,          # '' = live computation with live_method
-    'live_method': 'direct',
-    'live_n_twists': 0,               # 0 = rftgls_core default
-    'out_of_range_live_method': '',   # '' = none; else the live solver answers off-grid states
-    'robot': 'minirquad',
-    'medium': 'm90_sand',
-    'pull': 'backward',
-    # input topics
-    'joint_states_topic': '/joint_states',
-    'imu_topic': '/imu',
-    'pitch_topic': '',                # std_msgs/Float64 theta_B in rad; replaces the IMU if set
-    'tension_topic': '/winch/tension',
-    # signed tension: force.x (load cell axis; or 'y', 'z'), or 'tether': force . d(phi), a
-    # force vector in world axes (the lab bags) projected on the tether direction
-    'tension_component': 'x',
-    'height_topic': '/winch/height',  # std_msgs/Float64 h in m; '' = parameter height_m only
-    'phi_topic': '',                  # std_msgs/Float64 phi in rad; '' = parameter phi_rad only
-    'joint_proximal_left': 'leg_proximal_left',
-    'joint_proximal_right': 'leg_proximal_right',
-    'joint_distal_left': 'leg_distal_left',
-    'joint_distal_right': 'leg_distal_right',
-    # fallbacks and limits (SI)
-    'height_m': 0.03,
-    'phi_rad': math.radians(-20.0),
-    'leg_tolerance_rad': math.radians(5.0),
-    'h_min_m': -0.05,
-    'h_max_m': 0.30,
-    'tension_max_N': 200.0,
-    'tension_deadband_N': 0.05,       # a reading down to -deadband counts as zero
-    'imu_tilt_limit_rad': math.radians(80.0),  # body up axis this far from vertical: invalid
-    # assumed inputs (height_m, phi_rad without a topic): half-width of the range they may
-    # really take; ~/capacity_lower is the smallest capacity over it
-    'assumed_height_range_m': 0.01,
-    'assumed_phi_range_rad': math.radians(10.0),
-    # conservative lower bound on ~/capacity_lower (0 = off; e.g. 0.95)
-    'lower_bound_level': 0.0,
-    'h_sigma_m': 0.002,
-    'theta_b_sigma_rad': math.radians(1.0),
-    'capacity_rel_sigma': 0.0,        # e.g. sigma(xi_n)/xi_n from `rftgls calibrate`
-    # timing
-    **{f'{name}_timeout_s': t for name, t in DEFAULT_TIMEOUTS_S.items()},
-    'freshness_source': 'header_stamp',  # or 'receipt_time' (bag replay only)
-    'clock_offset_tolerance_s': 0.05,  # stamps up to this far in the future are accepted
-    'publish_rate_hz': 20.0,          # minimum output rate (heartbeat when no trigger arrives)
-    'trigger_inputs': ['tension'],    # inputs whose every message produces an output
-    'diagnostics_period_s': 1.0,
-    'frame_id': 'anchor',
-}
+from .capacity.estimator import JOINTS, CapacityEstimator, Estimate
+from .capacity.inputs import gravity_problem, quat_xyzw_to_pitch
+from .capacity.params import PARAMETERS, RUNTIME, configs
+from .capacity.predictor import ConfigError, predictor_from_params, predictor_name
 
 
 class CapacityNode(Node):
@@ -113,34 +45,24 @@ class CapacityNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('capacity_node', **kwargs)
-        for name, default in PARAMETERS.items():
-            self.declare_parameter(name, default)
-        p = {name: self.get_parameter(name).value for name in PARAMETERS}
+        try:
+            p = {name: declare(self, name, spec.default, spec.description, lo=spec.lo,
+                               hi=spec.hi, read_only=name not in RUNTIME)
+                 for name, spec in PARAMETERS.items()}
+        except InvalidParameterValueException as exc:  # outside its range
+            raise ConfigError(str(exc)) from exc
         self.params = p
-        self.estimator = self._make_estimator(p)
+        est_cfg, self.config = configs(p)
+        predictor = predictor_from_params(p['map_file'], p['live_method'], p['robot'],
+                                          p['medium'], p['live_n_twists'], p['pull'],
+                                          p['out_of_range_live_method'])
+        self.estimator = CapacityEstimator(predictor, est_cfg)
         self.frame_id = p['frame_id']
-        self.tension_component = p['tension_component']
-        if self.tension_component not in TENSION_AXES:
-            # 'norm' (|force|) was removed: it turned a -5 N reading into +5 N.
-            raise ConfigError(f"tension_component must be the load cell axis 'x', 'y' or 'z', "
-                              f"or 'tether' (all signed), got {self.tension_component!r}")
-        if p['freshness_source'] not in FRESHNESS_SOURCES:
-            raise ConfigError(f'freshness_source must be one of {", ".join(FRESHNESS_SOURCES)}, '
-                              f'got {p["freshness_source"]!r}')
-        self.use_stamps = p['freshness_source'] == 'header_stamp'
-        tilt = p['imu_tilt_limit_rad']
-        if not (math.isfinite(tilt) and 0.0 < tilt < math.pi):
-            raise ConfigError(f'imu_tilt_limit_rad must lie in (0, pi), got {tilt!r}')
-        self.triggers = frozenset(p['trigger_inputs'])
-        if not self.triggers <= set(TRIGGERS):
-            raise ConfigError(f'trigger_inputs must be a subset of {list(TRIGGERS)}, '
-                              f'got {list(p["trigger_inputs"])}')
-        rate = p['publish_rate_hz']
-        if not (math.isfinite(rate) and rate > 0):
-            raise ConfigError(f'publish_rate_hz must be > 0, got {rate!r}')
-        if not (math.isfinite(p['diagnostics_period_s']) and p['diagnostics_period_s'] > 0):
-            raise ConfigError(f'diagnostics_period_s must be > 0, '
-                              f'got {p["diagnostics_period_s"]!r}')
+        self.tension_component = self.config.tension_component
+        self.use_stamps = self.config.freshness_source == 'header_stamp'
+        self.triggers = self.config.triggers
+        rate = self.config.publish_rate_hz
+        self.add_on_set_parameters_callback(self.on_set_parameters)
         self.joint_keys = {p[f'joint_{k}']: k for k in JOINTS}
 
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -150,6 +72,7 @@ class CapacityNode(Node):
         self.pub_lower = self.create_publisher(WrenchStamped, '~/capacity_lower', 10)
         self.pub_twist = self.create_publisher(TwistStamped, '~/slip_twist', 10)
         self.pub_status = self.create_publisher(String, '~/status', latched)
+        # /diagnostics is global (every node reports there; REP-107), the rest is relative.
         self.pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
 
         sensor = qos_profile_sensor_data
@@ -177,7 +100,7 @@ class CapacityNode(Node):
         # The timer also keeps the executor waking up, so Ctrl-C / SIGTERM are seen promptly.
         self.create_timer(self.period_s, self.on_timer)
         self.get_logger().info(
-            f'predictor {self.estimator.predictor.name}, pull {p["pull"]}, '
+            f'predictor {predictor_name(self.estimator.predictor)}, pull {p["pull"]}, '
             f'triggers {sorted(self.triggers)}, heartbeat {rate:g} Hz, freshness from '
             f'{p["freshness_source"]}')
         cmap = getattr(self.estimator.predictor, 'primary', self.estimator.predictor)
@@ -192,23 +115,21 @@ class CapacityNode(Node):
                     f'{name} is ASSUMED from parameter {name}_{"m" if name == "height" else "rad"}'
                     ' (no topic): every estimate is `assumed`, not `ok`')
 
-    # -- set-up -------------------------------------------------------------------------------
-    @staticmethod
-    def _make_estimator(p: dict) -> CapacityEstimator:
-        timeouts = {name: p[f'{name}_timeout_s'] for name in DEFAULT_TIMEOUTS_S}
-        config = EstimatorConfig(
-            pull=p['pull'], timeouts_s=timeouts, leg_tolerance_rad=p['leg_tolerance_rad'],
-            height_m=p['height_m'], phi_rad=p['phi_rad'], h_range_m=(p['h_min_m'], p['h_max_m']),
-            tension_max_N=p['tension_max_N'], tension_deadband_N=p['tension_deadband_N'],
-            clock_tolerance_s=p['clock_offset_tolerance_s'],
-            assumed_height_range_m=p['assumed_height_range_m'],
-            assumed_phi_range_rad=p['assumed_phi_range_rad'],
-            lower_bound_level=p['lower_bound_level'],
-            h_sigma_m=p['h_sigma_m'], theta_b_sigma_rad=p['theta_b_sigma_rad'],
-            capacity_rel_sigma=p['capacity_rel_sigma']).check()
-        predictor = make_predictor(p['map_file'], p['live_method'], p['robot'], p['medium'],
-                                   p['live_n_twists'], p['pull'], p['out_of_range_live_method'])
-        return CapacityEstimator(predictor, config)
+    # -- parameters -----------------------------------------------------------------------
+    def on_set_parameters(self, params) -> SetParametersResult:
+        """A run-time change of RUNTIME parameters: validated as a whole, then applied to the
+        estimator and the node (the next estimate uses it), or rejected with the reason.
+        Read-only (start-up) parameters never get here: rclpy rejects them first."""
+        proposed = {**self.params, **{x.name: x.value for x in params}}
+        try:
+            est_cfg, node_cfg = configs(proposed)
+        except ConfigError as exc:
+            return SetParametersResult(successful=False, reason=' '.join(str(exc).split()))
+        self.estimator.reconfigure(est_cfg)
+        self.params, self.config = proposed, node_cfg
+        self.get_logger().info('parameters changed: ' + ', '.join(
+            f'{x.name}={x.value!r}' for x in params))
+        return SetParametersResult(successful=True)
 
     def now_s(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -251,12 +172,12 @@ class CapacityNode(Node):
             self.estimator.mark_malformed('pitch', now, 'IMU publishes no orientation')
         else:
             try:
-                why = gravity_problem(q, accel, self.params['imu_tilt_limit_rad'])
+                why = gravity_problem(q, accel, self.config.imu_tilt_limit_rad)
                 if why is not None:
                     self.estimator.mark_malformed('pitch', now, f'IMU: {why}',
                                                   code='implausible_gravity')
                 else:
-                    self.estimator.update('pitch', now, pitch_from_quaternion(*q))
+                    self.estimator.update('pitch', now, quat_xyzw_to_pitch(*q))
             except ValueError as exc:
                 self.estimator.mark_malformed('pitch', now, str(exc))
         self._input_done('pitch', msg.header.stamp, info)
@@ -300,44 +221,27 @@ class CapacityNode(Node):
         stamp (kept on the outputs so consumers can match them), else the node's clock."""
         t0 = time.perf_counter()
         est = self.estimator.estimate(self.now_s())
+        out = self.estimator.outputs(est)
         if stamp is None or (stamp.sec == 0 and stamp.nanosec == 0):
             stamp = self.get_clock().now().to_msg()
-        phi = est.phi_rad if est.phi_rad is not None else NAN
-        d = pull_direction(phi)
-
-        cap = WrenchStamped()
+        cap, margin, lower = WrenchStamped(), WrenchStamped(), WrenchStamped()
         cap.header.stamp = stamp
         cap.header.frame_id = self.frame_id
-        margin = WrenchStamped()
-        margin.header = cap.header
-        # No value -> NaN, so nobody can read a number as a valid capacity.
-        c = est.capacity_N if est.capacity_N is not None else NAN
-        m = est.margin_N if est.margin_N is not None else NAN
-        cap.wrench.force.x, cap.wrench.force.z = c * d[0], c * d[1]
-        margin.wrench.force.x, margin.wrench.force.z = m * d[0], m * d[1]
-        if math.isnan(c):
-            cap.wrench.force.y = margin.wrench.force.y = NAN
-        lower = WrenchStamped()
-        lower.header = cap.header
-        lo = est.capacity_lower_N if est.capacity_lower_N is not None else NAN
-        lower.wrench.force.x, lower.wrench.force.z = lo * d[0], lo * d[1]
-
+        margin.header = lower.header = cap.header
+        cap.wrench.force.x, cap.wrench.force.z = out.capacity_xz
+        margin.wrench.force.x, margin.wrench.force.z = out.margin_xz
+        cap.wrench.force.y = margin.wrench.force.y = out.capacity_y
+        lower.wrench.force.x, lower.wrench.force.z = out.lower_xz
         twist = TwistStamped()
         twist.header = cap.header
-        if est.slip_twist is None:
-            vx = vz = wy = NAN
-        elif est.slipping:
-            vx, vz, wy = est.slip_twist
-        else:  # the anchor holds: predicted motion is zero
-            vx = vz = wy = 0.0
-        twist.twist.linear.x, twist.twist.linear.z, twist.twist.angular.y = vx, vz, wy
+        twist.twist.linear.x, twist.twist.linear.z, twist.twist.angular.y = out.slip_twist
 
         # The status goes out first, so a consumer that reads it next to a value never sees a
         # value under an older status.
-        self.pub_status.publish(String(data=str(est.status)))
+        self.pub_status.publish(String(data=out.status))
         self.pub_capacity.publish(cap)
         self.pub_margin.publish(margin)
-        if self.estimator.config.lower_bound_level > 0.0 or est.assumed:
+        if out.publish_lower:
             self.pub_lower.publish(lower)
         self.pub_twist.publish(twist)
         self.last_estimate = est
@@ -350,78 +254,34 @@ class CapacityNode(Node):
         now = time.monotonic()
         key = (est.status, est.reason, est.warnings)  # a change is reported at once
         if key == self.last_diag_key and \
-                now - self.last_diag_time < self.params['diagnostics_period_s']:
+                now - self.last_diag_time < self.config.diagnostics_period_s:
             return
         self.last_diag_key = key
         self.last_diag_time = now
         self.pub_diag.publish(self.diagnostics(est))
 
     def diagnostics(self, est: Estimate) -> DiagnosticArray:
-        level = LEVELS.get(est.status, DiagnosticStatus.ERROR)
-        if (est.warnings or est.assumed) and level == DiagnosticStatus.OK:
-            level = DiagnosticStatus.WARN
-        message = str(est.status)
-        if est.reason and est.reason != message:
-            message += f': {est.reason}'
-        if est.warnings:
-            message += ' [' + ', '.join(est.warnings) + ']'
-
-        def fmt(x):
-            return 'nan' if x is None else f'{x:.6g}'
-
-        st = est.state
-        values = {
-            'status': str(est.status), 'detail': est.detail,
-            'capacity_N': fmt(est.capacity_N), 'capacity_lower_N': fmt(est.capacity_lower_N),
-            'tension_N': fmt(est.tension_N),
-            'margin_N': fmt(est.margin_N), 'slipping': str(est.slipping).lower(),
-            'phi_rad': fmt(est.phi_rad),
-            'h_m': fmt(st.h if st else None), 'theta_b_rad': fmt(st.theta_b if st else None),
-            'theta_l1_rad': fmt(st.theta_l1 if st else None),
-            'theta_l2_rad': fmt(st.theta_l2 if st else None),
-            'leg_spread_rad': ('nan' if est.leg_spread_rad is None
-                               else ' '.join(f'{x:.4g}' for x in est.leg_spread_rad)),
-            'slip_twist': ('nan' if est.slip_twist is None
-                           else ' '.join(f'{x:.4g}' for x in est.slip_twist)),
-            'assumed_inputs': ','.join(est.assumed), 'stale_inputs': ','.join(est.stale),
-            'reason': est.reason,
-            'predictor': est.predictor, 'pull': self.params['pull'],
+        d = self.estimator.diagnostic(est, f'{self.get_name()}: anchor capacity', {
             'freshness_source': self.params['freshness_source'],
             'processing_ms': f'{self.processing_s * 1e3:.3f}',
             'input_to_output_ms_median': (f'{statistics.median(self.latency_s) * 1e3:.3f}'
                                           if self.latency_s else 'nan'),
-        }
-        status = DiagnosticStatus(level=level, name=f'{self.get_name()}: anchor capacity',
-                                  message=message, hardware_id=self.params['robot'],
-                                  values=[KeyValue(key=k, value=v) for k, v in values.items()])
+        })
+        status = DiagnosticStatus(level=bytes([d.level]), name=d.name, message=d.message,
+                                  hardware_id=self.params['robot'],
+                                  values=[KeyValue(key=k, value=v) for k, v in d.values.items()])
         arr = DiagnosticArray(status=[status])
         arr.header.stamp = self.get_clock().now().to_msg()
         return arr
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = CapacityNode()
-    except (ConfigError, ParameterException) as exc:
-        # One clear line, no traceback: a bad parameter or map file is a user error.
-        print(f'capacity_node: error: {" ".join(str(exc).split())}', file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    try:
-        # spin_once with a timeout, not spin(): see docs/design/ros2-from-pip.md#stopping-nodes.
-        while rclpy.ok():
-            executor.spin_once(timeout_sec=0.2)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        executor.remove_node(node)
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    if wants_help(args):
+        print(usage('capacity_node', 'rftgls_ros', __doc__,
+                    {n: spec.default for n, spec in PARAMETERS.items()}))
+        return 0
+    return run_node(CapacityNode, 'capacity_node', config_errors=(ConfigError,), args=args,
+                    spin_period_s=0.2)
 
 
 if __name__ == '__main__':

@@ -30,6 +30,8 @@ import threading
 import time
 from pathlib import Path
 
+from minirquad_driver.node_main import stop_on_signals
+
 from .behavior.report import read_csv, write_report
 
 _stop = threading.Event()
@@ -136,12 +138,12 @@ def run_set(args, sled: float, env: dict, out: Path, params: Path | None) -> Pat
         cap_params = Path('ros2_ws/params/capacity_node.yaml')
         if cap_params.exists():
             cap += ['--params-file', str(cap_params)]
-        cap += ['-p', 'phi_topic:=/winch/phi']
+        cap += ['-p', 'phi_topic:=winch/phi']   # relative: behavior_node's winch/phi
         stack.start('capacity_node', cap)
         beh = [*_ros2_run('rftgls_ros', 'behavior_node'), '--ros-args']
         if params:
             beh += ['--params-file', str(params)]
-        beh += ['-p', f'sled_mass:={sled}', '-p', f'cycles:={args.cycles}',
+        beh += ['-p', f'sled_mass_kg:={sled}', '-p', f'cycles:={args.cycles}',
                 '-p', f'report_dir:={out / tag}', '-p', 'exit_when_done:=true']
         for kv in args.param or []:
             beh += ['-p', kv]
@@ -191,10 +193,7 @@ def main(argv: list[str] | None = None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     params = Path(args.params) if args.params and Path(args.params).exists() else None
 
-    def on_signal(_sig, _frm):
-        _stop.set()
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
+    stop_on_signals(_stop)
 
     t0 = time.monotonic()
     print(f'behavior_demo: ROS_DOMAIN_ID={env["ROS_DOMAIN_ID"]}, DDS discovery '

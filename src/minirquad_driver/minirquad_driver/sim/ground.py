@@ -1,13 +1,13 @@
 """The ground as the simulator sees it: anchor capacity and slip direction for a pose.
 
-``LiveAnchorModel`` (default) is the simulator's own truth: the live RFT-GLS solver of
+``LiveGround`` (default) is the simulator's own truth: the live RFT-GLS solver of
 rftgls_core (``direct``, the reference method) on a settable "true" robot and medium, by
 default the stack's preset (MiniRQuad in M90 sand) and optionally scaled (``medium_scale``
 0.7 = sand 30 % weaker than the stack believes). It never reads the shipped map that
 capacity_node and behavior_node predict with, so a test can make the prediction wrong.
 Answers are cached per quantised state (1 mm, 1 deg) so the simulator stays real time.
-``MapAnchorModel`` answers from an rftgls_core state-space map (the prediction itself, ~20 us
-per query). ``TableAnchorModel`` is a clearly labelled PLACEHOLDER kept for tests that want
+``MapGround`` answers from an rftgls_core state-space map (the prediction itself, ~20 us
+per query). ``TableGround`` is a clearly labelled PLACEHOLDER kept for tests that want
 hand-set capacities: per-mode values chosen to reproduce the paper's Fig. 10(b) outcome.
 
 Slip twists here follow rftgls_core: (vx, vz, wy) at p in world axes, wy about +y (so the
@@ -27,21 +27,23 @@ from .burrow import TABLE_II
 
 class AnchorPrediction(NamedTuple):
     """capacity: largest tension T (N) the anchor holds along d(phi), None without a value.
-    slip_twist: direction of motion of p when it fails, (vx, vz, wy) in world axes with
+    slip_twist_per_m: direction of motion of p when it fails, (vx, vz, wy) in world axes with
     |(vx, vz)| = 1 (wy in rad per m of travel). status: see docs/design/architecture.md#statuses."""
 
     capacity: float | None
-    slip_twist: tuple[float, float, float]
+    slip_twist_per_m: tuple[float, float, float]
     status: Status
 
 
-class AnchorModel(Protocol):
+class Ground(Protocol):
+    """What the simulated robot asks the ground (the simulator's truth, not a prediction)."""
+
     def predict(self, state: AnchorState, phi: float) -> AnchorPrediction:
         """Capacity and slip twist for anchor state ``state`` under pull angle ``phi`` (rad)."""
         ...
 
 
-class TableAnchorModel:
+class TableGround:
     """PLACEHOLDER ground: capacity from the nearest Table II final pose (see module doc).
 
     C = C_mode * depth_factor * (1 + k_down * max(0, -phi)), where depth_factor falls
@@ -85,7 +87,7 @@ def _unit_slip(phi: float) -> tuple[float, float, float]:
     return (vx / n, vz / n, 2.0)
 
 
-class MapAnchorModel:
+class MapGround:
     """RFT-GLS ground from an rftgls_core capacity map (backward pulls: the winch is on the
     MiniRQuad's back). The map answers out_of_range off its grid; the simulated world needs
     an answer everywhere, so its truth there is the nearest grid edge's (the state clamped
@@ -94,18 +96,18 @@ class MapAnchorModel:
     def __init__(self, path=None, pull: str = 'backward'):
         from rftgls_core.maps import CapacityMap, shipped_map_path
         self.path = str(path) if path else str(shipped_map_path('minirquad'))
-        self.map = CapacityMap.load(self.path)
+        self.map = CapacityMap.load(self.path)   # an rftgls_core Predictor, with its grid axes
         self.pull = pull
 
     def predict(self, state: AnchorState, phi: float) -> AnchorPrediction:
-        res = self.map.query(state, phi, self.pull)
+        res = self.map.predict(state, phi, self.pull)
         if res.status.value == 'out_of_range':
             ax = self.map.axes
             state = AnchorState(*(min(max(v, float(ax[n][0])), float(ax[n][-1])) for n, v in
                                   zip(('h', 'theta_b', 'theta_l1', 'theta_l2'),
                                       state.as_tuple())))
             phi = min(max(phi, float(self.map.phis[0])), float(self.map.phis[-1]))
-            res = self.map.query(state, phi, self.pull)
+            res = self.map.predict(state, phi, self.pull)
         if not res.status.has_value or res.slip_twist is None:
             return AnchorPrediction(None, (0.0, 0.0, 0.0), res.status)
         return AnchorPrediction(res.capacity_N, _unit_twist(res.slip_twist, phi), res.status)
@@ -120,7 +122,7 @@ def _unit_twist(raw, phi: float) -> tuple[float, float, float]:
     return (vx / n, vz / n, wy / n)
 
 
-class LiveAnchorModel:
+class LiveGround:
     """The simulator's true ground: rftgls_core's live solver on its own robot and medium.
 
     robot, medium: preset names (the medium may also be a medium JSON file as written by
@@ -138,7 +140,7 @@ class LiveAnchorModel:
                  fallback_method: str | None = 'twist-mesh', pull: str = 'backward',
                  h_step: float = 1e-3, angle_step: float = math.radians(1.0),
                  phi_step: float = math.radians(1.0), cache_size: int = 512):
-        from rftgls_core.anchor import AnchorModel as CoreAnchorModel
+        from rftgls_core.anchor import AnchorModel
         from rftgls_core.rft.media import load_medium
         from rftgls_core.robots.presets import get_robot
         if not (math.isfinite(medium_scale) and medium_scale > 0.0):
@@ -152,9 +154,9 @@ class LiveAnchorModel:
         body = get_robot(robot)
         self.robot = dataclasses.replace(body, mass=body.mass * mass_scale) \
             if mass_scale != 1.0 else body
-        self.models = [CoreAnchorModel(self.robot, self.medium, method=method)]
+        self.models = [AnchorModel(self.robot, self.medium, method=method)]
         if fallback_method and fallback_method != method:
-            self.models.append(CoreAnchorModel(self.robot, self.medium, method=fallback_method))
+            self.models.append(AnchorModel(self.robot, self.medium, method=fallback_method))
         self.pull = pull
         self.steps = (h_step, angle_step, phi_step)
         self.cache_size = cache_size
@@ -218,19 +220,19 @@ class LiveAnchorModel:
         return pred
 
 
-def make_ground(kind: str = 'live', **options) -> AnchorModel:
-    """'live' (default: rftgls_core's live solver, options as LiveAnchorModel), 'map'
+def make_ground(kind: str = 'live', **options) -> Ground:
+    """'live' (default: rftgls_core's live solver, options as LiveGround), 'map'
     (options: path) or 'table' (the placeholder)."""
     if kind == 'live':
-        return LiveAnchorModel(**options)
+        return LiveGround(**options)
     if kind == 'map':
-        return MapAnchorModel(**options)
+        return MapGround(**options)
     if kind == 'table':
-        return TableAnchorModel(**options)
+        return TableGround(**options)
     raise ValueError(f'unknown ground {kind!r}; known: live, map, table')
 
 
-def default_ground() -> AnchorModel:
+def default_ground() -> Ground:
     """The simulator's own truth: the live RFT-GLS solver on the stack's preset robot and
     medium (not the map the stack predicts with)."""
-    return LiveAnchorModel()
+    return LiveGround()

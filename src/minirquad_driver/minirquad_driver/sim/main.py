@@ -10,11 +10,11 @@ from __future__ import annotations
 import argparse
 import json
 import select
-import signal
 import sys
 import time
 from collections import deque
 
+from ..node_main import stop_on_signals
 from ..protocol import messages as m
 from ..protocol.codec import encode_frame
 from .faults import FaultConfig, FaultInjector
@@ -91,14 +91,7 @@ def run(args: argparse.Namespace) -> int:
     except (OSError, ValueError) as exc:
         print(f'minirquad_sim: error: true ground: {exc}', file=sys.stderr)
         return 2
-    stop = False
-
-    def _stop(_sig, _frm):
-        nonlocal stop
-        stop = True
-
-    signal.signal(signal.SIGINT, _stop)
-    signal.signal(signal.SIGTERM, _stop)
+    stop = stop_on_signals()
 
     faults = FaultInjector(FaultConfig(
         garbage_rate=args.garbage_rate, drop_rate=args.drop_rate,
@@ -130,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
         return fault
 
     emit(mcu.notice(start), start)
-    while not stop:
+    while not stop.is_set():
         now = time.monotonic()
         t = now - start
         if args.duration and t >= args.duration:

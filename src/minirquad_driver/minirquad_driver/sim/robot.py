@@ -12,12 +12,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from rftgls_core.conventions import tether_direction_xz
 from rftgls_core.types import AnchorState, Status
 
 from ..protocol.messages import BurrowMode, Flag, GaitKind, Mode
 from .burrow import TABLE_II
 from .gait import BuehlerClock, wrap_angle
-from .ground import AnchorModel, AnchorPrediction, default_ground
+from .ground import AnchorPrediction, Ground, default_ground
 from .power import PowerModel
 from .servo import Servo
 from .winch import WinchSled
@@ -55,7 +56,7 @@ class SimRobot:
     """State and one ``step(dt)`` of the simulated robot. Commands arrive as method calls."""
 
     geometry: Geometry = field(default_factory=Geometry)
-    ground: AnchorModel = field(default_factory=default_ground)
+    ground: Ground = field(default_factory=default_ground)
     power_model: PowerModel = field(default_factory=PowerModel)
     winch: WinchSled = field(default_factory=WinchSled)
     mass: float = 0.296
@@ -273,8 +274,8 @@ class SimRobot:
             w.sled_moving = True
         else:
             # The anchor fails first: p slips along the predicted twist; the sled stays.
-            vx, vz, wy = pred.slip_twist
-            ux, uz = -math.cos(phi), math.sin(phi)          # unit pull direction on p
+            vx, vz, wy = pred.slip_twist_per_m
+            ux, uz = tether_direction_xz(phi)               # unit pull direction on p
             along = max(vx * ux + vz * uz, 0.2)
             s = (demand - cap) / w.rope_k / along
             self.x_p += vx * s
@@ -307,7 +308,8 @@ class SimRobot:
 
 def _drag_twist(phi: float) -> tuple[float, float, float]:
     """A body dragged along the tether: p moves along the pull, no rotation."""
-    return (-math.cos(phi), 0.0, 0.0)
+    ux, _ = tether_direction_xz(phi)
+    return (ux, 0.0, 0.0)
 
 
 def _nearest(current: float, target: float) -> float:

@@ -64,9 +64,10 @@ def model_from_args(args, method: str | None = None) -> AnchorModel:
 def add_parser(sub) -> None:
     p = sub.add_parser('capacity', help='load capacity and slip twist of one anchor state',
                        description='Load capacity along the tether and slip twist beyond it. '
-                       'slip_twist is a unit vector in the scaled metric (vx, vz, wy*L_c), '
-                       'L_c = char_length_m of the robot; slip_twist_raw is (vx, vz, wy) in '
-                       'm/s and rad/s scaled to unit Euclidean norm.')
+                       'JSON: slip_twist_scaled is a unit vector in the scaled metric (vx, vz, '
+                       'wy*L_c), L_c = char_length_m of the robot; slip_twist_raw is (vx, vz, '
+                       'wy) in m/s and rad/s scaled to unit Euclidean norm. slip_twist is the '
+                       'old name of slip_twist_scaled, kept for one release (deprecated).')
     add_state_args(p)
     p.add_argument('--method', choices=list(METHOD_NAMES) + ['map'], default='twist-mesh')
     p.add_argument('--twists', type=twist_count, default=None,
@@ -93,8 +94,11 @@ def run(args) -> int:
         result = model.predict(state, phi, args.pull)
         char_length = model.robot.char_length
     elapsed = time.perf_counter() - t0
+    scaled = list(result.slip_twist_scaled) if result.slip_twist_scaled else None
     out = {'capacity_N': result.capacity_N,
-           'slip_twist': list(result.slip_twist_scaled) if result.slip_twist_scaled else None,
+           'slip_twist_scaled': scaled,
+           'slip_twist': scaled,   # deprecated: the old key of slip_twist_scaled, one release
+
            'slip_twist_raw': list(result.slip_twist) if result.slip_twist else None,
            'status': result.status.value, 'method': result.method, 'elapsed_s': elapsed,
            'reason': result.reason, 'detail': result.detail, 'char_length_m': char_length,

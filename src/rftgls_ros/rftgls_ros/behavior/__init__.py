@@ -12,12 +12,11 @@ from .model import (
                     Decision,
                     EnergyModel,
                     ForceNeed,
-                    MapPredictor,
                     ModeChooser,
                     TetherTracker,
 )
 from .report import CycleRecord, write_report
 
 __all__ = ['ANCHOR_MODES', 'AnchorMode', 'Candidate', 'Decision', 'EnergyModel', 'ForceNeed',
-           'MapPredictor', 'ModeChooser', 'TetherTracker', 'BehaviorConfig', 'BehaviorMachine',
+           'ModeChooser', 'TetherTracker', 'BehaviorConfig', 'BehaviorMachine',
            'Commands', 'Observation', 'State', 'CycleRecord', 'write_report']

@@ -14,14 +14,17 @@ fresh, value-carrying, accepted estimate from capacity_node the winch is stopped
 step, and the attempt is recorded ``aborted`` with the reason code.
 
 ``step(obs)`` takes an ``Observation`` (SI values and their times, s) and returns the
-``Commands`` to publish. Every transition and decision is appended to ``events`` (dicts with a
-human ``text``), which the node logs and publishes.
+``Commands`` to publish, with the step's events (dicts with a human ``text``: every
+transition and decision), which the node logs and publishes. ``events`` keeps the recent
+history for inspection. The states are a table: ``_handlers`` (state -> step handler) and
+``_on_enter`` (state -> entry action); why a tug stopped is a ``HoldCause``.
 """
 from __future__ import annotations
 
 import enum
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from rftgls_core.types import AnchorState
@@ -52,6 +55,23 @@ class State(str, enum.Enum):
         return self.value
 
 
+class HoldCause(enum.Enum):
+    """Why the winch was stopped in a cycle (the HOLD state's cause and the cycle's outcome).
+    The cycle CSV keeps its reason codes: margin_guard, capacity_short, slip_* (slip.py) and
+    the evidence codes of an aborted attempt (evidence.py)."""
+
+    NONE = 'none'
+    GUARD = 'guard'          # margin guard: tension reached stop_ratio x capacity
+    SHORT = 'short'          # capacity below the required force
+    SLIP = 'slip'            # the anchor moved under load
+    EVIDENCE = 'evidence'    # no usable capacity estimate (aborted attempt)
+
+
+# What a HOLD re-burrow is called in the transition text.
+REBURROW_WHY = {HoldCause.GUARD: 'margin guard stop', HoldCause.SLIP: 'anchor slip',
+                HoldCause.SHORT: 'capacity below need'}
+EVENT_HISTORY = 10000   # events kept in BehaviorMachine.events
+
 ACTIVE = {State.IDLE_MEASURE, State.WALK, State.CHOOSE, State.BURROW, State.CHECK, State.TUG,
           State.HOLD, State.SLACKEN, State.CYCLE_DONE, State.WAIT_EVIDENCE}
 TERMINAL = {State.REFUSED, State.FINISHED}
@@ -61,25 +81,25 @@ TERMINAL = {State.REFUSED, State.FINISHED}
 class BehaviorConfig:
     """Parameters (SI). Times in s, speeds in m/s (winch reel-in positive), angles in rad.
 
-    cycles: walk-burrow-tug cycles; walk_time: walking per cycle (the paper: 8 s);
-    walk_speed: body speed while walking, used only to estimate the distance travelled
-    (no odometry on the robot); payout_speed: tether paid out while walking so the robot does
-    not drag the sled; burrow_timeout: give up waiting for the final pose (the paper's 8 s);
-    burrow_tolerance: leg angle error that counts as "at the final pose"; burrow_settle: time
-    held at the final pose before the check; tug_speed: reel-in speed; arrive_length: the tug
+    cycles: walk-burrow-tug cycles; walk_time_s: walking per cycle (the paper: 8 s);
+    walk_speed_m_s: body speed while walking, used only to estimate the distance travelled
+    (no odometry on the robot); payout_speed_m_s: tether paid out while walking so the robot does
+    not drag the sled; burrow_timeout_s: give up waiting for the final pose (the paper's 8 s);
+    burrow_tolerance_rad: leg angle error that counts as "at the final pose"; burrow_settle_s: time
+    held at the final pose before the check; tug_speed_m_s: reel-in speed; arrive_length_m: the tug
     ends when this much tether remains (sled close behind the robot); slow_ratio / stop_ratio:
     tension/capacity at which the tug slows down / stops (margin guard); min_speed_fraction:
-    slowest reel speed inside the slow band, as a fraction of tug_speed; input_timeout:
-    joint_states/tension age that counts as lost; link_settle: time the link must be back
+    slowest reel speed inside the slow band, as a fraction of tug_speed_m_s; input_timeout_s:
+    joint_states/tension age that counts as lost; link_settle_s: time the link must be back
     before resuming; reburrow: on a guard stop or a slip, re-burrow into a stronger mode if
-    one suffices; tug_energy_window: the paper counts only the last 8 s of each tug.
+    one suffices; tug_energy_window_s: the paper counts only the last 8 s of each tug.
 
     Evidence (docs/design/tug-safety.md): estimate_timeout_s: age (receipt time) after which
     capacity_node's estimate is not evidence; the winch stops in the step that sees it, so
-    the reel after the last estimate is at most (timeout + one step) x tug_speed.
+    the reel after the last estimate is at most (timeout + one step) x tug_speed_m_s.
     evidence_grace_s: after a *transient* loss (no estimate, too old, 'stale') the winch stays
     stopped and the attempt is aborted if evidence is not back within this time; explicit
-    no-value statuses abort at once. capacity_wait: time CHECK waits for a usable estimate
+    no-value statuses abort at once. capacity_wait_s: time CHECK waits for a usable estimate
     before the tug starts (the pose has just settled). Retry policy: after an abort the
     machine waits, winch braked, for evidence usable for evidence_settle_s, then re-checks the
     same anchor and tugs again as the next cycle; it gives up (FINISHED) if evidence is not
@@ -94,52 +114,68 @@ class BehaviorConfig:
     """
 
     cycles: int = 3
-    sled_mass: float = 0.4
+    sled_mass_kg: float = 0.4
     sled_mu: float = 0.5
     safety_factor: float = 1.0
-    phis: tuple[float, ...] = (0.0, math.radians(-20.0))
-    walk_time: float = 2.5
-    walk_speed: float = 0.03
-    payout_speed: float = 0.04
-    idle_measure_time: float = 1.0
-    idle_settle_time: float = 0.5
-    burrow_timeout: float = 8.0
-    burrow_tolerance: float = math.radians(3.0)
-    burrow_settle: float = 0.3
-    tug_speed: float = 0.05
-    tug_timeout: float = 40.0
-    arrive_length: float = 0.15
+    phis_rad: tuple[float, ...] = (0.0, math.radians(-20.0))
+    walk_time_s: float = 2.5
+    walk_speed_m_s: float = 0.03
+    payout_speed_m_s: float = 0.04
+    idle_measure_time_s: float = 1.0
+    idle_settle_time_s: float = 0.5
+    burrow_timeout_s: float = 8.0
+    burrow_tolerance_rad: float = math.radians(3.0)
+    burrow_settle_s: float = 0.3
+    tug_speed_m_s: float = 0.05
+    tug_timeout_s: float = 40.0
+    arrive_length_m: float = 0.15
     slow_ratio: float = 0.90
     stop_ratio: float = 0.97
     min_speed_fraction: float = 0.1
-    taut_tension: float = 0.3
+    taut_tension_N: float = 0.3
     estimate_timeout_s: float = 0.05
     evidence_grace_s: float = 2.0
     evidence_settle_s: float = 0.3
     evidence_wait_s: float = 10.0
     max_aborts: int = 2
     accept_assumed_inputs: tuple[str, ...] = ()
-    capacity_wait: float = 1.0
-    input_timeout: float = 0.6
-    link_settle: float = 0.5
+    capacity_wait_s: float = 1.0
+    input_timeout_s: float = 0.6
+    link_settle_s: float = 0.5
     reburrow: bool = True
     max_burrows_per_cycle: int = 3
-    slacken_speed: float = 0.03
-    slacken_time: float = 0.3
-    rope_length: float = 0.50
-    attach_height: float = 0.01
-    h_walk: float = 0.060
-    tug_energy_window: float = 8.0
-    live_period: float = 1.0
+    slacken_speed_m_s: float = 0.03
+    slacken_time_s: float = 0.3
+    rope_length_m: float = 0.50
+    attach_height_m: float = 0.01
+    h_walk_m: float = 0.060
+    tug_energy_window_s: float = 8.0
+    live_period_s: float = 1.0
     need_alpha: float = 0.5
-    energy_prior_sh: float = 1.0
-    pose_snap: float = math.radians(0.5)
+    energy_prior_sh_J: float = 1.0
+    pose_snap_rad: float = math.radians(0.5)
     own_capacity_fallback: bool = False
     slip_detect: bool = True
     slip_pitch_rad: float = math.radians(1.0)
     slip_leg_rad: float = math.radians(2.0)
     slip_tension_drop: float = 0.15
     slip_min_reel_m: float = 0.003
+
+    def check(self) -> BehaviorConfig:
+        """ValueError (one line) on values the machine cannot run with; returns self."""
+        if self.cycles < 1 or self.max_aborts < 0 or self.max_burrows_per_cycle < 1:
+            raise ValueError('cycles and max_burrows_per_cycle must be >= 1, max_aborts >= 0')
+        if not 0.0 < self.slow_ratio <= self.stop_ratio:
+            raise ValueError(f'need 0 < slow_ratio <= stop_ratio, got {self.slow_ratio} and '
+                             f'{self.stop_ratio}')
+        if not self.phis_rad or any(abs(p) > math.pi / 2 for p in self.phis_rad):
+            raise ValueError(f'phis_rad must be tether angles within +-pi/2, '
+                             f'got {list(self.phis_rad)}')
+        for name in ('walk_time_s', 'burrow_timeout_s', 'tug_timeout_s', 'tug_speed_m_s',
+                     'input_timeout_s', 'estimate_timeout_s', 'sled_mass_kg'):
+            if not getattr(self, name) > 0:
+                raise ValueError(f'{name} must be > 0, got {getattr(self, name)!r}')
+        return self
 
 
 @dataclass
@@ -175,12 +211,14 @@ class Observation:
 @dataclass
 class Commands:
     """To publish after a step: one-shot ``gait``/``burrow`` commands (in order), the winch
-    reel-in set-point (m/s, 0 brakes), and h (m) and phi (rad) for capacity_node."""
+    reel-in set-point (m/s, 0 brakes), h (m) and phi (rad) for capacity_node, and the events
+    of this step (to log and publish, in order)."""
 
     oneshots: list[tuple[str, str]]
     winch: float
     height: float
     phi: float
+    events: list[dict] = field(default_factory=list)
 
 
 @dataclass
@@ -196,7 +234,8 @@ class _Cycle:
     tug_s: float = 0.0
     sled_distance: float = 0.0
     outcome: str = ''
-    reason: str = ''
+    reason: str = ''          # the CSV reason code
+    cause: HoldCause = HoldCause.NONE
     need_n: float = 0.0
     min_margin: float = math.inf
     tensions: list[float] = field(default_factory=list)
@@ -208,11 +247,12 @@ class BehaviorMachine:
     def __init__(self, config: BehaviorConfig, chooser: ModeChooser):
         self.cfg = config
         self.chooser = chooser
-        self.need = ForceNeed(config.sled_mass, config.sled_mu, alpha=config.need_alpha)
-        self.energy = EnergyModel(prior_sh=config.energy_prior_sh)
-        self.tether = TetherTracker(config.rope_length, config.attach_height)
+        self.need = ForceNeed(config.sled_mass_kg, config.sled_mu, alpha=config.need_alpha)
+        self.energy = EnergyModel(prior_sh=config.energy_prior_sh_J)
+        self.tether = TetherTracker(config.rope_length_m, config.attach_height_m)
         self.state = State.WAIT_INPUTS
-        self.events: list[dict] = []
+        self.events: deque[dict] = deque(maxlen=EVENT_HISTORY)
+        self._step_events: list[dict] = []
         self.records: list[CycleRecord] = []
         self.decisions: list[Decision] = []
         self.cycle: _Cycle | None = None
@@ -238,17 +278,43 @@ class BehaviorMachine:
         self.aborts = 0
         self.slip = SlipDetector(config.slip_pitch_rad, config.slip_leg_rad,
                                  config.slip_tension_drop, config.slip_min_reel_m,
-                                 config.taut_tension)
-        self._hold_kind = ''
+                                 config.taut_tension_N)
+        self._hold_cause = HoldCause.NONE
+        # Per-state scratch, (re)set by the entry actions.
+        self._idle_e0: tuple[float, float] | None = None
+        self._checked = False
+        self._check_why = ''
+        self._next_mode: str | None = None
+        self._next_reason = ''
+        self._tug_tensions: list[float] = []
+        self._tug_start_t = 0.0
+        self._usable_since: float | None = None
         self._gap: tuple[float, float | None] | None = None
         self._good: tuple[float, float | None] | None = None
         self._stop_watch: tuple[float, float | None, str, str] | None = None
         self._last_value_status = False
+        self._handlers: dict[State, Callable[[], None]] = {
+            State.WAIT_INPUTS: self._do_wait_inputs, State.IDLE_MEASURE: self._do_idle_measure,
+            State.WALK: self._do_walk, State.CHOOSE: self._do_choose,
+            State.BURROW: self._do_burrow, State.CHECK: self._do_check, State.TUG: self._do_tug,
+            State.HOLD: self._do_hold, State.SLACKEN: self._do_slacken,
+            State.CYCLE_DONE: self._do_cycle_done, State.WAIT_LINK: self._do_wait_link,
+            State.WAIT_EVIDENCE: self._do_wait_evidence,
+            # REFUSED and FINISHED are terminal: nothing to do.
+        }
+        self._on_enter: dict[State, Callable[[], None]] = {
+            State.IDLE_MEASURE: self._enter_idle_measure, State.WALK: self._enter_walk,
+            State.BURROW: self._enter_burrow, State.CHECK: self._enter_check,
+            State.TUG: self._enter_tug, State.SLACKEN: self._enter_slacken,
+            State.WAIT_EVIDENCE: self._enter_wait_evidence,
+        }
 
     # ------------------------------------------------------------------ helpers
     def _event(self, kind: str, text: str, **extra) -> None:
-        self.events.append({'t': round(self.obs.t, 3), 'kind': kind, 'state': str(self.state),
-                            'text': text, **extra})
+        ev = {'t': round(self.obs.t, 3), 'kind': kind, 'state': str(self.state), 'text': text,
+              **extra}
+        self.events.append(ev)
+        self._step_events.append(ev)
 
     def _go(self, new: State, reason: str) -> None:
         old = self.state
@@ -258,8 +324,8 @@ class BehaviorMachine:
         self._e_enter = self.obs.energy
         self._event('transition', f'{old} -> {new}: {reason}', **{'from': str(old),
                                                                  'to': str(new)})
-        enter = getattr(self, f'_enter_{new.value.lower()}', None)
-        if enter:
+        enter = self._on_enter.get(new)
+        if enter is not None:
             enter()
 
     def _elapsed(self) -> float:
@@ -278,12 +344,12 @@ class BehaviorMachine:
                                         State.FINISHED, State.WAIT_LINK,
                                         State.WAIT_EVIDENCE):
             return ANCHOR_MODES[self.mode].h
-        return self.cfg.h_walk
+        return self.cfg.h_walk_m
 
     def _inputs_fresh(self) -> bool:
         o = self.obs
-        return (o.link_ok and o.t - o.t_legs <= self.cfg.input_timeout
-                and o.t - o.t_tension <= self.cfg.input_timeout)
+        return (o.link_ok and o.t - o.t_legs <= self.cfg.input_timeout_s
+                and o.t - o.t_tension <= self.cfg.input_timeout_s)
 
     def evidence(self) -> evidence.Verdict:
         """Is capacity_node's last estimate usable evidence for tugging now?"""
@@ -301,9 +367,9 @@ class BehaviorMachine:
         m = ANCHOR_MODES[self.mode]
         tb = self.obs.theta_b if self.obs.theta_b is not None else m.theta_b
         l1, l2 = self.obs.legs
-        if abs(l1 - m.final[0]) <= self.cfg.pose_snap:
+        if abs(l1 - m.final[0]) <= self.cfg.pose_snap_rad:
             l1 = m.final[0]
-        if abs(l2 - m.final[1]) <= self.cfg.pose_snap:
+        if abs(l2 - m.final[1]) <= self.cfg.pose_snap_rad:
             l2 = m.final[1]
         return AnchorState(m.h, tb, l1, l2)
 
@@ -312,7 +378,7 @@ class BehaviorMachine:
         state = self.measured_state()
         if state is None:
             return None, 'stale'
-        cap, status = self.chooser.predictor(state, self.tether.phi(self.height))
+        cap, status = self.chooser.capacity(state, self.tether.phi(self.height))
         return cap, str(status)
 
     # ------------------------------------------------------------------ step
@@ -320,7 +386,7 @@ class BehaviorMachine:
         self.obs = obs
         if obs.spool is not None and obs.spool != self._last_spool:
             if self._last_spool is not None and self.state == State.TUG and self.cycle \
-                    and (obs.tension or 0.0) > self.cfg.taut_tension:
+                    and (obs.tension or 0.0) > self.cfg.taut_tension_N:
                 d = obs.spool - self._last_spool
                 if 0.0 < d < 0.2:
                     self.cycle.sled_distance += d
@@ -337,12 +403,13 @@ class BehaviorMachine:
                 self._stop_watch = (*self._good, 'link_stale', 'the last usable estimate')
             what = 'link stale' if not obs.link_ok else 'joint_states/tension stale'
             self._go(State.WAIT_LINK, f'{what} during {self._resume}: winch stopped, waiting')
-        handler = getattr(self, f'_do_{self.state.value.lower()}', None)
-        if handler:
+        handler = self._handlers.get(self.state)
+        if handler is not None:
             handler()
         self._watch_stop()
-        out = Commands(self._oneshots, self._winch, self.height, self.tether.phi(self.height))
-        self._oneshots = []
+        out = Commands(self._oneshots, self._winch, self.height, self.tether.phi(self.height),
+                       self._step_events)
+        self._oneshots, self._step_events = [], []
         return out
 
     def _watch_stop(self) -> None:
@@ -365,20 +432,20 @@ class BehaviorMachine:
             self._go(State.IDLE_MEASURE, 'robot link ok, sensors fresh')
 
     def _enter_idle_measure(self) -> None:
-        self._idle_e0: tuple[float, float] | None = None
+        self._idle_e0 = None
         self._oneshots.append(('gait', 'stand'))
         self._winch = 0.0
 
     def _do_idle_measure(self) -> None:
-        if self._idle_e0 is None and self._elapsed() >= self.cfg.idle_settle_time:
+        if self._idle_e0 is None and self._elapsed() >= self.cfg.idle_settle_time_s:
             self._idle_e0 = (self.obs.t, self.obs.energy)
-        if self._idle_e0 and self.obs.t - self._idle_e0[0] >= self.cfg.idle_measure_time:
+        if self._idle_e0 and self.obs.t - self._idle_e0[0] >= self.cfg.idle_measure_time_s:
             dt = self.obs.t - self._idle_e0[0]
             self._idle_power = max(0.0, (self.obs.energy - self._idle_e0[1]) / dt)
             self._event('info', f'idle power {self._idle_power:.2f} W (removed from burrow '
                                 f'energies, as in the paper)')
             self._new_cycle()
-            self._go(State.WALK, f'cycle 1/{self.cfg.cycles}: walk {self.cfg.walk_time:.1f} s')
+            self._go(State.WALK, f'cycle 1/{self.cfg.cycles}: walk {self.cfg.walk_time_s:.1f} s')
 
     def _new_cycle(self) -> None:
         idx = 1 if self.cycle is None else self.cycle.index + 1
@@ -388,11 +455,11 @@ class BehaviorMachine:
 
     def _enter_walk(self) -> None:
         self._oneshots.append(('gait', 'walk'))
-        self._winch = -self.cfg.payout_speed
+        self._winch = -self.cfg.payout_speed_m_s
         self.mode = None
 
     def _do_walk(self) -> None:
-        if self._walk_elapsed + self._elapsed() >= self.cfg.walk_time:
+        if self._walk_elapsed + self._elapsed() >= self.cfg.walk_time_s:
             self._winch = 0.0
             self.cycle.walk_j += self._energy_since_enter()
             self.cycle.walk_s += self._elapsed()
@@ -438,13 +505,13 @@ class BehaviorMachine:
         m = ANCHOR_MODES[self.mode]
         legs = self.obs.legs
         at = legs is not None and max(abs(legs[0] - m.final[0]),
-                                      abs(legs[1] - m.final[1])) <= self.cfg.burrow_tolerance
+                                      abs(legs[1] - m.final[1])) <= self.cfg.burrow_tolerance_rad
         if at and self._at_pose_since is None:
             self._at_pose_since = self.obs.t
         elif not at:
             self._at_pose_since = None
-        done = at and self.obs.t - self._at_pose_since >= self.cfg.burrow_settle
-        timeout = self._elapsed() >= self.cfg.burrow_timeout
+        done = at and self.obs.t - self._at_pose_since >= self.cfg.burrow_settle_s
+        timeout = self._elapsed() >= self.cfg.burrow_timeout_s
         if done or timeout:
             dt, de = self._elapsed(), self._energy_since_enter()
             self.cycle.burrow_j += de
@@ -456,7 +523,7 @@ class BehaviorMachine:
                         + ', '.join(f'{k} {self.energy.estimate(k):.2f} J'
                                     for k in ANCHOR_MODES))
             self._go(State.CHECK, 'at the final pose' if done else
-                     f'burrow timeout ({self.cfg.burrow_timeout:.0f} s): checking the pose '
+                     f'burrow timeout ({self.cfg.burrow_timeout_s:.0f} s): checking the pose '
                      'reached')
 
     def _enter_check(self) -> None:
@@ -470,7 +537,7 @@ class BehaviorMachine:
         # The prediction holds; the tug starts only on capacity_node's live evidence.
         v = self.evidence()
         if not v.usable:
-            if self._elapsed() >= self.cfg.capacity_wait:
+            if self._elapsed() >= self.cfg.capacity_wait_s:
                 self._abort(v, in_tug=False)
             return
         cap = self.obs.capacity * self.chooser.scale
@@ -522,15 +589,15 @@ class BehaviorMachine:
         self._winch = 0.0
         self.cycle.outcome = 'stopped'
         self._record()
-        what = 'stopped after a slip' if self.cycle.reason.startswith('slip_') \
+        what = 'stopped after a slip' if self.cycle.cause is HoldCause.SLIP \
             else 'stopped before slip'
         self._go(State.FINISHED, f'{what}, winch braked: {reason}')
 
     def _enter_slacken(self) -> None:
-        self._winch = -self.cfg.slacken_speed
+        self._winch = -self.cfg.slacken_speed_m_s
 
     def _do_slacken(self) -> None:
-        if self._elapsed() >= self.cfg.slacken_time:
+        if self._elapsed() >= self.cfg.slacken_time_s:
             self._winch = 0.0
             self._burrow(self._next_mode, self._next_reason)
 
@@ -539,31 +606,56 @@ class BehaviorMachine:
         self._gap = None
         self._good = (self.obs.t, self.obs.spool)
         self._last_live = -math.inf
-        self._tug_tensions: list[float] = []
+        self._tug_tensions = []
         self._tug_start_t = self.obs.t
         self._fallback_warned = False
         self.slip.reset()
 
     def _do_tug(self) -> None:
-        cfg, o = self.cfg, self.obs
-        if o.energy is not None:
-            self._tug_hist.append((o.t, o.energy))
-        if self.tether.free_length <= cfg.arrive_length:
+        """One tug step: end or slip first, then evidence, then the margin guard, then reel."""
+        if self.obs.energy is not None:
+            self._tug_hist.append((self.obs.t, self.obs.energy))
+        if self._tug_ended() or self._tug_slipped():
+            return
+        got = self._tug_evidence()
+        if got is None:
+            return
+        capacity, source = got
+        if self._tug_short(capacity, source) or self._tug_guard(capacity, source):
+            return
+        self._tug_reel(capacity, source)
+
+    def _tug_ended(self) -> bool:
+        """The sled arrived or the tug timed out (winch stopped, state changed)."""
+        cfg = self.cfg
+        if self.tether.free_length <= cfg.arrive_length_m:
             self._winch = 0.0
             self._finish_tug('arrived')
             self._go(State.CYCLE_DONE, f'sled arrived ({self.tether.free_length:.3f} m of '
                                        'tether left)')
-            return
-        if self._elapsed() > cfg.tug_timeout:
+            return True
+        if self._elapsed() > cfg.tug_timeout_s:
             self._winch = 0.0
             self._finish_tug('timeout')
-            self._stop_cycle(f'tug timeout ({cfg.tug_timeout:.0f} s)')
-            return
-        if cfg.slip_detect:
-            ev = self.slip.update(o.tension, o.spool, o.theta_b, o.legs)
-            if ev is not None:
-                self._on_slip(ev)
-                return
+            self._stop_cycle(f'tug timeout ({cfg.tug_timeout_s:.0f} s)')
+            return True
+        return False
+
+    def _tug_slipped(self) -> bool:
+        """The slip detector fired (see _on_slip)."""
+        o = self.obs
+        if not self.cfg.slip_detect:
+            return False
+        ev = self.slip.update(o.tension, o.spool, o.theta_b, o.legs)
+        if ev is None:
+            return False
+        self._on_slip(ev)
+        return True
+
+    def _tug_evidence(self) -> tuple[float, str] | None:
+        """(capacity N scaled by the chooser's slip correction, its source), or None when
+        there is no usable evidence (the winch is stopped by _evidence_gap)."""
+        cfg, o = self.cfg, self.obs
         v = self.evidence()
         capacity, source = o.capacity, 'capacity_node'
         if not v.usable and cfg.own_capacity_fallback and self._last_value_status \
@@ -580,7 +672,8 @@ class BehaviorMachine:
                 v = evidence.Verdict(True, evidence.USABLE, False, 'own map')
         if not v.usable:
             self._evidence_gap(v)
-            return
+            return None
+        assert capacity is not None  # usable evidence carries a value (evidence.judge)
         if source == 'capacity_node':
             self._last_value_status = True
         if self._gap is not None:
@@ -588,33 +681,50 @@ class BehaviorMachine:
             self._stop_watch = None
         self._gap = None
         self._good = (o.t, o.spool)
-        capacity *= self.chooser.scale
-        required = cfg.safety_factor * self.need.value
-        if capacity < required:
-            self._winch = 0.0
-            self._finish_tug('short')
-            self._hold('short', f'capacity {capacity:.2f} N ({source}) below the required '
-                                f'{required:.2f} N: winch stopped', 'capacity_short')
-            return
+        return capacity * self.chooser.scale, source
+
+    def _tug_short(self, capacity: float, source: str) -> bool:
+        """Capacity below the required force: stop and hold (SHORT)."""
+        required = self.cfg.safety_factor * self.need.value
+        if capacity >= required:
+            return False
+        self._winch = 0.0
+        self._finish_tug('short')
+        self._hold(HoldCause.SHORT, f'capacity {capacity:.2f} N ({source}) below the required '
+                                    f'{required:.2f} N: winch stopped', 'capacity_short')
+        return True
+
+    def _tug_guard(self, capacity: float, source: str) -> bool:
+        """Margin guard: tension at stop_ratio x capacity stops the winch before the slip."""
+        cfg = self.cfg
         self.capacity_source = source
-        tension = o.tension or 0.0
+        tension = self.obs.tension or 0.0
         ratio = tension / capacity if capacity > 0 else math.inf
         self.cycle.min_margin = min(self.cycle.min_margin, capacity - tension)
-        if ratio >= cfg.stop_ratio:
-            self._winch = 0.0
-            self._finish_tug('guard stop')
-            self.need.raise_floor(tension)
-            twist = self._twist_text()
-            self._hold('guard', f'margin guard: tension {tension:.2f} N >= {cfg.stop_ratio:.2f}'
-                                f' x capacity {capacity:.2f} N ({source}), winch stopped before '
-                                f'the predicted slip {twist}', 'margin_guard')
-            return
+        if ratio < cfg.stop_ratio:
+            return False
+        self._winch = 0.0
+        self._finish_tug('guard stop')
+        self.need.raise_floor(tension)
+        twist = self._twist_text()
+        self._hold(HoldCause.GUARD, f'margin guard: tension {tension:.2f} N >= '
+                                    f'{cfg.stop_ratio:.2f} x capacity {capacity:.2f} N '
+                                    f'({source}), winch stopped before the predicted slip '
+                                    f'{twist}', 'margin_guard')
+        return True
+
+    def _tug_reel(self, capacity: float, source: str) -> None:
+        """Reel in, slower inside the slow band; sample the sliding tension; a live event
+        every live_period."""
+        cfg, o = self.cfg, self.obs
+        tension = o.tension or 0.0
+        ratio = tension / capacity if capacity > 0 else math.inf
         band = max(cfg.stop_ratio - cfg.slow_ratio, 1e-6)
         frac = min(1.0, max(cfg.min_speed_fraction, (cfg.stop_ratio - ratio) / band))
-        self._winch = cfg.tug_speed * frac
-        if tension > cfg.taut_tension and o.spool_velocity > 0.5 * self._winch > 0:
+        self._winch = cfg.tug_speed_m_s * frac
+        if tension > cfg.taut_tension_N and o.spool_velocity > 0.5 * self._winch > 0:
             self._tug_tensions.append(tension)
-        if o.t - self._last_live >= cfg.live_period:
+        if o.t - self._last_live >= cfg.live_period_s:
             self._last_live = o.t
             self._event('live', f'tug {self.mode}: T {tension:.2f} N, C {capacity:.2f} N '
                                 f'({source}), margin {capacity - tension:+.2f} N '
@@ -625,9 +735,10 @@ class BehaviorMachine:
                                 f'tether {self.tether.free_length:.3f} m',
                         tension=tension, capacity=capacity, source=source)
 
-    def _hold(self, kind: str, text: str, reason: str) -> None:
-        self._hold_kind = kind
-        self.cycle.reason = reason
+    def _hold(self, cause: HoldCause, text: str, reason: str) -> None:
+        """Winch stopped for `cause`; `reason` is the cycle's CSV reason code."""
+        self._hold_cause = cause
+        self.cycle.cause, self.cycle.reason = cause, reason
         self._go(State.HOLD, text)
 
     def _evidence_gap(self, v: evidence.Verdict) -> None:
@@ -650,14 +761,14 @@ class BehaviorMachine:
             self._finish_tug('aborted')
         self.aborts += 1
         self.cycle.outcome = 'aborted'
-        self.cycle.reason = v.reason
+        self.cycle.cause, self.cycle.reason = HoldCause.EVIDENCE, v.reason
         self._record()
         self._go(State.WAIT_EVIDENCE, f'tug aborted, winch stopped: {v.reason} ({v.detail}); '
                                       f'abort {self.aborts}/{self.cfg.max_aborts}')
 
     def _enter_wait_evidence(self) -> None:
         self._winch = 0.0
-        self._usable_since: float | None = None
+        self._usable_since = None
 
     def _do_wait_evidence(self) -> None:
         cfg, o = self.cfg, self.obs
@@ -705,7 +816,7 @@ class BehaviorMachine:
         self._weakest = ev.peak_tension
         self._event('warn', f'anchor slip detected ({ev.reason}: {ev.detail}){note}',
                     reason=ev.reason, peak_tension=ev.peak_tension, scale=self.chooser.scale)
-        self._hold('slip', f'anchor slip ({ev.reason}): winch stopped', ev.reason)
+        self._hold(HoldCause.SLIP, f'anchor slip ({ev.reason}): winch stopped', ev.reason)
 
     def _twist_text(self) -> str:
         tw = self.obs.slip_twist
@@ -720,7 +831,7 @@ class BehaviorMachine:
         if self._tug_hist:
             t_end, e_end = self._tug_hist[-1]
             e_start = self._tug_hist[0][1]
-            win = [e for t, e in self._tug_hist if t >= t_end - self.cfg.tug_energy_window]
+            win = [e for t, e in self._tug_hist if t >= t_end - self.cfg.tug_energy_window_s]
             c.tug_total_j += e_end - e_start
             c.tug_j += e_end - (win[0] if win else e_end)
         c.tensions.extend(self._tug_tensions)
@@ -733,11 +844,10 @@ class BehaviorMachine:
 
     def _do_hold(self) -> None:
         self._winch = 0.0
-        if self._hold_kind in ('guard', 'slip', 'short') and self.cfg.reburrow:
-            kind = {'guard': 'margin guard stop', 'slip': 'anchor slip',
-                    'short': 'capacity below need'}[self._hold_kind]
-            self._hold_kind = ''
-            self._reselect(kind, self._weakest)
+        if self._hold_cause in REBURROW_WHY and self.cfg.reburrow:
+            why = REBURROW_WHY[self._hold_cause]
+            self._hold_cause = HoldCause.NONE
+            self._reselect(why, self._weakest)
         elif self._elapsed() > 0.5:
             self._stop_cycle(self.reason)
 
@@ -751,16 +861,16 @@ class BehaviorMachine:
             return
         self._new_cycle()
         self._go(State.WALK, f'cycle {self.cycle.index}/{self.cfg.cycles}: unburrow by '
-                             f'walking {self.cfg.walk_time:.1f} s')
+                             f'walking {self.cfg.walk_time_s:.1f} s')
 
     def _record(self) -> None:
         c = self.cycle
         xs = sorted(c.tensions)
         self.records.append(CycleRecord(
-            sled_kg=self.cfg.sled_mass, cycle=c.index, mode='+'.join(c.modes) or '-',
+            sled_kg=self.cfg.sled_mass_kg, cycle=c.index, mode='+'.join(c.modes) or '-',
             outcome=c.outcome, walk_j=c.walk_j, burrow_j=c.burrow_j, tug_j=c.tug_j,
             tug_total_j=c.tug_total_j, walk_s=c.walk_s, burrow_s=c.burrow_s, tug_s=c.tug_s,
-            distance_m=c.walk_s * self.cfg.walk_speed, sled_distance_m=c.sled_distance,
+            distance_m=c.walk_s * self.cfg.walk_speed_m_s, sled_distance_m=c.sled_distance,
             need_n=self.need.value,
             tension_median_n=xs[len(xs) // 2] if xs else float('nan'),
             min_margin_n=c.min_margin if math.isfinite(c.min_margin) else float('nan'),
@@ -775,7 +885,7 @@ class BehaviorMachine:
         if self._link_back_at is None:
             self._link_back_at = self.obs.t
             return
-        if self.obs.t - self._link_back_at < self.cfg.link_settle:
+        if self.obs.t - self._link_back_at < self.cfg.link_settle_s:
             return
         self._link_back_at = None
         resume = self._resume or State.IDLE_MEASURE
@@ -804,7 +914,7 @@ class BehaviorMachine:
     def _at_final_pose(self) -> bool:
         legs, m = self.obs.legs, ANCHOR_MODES.get(self.mode or '')
         return m is not None and legs is not None and max(
-            abs(legs[0] - m.final[0]), abs(legs[1] - m.final[1])) <= self.cfg.burrow_tolerance
+            abs(legs[0] - m.final[0]), abs(legs[1] - m.final[1])) <= self.cfg.burrow_tolerance_rad
 
     @property
     def done(self) -> bool:

@@ -8,10 +8,12 @@ the sled (the paper's -20 deg when the sled is close).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
-from rftgls_core.types import AnchorState, Status
+from rftgls_core.conventions import tether_phi
+from rftgls_core.predictor import Predictor
+from rftgls_core.types import AnchorState, Pull, Status
 
 G = 9.81
 
@@ -129,22 +131,6 @@ class EnergyModel:
 
 # --------------------------------------------------------------------------- predictions
 Prediction = tuple[float | None, Status]
-Predictor = Callable[[AnchorState, float], Prediction]
-
-
-class MapPredictor:
-    """RFT-GLS capacity (N along the tether) from an rftgls_core map: ``(state, phi) ->
-    (capacity | None, Status)``. Same map and pull as capacity_node and the simulator."""
-
-    def __init__(self, path: str | None = None, pull: str = 'backward'):
-        from rftgls_core.maps import CapacityMap, shipped_map_path
-        self.path = str(path) if path else str(shipped_map_path('minirquad'))
-        self.map = CapacityMap.load(self.path)
-        self.pull = pull
-
-    def __call__(self, state: AnchorState, phi: float) -> Prediction:
-        r = self.map.query(state, phi, self.pull)
-        return (r.capacity_N if r.status.has_value else None), r.status
 
 
 @dataclass(frozen=True)
@@ -191,23 +177,31 @@ class ModeChooser:
     """Cheapest sufficient mode: a mode is sufficient when every pull angle in ``phis`` has a
     valid prediction with capacity >= safety_factor * need (N). Ties go to the stronger.
 
+    ``predictor``: any rftgls_core ``Predictor`` (the map capacity_node loads, or the live
+    model), asked for ``pull`` (MiniRQuad's winch is on its back: 'backward').
     Only a measured ``ok`` prediction counts (``assumed``, ``extrapolated`` and every
     no-value status do not). ``scale`` (<= 1) multiplies every prediction once the robot has
     seen its anchor slip below the prediction (the ground is weaker than the model)."""
 
     def __init__(self, predictor: Predictor, safety_factor: float = 1.0,
                  phis: Sequence[float] = (0.0, math.radians(-20.0)),
-                 modes: dict[str, AnchorMode] | None = None):
+                 modes: dict[str, AnchorMode] | None = None, pull: Pull | str = 'backward'):
         self.predictor = predictor
         self.safety_factor = safety_factor
         self.phis = tuple(phis)
         self.modes = modes or ANCHOR_MODES
+        self.pull = Pull(pull)
         self.scale = 1.0
+
+    def capacity(self, state: AnchorState, phi: float) -> Prediction:
+        """(capacity N along d(phi) or None without a value, status) of the predictor."""
+        r = self.predictor.predict(state, phi, self.pull)
+        return (r.capacity_N if r.status.has_value else None), r.status
 
     def evaluate(self, mode: str, state: AnchorState, need: float, energy: float) -> Candidate:
         caps, stats = [], []
         for phi in self.phis:
-            cap, status = self.predictor(state, phi)
+            cap, status = self.capacity(state, phi)
             ok = status == Status.OK and cap is not None and math.isfinite(cap)
             caps.append(cap * self.scale if ok else None)
             stats.append(str(status))
@@ -287,6 +281,4 @@ class TetherTracker:
 
     def phi(self, h: float) -> float:
         """Tether angle at p for height h (m) of p: negative when p is above the attachment."""
-        length = max(self.free_length, 1e-3)
-        s = (self.attach_height - h) / length
-        return math.asin(max(-1.0, min(1.0, s)))
+        return tether_phi(h, self.attach_height, self.free_length)

@@ -29,14 +29,15 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+from minirquad_driver.bridge import DiagStatus
+from rftgls_core.conventions import LEG_KEYS, axle_angles, tether_direction_xz, wrap_angle
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull, Status
 from rftgls_core.uncertainty import capacity_lower_bound
 
-from .inputs import axle_angle, pitch_from_quaternion, wrap_angle  # noqa: F401 (re-export)
-from .predictor import ConfigError, Predictor
+from .predictor import ConfigError, Predictor, predictor_name
 
-JOINTS = ('proximal_left', 'proximal_right', 'distal_left', 'distal_right')
+JOINTS = LEG_KEYS  # leg angle keys, rftgls_core.conventions
 # Input names, as used for timeouts and in stale/invalid reasons.
 INPUTS = ('joint_states', 'pitch', 'tension', 'height', 'phi')
 DEFAULT_TIMEOUTS_S = {'joint_states': 0.25, 'pitch': 0.25, 'tension': 0.25, 'height': 1.0,
@@ -138,7 +139,7 @@ class Sample:
 
 @dataclass(frozen=True)
 class Estimate:
-    """One prediction. capacity_N, margin_N and slip_twist are None unless `has_value`,
+    """One prediction. capacity_N, margin_N and slip_twist_raw are None unless `has_value`,
     except `unsupported`, which reports capacity_N = 0 and margin_N = -tension_N.
 
     capacity_N: load capacity along the tether direction d(phi), N.
@@ -146,7 +147,7 @@ class Estimate:
         (config.lower_bound_level) and, with assumed inputs, the smallest capacity over their
         assumed range; None when neither applies or without a value.
     margin_N: capacity_N - tension_N, N (negative: the anchor is predicted to slip).
-    slip_twist: unit direction (vx, vz, wy) of the predicted slip at p in world axes
+    slip_twist_raw: unit direction (vx, vz, wy) of the predicted slip at p in world axes
         (m/s, m/s, rad/s per unit; RFT is rate independent so only the direction is known);
         given whenever there is a value, `slipping` says whether the tension exceeds capacity.
     state, phi_rad, tension_N: the inputs used (None when missing or not finite).
@@ -163,7 +164,7 @@ class Estimate:
     capacity_lower_N: float | None = None
     tension_N: float | None = None
     margin_N: float | None = None
-    slip_twist: tuple[float, float, float] | None = None
+    slip_twist_raw: tuple[float, float, float] | None = None
     slipping: bool = False
     state: AnchorState | None = None
     phi_rad: float | None = None
@@ -182,6 +183,47 @@ class Estimate:
     def reason_codes(self) -> tuple[str, ...]:
         """The reason's items ('code:input', or a predictor's reason)."""
         return tuple(r for r in self.reason.split(';') if r)
+
+
+NAN = float('nan')
+# Diagnostic level per status (diagnostic_msgs/DiagnosticStatus: 0 OK, 1 WARN, 2 ERROR,
+# 3 STALE); a status not listed (e.g. the deprecated 'extrapolated') is an ERROR.
+OK_LEVEL, WARN_LEVEL, ERROR_LEVEL, STALE_LEVEL = 0, 1, 2, 3
+LEVELS = {Status.OK: OK_LEVEL, Status.ASSUMED: WARN_LEVEL, Status.OUT_OF_RANGE: ERROR_LEVEL,
+          Status.UNSUPPORTED: ERROR_LEVEL, Status.DEGENERATE: ERROR_LEVEL,
+          Status.INVALID_INPUT: ERROR_LEVEL, Status.STALE: STALE_LEVEL}
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """What capacity_node publishes for one Estimate (the output policy, without ROS).
+
+    Vectors are in the anchor frame: world-aligned axes at p, (x, z) components, N.
+    capacity_xz, margin_xz, lower_xz: the scalar along d(phi) = (-cos phi, sin phi); NaN when
+        there is no value, so nobody can read a number as a valid capacity. capacity_y: 0, or
+        NaN without a value (the message's y component carries the 'no value' mark too).
+    publish_lower: whether ~/capacity_lower is published (a lower bound is configured or an
+        input is assumed).
+    slip_twist: (vx m/s, vz m/s, wy rad/s) unit direction; NaN without a value; zero when
+        the anchor holds (tension below capacity: the predicted motion is zero).
+    """
+
+    status: str
+    capacity_xz: tuple[float, float]
+    capacity_y: float
+    margin_xz: tuple[float, float]
+    lower_xz: tuple[float, float]
+    publish_lower: bool
+    slip_twist: tuple[float, float, float]
+
+
+def _along(value: float | None, d: tuple[float, float]) -> tuple[float, float]:
+    v = value if value is not None else NAN
+    return (v * d[0], v * d[1])
+
+
+def _fmt(x: float | None) -> str:
+    return 'nan' if x is None else f'{x:.6g}'
 
 
 class CapacityEstimator:
@@ -203,6 +245,15 @@ class CapacityEstimator:
         self._cache: CapacityResult | None = None
         self._lower_cache: tuple | None = None
         self.predictions = 0  # predictor calls (cache misses), for diagnostics and tests
+
+    def reconfigure(self, config: EstimatorConfig) -> None:
+        """Use `config` from the next estimate on (a run-time parameter change). The pull
+        cannot change (the predictor was checked for it): ConfigError."""
+        config = config.check()
+        if Pull(config.pull) is not self.pull:
+            raise ConfigError('pull cannot change at run time')
+        self.config = config
+        self._cache_key = self._cache = self._lower_cache = None
 
     # -- inputs -----------------------------------------------------------------------------
     def update_joints(self, t: float, angles: Mapping[str, float]) -> None:
@@ -252,7 +303,7 @@ class CapacityEstimator:
                             '; '.join(p.text for p in stale_problems),
                             tension_N=tension, phi_rad=phi, assumed=assumed,
                             stale=tuple(dict.fromkeys(p.input for p in stale_problems)),
-                            predictor=self.predictor.name)
+                            predictor=predictor_name(self.predictor))
         legs, spread, problems = self._legs()
         pitch = self._value('pitch')
         h = self._value('height', cfg.height_m)
@@ -264,7 +315,8 @@ class CapacityEstimator:
             state = AnchorState(h, pitch, legs[0], legs[1])
         common = dict(tension_N=tension if _finite(tension) else None,
                       phi_rad=phi if _finite(phi) else None, state=state,
-                      leg_spread_rad=spread, assumed=assumed, predictor=self.predictor.name)
+                      leg_spread_rad=spread, assumed=assumed,
+                      predictor=predictor_name(self.predictor))
         if problems:
             return Estimate(now, Status.INVALID_INPUT, reason_of(problems),
                             '; '.join(p.text for p in problems), **common)
@@ -291,8 +343,57 @@ class CapacityEstimator:
                 + (f';{result.reason}' if result.reason else '')
         return Estimate(now, status, reason, result.detail,
                         capacity_N=result.capacity_N, capacity_lower_N=lower, margin_N=margin,
-                        slip_twist=result.slip_twist, slipping=margin < 0.0, result=result,
+                        slip_twist_raw=result.slip_twist, slipping=margin < 0.0, result=result,
                         **{**common, 'tension_N': tension})
+
+    def outputs(self, est: Estimate) -> Outputs:
+        """The output policy for `est` (see Outputs)."""
+        d = tether_direction_xz(est.phi_rad if est.phi_rad is not None else NAN)
+        if est.slip_twist_raw is None:
+            twist = (NAN, NAN, NAN)
+        elif est.slipping:
+            twist = est.slip_twist_raw
+        else:  # the anchor holds: predicted motion is zero
+            twist = (0.0, 0.0, 0.0)
+        return Outputs(str(est.status), _along(est.capacity_N, d),
+                       NAN if est.capacity_N is None else 0.0, _along(est.margin_N, d),
+                       _along(est.capacity_lower_N, d),
+                       self.config.lower_bound_level > 0.0 or bool(est.assumed), twist)
+
+    def diagnostic(self, est: Estimate, name: str, extra: Mapping[str, str] = {}) -> DiagStatus:
+        """The /diagnostics entry of `est`: level from LEVELS (WARN at least with warnings or
+        assumed inputs), message 'status: reason [warnings]', and the key/values (SI, the
+        unit in the key). `extra`: node-side values appended (timing, parameters)."""
+        level = LEVELS.get(est.status, ERROR_LEVEL)
+        if (est.warnings or est.assumed) and level == OK_LEVEL:
+            level = WARN_LEVEL
+        message = str(est.status)
+        if est.reason and est.reason != message:
+            message += f': {est.reason}'
+        if est.warnings:
+            message += ' [' + ', '.join(est.warnings) + ']'
+        st = est.state
+        twist = ('nan' if est.slip_twist_raw is None
+                 else ' '.join(f'{x:.4g}' for x in est.slip_twist_raw))
+        values = {
+            'status': str(est.status), 'detail': est.detail,
+            'capacity_N': _fmt(est.capacity_N), 'capacity_lower_N': _fmt(est.capacity_lower_N),
+            'tension_N': _fmt(est.tension_N),
+            'margin_N': _fmt(est.margin_N), 'slipping': str(est.slipping).lower(),
+            'phi_rad': _fmt(est.phi_rad),
+            'h_m': _fmt(st.h if st else None), 'theta_b_rad': _fmt(st.theta_b if st else None),
+            'theta_l1_rad': _fmt(st.theta_l1 if st else None),
+            'theta_l2_rad': _fmt(st.theta_l2 if st else None),
+            'leg_spread_rad': ('nan' if est.leg_spread_rad is None
+                               else ' '.join(f'{x:.4g}' for x in est.leg_spread_rad)),
+            'slip_twist_raw': twist,
+            'slip_twist': twist,   # deprecated: old key of slip_twist_raw, kept one release
+            'assumed_inputs': ','.join(est.assumed), 'stale_inputs': ','.join(est.stale),
+            'reason': est.reason,
+            'predictor': est.predictor, 'pull': str(self.pull),
+            **extra,
+        }
+        return DiagStatus(name, level, message, values)
 
     # -- helpers ----------------------------------------------------------------------------
     def _value(self, name: str, fallback: float | None = None) -> float | None:
@@ -341,21 +442,19 @@ class CapacityEstimator:
         if bad:
             return None, None, [Problem('not_finite', 'joint_states',
                                         f'joint angle not finite: {", ".join(bad)}')]
-        v = {k: wrap_angle(x) for k, x in v.items()}
         lim = self.config.leg_limit_rad
         problems = [Problem('outside_limits', 'joint_states',
                             f'{k} = {x:.4g} rad outside [-{lim:.4g}, {lim:.4g}]')
-                    for k, x in v.items() if abs(x) > lim]
-        l1, s1 = axle_angle(v['proximal_left'], v['proximal_right'])
-        l2, s2 = axle_angle(v['distal_left'], v['distal_right'])
+                    for k, x in ((k, wrap_angle(x)) for k, x in v.items()) if abs(x) > lim]
         tol = self.config.leg_tolerance_rad
-        for axle, s in (('proximal', s1), ('distal', s2)):
-            if s > tol:
-                problems.append(Problem(
-                    'leg_disagreement', 'joint_states',
-                    f'{axle} legs {math.degrees(s):.1f} deg apart (tolerance '
-                    f'{math.degrees(tol):.1f} deg)'))
-        return (l1, l2), (s1, s2), problems
+        axles = axle_angles(v, tol)
+        spreads = dict(zip(('proximal', 'distal'), axles.spread_rad))
+        for axle in axles.disagreeing:
+            problems.append(Problem(
+                'leg_disagreement', 'joint_states',
+                f'{axle} legs {math.degrees(spreads[axle]):.1f} deg apart (tolerance '
+                f'{math.degrees(tol):.1f} deg)'))
+        return (axles.theta_l1, axles.theta_l2), axles.spread_rad, problems
 
     def _range_problems(self, h, pitch, phi, tension) -> list[Problem]:
         cfg = self.config

@@ -1,6 +1,5 @@
-"""Predictors behind capacity_node: a precomputed HDF5 map (default) or the live core model.
-
-Both answer the same question, `predict(state, phi, pull) -> CapacityResult`:
+"""Predictors behind capacity_node and behavior_node: a precomputed HDF5 map (default) or the
+live core model, both implementing rftgls_core.predictor.Predictor:
   state: rftgls_core AnchorState (h m, theta_b rad, theta_l1 rad, theta_l2 rad),
   phi:   tether angle, rad (tension along (-cos phi, 0, sin phi) in world axes),
   pull:  'forward' | 'backward' (C-leg orientation relative to the pull).
@@ -13,8 +12,8 @@ from __future__ import annotations
 import dataclasses
 import os
 from pathlib import Path
-from typing import Protocol, runtime_checkable
 
+from rftgls_core.predictor import Predictor
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull, Status
 
@@ -27,18 +26,15 @@ class ConfigError(ValueError):
     """A bad node parameter or map file; the node reports it in one line and exits."""
 
 
-@runtime_checkable
-class Predictor(Protocol):
-    """Anything that turns (state, phi, pull) into a CapacityResult. `name` is for diagnostics."""
-
-    name: str
-
-    def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
-        ...
+def predictor_name(predictor: Predictor) -> str:
+    """A short label for logs and diagnostics: the predictor's `name` attribute if it has one
+    (this module's predictors do), else its class name."""
+    return str(getattr(predictor, 'name', type(predictor).__name__))
 
 
 class LivePredictor:
-    """rftgls_core.anchor.AnchorModel computed per call (about 10 ms for twist-mesh)."""
+    """rftgls_core.anchor.AnchorModel computed per call (about 10 ms for twist-mesh).
+    n_twists None: DEFAULT_TWISTS for every method (not the model's per-method default)."""
 
     def __init__(self, robot: str = 'minirquad', medium: str = 'm90_sand',
                  method: str = 'direct', n_twists: int | None = None):
@@ -67,7 +63,7 @@ class MapPredictor:
     refused at start-up rather than answering questions about another robot.
     """
 
-    def __init__(self, path: str | os.PathLike, robot: str | None = None,
+    def __init__(self, path: str | os.PathLike = DEFAULT_MAP, robot: str | None = None,
                  medium: str | None = None, pull: str | None = None):
         from rftgls_core.maps import CapacityMap, MapFileError
         try:
@@ -112,7 +108,7 @@ class LiveFallback:
     def __init__(self, primary: Predictor, fallback: Predictor):
         self.primary = primary
         self.fallback = fallback
-        self.name = f'{primary.name}+{fallback.name}'
+        self.name = f'{predictor_name(primary)}+{predictor_name(fallback)}'
 
     def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
         r = self.primary.predict(state, phi, pull)
@@ -123,11 +119,12 @@ class LiveFallback:
         return dataclasses.replace(live, reason=reason)
 
 
-def make_predictor(map_file: str, live_method: str = 'direct', robot: str = 'minirquad',
+def predictor_from_params(map_file: str, live_method: str = 'direct', robot: str = 'minirquad',
                    medium: str = 'm90_sand', n_twists: int = 0,
                    pull: str | None = None, out_of_range_live_method: str = '') -> Predictor:
-    """The map predictor when map_file is set (with the live solver `out_of_range_live_method`
-    answering outside its grid when that is set), else the live one. Raises ConfigError."""
+    """capacity_node's predictor from its parameters: the map predictor when map_file is set
+    (with the live solver `out_of_range_live_method` answering outside its grid when that is
+    set), else the live one. Raises ConfigError."""
     if map_file.strip():
         cmap = MapPredictor(map_file.strip(), robot, medium, pull)
         if out_of_range_live_method.strip():
@@ -143,7 +140,7 @@ def _live(robot: str, medium: str, live_method: str, n_twists: int,
         raise ConfigError(f'{param} must be one of {", ".join(LIVE_METHODS)}, '
                           f'got {live_method!r}')
     if n_twists < 0:
-        raise ConfigError(f'live_n_twists must be >= 0 (0 = core default), got {n_twists}')
+        raise ConfigError(f'live_n_twists must be >= 0 (0 = DEFAULT_TWISTS), got {n_twists}')
     try:
         return LivePredictor(robot, medium, live_method, n_twists or None)
     except (ValueError, ImportError, AttributeError) as exc:

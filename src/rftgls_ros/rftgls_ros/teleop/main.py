@@ -16,13 +16,14 @@ import termios
 import time
 import tty
 
-import rclpy
 from geometry_msgs.msg import TwistStamped, WrenchStamped
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64, String
+
+from minirquad_driver.node_main import declare, run_node, usage, wants_help
+from rftgls_core.conventions import WINCH_ROPE_JOINT
 
 from .model import TeleopConfig, TeleopModel
 
@@ -30,14 +31,29 @@ LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
+# ROS parameter (unit in the name) -> (TeleopConfig field, meaning, lo, hi). Start-up only.
+PARAMETERS = {
+    'step_m_s': ('step', 'winch speed change per key press', 0.0, 1.0),
+    'max_speed_m_s': ('max_speed', 'largest winch speed', 0.0, 1.0),
+    'limit_fraction': ('limit_fraction', 'tension/capacity beyond which pulling needs the '
+                       'override', 0.0, 1.0),
+    'override_window_s': ('override_window', 'time the override stays armed', 0.0, 600.0),
+    'stale_after_s': ('stale_after', 'capacity output age that is not valid', 0.0, 60.0),
+    'rope_length_m': ('rope_length', 'tether paid out at start (for phi)', 0.0, 100.0),
+    'attach_height_m': ('attach_height', 'tether attachment height on the sled', -1.0, 1.0),
+    'h_stand_m': ('h_stand', 'height of p when not burrowed', -1.0, 1.0),
+}
+
+
 class TeleopNode(Node):
     def __init__(self, **kwargs):
         super().__init__('teleop', **kwargs)
         cfg = TeleopConfig()
-        for name in ('step', 'max_speed', 'limit_fraction', 'override_window', 'stale_after',
-                     'rope_length', 'attach_height', 'h_stand'):
-            setattr(cfg, name, float(self.declare_parameter(name, getattr(cfg, name)).value))
-        self.refresh_hz = self.declare_parameter('refresh_hz', 8.0).value
+        for name, (field, text, lo, hi) in PARAMETERS.items():
+            setattr(cfg, field, float(declare(self, name, float(getattr(cfg, field)), text,
+                                              lo=lo, hi=hi)))
+        self.refresh_hz = declare(self, 'refresh_hz', 8.0, 'screen refresh rate', lo=0.1,
+                                  hi=100.0)
         self.model = TeleopModel(cfg)
         self.pubs = {
             'winch': self.create_publisher(Float64, 'winch/speed', 10),
@@ -50,9 +66,9 @@ class TeleopNode(Node):
         sensor = qos_profile_sensor_data
         self.create_subscription(WrenchStamped, 'winch/tension', self.on_tension, sensor)
         self.create_subscription(JointState, 'joint_states', self.on_joints, sensor)
-        self.create_subscription(WrenchStamped, '/capacity_node/capacity', self.on_capacity, 10)
-        self.create_subscription(TwistStamped, '/capacity_node/slip_twist', self.on_twist, 10)
-        self.create_subscription(String, '/capacity_node/status', self.on_status, LATCHED)
+        self.create_subscription(WrenchStamped, 'capacity_node/capacity', self.on_capacity, 10)
+        self.create_subscription(TwistStamped, 'capacity_node/slip_twist', self.on_twist, 10)
+        self.create_subscription(String, 'capacity_node/status', self.on_status, LATCHED)
         self.create_timer(0.05, self.on_timer)
 
     def send(self, cmds) -> None:
@@ -68,8 +84,8 @@ class TeleopNode(Node):
         self.model.tension = msg.wrench.force.x
 
     def on_joints(self, msg) -> None:
-        if 'winch_rope' in msg.name:
-            self.model.tether.update(msg.position[msg.name.index('winch_rope')])
+        if WINCH_ROPE_JOINT in msg.name:
+            self.model.tether.update(msg.position[msg.name.index(WINCH_ROPE_JOINT)])
 
     def on_capacity(self, msg) -> None:
         self.model.capacity = math.hypot(msg.wrench.force.x, msg.wrench.force.z)
@@ -96,44 +112,48 @@ def draw(lines: list[str]) -> None:
     sys.stdout.flush()
 
 
+class Terminal:
+    """The raw tty of the teleop session: keys in (non-blocking), the screen redrawn at
+    refresh_hz; restores the terminal on close."""
+
+    def __init__(self):
+        self.fd = sys.stdin.fileno()
+        self.old = termios.tcgetattr(self.fd) if os.isatty(self.fd) else None
+        if self.old:
+            tty.setcbreak(self.fd)
+        self.next_draw = 0.0
+
+    def tick(self, node: TeleopNode) -> bool:
+        """Keys to the model, redraw when due; False when the session ends."""
+        if node.model.quit:
+            return False
+        ready, _, _ = select.select([self.fd], [], [], 0)
+        if ready:
+            data = os.read(self.fd, 32).decode(errors='ignore')
+            if not data:
+                return False
+            for ch in data:
+                node.send(node.model.key(ch, time.monotonic()))
+            self.next_draw = 0.0
+        if time.monotonic() >= self.next_draw:
+            draw(node.model.screen())
+            self.next_draw = time.monotonic() + 1.0 / max(1.0, node.refresh_hz)
+        return True
+
+    def close(self, node: TeleopNode) -> None:
+        if self.old:
+            termios.tcsetattr(self.fd, termios.TCSADRAIN, self.old)
+        node.send([('winch', 0.0)])
+
+
 def main(args=None) -> int:
-    rclpy.init(args=args)
-    node = TeleopNode()
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    fd = sys.stdin.fileno()
-    old = termios.tcgetattr(fd) if os.isatty(fd) else None
-    if old:
-        tty.setcbreak(fd)
-    period = 1.0 / max(1.0, node.refresh_hz)
-    next_draw = 0.0
-    try:
-        while rclpy.ok() and not node.model.quit:
-            executor.spin_once(timeout_sec=0.02)
-            ready, _, _ = select.select([fd], [], [], 0)
-            if ready:
-                data = os.read(fd, 32).decode(errors='ignore')
-                if not data:
-                    break
-                for ch in data:
-                    node.send(node.model.key(ch, time.monotonic()))
-                next_draw = 0.0
-            if time.monotonic() >= next_draw:
-                draw(node.model.screen())
-                next_draw = time.monotonic() + period
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        try:
-            node.send([('winch', 0.0)])
-        except Exception:  # noqa: BLE001 - context may be gone
-            pass
-        if old:
-            termios.tcsetattr(fd, termios.TCSADRAIN, old)
-        executor.remove_node(node)
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    if wants_help(args):
+        print(usage('teleop', 'rftgls_ros', __doc__,
+                    {n: getattr(TeleopConfig(), f) for n, (f, *_) in PARAMETERS.items()}))
+        return 0
+    term = Terminal()
+    return run_node(TeleopNode, 'teleop', tick=term.tick, on_exit=term.close,
+                    spin_period_s=0.02, args=args)
 
 
 if __name__ == '__main__':

@@ -1,0 +1,134 @@
+"""The one `main()` shape of every rclpy executable of the stack (bridge_node, capacity_node,
+behavior_node, teleop): `--help`, start-up errors in one line, a spin loop that sees Ctrl-C and
+SIGTERM promptly, a best-effort safe stop, and a clean shutdown. Executables without a node
+(minirquad_sim, behavior_demo) stop the same way through `stop_on_signals`.
+
+It lives in minirquad_driver, the lowest ROS package (rftgls_core is ROS-free); rftgls_ros
+depends on it for this helper. Why spin_once with a timeout and not rclpy.spin:
+docs/design/ros2-from-pip.md#stopping-nodes.
+"""
+from __future__ import annotations
+
+import signal
+import sys
+import threading
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+HELP_FLAGS = ('-h', '--help')
+# Unit suffixes of parameter names (longest first): the unit is in the name, and the
+# descriptor repeats it for `ros2 param describe`.
+UNIT_SUFFIXES = (('_m_s', 'm/s'), ('_rad2', 'rad^2'), ('_rad', 'rad'), ('_hz', 'Hz'),
+                 ('_kg', 'kg'), ('_ohm', 'ohm'), ('_N', 'N'), ('_J', 'J'), ('_m', 'm'),
+                 ('_s', 's'))
+START_UP_ONLY = 'read at start-up only: restart the node to change it'
+
+
+def unit_of(name: str) -> str:
+    """The unit a parameter name ends in ('' when it has none: counts, ratios, names)."""
+    return next((u for suffix, u in UNIT_SUFFIXES if name.endswith(suffix)), '')
+
+
+def declare(node, name: str, default: Any, description: str = '', *,
+            lo: float | None = None, hi: float | None = None, read_only: bool = True) -> Any:
+    """Declare a parameter with a descriptor: description with its unit, the range [lo, hi]
+    (rclpy rejects a value outside it, at start-up and at run time), and read_only unless
+    the node applies run-time changes of it (a read-only one is rejected with a reason).
+    Returns the value (default or override)."""
+    from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+    unit = unit_of(name)
+    text = description + (f' [{unit}]' if unit else '')
+    if read_only:
+        text += f' ({START_UP_ONLY})'
+    d = ParameterDescriptor(description=text, read_only=read_only)
+    if lo is not None and hi is not None:
+        if isinstance(default, bool):
+            pass
+        elif isinstance(default, int):
+            d.integer_range = [IntegerRange(from_value=int(lo), to_value=int(hi), step=1)]
+        elif isinstance(default, float):
+            d.floating_point_range = [FloatingPointRange(from_value=float(lo),
+                                                         to_value=float(hi), step=0.0)]
+    return node.declare_parameter(name, default, d).value
+
+
+def user_args(argv: Sequence[str]) -> list[str]:
+    """The arguments before `--ros-args` (those are the program's own; the rest are ROS's)."""
+    argv = list(argv)
+    return argv[:argv.index('--ros-args')] if '--ros-args' in argv else argv
+
+
+def usage(executable: str, package: str, doc: str | None,
+          parameters: Mapping[str, Any] | None = None) -> str:
+    """Usage text: the first paragraph of the module doc, how to run it, its parameters."""
+    lines = [f'usage: ros2 run {package} {executable} [--ros-args -p NAME:=VALUE ...] '
+             f'[-r FROM:=TO ...]', '']
+    first = (doc or '').strip().split('\n\n')[0]
+    if first:
+        lines += [first, '']
+    if parameters:
+        lines.append('parameters (name, default):')
+        for name, default in parameters.items():
+            lines.append(f'  {name:<30} {default!r}')
+    return '\n'.join(lines)
+
+
+def stop_on_signals(event: threading.Event | None = None) -> threading.Event:
+    """SIGINT (Ctrl-C) and SIGTERM set `event` (a new one if None) instead of raising, so a
+    loop that checks it finishes its iteration and cleans up. Returns the event."""
+    event = event or threading.Event()
+
+    def _set(_sig, _frame) -> None:
+        event.set()
+    signal.signal(signal.SIGINT, _set)
+    signal.signal(signal.SIGTERM, _set)
+    return event
+
+
+def wants_help(argv: Sequence[str] | None) -> bool:
+    return any(a in HELP_FLAGS for a in user_args(sys.argv[1:] if argv is None else argv))
+
+
+def run_node(make_node: Callable[[], Any], executable: str, *,
+             config_errors: tuple[type[BaseException], ...] = (),
+             tick: Callable[[Any], bool] | None = None,
+             on_exit: Callable[[Any], None] | None = None,
+             spin_period_s: float = 0.1, args: Sequence[str] | None = None) -> int:
+    """rclpy.init, build the node, spin until shutdown; returns the exit code.
+
+    make_node: builds the node (after rclpy.init); an exception of `config_errors` (or
+        rclpy's ParameterException) is a user error: one line on stderr, exit code 2.
+    tick(node): called after every spin_once; return False to stop (e.g. the run is done).
+    on_exit(node): the safe stop (winch 0, a report), run once on the way out, even after
+        Ctrl-C; its errors are ignored (the context may already be gone).
+    """
+    import rclpy
+    from rclpy.exceptions import ParameterException
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+
+    rclpy.init(args=args)
+    try:
+        node = make_node()
+    except (ParameterException, *config_errors) as exc:
+        print(f'{executable}: error: {" ".join(str(exc).split())}', file=sys.stderr)
+        rclpy.try_shutdown()
+        return 2
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    try:
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=spin_period_s)
+            if tick is not None and not tick(node):
+                break
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if on_exit is not None:
+            try:
+                on_exit(node)
+            except Exception:  # noqa: BLE001 - shutting down anyway
+                pass
+        executor.remove_node(node)
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
