@@ -126,3 +126,23 @@ def test_bad_body_input_is_one_line(stl, capsys, case, expect):
     elif case == 'robot state too':
         argv = argv + ['--h', '0.03']
     assert expect in cli_error(capsys, *argv)
+
+
+def test_fig13_writes_png_and_json(tmp_path, capsys):
+    png = tmp_path / 'fig13.png'
+    assert main(['figure', 'fig13', '--out', str(png)]) == 0, capsys.readouterr().err
+    assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+    data = json.loads(png.with_suffix('.json').read_text())
+    assert data['assumptions']['semi_axes_m'] == [0.030, 0.020, 0.0125]
+    caps = {float(k): v['capacity_N'] for k, v in data['capacity_by_phi_deg'].items()}
+    assert all(v is not None and v > MASS * G for v in caps.values())
+    # Sanity, not a reference: a straight-up pull must lift the weight and move the body
+    # against the medium (capacity above the weight); the 7 cm deep sphere-like body resists
+    # a horizontal drag more than a lift (RFT stress grows with depth, and lifting unloads the
+    # top, docs/design/models-rft.md 4.8).
+    assert caps[0.0] > caps[90.0]
+    for t in data['trajectories'].values():
+        assert 'tether point reached' in t['stop_reason']
+        assert abs(t['z_m'][-1]) < 0.003                    # pulled out to the surface
+        # a body pulled by its nose turns toward the tether
+        assert abs(t['theta_b_deg'][-1]) > abs(t['theta_b_deg'][0])
