@@ -146,3 +146,27 @@ def test_fig13_writes_png_and_json(tmp_path, capsys):
         assert abs(t['z_m'][-1]) < 0.003                    # pulled out to the surface
         # a body pulled by its nose turns toward the tether
         assert abs(t['theta_b_deg'][-1]) > abs(t['theta_b_deg'][0])
+
+
+def test_simulate_pull_follows_a_body_from_the_command_line(tmp_path, capsys):
+    # The Fig. 13 ellipsoid placed by --position/--rpy instead of the figure's own frame: the
+    # same trajectory (phi = 60 deg), so the CLI's pose and the figure's agree.
+    import csv
+    from pathlib import Path
+    ell = Path(__file__).resolve().parents[2] / 'examples' / 'anchors' / 'ellipsoid.stl'
+    out = tmp_path / 'slip.csv'
+    code = main(['simulate', 'pull', '--mesh', str(ell), '--position', '0', '0', '-0.055',
+                 '--rpy', '0', '30', '0', '--tether', '0', '0', '-0.055', '--mass', '0.040',
+                 '--phi', '60', '--method', 'twist-mesh', '--step', '0.002', '--max-travel',
+                 '0.12', '--out', str(out)])
+    assert code == 0, capsys.readouterr().err
+    rows = list(csv.DictReader(open(out)))
+    from rftgls_core.charts.fig13 import fig13_data
+    assert 'tether point' in capsys.readouterr().out
+    data, _ = fig13_data()
+    ref = data['trajectories']['60.0']
+    assert len(rows) == len(ref['x_m'])
+    assert float(rows[-1]['x_m']) == pytest.approx(ref['x_m'][-1], abs=1e-6)
+    # the CLI's thetaB is relative to the initial pose, the figure's absolute (-30 deg)
+    assert np.degrees(float(rows[-1]['theta_b_rad'])) - 30.0 == pytest.approx(
+        ref['theta_b_deg'][-1], abs=1e-4)
