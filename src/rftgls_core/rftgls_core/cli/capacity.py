@@ -91,7 +91,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    if args.mesh is not None or args.yaw != 0.0 or args.space != 'auto':
+    if args.anchor is not None or args.mesh is not None or args.yaw != 0.0 or args.space != 'auto':
         return run_scene(args)
     state = state_from_args(args)
     phi = math.radians(args.phi)
@@ -135,6 +135,11 @@ def add_body_args(p) -> None:
     """A single rigid body from an STL file (instead of --robot), the tether's yaw and the
     model space (docs/design/six-d.md)."""
     g = p.add_argument_group('a single rigid body (instead of --robot and its state)')
+    g.add_argument('--anchor', help='anchor description YAML (with its URDF) instead of '
+                   '--robot; state values by --h/--theta-b/--theta-l1/--theta-l2 for variables '
+                   'of those names and --state NAME=VALUE (in the unit the YAML gives)')
+    g.add_argument('--state', action='append', default=[], metavar='NAME=VALUE',
+                   help='a state variable of --anchor (may repeat)')
     g.add_argument('--mesh', help='STL file of the body (binary or ASCII), closed')
     g.add_argument('--units', choices=('mm', 'm'), default='mm', help='STL units (default mm)')
     g.add_argument('--position', nargs=3, type=finite_float, metavar=('X', 'Y', 'Z'),
@@ -159,6 +164,8 @@ def scene_from_args(args):
     """(Scene, char_length) of the command line: a rigid body (--mesh) or a robot state."""
     from ..body import RigidBody, load_body_mesh
     from ..scene import scene_from_robot
+    if args.anchor is not None:
+        return _anchor_scene(args)
     if args.mesh is None:
         state = state_from_args(args)
         return scene_from_robot(get_robot(args.robot), state, args.pull)
@@ -176,6 +183,40 @@ def scene_from_args(args):
                       com_world=args.com)
 
 
+def _anchor_scene(args):
+    """The scene of an anchor description at the command line's state values."""
+    from ..description import load_description
+    if args.mesh is not None or args.robot is not None:
+        raise ValueError('--anchor describes the whole anchor: drop --mesh/--robot')
+    desc = load_description(args.anchor)
+    given: dict[str, float] = {}
+    for item in args.state:
+        name, sep, value = item.partition('=')
+        if not sep:
+            raise ValueError(f'--state wants NAME=VALUE, got {item!r}')
+        try:
+            given[name.strip()] = finite_float(value)
+        except Exception:
+            raise ValueError(f'--state {item!r}: not a finite number') from None
+    for k in STATE_OPTIONS:
+        if getattr(args, k) is not None:
+            given[k] = getattr(args, k)
+    unknown = sorted(set(given) - set(desc.state_names))
+    if unknown:
+        raise ValueError(f'{args.anchor}: no state variable {", ".join(unknown)} (it has '
+                         f'{", ".join(desc.state_names)})')
+    missing = [n for n in desc.state_names if n not in given]
+    if missing:
+        raise ValueError(f'{args.anchor}: give {", ".join(missing)} (--state NAME=VALUE or '
+                         'the option of that name)')
+    values = {v.name: v.to_si(given[v.name]) for v in desc.state}
+    outside = desc.violations(values)
+    if outside:
+        raise ValueError(f'not a {desc.name} pose: {"; ".join(outside)}')
+    args.description_medium = desc.medium
+    return desc.scene(values, args.pull)
+
+
 def run_scene(args) -> int:
     """Capacity of a rigid body or of a robot under a yawed pull (6D world twists)."""
     from ..scene import SceneModel
@@ -185,6 +226,7 @@ def run_scene(args) -> int:
     args.default_medium = (DEFAULT_MEDIUM[args.robot or 'minirquad'] if args.mesh is None
                            else 'glass_beads')
     scene = scene_from_args(args)
+    args.default_medium = getattr(args, 'description_medium', args.default_medium)
     t0 = time.perf_counter()
     model = SceneModel(medium_from_args(args), model=args.model, method=args.method,
                        n_twists=args.twists, space=args.space)

@@ -22,7 +22,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    if args.mesh is not None or args.against_yaw or args.yaw != 0.0 or args.space != 'auto':
+    if (args.anchor is not None or args.mesh is not None or args.against_yaw or args.yaw != 0.0
+            or args.space != 'auto'):
         return run_scene(args)
     model = model_from_args(args)
     info = plot_limit_surface(model, state_from_args(args), args.pull, math.radians(args.phi),
@@ -43,6 +44,7 @@ def run_scene(args) -> int:
     args.default_medium = (DEFAULT_MEDIUM[args.robot or 'minirquad'] if args.mesh is None
                            else 'glass_beads')
     scene = scene_from_args(args)
+    args.default_medium = getattr(args, 'description_medium', args.default_medium)
     model = SceneModel(medium_from_args(args), model=args.model, method=args.method,
                        n_twists=args.twists, space=args.space)
     data = plot_scene_capacity(model, scene, math.radians(args.phi), math.radians(args.yaw),
