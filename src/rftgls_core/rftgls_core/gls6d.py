@@ -44,6 +44,7 @@ WrenchFn6 = Callable[[np.ndarray], np.ndarray]
 
 DEFAULT_TWISTS_6D = 2000
 DEFAULT_SEEDS_6D = 12
+SETTLED_RTOL = 1e-4   # closure patch: relative spread of the last distances accepted
 
 
 def _unit_rows(x: np.ndarray) -> np.ndarray:
@@ -308,6 +309,18 @@ class Surface6:
                     s, res = np.r_[s, hit[1]], np.r_[res, hit[2]]
                     conv, ok = np.r_[conv, True], np.r_[ok, True]
                     break
+        bridged = False
+        if not np.any(conv & (s > 0.0)):
+            # Still nothing exact: the ray passes a jump. Its exit on the closure (the jump
+            # bridged linearly, docs/design/closure.md) from a shrinking patch around the best
+            # stalled seed; preferred to a gap-accepted twist, whose distance is off by the gap.
+            stalled = np.argsort(np.where(s > 0.0, res / np.maximum(np.abs(s), 1e-3), np.inf))
+            patch = self._closure_patch(t[stalled[0]], origin, d)
+            if patch is not None:
+                t, s = np.vstack([t, patch[0]]), np.r_[s, patch[1]]
+                res = np.r_[res, patch[2]]
+                conv, ok = np.r_[conv, False], np.r_[np.zeros(len(ok), dtype=bool), True]
+                bridged = True
         roots = np.unique(np.round(s[ok] / (1e-7 * max(float(np.max(np.abs(s))), 1e-300))))
         if not np.any(ok):
             return self._Exit(None, None, float(res.min()), 0,
@@ -317,7 +330,51 @@ class Surface6:
         return self._Exit(float(s[k]), t[k], float(res[k]), len(roots),
                           f'{len(cand)} seeds, {int(conv[:len(cand)].sum())} converged, '
                           f'{len(roots)} distinct roots, {iters} iterations'
-                          + ('; landed on a switching set' if len(conv) > len(cand) else ''))
+                          + ('; exit on the closure of a jump (patch search)' if bridged
+                             else '; landed on a switching set' if len(conv) > len(cand)
+                             else ''))
+
+    def _closure_patch(self, t_b: np.ndarray, origin: np.ndarray, d: np.ndarray,
+                       radius: float = 0.05, angle_tol: float = 1e-8, max_iter: int = 120
+                       ) -> tuple[np.ndarray, float, float] | None:
+        """Exit of the ray through the closure of the map near t_b: the 6D analogue of
+        surfaces/closure.py. Around t, 11 twists (t and t +- radius along the 5 tangent
+        directions) give a least-squares affine model of the wrench over the patch; a patch
+        that straddles a switching set bridges the jump linearly, as the closure does. The
+        model's ray crossing moves t (at most one radius); when it falls inside the patch the
+        radius halves. Returns (twist, s, miss) once the radius is below angle_tol (miss: the
+        off-ray residual of the twist itself, the jump size), else None."""
+        proj = complement_basis(d)
+        t = _unit_rows(t_b[None])[0]
+        rho = radius
+        s_model = math.nan
+        history: list[float] = []
+        for _ in range(max_iter):
+            basis = _householder_bases(t[None])[0]                  # (5, 6)
+            pts = _unit_rows(np.vstack([t, t + rho * basis, t - rho * basis]))
+            w = self._eval(pts) - origin
+            coords = np.column_stack([np.ones(len(pts)), (pts - t) @ basis.T])
+            coef = np.linalg.lstsq(coords, w, rcond=None)[0]         # (6 params, 6 outputs)
+            a0, g = coef[0], coef[1:].T                                # (6,), (6, 5)
+            c = np.linalg.lstsq(proj @ g, -(proj @ a0), rcond=None)[0]
+            s_model = float(d @ (a0 + g @ c))
+            step = float(np.linalg.norm(c))
+            if step > rho:
+                c *= rho / step
+            else:
+                rho *= 0.5
+            t = _unit_rows((t + c @ basis)[None])[0]
+            history.append(s_model)
+            if rho < angle_tol:
+                break
+        # Where several switching sets meet, the crossing may not stay inside a smaller patch
+        # (as in closure.py): accept when the last model distances agree to SETTLED_RTOL.
+        settled = (len(history) >= 4 and max(history[-4:]) - min(history[-4:])
+                   <= SETTLED_RTOL * abs(history[-1]))
+        if not ((rho < angle_tol or settled) and s_model > 0.0 and math.isfinite(s_model)):
+            return None
+        w_t = self._eval(t[None])[0] - origin
+        return t, s_model, float(np.linalg.norm(proj @ w_t))
 
     def _on_switching_set(self, t_b: np.ndarray, origin: np.ndarray, d: np.ndarray,
                           max_iter: int = 30) -> tuple[np.ndarray, float, float] | None:
