@@ -103,6 +103,9 @@ def broken(tmp_path):
     (tmp_path / 'no_range.yaml').write_text(yml.replace(
         '{name: theta_b, unit: deg, physical: [-90.0, 90.0],', '{name: theta_b, unit: deg,'))
     (tmp_path / 'bad_joint.yaml').write_text(yml.replace('left_distal_hip, ', 'knee, '))
+    # One distal leg 1 mm further out than its mirror image: the claimed symmetry is false.
+    (tmp_path / 'lopsided.urdf').write_text(urdf.replace('0.12 -0.055 0.01', '0.12 -0.056 0.01'))
+    (tmp_path / 'lopsided.yaml').write_text(yml.replace('minirquad.urdf', 'lopsided.urdf'))
     return tmp_path
 
 
@@ -123,3 +126,18 @@ def test_a_pose_outside_the_description_range_is_refused(capsys):
                  '--theta-b', '5', '--theta-l1', '-40', '--theta-l2', '30'])
     err = capsys.readouterr().err
     assert code == 2 and 'outside' in err
+
+
+def test_a_claimed_symmetry_is_checked(broken, capsys):
+    args = ['capacity', '--anchor', str(broken / 'lopsided.yaml'), '--h', '0.034', '--theta-b',
+            '5', '--theta-l1', '-40', '--theta-l2', '30', '--json']
+    assert main(args) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res['status'] == 'invalid_input' and res['reason'] == 'not_symmetric'
+    assert res['capacity_N'] is None
+    # without the claim the lopsided robot is simply answered in 6D
+    (broken / 'unclaimed.yaml').write_text(
+        (broken / 'lopsided.yaml').read_text().replace('symmetry: sagittal', ''))
+    assert main([*args[:2], str(broken / 'unclaimed.yaml'), *args[3:]]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res['status'] == 'ok' and res['method'] == 'direct-6d'

@@ -161,6 +161,7 @@ class AnchorDescription:
     state: tuple[StateVariable, ...]
     pull_scale: dict[str, np.ndarray]
     pull_links: tuple[str, ...]
+    symmetry: str = ''             # '' or 'sagittal': a claim, checked per pose, never trusted
 
     @property
     def state_names(self) -> tuple[str, ...]:
@@ -286,7 +287,14 @@ def load_description(path: str | Path) -> AnchorDescription:
         medium=str(doc.get('medium', 'glass_beads')), height_var=str(bp.get('height') or ''),
         pitch_var=str(bp.get('pitch') or ''), state=tuple(state),
         pull_scale={k: np.asarray(v, dtype=float) for k, v in ps.items() if k != 'links'},
-        pull_links=tuple(ps.get('links') or ()))
+        pull_links=tuple(ps.get('links') or ()), symmetry=_symmetry(path, doc))
+
+
+def _symmetry(path: Path, doc: dict) -> str:
+    claim = str(doc.get('symmetry') or '')
+    if claim not in ('', 'sagittal'):
+        raise DescriptionError(f'{path}: symmetry must be sagittal or absent, got {claim!r}')
+    return claim
 
 
 def shipped_description(robot: str) -> Path:
@@ -376,6 +384,7 @@ urdf: {name}.urdf
 tether_link: winch_link
 char_length_m: {r(robot.char_length)}
 medium: {'glass_beads' if name == 'prototype' else 'm90_sand'}
+symmetry: sagittal    # claimed mirror symmetry about x-z of base_link: checked at every pose
 base_pose:            # base_link origin at height h, turned by rot_y(-theta_b)
   height: h
   pitch: theta_b

@@ -214,6 +214,7 @@ def _anchor_scene(args):
     if outside:
         raise ValueError(f'not a {desc.name} pose: {"; ".join(outside)}')
     args.description_medium = desc.medium
+    args.description_symmetry = desc.symmetry
     return desc.scene(values, args.pull)
 
 
@@ -227,6 +228,11 @@ def run_scene(args) -> int:
                            else 'glass_beads')
     scene = scene_from_args(args)
     args.default_medium = getattr(args, 'description_medium', args.default_medium)
+    if (getattr(args, 'description_symmetry', '') == 'sagittal' and args.space == 'auto'
+            and args.yaw == 0.0):
+        # A claimed symmetry asks for the sagittal path, which checks it first (status
+        # invalid_input, not_symmetric, when the posed facets or the centre of mass lack it).
+        args.space = 'sagittal'
     t0 = time.perf_counter()
     model = SceneModel(medium_from_args(args), model=args.model, method=args.method,
                        n_twists=args.twists, space=args.space)
