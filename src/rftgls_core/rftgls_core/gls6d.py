@@ -44,6 +44,8 @@ WrenchFn6 = Callable[[np.ndarray], np.ndarray]
 
 DEFAULT_TWISTS_6D = 2000
 DEFAULT_SEEDS_6D = 12
+EARLIER_ANGLE = 0.5   # rad: cloud wrenches this close to the ray seed the earlier-crossing search
+EARLIER_ROUNDS = 4    # rounds of that search (each only while it finds candidates)
 SETTLED_RTOL = 1e-4   # closure patch: relative spread of the last distances accepted
 
 
@@ -256,7 +258,7 @@ class Surface6:
         gn = float(np.linalg.norm(g))
         if gn > 0.0:
             # W_0 = W_ext + W_g: the gravity-free surface; is W_g inside it?
-            exit_g = self._first_exit(-g, g / gn)
+            exit_g = self._first_exit(-g, g / gn, earlier_than=gn)
             self.diagnostics['support_exit_over_weight'] = (
                 None if exit_g.s is None else exit_g.s / gn)
             if exit_g.s is None:
@@ -282,8 +284,11 @@ class Surface6:
         n_roots: int
         detail: str
 
-    def _first_exit(self, origin: np.ndarray, d: np.ndarray) -> _Exit:
-        """First root of Ws(t) = origin + s d, s > 0 (scaled), from the cloud's best seeds."""
+    def _first_exit(self, origin: np.ndarray, d: np.ndarray,
+                    earlier_than: float = math.inf) -> _Exit:
+        """First root of Ws(t) = origin + s d, s > 0 (scaled), from the cloud's best seeds.
+        earlier_than: only crossings below this distance are worth an earlier-crossing search
+        (the support check needs to know only whether one lies below the weight)."""
         y = self._ws - origin
         along = y @ d
         off = np.linalg.norm(y - along[:, None] * d, axis=1)
@@ -294,6 +299,23 @@ class Surface6:
             return self._Exit(None, None, math.inf, 0, 'no sampled wrench lies ahead on the ray')
         t, s, res, conv, iters = newton_on_sphere6(self._eval, origin, d, self._ts[cand],
                                                    self.rtol)
+        for _round in range(EARLIER_ROUNDS):
+            good = conv & (s > 0.0)
+            if not np.any(good):
+                break
+            # An earlier crossing the closest-in-angle seeds missed (a fold): seed again from
+            # cloud twists whose wrench lies ahead on the ray but short of the best root, within
+            # EARLIER_ANGLE of it.
+            s_best = min(float(s[good].min()), earlier_than)
+            early = order[(along[order] > 0.0) & (along[order] < s_best * (1.0 - 1e-6))
+                          & (angle[order] < EARLIER_ANGLE)]
+            early = early[~np.isin(early, cand)][: self.n_seeds]
+            if not len(early):
+                break
+            more = newton_on_sphere6(self._eval, origin, d, self._ts[early], self.rtol)
+            t, s = np.vstack([t, more[0]]), np.r_[s, more[1]]
+            res, conv = np.r_[res, more[2]], np.r_[conv, more[3]]
+            cand = np.r_[cand, early]
         gap = ~conv & (res <= self.gap_tol * np.maximum(np.abs(s), 1e-3))
         ok = (conv | gap) & (s > 0.0)
         if not np.any(conv & (s > 0.0)):
