@@ -14,21 +14,31 @@ DEFAULT_MEDIUM = {'prototype': 'glass_beads', 'minirquad': 'm90_sand'}
 
 
 def add_state_args(p) -> None:
-    p.add_argument('--robot', choices=sorted(ROBOTS), default='minirquad')
-    p.add_argument('--h', type=finite_float, required=True,
+    p.add_argument('--robot', choices=sorted(ROBOTS), default=None,
+                   help='robot (default minirquad); give its state with --h and the angles')
+    # Required for a robot, refused with --mesh (state_from_args says so in one line).
+    p.add_argument('--h', type=finite_float,
                    help='height of the winch point p above the free surface, m')
-    p.add_argument('--theta-b', type=finite_float, required=True, help='body pitch, deg')
-    p.add_argument('--theta-l1', type=finite_float, required=True, help='proximal legs, deg')
-    p.add_argument('--theta-l2', type=finite_float, required=True, help='distal legs, deg')
+    p.add_argument('--theta-b', type=finite_float, help='body pitch, deg')
+    p.add_argument('--theta-l1', type=finite_float, help='proximal legs, deg')
+    p.add_argument('--theta-l2', type=finite_float, help='distal legs, deg')
     p.add_argument('--phi', type=finite_float, default=0.0,
                    help='tether angle, deg (0 horizontal, negative pulls down)')
     p.add_argument('--pull', choices=[x.value for x in Pull], default='backward')
     add_medium_args(p)
 
 
+STATE_OPTIONS = ('h', 'theta_b', 'theta_l1', 'theta_l2')
+
+
 def state_from_args(args) -> AnchorState:
     """The state of the command line, refused (ValueError, one line) when the robot cannot be
     in it (robots.model.StateRange): no capacity is computed for an impossible pose."""
+    args.robot = args.robot or 'minirquad'
+    missing = [f'--{k.replace("_", "-")}' for k in STATE_OPTIONS if getattr(args, k) is None]
+    if missing:
+        raise ValueError(f'{", ".join(missing)} required for --robot {args.robot} (or give '
+                         '--mesh FILE for a single rigid body)')
     state = AnchorState.from_degrees(args.h, args.theta_b, args.theta_l1, args.theta_l2)
     outside = get_robot(args.robot).state_range.violations(state)
     if outside:
@@ -41,6 +51,7 @@ def map_from_args(args):
     """The map of --map (or the robot's shipped map), refused when it was built for another
     robot or medium than the command line's: a map answers only for what it was built for."""
     from ..maps import CapacityMap, resolve_map
+    args.robot = args.robot or 'minirquad'
     cmap = CapacityMap.load(resolve_map(args.map, robot=args.robot))
     if cmap.robot_name != args.robot:
         raise ValueError(f'{cmap.source}: map is for robot {cmap.robot_name!r}, not '
@@ -56,6 +67,7 @@ def map_from_args(args):
 
 
 def model_from_args(args, method: str | None = None) -> AnchorModel:
+    args.robot = args.robot or 'minirquad'
     args.default_medium = DEFAULT_MEDIUM[args.robot]
     return AnchorModel(get_robot(args.robot), medium_from_args(args), model=args.model,
                        method=method or args.method, n_twists=args.twists)
@@ -69,6 +81,7 @@ def add_parser(sub) -> None:
                        'wy) in m/s and rad/s scaled to unit Euclidean norm. slip_twist is the '
                        'old name of slip_twist_scaled, kept for one release (deprecated).')
     add_state_args(p)
+    add_body_args(p)
     p.add_argument('--method', choices=list(METHOD_NAMES) + ['map'], default='twist-mesh')
     p.add_argument('--twists', type=twist_count, default=None,
                    help=f'sampled unit twists (default {DEFAULT_TWISTS}; 400 for direct)')
@@ -79,6 +92,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
+    if args.anchor is not None or args.mesh is not None or args.yaw != 0.0 or args.space != 'auto':
+        return run_scene(args)
     state = state_from_args(args)
     phi = math.radians(args.phi)
     t0 = time.perf_counter()
@@ -116,4 +131,136 @@ def run(args) -> int:
             print('flags: ' + ', '.join(result.flags))
         if result.reason:
             print(f'reason: {result.reason}: {result.detail}')
+    return 0
+
+
+# --------------------------------------------------------------------- single bodies, 6D
+def add_body_args(p) -> None:
+    """A single rigid body from an STL file (instead of --robot), the tether's yaw and the
+    model space (docs/design/six-d.md)."""
+    g = p.add_argument_group('a single rigid body (instead of --robot and its state)')
+    g.add_argument('--anchor', help='anchor description YAML (with its URDF) instead of '
+                   '--robot; state values by --h/--theta-b/--theta-l1/--theta-l2 for variables '
+                   'of those names and --state NAME=VALUE (in the unit the YAML gives)')
+    g.add_argument('--state', action='append', default=[], metavar='NAME=VALUE',
+                   help='a state variable of --anchor (may repeat)')
+    g.add_argument('--mesh', help='STL file of the body (binary or ASCII), closed')
+    g.add_argument('--units', choices=('mm', 'm'), default='mm', help='STL units (default mm)')
+    g.add_argument('--position', nargs=3, type=finite_float, metavar=('X', 'Y', 'Z'),
+                   help='mesh origin in the world, m (free surface z = 0)')
+    g.add_argument('--rpy', nargs=3, type=finite_float, default=(0.0, 0.0, 0.0),
+                   metavar=('R', 'P', 'Y'),
+                   help='roll, pitch, yaw in degrees about the mesh origin (extrinsic x, y, z)')
+    g.add_argument('--tether', nargs=3, type=finite_float, metavar=('X', 'Y', 'Z'),
+                   help='tether point on the body, m (world); twists and moments refer to it')
+    g.add_argument('--mass', type=finite_float, help='body mass, kg')
+    g.add_argument('--com', nargs=3, type=finite_float, metavar=('X', 'Y', 'Z'),
+                   help='centre of mass, m (world; default: centroid of the volume)')
+    p.add_argument('--yaw', type=finite_float, default=0.0,
+                   help='tether yaw about z, deg: the pull is Rz(yaw) (-cos phi, 0, sin phi); '
+                        'a yawed pull on a robot needs the 6D path')
+    p.add_argument('--space', choices=('auto', 'sagittal', '6d'), default='auto',
+                   help='auto: the sagittal reduction when the scene is checked to be '
+                        'mirror-symmetric about the pull plane, else full 6D (default)')
+
+
+def scene_from_args(args):
+    """(Scene, char_length) of the command line: a rigid body (--mesh) or a robot state."""
+    from ..body import RigidBody, load_body_mesh
+    from ..scene import scene_from_robot
+    if args.anchor is not None:
+        return _anchor_scene(args)
+    if args.mesh is None:
+        state = state_from_args(args)
+        return scene_from_robot(get_robot(args.robot), state, args.pull)
+    given = [f'--{k.replace("_", "-")}' for k in STATE_OPTIONS if getattr(args, k) is not None]
+    if args.robot is not None or given:
+        raise ValueError(f'--mesh describes the whole body: drop {", ".join(given or ["--robot"])}')
+    need = [f'--{k}' for k in ('position', 'tether', 'mass') if getattr(args, k) is None]
+    if need:
+        raise ValueError(f'--mesh needs {", ".join(need)} (m, m, kg)')
+    if not args.mass >= 0.0:
+        raise ValueError(f'--mass must be >= 0 kg, got {args.mass:g}')
+    mesh = load_body_mesh(args.mesh, units=args.units)
+    body = RigidBody(name=str(args.mesh), mesh=mesh, mass=args.mass)
+    return body.scene(args.position, [math.radians(a) for a in args.rpy], args.tether,
+                      com_world=args.com)
+
+
+def _anchor_scene(args):
+    """The scene of an anchor description at the command line's state values."""
+    from ..description import load_description
+    if args.mesh is not None or args.robot is not None:
+        raise ValueError('--anchor describes the whole anchor: drop --mesh/--robot')
+    desc = load_description(args.anchor)
+    given: dict[str, float] = {}
+    for item in args.state:
+        name, sep, value = item.partition('=')
+        if not sep:
+            raise ValueError(f'--state wants NAME=VALUE, got {item!r}')
+        try:
+            given[name.strip()] = finite_float(value)
+        except Exception:
+            raise ValueError(f'--state {item!r}: not a finite number') from None
+    for k in STATE_OPTIONS:
+        if getattr(args, k) is not None:
+            given[k] = getattr(args, k)
+    unknown = sorted(set(given) - set(desc.state_names))
+    if unknown:
+        raise ValueError(f'{args.anchor}: no state variable {", ".join(unknown)} (it has '
+                         f'{", ".join(desc.state_names)})')
+    missing = [n for n in desc.state_names if n not in given]
+    if missing:
+        raise ValueError(f'{args.anchor}: give {", ".join(missing)} (--state NAME=VALUE or '
+                         'the option of that name)')
+    values = {v.name: v.to_si(given[v.name]) for v in desc.state}
+    outside = desc.violations(values)
+    if outside:
+        raise ValueError(f'not a {desc.name} pose: {"; ".join(outside)}')
+    args.description_medium = desc.medium
+    args.description_symmetry = desc.symmetry
+    return desc.scene(values, args.pull)
+
+
+def run_scene(args) -> int:
+    """Capacity of a rigid body or of a robot under a yawed pull (6D world twists)."""
+    from ..scene import SceneModel
+    if args.method == 'map' or args.map:
+        raise ValueError('--method map answers sagittal robot pulls only: use a live method '
+                         'with --mesh, --yaw or --space')
+    args.default_medium = (DEFAULT_MEDIUM[args.robot or 'minirquad'] if args.mesh is None
+                           else 'glass_beads')
+    scene = scene_from_args(args)
+    args.default_medium = getattr(args, 'description_medium', args.default_medium)
+    if (getattr(args, 'description_symmetry', '') == 'sagittal' and args.space == 'auto'
+            and args.yaw == 0.0):
+        # A claimed symmetry asks for the sagittal path, which checks it first (status
+        # invalid_input, not_symmetric, when the posed facets or the centre of mass lack it).
+        args.space = 'sagittal'
+    t0 = time.perf_counter()
+    model = SceneModel(medium_from_args(args), model=args.model, method=args.method,
+                       n_twists=args.twists, space=args.space)
+    result = model.predict(scene, math.radians(args.phi), math.radians(args.yaw))
+    elapsed = time.perf_counter() - t0
+    scaled6 = list(result.slip_twist_scaled) if result.slip_twist_scaled else None
+    out = {'capacity_N': result.capacity_N,
+           'slip_twist_scaled': scaled6,
+           'slip_twist': scaled6,   # deprecated: the old key of slip_twist_scaled, one release
+           'slip_twist_raw': list(result.slip_twist) if result.slip_twist else None,
+           'status': result.status.value, 'method': result.method, 'elapsed_s': elapsed,
+           'reason': result.reason, 'detail': result.detail,
+           'char_length_m': scene.char_length, 'flags': list(result.flags),
+           'twist_spread_rad': result.twist_spread_rad}
+    if args.json:
+        print_json(out)
+        return 0
+    cap = 'none' if result.capacity_N is None else f'{result.capacity_N:.4g} N'
+    print(f'capacity {cap}  status {result.status.value}  method {result.method}  '
+          f'space {result.space}  ({1e3 * elapsed:.1f} ms)')
+    if result.slip_twist_scaled:
+        print('slip twist (scaled vx, vy, vz, wx*L_c, wy*L_c, wz*L_c): '
+              + ' '.join(f'{v:+.4f}' for v in result.slip_twist_scaled))
+    if result.flags:
+        print('flags: ' + ', '.join(result.flags))
+    print(('reason: ' + result.reason + ': ' if result.reason else '') + result.detail)
     return 0

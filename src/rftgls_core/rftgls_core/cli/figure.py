@@ -14,8 +14,9 @@ from ..types import AnchorState, Pull
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser('figure', help="the paper's figures from our model (fig8, fig9, fig10b)")
-    p.add_argument('which', choices=['fig8', 'fig9', 'fig10b'])
+    p = sub.add_parser('figure', help="the paper's figures from our model (fig8, fig9, fig10b, "
+                                      "fig13)")
+    p.add_argument('which', choices=['fig8', 'fig9', 'fig10b', 'fig13'])
     p.add_argument('--out', required=True, help='PNG file (numbers go next to it as .json)')
     p.add_argument('--method', default='twist-mesh',
                    help='limit-surface method for fig9/fig10b (default twist-mesh: it keeps a '
@@ -39,6 +40,8 @@ def run(args) -> int:
 
     from ..charts import paper_figures as pf
     out = Path(args.out)
+    if args.which == 'fig13':
+        return _fig13(args, out)
     if args.which == 'fig9':
         model = AnchorModel(get_robot('prototype'), get_medium('glass_beads'), method=args.method)
         bar = tqdm(total=50, desc='fig9 poses', file=sys.stderr)
@@ -89,6 +92,20 @@ def run(args) -> int:
                 'lower_95_N': {m: {str(k): v for k, v in c.items()} for m, c in lows.items()},
                 'covariance_xi_mu': np.asarray(cov).tolist(), 'sled_force_N': needs}
     out.with_suffix('.json').write_text(json.dumps(data, indent=2, default=float))
+    print(f'wrote {out} (and .json)')
+    return 0
+
+
+def _fig13(args, out: Path) -> int:
+    """The ellipsoid pull-out of the paper's Fig. 13 (assumptions in charts/fig13.py)."""
+    from tqdm import tqdm
+
+    from ..charts.fig13 import fig13_data, plot_fig13
+    bar = tqdm(desc='fig13 steps', file=sys.stderr, leave=False)
+    data, trajs = fig13_data(method=args.method, progress=lambda k: bar.update(1))
+    bar.close()
+    plot_fig13(data, trajs, out)
+    out.with_suffix('.json').write_text(json.dumps(data, indent=2))
     print(f'wrote {out} (and .json)')
     return 0
 

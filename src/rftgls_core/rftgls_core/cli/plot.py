@@ -5,12 +5,16 @@ import math
 
 from ..charts.limit_surface import plot_limit_surface
 from ..surfaces.registry import METHOD_NAMES
-from .capacity import add_state_args, model_from_args, state_from_args
+from .capacity import add_body_args, add_state_args, model_from_args, state_from_args
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser('plot', help='plot the limit surface and capacity of one pose (PNG)')
     add_state_args(p)
+    add_body_args(p)
+    p.add_argument('--against-yaw', action='store_true',
+                   help='plot capacity against the tether yaw (-90..90 deg) and the limit '
+                        'curve in the pull plane (implied by --mesh); numbers go to .json')
     p.add_argument('--method', choices=list(METHOD_NAMES), default='twist-mesh')
     p.add_argument('--twists', type=int, default=None)
     p.add_argument('--out', required=True, help='PNG file to write')
@@ -18,8 +22,35 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
+    if (args.anchor is not None or args.mesh is not None or args.against_yaw or args.yaw != 0.0
+            or args.space != 'auto'):
+        return run_scene(args)
     model = model_from_args(args)
     info = plot_limit_surface(model, state_from_args(args), args.pull, math.radians(args.phi),
                               args.out)
     print(f'wrote {args.out}: capacity {info["capacity_N"]} N, status {info["status"]}')
+    return 0
+
+
+def run_scene(args) -> int:
+    """Capacity of a rigid body or a robot against yaw and tether angle (docs/design/six-d.md)."""
+    import json
+    from pathlib import Path
+
+    from ..charts.scene_capacity import plot_scene_capacity
+    from ..scene import SceneModel
+    from .capacity import DEFAULT_MEDIUM, scene_from_args
+    from .common import medium_from_args
+    args.default_medium = (DEFAULT_MEDIUM[args.robot or 'minirquad'] if args.mesh is None
+                           else 'glass_beads')
+    scene = scene_from_args(args)
+    args.default_medium = getattr(args, 'description_medium', args.default_medium)
+    model = SceneModel(medium_from_args(args), model=args.model, method=args.method,
+                       n_twists=args.twists, space=args.space)
+    data = plot_scene_capacity(model, scene, math.radians(args.phi), math.radians(args.yaw),
+                               args.out)
+    Path(args.out).with_suffix('.json').write_text(json.dumps(data, indent=2))
+    caps = [c for c in data['by_yaw']['capacity_N'] if c is not None]
+    span = f'{min(caps):.3g}..{max(caps):.3g} N' if caps else 'no value'
+    print(f'wrote {args.out} (and .json): capacity over yaw {span}')
     return 0

@@ -6,8 +6,8 @@ import math
 import sys
 from pathlib import Path
 
-from ..sim.trajectory import simulate_pull
-from .capacity import add_state_args, map_from_args, model_from_args, state_from_args
+from ..sim.trajectory import Predictor, simulate_pull
+from .capacity import add_body_args, add_state_args, map_from_args, model_from_args, state_from_args
 from .common import finite_float, twist_count
 
 
@@ -16,6 +16,7 @@ def add_parser(sub) -> None:
     sub2 = p.add_subparsers(dest='what', required=True)
     q = sub2.add_parser('pull', help='slip of an anchor held at its capacity by a steady pull')
     add_state_args(q)
+    add_body_args(q)
     q.add_argument('--method', choices=['direct', 'twist-mesh', 'map'], default='direct')
     q.add_argument('--map', help='HDF5 map (with --method map; default: the robot\'s shipped map)')
     q.add_argument('--twists', type=twist_count, default=None)
@@ -32,7 +33,12 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from tqdm import tqdm
 
-    state = state_from_args(args)
+    body = None
+    predictor: Predictor
+    if args.mesh is not None:
+        body, state = _body_from_args(args)
+    else:
+        state = state_from_args(args)
     phi = math.radians(args.phi)
     if not (args.step > 0 and args.max_travel > 0 and args.speed > 0):
         raise ValueError('--step, --max-travel and --speed must be > 0')
@@ -41,7 +47,18 @@ def run(args) -> int:
                          'at most 100000')
     if args.map and args.method != 'map':
         raise ValueError('--map is used only with --method map')
-    if args.method == 'map':
+    if body is not None:
+        from ..scene import SceneModel
+        from ..sim.body_pull import BodyPredictor
+        from .common import medium_from_args
+        if args.method == 'map' or args.map:
+            raise ValueError('--method map answers the shipped robots only; use direct or '
+                             'twist-mesh with --mesh')
+        predictor = BodyPredictor(body, SceneModel(medium_from_args(args), model=args.model,
+                                                   method=args.method, n_twists=args.twists))
+        plate = lambda st: -st.h   # noqa: E731 (stop when the tether point reaches the surface)
+        name = str(args.mesh)
+    elif args.method == 'map':
         cmap = map_from_args(args)
         predictor = cmap
         from ..robots.presets import get_robot
@@ -49,13 +66,17 @@ def run(args) -> int:
     else:
         model = model_from_args(args)
         predictor, robot = model, model.robot
-    plate = lambda st: robot.pose(st, args.pull).plate_min_z
+    if body is None:
+        plate = lambda st: robot.pose(st, args.pull).plate_min_z  # noqa: E731
+        name = robot.name
     bar = tqdm(total=int(args.max_travel / args.step), unit='step', file=sys.stderr,
                desc='slip', leave=False)
     traj = simulate_pull(predictor, state, phi, args.pull, plate, step=args.step,
                          integrator=args.integrator, max_travel=args.max_travel,
                          progress=lambda k: bar.update(1))
     bar.close()
+    if body is not None:
+        traj.stop_reason = traj.stop_reason.replace('body plate', 'tether point')
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     with open(out, 'w', newline='') as fh:
@@ -68,6 +89,31 @@ def run(args) -> int:
     if args.plot:
         from ..charts.trajectory import plot_trajectories
         plot_trajectories({f'{args.method}, {args.integrator}': traj}, args.plot,
-                          title=f'{robot.name}, {args.pull} pull, phi = {args.phi:.0f} deg')
+                          title=f'{name}, {args.pull} pull, phi = {args.phi:.0f} deg')
         print(f'wrote {args.plot}')
     return 0
+
+
+def _body_from_args(args):
+    """(BodyAnchor, initial state) of a rigid body on the command line: the body frame B is
+    the world frame moved to the tether point at the initial pose (h = the tether's height,
+    thetaB = 0); the slip turns it about y (a sagittal trajectory: the pull must lie in a
+    mirror plane of the body, which every step checks; yaw is not supported here)."""
+    import numpy as np
+
+    from ..body import RigidBody, load_body_mesh
+    from ..geometry.transforms import rpy_matrix
+    from ..sim.body_pull import BodyAnchor
+    from ..types import AnchorState
+    from .capacity import scene_from_args
+    if args.yaw != 0.0 or args.space != 'auto':
+        raise ValueError('simulate pull follows sagittal slips only: drop --yaw and --space')
+    args.default_medium = 'glass_beads'
+    scene = scene_from_args(args)       # checks the mesh, the tether and the burial
+    p = scene.ref
+    mesh = load_body_mesh(args.mesh, units=args.units)
+    rot = rpy_matrix(*np.radians(args.rpy))
+    posed = mesh.transformed(rot, np.asarray(args.position, dtype=float) - p)
+    com_b = tuple(float(v) for v in np.asarray(scene.com) - p)
+    body = RigidBody(str(args.mesh), posed, args.mass, com_body=(com_b[0], com_b[1], com_b[2]))
+    return BodyAnchor(body), AnchorState(float(p[2]), 0.0, 0.0, 0.0)

@@ -1,0 +1,402 @@
+"""Anchor descriptions: a URDF (links, meshes, joints, inertials) plus a small YAML (what URDF
+has no place for: the tether link, which joints are state variables, their units and ranges,
+the base pose, the C-leg orientation of a pull, media defaults). docs/design/six-d.md,
+"Anchor descriptions".
+
+    description YAML + URDF --(state values)--> forward kinematics --> Scene (scene.py)
+
+The URDF is read with the standard library's XML parser (URDF is plain XML; xacro files must
+be expanded first). Frames: base_link is placed in the world from the state (its origin at
+height `base_pose.height`, turned by rot_y(-pitch), as the robots' body frame B); every joint
+is origin (xyz, fixed-axis rpy) then rotation about its axis by the joint value; the tether
+point is the origin of `tether_link`. Mesh scales in the URDF are applied in the link frame;
+a negative determinant (a mirrored leg) reverses the winding so normals stay outward.
+
+The shipped descriptions (rftgls_core/data/<robot>.urdf and .yaml, leg mesh c_leg.stl) are
+written by `write_robot_description` from robots/presets.py, so `--anchor` and `--robot` give
+the same numbers (tests/core/test_description.py).
+"""
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .geometry.mesh import Facets, TriMesh
+from .geometry.stl import MeshError, read_stl, write_stl
+from .geometry.transforms import rot_y, rpy_matrix
+from .scene import Scene
+from .types import AnchorState, Pull
+
+DATA = Path(__file__).resolve().parent / 'data'
+
+
+class DescriptionError(ValueError):
+    """A description that cannot be used (one line, names the file)."""
+
+
+def _floats(text: str | None, n: int, default: tuple[float, ...], what: str) -> np.ndarray:
+    if text is None:
+        return np.array(default, dtype=float)
+    try:
+        v = np.array([float(x) for x in text.split()], dtype=float)
+    except ValueError:
+        raise DescriptionError(f'{what}: not numbers: {text!r}') from None
+    if v.shape != (n,) or not np.all(np.isfinite(v)):
+        raise DescriptionError(f'{what}: need {n} finite numbers, got {text!r}')
+    return v
+
+
+@dataclass(frozen=True)
+class Link:
+    name: str
+    mesh: TriMesh | None            # in the link frame, m (origin and scale applied)
+    mass: float = 0.0
+    com: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+
+@dataclass(frozen=True)
+class Joint:
+    name: str
+    kind: str
+    parent: str
+    child: str
+    origin: np.ndarray              # (4, 4)
+    axis: np.ndarray
+
+
+def _transform(origin) -> np.ndarray:
+    t = np.eye(4)
+    if origin is not None:
+        t[:3, :3] = rpy_matrix(*_floats(origin.get('rpy'), 3, (0, 0, 0), 'origin rpy'))
+        t[:3, 3] = _floats(origin.get('xyz'), 3, (0, 0, 0), 'origin xyz')
+    return t
+
+
+def read_urdf(path: str | Path) -> tuple[dict[str, Link], list[Joint]]:
+    """Links (meshes loaded, in URDF order) and joints of a URDF file."""
+    path = Path(path)
+    try:
+        root = ET.parse(path).getroot()
+    except (ET.ParseError, OSError) as exc:
+        raise DescriptionError(f'{path}: cannot read URDF ({exc})') from None
+    if root.tag != 'robot':
+        raise DescriptionError(f'{path}: not a URDF (root element {root.tag!r})')
+    links: dict[str, Link] = {}
+    for el in root.findall('link'):
+        name = el.get('name') or ''
+        mesh = None
+        geo = el.find('collision/geometry/mesh')
+        if geo is None:
+            geo = el.find('visual/geometry/mesh')
+        if geo is not None:
+            coll = el.find('collision') if el.find('collision/geometry/mesh') is not None \
+                else el.find('visual')
+            t = _transform(coll.find('origin') if coll is not None else None)
+            fname = (geo.get('filename') or '').replace('file://', '')
+            file = (path.parent / fname) if not Path(fname).is_absolute() else Path(fname)
+            try:
+                m = read_stl(file, units='m')
+            except (MeshError, OSError) as exc:
+                raise DescriptionError(f'{path}: link {name!r}: {exc}') from None
+            scale = _floats(geo.get('scale'), 3, (1, 1, 1), f'link {name} mesh scale')
+            m = TriMesh(m.vertices * scale, m.faces if np.prod(scale) > 0 else m.faces[:, ::-1])
+            mesh = m.transformed(t[:3, :3], t[:3, 3])
+        mass, com = 0.0, np.zeros(3)
+        inertial = el.find('inertial')
+        if inertial is not None:
+            mel = inertial.find('mass')
+            mass = float(_floats(mel.get('value') if mel is not None else None, 1, (0.0,),
+                                 f'link {name} mass')[0])
+            com = _transform(inertial.find('origin'))[:3, 3]
+        links[name] = Link(name, mesh, mass, com)
+    joints = []
+    for el in root.findall('joint'):
+        parent, child = el.find('parent'), el.find('child')
+        if parent is None or child is None:
+            raise DescriptionError(f'{path}: joint {el.get("name")!r} lacks parent or child')
+        axis_el = el.find('axis')
+        ax = _floats(axis_el.get('xyz') if axis_el is not None else None, 3, (1, 0, 0),
+                     f'joint {el.get("name")} axis')
+        joints.append(Joint(el.get('name') or '', el.get('type') or 'fixed',
+                            parent.get('link') or '', child.get('link') or '',
+                            _transform(el.find('origin')), ax / np.linalg.norm(ax)))
+    return links, joints
+
+
+def _axis_rotation(axis: np.ndarray, q: float) -> np.ndarray:
+    a = axis
+    k = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + math.sin(q) * k + (1 - math.cos(q)) * (k @ k)
+
+
+@dataclass(frozen=True)
+class StateVariable:
+    name: str
+    unit: str                                   # 'm' or 'deg' (the YAML's; SI inside)
+    joints: tuple[str, ...]
+    physical: tuple[float, float]               # SI
+    map_range: tuple[float, float, int] | None  # SI start, stop, count
+
+    def to_si(self, value: float) -> float:
+        return math.radians(value) if self.unit == 'deg' else float(value)
+
+
+@dataclass(frozen=True)
+class AnchorDescription:
+    """A loaded description: URDF links and joints plus the YAML's extra facts (SI)."""
+
+    name: str
+    source: Path
+    links: dict[str, Link]
+    joints: list[Joint]
+    tether_link: str
+    char_length: float
+    medium: str
+    height_var: str
+    pitch_var: str
+    state: tuple[StateVariable, ...]
+    pull_scale: dict[str, np.ndarray]
+    pull_links: tuple[str, ...]
+    symmetry: str = ''             # '' or 'sagittal': a claim, checked per pose, never trusted
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        return tuple(v.name for v in self.state)
+
+    def violations(self, values: dict[str, float]) -> list[str]:
+        out = []
+        for v in self.state:
+            lo, hi = v.physical
+            if not lo <= values[v.name] <= hi:
+                f = 180.0 / math.pi if v.unit == 'deg' else 1.0
+                out.append(f'{v.name} {values[v.name] * f:.6g} {v.unit} outside '
+                           f'{lo * f:.6g}..{hi * f:.6g} {v.unit}')
+        return out
+
+    def scene(self, values: dict[str, float], pull: Pull | str = Pull.BACKWARD) -> Scene:
+        """The posed description for state values (SI, by name) and a pull orientation."""
+        missing = [n for n in self.state_names if n not in values]
+        if missing:
+            raise ValueError(f'{self.source}: state variables without a value: '
+                             f'{", ".join(missing)}')
+        pull = Pull(pull)
+        q: dict[str, float] = {}
+        for v in self.state:
+            for j in v.joints:
+                q[j] = values[v.name]
+        base = np.eye(4)
+        base[:3, :3] = rot_y(-values[self.pitch_var]) if self.pitch_var else np.eye(3)
+        base[2, 3] = values[self.height_var] if self.height_var else 0.0
+        world = {'base_link': base}
+        pending = list(self.joints)
+        while pending:
+            progressed = False
+            for jt in list(pending):
+                if jt.parent in world:
+                    t = world[jt.parent] @ jt.origin
+                    if jt.kind in ('revolute', 'continuous'):
+                        r = np.eye(4)
+                        r[:3, :3] = _axis_rotation(jt.axis, q.get(jt.name, 0.0))
+                        t = t @ r
+                    elif jt.kind == 'prismatic':
+                        r = np.eye(4)
+                        r[:3, 3] = jt.axis * q.get(jt.name, 0.0)
+                        t = t @ r
+                    world[jt.child] = t
+                    pending.remove(jt)
+                    progressed = True
+            if not progressed:
+                raise ValueError(f'{self.source}: joints not connected to base_link: '
+                                 f'{", ".join(j.name for j in pending)}')
+        parts, mass, moment = [], 0.0, np.zeros(3)
+        scale = self.pull_scale.get(pull.value, np.ones(3))
+        for link in self.links.values():
+            t = world[link.name]
+            if link.mesh is not None:
+                m = link.mesh
+                if link.name in self.pull_links and not np.all(scale == 1.0):
+                    m = TriMesh(m.vertices * scale,
+                                m.faces if np.prod(scale) > 0 else m.faces[:, ::-1])
+                parts.append(m.transformed(t[:3, :3], t[:3, 3]).facets())
+            mass += link.mass
+            moment += link.mass * (t[:3, :3] @ link.com + t[:3, 3])
+        ref = world[self.tether_link][:3, 3].copy()
+        com = moment / mass if mass > 0 else ref
+        return Scene(name=self.name, facets=Facets.concatenate(parts), ref=ref, mass=mass,
+                     com=com, char_length=self.char_length)
+
+
+def load_description(path: str | Path) -> AnchorDescription:
+    """Read a description YAML (and the URDF it names); DescriptionError on bad input."""
+    import yaml
+
+    path = Path(path)
+    try:
+        doc = yaml.safe_load(path.read_text())
+    except OSError as exc:
+        raise DescriptionError(f'{path}: cannot read ({exc.strerror or exc})') from None
+    except yaml.YAMLError as exc:
+        raise DescriptionError(f'{path}: not YAML ({" ".join(str(exc).split())})') from None
+    if not isinstance(doc, dict) or 'urdf' not in doc:
+        raise DescriptionError(f'{path}: a description needs at least `urdf:` and `state:`')
+    links, joints = read_urdf(path.parent / str(doc['urdf']))
+    tether = str(doc.get('tether_link', 'winch_link'))
+    if tether not in links or 'base_link' not in links:
+        raise DescriptionError(f'{path}: the URDF needs base_link and the tether link '
+                               f'{tether!r}')
+    state = []
+    for item in doc.get('state') or []:
+        name = str(item.get('name', ''))
+        unit = str(item.get('unit', ''))
+        if unit not in ('m', 'deg'):
+            raise DescriptionError(f'{path}: state variable {name!r}: unit must be m or deg')
+        f = math.radians(1.0) if unit == 'deg' else 1.0
+        phys = item.get('physical')
+        if not (isinstance(phys, list) and len(phys) == 2):
+            raise DescriptionError(f'{path}: state variable {name!r} has no physical range '
+                                   '[low, high]')
+        mr = item.get('map')
+        map_range = None
+        if mr is not None:
+            if not (isinstance(mr, list) and len(mr) == 3 and int(mr[2]) >= 2):
+                raise DescriptionError(f'{path}: state variable {name!r}: map range must be '
+                                       '[start, stop, count >= 2]')
+            map_range = (float(mr[0]) * f, float(mr[1]) * f, int(mr[2]))
+        js = tuple(str(j) for j in item.get('joints') or [])
+        unknown = [j for j in js if j not in {jj.name for jj in joints}]
+        if unknown:
+            raise DescriptionError(f'{path}: state variable {name!r} drives unknown joints '
+                                   f'{", ".join(unknown)}')
+        state.append(StateVariable(name, unit, js, (float(phys[0]) * f, float(phys[1]) * f),
+                                   map_range))
+    if not state:
+        raise DescriptionError(f'{path}: no state variables (`state:`)')
+    bp = doc.get('base_pose') or {}
+    names = {v.name for v in state}
+    for key in ('height', 'pitch'):
+        if bp.get(key) is not None and bp[key] not in names:
+            raise DescriptionError(f'{path}: base_pose.{key} names no state variable')
+    ps = doc.get('pull_scale') or {}
+    return AnchorDescription(
+        name=str(doc.get('name', path.stem)), source=path, links=links, joints=joints,
+        tether_link=tether, char_length=float(doc.get('char_length_m', 0.1)),
+        medium=str(doc.get('medium', 'glass_beads')), height_var=str(bp.get('height') or ''),
+        pitch_var=str(bp.get('pitch') or ''), state=tuple(state),
+        pull_scale={k: np.asarray(v, dtype=float) for k, v in ps.items() if k != 'links'},
+        pull_links=tuple(ps.get('links') or ()), symmetry=_symmetry(path, doc))
+
+
+def _symmetry(path: Path, doc: dict) -> str:
+    claim = str(doc.get('symmetry') or '')
+    if claim not in ('', 'sagittal'):
+        raise DescriptionError(f'{path}: symmetry must be sagittal or absent, got {claim!r}')
+    return claim
+
+
+def shipped_description(robot: str) -> Path:
+    """The shipped description YAML of a robot preset ('prototype', 'minirquad')."""
+    return DATA / f'{robot}.yaml'
+
+
+def state_values(state: AnchorState) -> dict[str, float]:
+    """A robot AnchorState as the shipped descriptions' state variables (SI)."""
+    return {'h': state.h, 'theta_b': state.theta_b, 'theta_l1': state.theta_l1,
+            'theta_l2': state.theta_l2}
+
+
+# ----------------------------------------------------------------- writing the shipped ones
+# Default map ranges (start, stop, count; m and deg), those of maps/grid.py's default grids.
+MAP_RANGES = {
+    'prototype': {'h': (0.005, 0.030, 6), 'theta_b': (-20, 20, 5), 'theta_l1': (-40, 40, 5),
+                  'theta_l2': (-40, 40, 5)},
+    'minirquad': {'h': (0.025, 0.055, 7), 'theta_b': (-5, 15, 5), 'theta_l1': (-60, 0, 4),
+                  'theta_l2': (-20, 40, 7)},
+}
+LEGS = (('left_proximal', 0, +1), ('left_distal', 1, +1), ('right_proximal', 0, -1),
+        ('right_distal', 1, -1))
+
+
+def write_robot_description(name: str, folder: str | Path) -> Path:
+    """Write <name>.urdf, <name>.yaml and the leg mesh (ASCII STL, full precision) for a robot
+    preset into folder; returns the YAML path. Frames: base_link = body frame B (origin at the
+    winch point p), one link per leg on its hip joint (axis -y_B, so the joint value is the
+    paper's leg angle), imu_link (fixed, at the body's centre) and winch_link (fixed, at p)."""
+    from .robots.presets import get_robot
+    robot = get_robot(name)
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    leg_file = 'c_leg.stl'
+    write_stl(folder / leg_file, robot.leg_mesh, units='m', ascii=True, name='c_leg')
+    r = repr
+
+    def origin(x, y, z):
+        return f'<origin xyz="{r(x)} {r(y)} {r(z)}" rpy="0 0 0"/>'
+    lines = ['<?xml version="1.0"?>',
+             f'<!-- {name}: written by rftgls_core.description.write_robot_description from '
+             'robots/presets.py; the numbers the paper does not give are assumptions there -->',
+             f'<robot name="{name}">',
+             '  <link name="base_link">',
+             f'    <inertial>{origin(robot.com[0], 0.0, robot.com[1])}'
+             f'<mass value="{r(robot.mass)}"/>'
+             '<inertia ixx="1e-4" ixy="0" ixz="0" iyy="1e-4" iyz="0" izz="1e-4"/></inertial>',
+             '  </link>']
+    for leg, axle, side in LEGS:
+        scale = '1 1 1' if side > 0 else '1 -1 1'
+        lines += [f'  <link name="{leg}_leg">',
+                  f'    <visual><geometry><mesh filename="{leg_file}" scale="{scale}"/>'
+                  '</geometry></visual>',
+                  f'    <collision><geometry><mesh filename="{leg_file}" scale="{scale}"/>'
+                  '</geometry></collision>',
+                  '  </link>',
+                  f'  <joint name="{leg}_hip" type="revolute">',
+                  '    <parent link="base_link"/>',
+                  f'    <child link="{leg}_leg"/>',
+                  f'    {origin(robot.axle_x[axle], side * robot.leg_y[axle], robot.axle_z)}',
+                  '    <axis xyz="0 -1 0"/>',
+                  f'    <limit lower="{r(-math.pi)}" upper="{r(math.pi)}" effort="1" '
+                  'velocity="10"/>',
+                  '  </joint>']
+    for link, xyz in (('imu_link', (0.5 * sum(robot.axle_x), 0.0, robot.axle_z)),
+                      ('winch_link', (0.0, 0.0, 0.0))):
+        lines += [f'  <link name="{link}"/>',
+                  f'  <joint name="{link}_joint" type="fixed">',
+                  '    <parent link="base_link"/>',
+                  f'    <child link="{link}"/>',
+                  f'    {origin(*xyz)}',
+                  '  </joint>']
+    lines.append('</robot>')
+    (folder / f'{name}.urdf').write_text('\n'.join(lines) + '\n')
+    sr = robot.state_range
+    deg = 180.0 / math.pi
+    mr = MAP_RANGES[name]
+
+    def rng(lo, hi):
+        return f'[{r(lo)}, {r(hi)}]'
+    yaml_text = f"""# Anchor description of {name} (docs/design/six-d.md, "Anchor descriptions").
+# Written by rftgls_core.description.write_robot_description; the URDF holds links, meshes,
+# joints and inertials, this file what URDF has no place for.
+name: {name}
+urdf: {name}.urdf
+tether_link: winch_link
+char_length_m: {r(robot.char_length)}
+medium: {'glass_beads' if name == 'prototype' else 'm90_sand'}
+symmetry: sagittal    # claimed mirror symmetry about x-z of base_link: checked at every pose
+base_pose:            # base_link origin at height h, turned by rot_y(-theta_b)
+  height: h
+  pitch: theta_b
+pull_scale:           # the paper's C-leg orientation (types.Pull), in the leg frames
+  forward: [1.0, 1.0, 1.0]
+  backward: [-1.0, 1.0, 1.0]
+  links: [{', '.join(f'{leg}_leg' for leg, _, _ in LEGS)}]
+state:                # physical: the range a pose can be in; map: start, stop, count
+  - {{name: h, unit: m, physical: {rng(*sr.h)}, map: {list(mr['h'])}}}
+  - {{name: theta_b, unit: deg, physical: {rng(sr.theta_b[0] * deg, sr.theta_b[1] * deg)}, map: {list(mr['theta_b'])}}}
+  - {{name: theta_l1, unit: deg, joints: [left_proximal_hip, right_proximal_hip], physical: {rng(sr.theta_leg[0] * deg, sr.theta_leg[1] * deg)}, map: {list(mr['theta_l1'])}}}
+  - {{name: theta_l2, unit: deg, joints: [left_distal_hip, right_distal_hip], physical: {rng(sr.theta_leg[0] * deg, sr.theta_leg[1] * deg)}, map: {list(mr['theta_l2'])}}}
+"""  # noqa: E501
+    (folder / f'{name}.yaml').write_text(yaml_text)
+    return folder / f'{name}.yaml'

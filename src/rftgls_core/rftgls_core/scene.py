@@ -1,0 +1,247 @@
+"""Any buried body, any tether direction: choose the sagittal reduction or the full 6D path.
+
+A Scene is what the capacity needs, whoever built it (a posed robot, a rigid body from an STL):
+world-frame facets, the tether point p (reference of twists and moments), mass and centre of
+mass, and a characteristic length for the scaled metric. The tether pulls p along
+
+    u(phi, yaw) = Rz(yaw) (-cos phi, 0, sin phi)     (world; phi = 90 deg pulls straight up)
+
+"Model no more than the scene needs, and no less" (docs/design/six-d.md): when the buried facets
+and the centre of mass are mirror-symmetric about the pull plane (the vertical plane through p
+that contains u), planar twists in that plane map to planar wrenches and the sagittal
+reduction of surfaces/ (3D wrench space, one half of the facets with doubled weights) answers.
+The symmetry is checked on the facets themselves, never assumed. Otherwise the full 6D path
+of gls6d.py answers.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .geometry.mesh import Facets
+from .geometry.transforms import rot_z
+from .gls6d import DEFAULT_TWISTS_6D, Problem6, Result6, Scaling6, Surface6
+from .rft.engine import BuriedBody
+from .rft.media import Medium
+from .rft.models import make_model
+from .robots.model import G, RobotModel
+from .surfaces.base import GLSProblem
+from .surfaces.registry import surface_class
+from .surfaces.scaling import Scaling
+from .types import AnchorState, Pull, Status
+
+SPACES = ('auto', 'sagittal', '6d')
+# Facet symmetry tolerance, relative to the scene's characteristic length: STL files store
+# float32 coordinates (about 6e-8 relative), CAD exports a little worse.
+SYMMETRY_RTOL = 1e-6
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A posed body in the medium (SI, world frame W: z up, free surface z = 0).
+
+    facets: world facets of everything that may touch the medium. ref: the tether point p, m.
+    mass: kg. com: centre of mass, m (world). char_length: L_c of the scaled metric, m.
+    """
+
+    name: str
+    facets: Facets
+    ref: np.ndarray
+    mass: float
+    com: np.ndarray
+    char_length: float
+    notes: dict = field(default_factory=dict, compare=False)
+
+    @property
+    def weight(self) -> float:
+        return self.mass * G
+
+    def gravity6(self) -> np.ndarray:
+        """Gravity wrench (Fx, Fy, Fz, Mx, My, Mz) about p, N and N m."""
+        f = np.array([0.0, 0.0, -self.weight])
+        return np.r_[f, np.cross(np.asarray(self.com) - self.ref, f)]
+
+    def buried(self) -> Facets:
+        return self.facets.subset(self.facets.centroids[:, 2] < 0.0)
+
+
+def pull_vector(phi: float, yaw: float = 0.0) -> np.ndarray:
+    """Unit tether direction u(phi, yaw) in the world (rad)."""
+    return rot_z(yaw) @ np.array([-math.cos(phi), 0.0, math.sin(phi)])
+
+
+def scene_from_robot(robot: RobotModel, state: AnchorState, pull: Pull | str) -> Scene:
+    """The sagittal robot as a Scene (both sides of its legs, p as the tether point)."""
+    posed = robot.pose(state, pull)
+    p = np.asarray(posed.ref, dtype=float)
+    c, s = math.cos(state.theta_b), math.sin(state.theta_b)
+    # Body x_B tilts up by thetaB (robots/model.py: rot_y(-thetaB)).
+    com = p + np.array([c * robot.com[0] - s * robot.com[1], 0.0,
+                        s * robot.com[0] + c * robot.com[1]])
+    return Scene(name=robot.name, facets=posed.facets, ref=p, mass=robot.mass, com=com,
+                 char_length=robot.char_length)
+
+
+@dataclass(frozen=True)
+class Symmetry:
+    """Whether a scene is mirror-symmetric about its pull plane, and why not."""
+
+    symmetric: bool
+    detail: str
+
+
+def pull_plane_symmetry(scene: Scene, yaw: float, rtol: float = SYMMETRY_RTOL) -> Symmetry:
+    """Check (not assume) the mirror symmetry about the vertical plane through p with normal
+    Rz(yaw) y: every buried facet must have a mirror facet (centroid, normal, area) and the
+    centre of mass must lie in the plane. Facets above the surface carry no force."""
+    n = rot_z(yaw) @ np.array([0.0, 1.0, 0.0])
+    tol = rtol * max(scene.char_length, 1e-12)
+    off = float(np.dot(np.asarray(scene.com) - scene.ref, n))
+    if abs(off) > tol:
+        return Symmetry(False, f'centre of mass {off * 1e3:.3g} mm off the pull plane')
+    f = scene.buried()
+    if len(f) == 0:
+        return Symmetry(True, 'nothing buried')
+    rel = f.centroids - scene.ref
+    mirrored = f.centroids - 2.0 * np.outer(rel @ n, n)
+    mnorm = f.normals - 2.0 * np.outer(f.normals @ n, n)
+    dist, idx = cKDTree(f.centroids).query(mirrored, k=1)
+    bad = ((dist > tol) | (np.linalg.norm(f.normals[idx] - mnorm, axis=1) > 1e3 * rtol)
+           | (np.abs(f.areas[idx] - f.areas) > 1e3 * rtol * np.maximum(f.areas, 1e-300)))
+    if np.any(bad):
+        return Symmetry(False, f'{int(bad.sum())} of {len(f)} buried facets have no mirror '
+                               f'image about the pull plane (yaw {math.degrees(yaw):.3g} deg)')
+    return Symmetry(True, f'all {len(f)} buried facets and the centre of mass are mirror-'
+                          f'symmetric about the pull plane (yaw {math.degrees(yaw):.3g} deg)')
+
+
+@dataclass(frozen=True)
+class SceneResult:
+    """Capacity along u(phi, yaw) and the slip twist, always as 6D world quantities.
+
+    slip_twist_scaled: unit (vx, vy, vz, wx L_c, wy L_c, wz L_c); slip_twist: raw direction
+    (m/s, rad/s) of unit Euclidean norm. space: 'sagittal' or '6d' (which path answered).
+    """
+
+    status: Status
+    method: str
+    space: str
+    capacity_N: float | None = None
+    slip_twist: tuple[float, ...] | None = None
+    slip_twist_scaled: tuple[float, ...] | None = None
+    reason: str = ''
+    detail: str = ''
+    flags: tuple[str, ...] = ()
+    twist_spread_rad: float | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.status.has_value
+
+
+class SceneModel:
+    """Capacity of a Scene for a tether angle and yaw, on the smallest model that is exact.
+
+    space: 'auto' (sagittal when the symmetry check passes, else 6D), 'sagittal' (refused with
+    `invalid_input` `not_symmetric` when the check fails) or '6d' (always the full path).
+    method / n_twists: the sagittal limit-surface method; the 6D path is `direct` in 6D with
+    n_twists_6d bracketing twists.
+    """
+
+    def __init__(self, medium: Medium, model: str = 'agarwal', method: str = 'direct',
+                 n_twists: int | None = None, space: str = 'auto',
+                 n_twists_6d: int = DEFAULT_TWISTS_6D, backend: str = 'auto'):
+        if space not in SPACES:
+            raise ValueError(f'space must be one of {", ".join(SPACES)}, got {space!r}')
+        from .anchor import DEFAULT_TWISTS, DEFAULT_TWISTS_BY_METHOD
+        self.medium = medium
+        self.stress_model = make_model(model, medium)
+        self.method = method
+        self.surface_cls = surface_class(method)
+        self.n_twists = int(n_twists if n_twists is not None
+                            else DEFAULT_TWISTS_BY_METHOD.get(method, DEFAULT_TWISTS))
+        self.space = space
+        self.n_twists_6d = int(n_twists_6d)
+        self.backend = backend
+
+    @staticmethod
+    def scaling_for(scene: Scene) -> tuple[float, float]:
+        # s_F = the weight (as for the robots); a weightless body gets 1 N (only a unit).
+        return (scene.weight if scene.weight > 0.0 else 1.0), scene.char_length
+
+    def predict(self, scene: Scene, phi: float, yaw: float = 0.0) -> SceneResult:
+        if not (math.isfinite(phi) and math.isfinite(yaw)):
+            return SceneResult(Status.INVALID_INPUT, self.method, self.space,
+                               reason='invalid_phi', detail=f'phi {phi!r}, yaw {yaw!r}')
+        if len(scene.buried()) == 0:
+            return SceneResult(Status.UNSUPPORTED, self.method, self.space,
+                               reason='no_buried_facet',
+                               detail='no facet of the body is below the free surface z = 0')
+        sym = pull_plane_symmetry(scene, yaw)
+        if self.space == 'sagittal' and not sym.symmetric:
+            return SceneResult(Status.INVALID_INPUT, self.method, 'sagittal',
+                               reason='not_symmetric',
+                               detail='the sagittal reduction needs mirror symmetry about the '
+                                      'pull plane: ' + sym.detail)
+        if self.space == '6d' or not sym.symmetric:
+            return self._predict_6d(scene, phi, yaw, sym)
+        return self._predict_sagittal(scene, phi, yaw, sym)
+
+    # -- the sagittal reduction ------------------------------------------------------------
+    def _predict_sagittal(self, scene: Scene, phi: float, yaw: float,
+                          sym: Symmetry) -> SceneResult:
+        p = np.asarray(scene.ref, dtype=float)
+        facets = scene.facets
+        com = np.asarray(scene.com, dtype=float)
+        if yaw != 0.0:   # turn the pull plane into the x-z plane through p
+            r = rot_z(-yaw)
+            facets = Facets((facets.centroids - p) @ r.T + p, facets.normals @ r.T,
+                            facets.areas)
+            com = r @ (com - p) + p
+        body = BuriedBody(facets, self.stress_model, ref=p, mirror_y=float(p[1]),
+                          backend=self.backend)
+        w = scene.weight
+        gravity = np.array([0.0, -w, w * (com[0] - p[0])])
+
+        def wrench_fn(twists: np.ndarray) -> np.ndarray:
+            return -body.planar_wrench(twists) - gravity
+
+        sf, lc = self.scaling_for(scene)
+        surface = self.surface_cls(n_twists=self.n_twists).fit(
+            GLSProblem(wrench_fn, Scaling(sf, lc)))
+        res = surface.capacity(phi)
+        twist = scaled = None
+        if res.slip_twist_scaled is not None and res.slip_twist is not None:
+            rz = rot_z(yaw)
+
+            def lift(t3) -> tuple[float, ...]:
+                v = rz @ np.array([t3[0], 0.0, t3[1]])
+                om = rz @ np.array([0.0, t3[2], 0.0])
+                return tuple(float(x) for x in np.r_[v, om])
+            twist, scaled = lift(res.slip_twist), lift(res.slip_twist_scaled)
+        return SceneResult(res.status, res.method, 'sagittal', res.capacity_N, twist, scaled,
+                           res.reason, 'sagittal reduction: ' + sym.detail + '; ' + res.detail,
+                           res.flags, res.twist_spread_rad)
+
+    # -- the full 6D path --------------------------------------------------------------------
+    def surface_6d(self, scene: Scene) -> Surface6:
+        body = BuriedBody(scene.facets, self.stress_model, ref=scene.ref, backend=self.backend)
+        g = scene.gravity6()
+
+        def wrench_fn(twists: np.ndarray) -> np.ndarray:
+            return -body.wrench(twists) - g
+
+        sf, lc = self.scaling_for(scene)
+        f = scene.buried()
+        forms = np.hstack([f.normals, np.cross(f.centroids - scene.ref, f.normals)])
+        return Surface6(n_twists=self.n_twists_6d).fit(
+            Problem6(wrench_fn, g, Scaling6(sf, lc), switch_forms=forms))
+
+    def _predict_6d(self, scene: Scene, phi: float, yaw: float, sym: Symmetry) -> SceneResult:
+        r: Result6 = self.surface_6d(scene).capacity(pull_vector(phi, yaw))
+        why = ('6D forced (--space 6d)' if sym.symmetric else 'full 6D: ' + sym.detail)
+        return SceneResult(r.status, r.method, '6d', r.capacity_N, r.slip_twist,
+                           r.slip_twist_scaled, r.reason, why + '; ' + r.detail, r.flags)

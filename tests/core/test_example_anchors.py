@@ -1,0 +1,67 @@
+"""examples/anchors (issue 12 item 6): the STL files are what make_anchors.py writes, the
+documented commands answer, and the finned stake's own symmetries check the two paths."""
+from __future__ import annotations
+
+import importlib.util
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from rftgls_core.cli.main import main
+from rftgls_core.geometry.stl import write_stl
+
+FOLDER = Path(__file__).resolve().parents[2] / 'examples' / 'anchors'
+
+
+def make_anchors():
+    spec = importlib.util.spec_from_file_location('make_anchors', FOLDER / 'make_anchors.py')
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_the_files_are_what_the_script_writes(tmp_path):
+    for name, mesh in make_anchors().anchors().items():
+        write_stl(tmp_path / f'{name}.stl', mesh, units='mm', name=name)
+        assert (tmp_path / f'{name}.stl').read_bytes() == (FOLDER / f'{name}.stl').read_bytes()
+
+
+def documented_capacity_commands() -> list[list[str]]:
+    text = (FOLDER / 'README.md').read_text()
+    return [line.split()[1:] for line in text.splitlines()
+            if re.match(r'^rftgls capacity ', line)]
+
+
+@pytest.mark.parametrize('argv', documented_capacity_commands(), ids=lambda a: ' '.join(a[2:4]))
+def test_documented_commands_answer(argv, capsys, monkeypatch):
+    monkeypatch.chdir(FOLDER)
+    assert main(argv) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res['status'] == 'ok' and res['capacity_N'] > 0
+
+
+def stake(capsys, monkeypatch, *extra):
+    monkeypatch.chdir(FOLDER)
+    assert main(['capacity', '--mesh', 'finned.stl', '--position', '0', '0', '-0.02',
+                 '--tether', '0', '0', '-0.02', '--mass', '0.030', '--phi', '30', '--json',
+                 *extra]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_the_stake_is_symmetric_about_its_diagonal_planes(capsys, monkeypatch):
+    # A cross of fins: yaw 30 and 60 deg are mirror images about the 45 deg plane (both 6D),
+    # yaw 45 deg lies in a symmetry plane (the sagittal reduction answers).
+    a, b = stake(capsys, monkeypatch, '--yaw', '30'), stake(capsys, monkeypatch, '--yaw', '60')
+    assert a['method'] == b['method'] == 'direct-6d'
+    assert a['capacity_N'] == pytest.approx(b['capacity_N'], rel=1e-6)
+    assert 'sagittal' in stake(capsys, monkeypatch, '--yaw', '45')['detail']
+
+
+def test_the_stake_gives_the_same_answer_on_both_paths(capsys, monkeypatch):
+    sag = stake(capsys, monkeypatch)
+    full = stake(capsys, monkeypatch, '--space', '6d')
+    assert full['method'] == 'direct-6d'
+    assert full['capacity_N'] == pytest.approx(sag['capacity_N'], rel=1e-6)
