@@ -41,6 +41,7 @@ from .behavior import (
     Observation,
     write_report,
 )
+from .capacity_query import CAPACITY_SOURCES, ServicePredictor
 
 LEGS_L1 = ('leg_proximal_left', 'leg_proximal_right')
 LEGS_L2 = ('leg_distal_left', 'leg_distal_right')
@@ -81,7 +82,16 @@ class BehaviorNode(Node):
         rate = self.declare_parameter('step_rate_hz', 50.0).value
         cap_ns = self.declare_parameter('capacity_ns', '/capacity_node').value.rstrip('/')
 
-        predictor = MapPredictor(self.map_file or None)
+        # Modes are judged by capacity_node (~/query_capacity, rftgls_ros/capacity_query.py);
+        # this node's own map only when configured: capacity_source local_map, or
+        # own_capacity_fallback (that fallback is by definition this node's own map).
+        source = self.declare_parameter('capacity_source', 'service').value
+        if source not in CAPACITY_SOURCES:
+            raise SystemExit(f'behavior_node: error: capacity_source must be one of '
+                             f'{", ".join(CAPACITY_SOURCES)}, got {source!r}')
+        predictor = (MapPredictor(self.map_file or None)
+                     if source == 'local_map' or self.cfg.own_capacity_fallback
+                     else ServicePredictor(self, f'{cap_ns}/query_capacity'))
         self.machine = BehaviorMachine(
             self.cfg, ModeChooser(predictor, self.cfg.safety_factor, self.cfg.phis))
         self.obs = Observation(t=self.now_s())

@@ -40,6 +40,7 @@ from .capacity.estimator import (
 )
 from .capacity.inputs import gravity_problem, pitch_from_quaternion
 from .capacity.predictor import DEFAULT_MAP, ConfigError, make_predictor
+from .capacity_extras import CapacityExtras
 
 NAN = float('nan')
 TRIGGERS = ('joint_states', 'pitch', 'tension', 'height', 'phi')
@@ -151,6 +152,7 @@ class CapacityNode(Node):
         self.pub_twist = self.create_publisher(TwistStamped, '~/slip_twist', 10)
         self.pub_status = self.create_publisher(String, '~/status', latched)
         self.pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self.extras = CapacityExtras(self)  # ~/estimate, ~/query_capacity, ~/markers
 
         sensor = qos_profile_sensor_data
         self.create_subscription(JointState, p['joint_states_topic'], self.on_joint_states,
@@ -340,6 +342,7 @@ class CapacityNode(Node):
         if self.estimator.config.lower_bound_level > 0.0 or est.assumed:
             self.pub_lower.publish(lower)
         self.pub_twist.publish(twist)
+        self.extras.publish(est, cap.header)
         self.last_estimate = est
         self.last_publish = time.monotonic()
         self.processing_s = time.perf_counter() - t0
