@@ -41,7 +41,8 @@ from .behavior import (
     Observation,
     write_report,
 )
-from .capacity_query import CAPACITY_SOURCES, ServicePredictor
+from .behavior.tug_series import write_tug_series
+from .capacity_query import CAPACITY_SOURCES, ServicePredictor, record_tug
 
 LEGS_L1 = ('leg_proximal_left', 'leg_proximal_right')
 LEGS_L2 = ('leg_distal_left', 'leg_distal_right')
@@ -119,6 +120,7 @@ class BehaviorNode(Node):
         self.create_subscription(String, f'{cap_ns}/status', self.on_status, LATCHED)
         self.cap_name = cap_ns.rsplit('/', 1)[-1]
         self.create_subscription(DiagnosticArray, '/diagnostics', self.on_diagnostics, 10)
+        self.tug_series = record_tug(self, cap_ns)   # the report's <stem>_tug.png time series
         self.create_timer(1.0 / rate, self.step)
         self.get_logger().info(
             f'sled {1e3 * self.cfg.sled_mass:.0f} g (mu {self.cfg.sled_mu}), {self.cfg.cycles} '
@@ -227,6 +229,10 @@ class BehaviorNode(Node):
             csv_path, png_path = write_report(self.machine.records, self.report_dir,
                                               self.report_stem)
             self.get_logger().info(f'cycle report: {csv_path} and {png_path}')
+            tug = write_tug_series(self.tug_series, self.report_dir, self.report_stem,
+                                   self.cfg.slow_ratio, self.cfg.stop_ratio)
+            if tug:
+                self.get_logger().info(f'tug time series: {tug[1]}')
 
 
 def main(args=None) -> int:

@@ -21,7 +21,10 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 
 from rftgls_core.types import AnchorState, Status
+from rftgls_interfaces.msg import AnchorEstimate
 from rftgls_interfaces.srv import QueryCapacity
+
+from .behavior.tug_series import TugSeries
 
 CAPACITY_SOURCES = ('service', 'local_map')
 
@@ -75,3 +78,17 @@ class ServicePredictor:
     def destroy(self) -> None:
         self._executor.remove_node(self._node)
         self._node.destroy_node()
+
+
+def record_tug(node, cap_ns: str) -> TugSeries:
+    """Record every capacity_node estimate (``{cap_ns}/estimate``) with the behaviour state at
+    its arrival, for the tug time series the report writes (behavior/tug_series.py). ``node``
+    is behavior_node (its ``now_s()`` and ``machine``)."""
+    series = TugSeries()
+
+    def on_estimate(msg: AnchorEstimate) -> None:
+        series.add(node.now_s(), msg.tension_n, msg.capacity_n, msg.capacity_lower_n,
+                   msg.status, str(node.machine.state))
+
+    node.create_subscription(AnchorEstimate, f'{cap_ns}/estimate', on_estimate, 10)
+    return series
