@@ -219,3 +219,25 @@ def test_behavior_query_without_capacity_node_is_no_value(ros_context):
     finally:
         pred.destroy()
         asker.destroy_node()
+
+
+def test_behavior_node_asks_the_service_unless_configured(ros_context):
+    """capacity_source: service (default) -> ServicePredictor; local_map, or the explicit
+    own_capacity_fallback, -> its own map; anything else refuses to start."""
+    from rftgls_ros.behavior import MapPredictor
+    from rftgls_ros.behavior_node import BehaviorNode
+    from rftgls_ros.capacity_query import ServicePredictor
+
+    def chooser_predictor(**params):
+        node = BehaviorNode(context=ros_context, parameter_overrides=[
+            Parameter(k, value=v) for k, v in params.items()])
+        try:
+            return type(node.machine.chooser.predictor)
+        finally:
+            node.destroy_node()
+
+    assert chooser_predictor() is ServicePredictor
+    assert chooser_predictor(capacity_source='local_map') is MapPredictor
+    assert chooser_predictor(own_capacity_fallback=True) is MapPredictor
+    with pytest.raises(SystemExit, match='capacity_source must be one of service, local_map'):
+        chooser_predictor(capacity_source='guess')
