@@ -120,7 +120,8 @@ class BehaviorNode(Node):
         self.create_subscription(String, f'{cap_ns}/status', self.on_status, LATCHED)
         self.cap_name = cap_ns.rsplit('/', 1)[-1]
         self.create_subscription(DiagnosticArray, '/diagnostics', self.on_diagnostics, 10)
-        self.tug_series = record_tug(self, cap_ns)   # the report's <stem>_tug.png time series
+        # The report's <stem>_tug.png time series (behavior/tug_series.py).
+        self.tug_series = record_tug(self, cap_ns, self.now_s, lambda: str(self.machine.state))
         self.create_timer(1.0 / rate, self.step)
         self.get_logger().info(
             f'sled {1e3 * self.cfg.sled_mass:.0f} g (mu {self.cfg.sled_mu}), {self.cfg.cycles} '

@@ -80,15 +80,15 @@ class ServicePredictor:
         self._node.destroy_node()
 
 
-def record_tug(node, cap_ns: str) -> TugSeries:
-    """Record every capacity_node estimate (``{cap_ns}/estimate``) with the behaviour state at
-    its arrival, for the tug time series the report writes (behavior/tug_series.py). ``node``
-    is behavior_node (its ``now_s()`` and ``machine``)."""
+def record_tug(node, cap_ns: str, now, state) -> TugSeries:
+    """Record every capacity_node estimate (``{cap_ns}/estimate``) for the tug time series
+    (behavior/tug_series.py). now() -> s and state() -> str: the recording node's clock and
+    its state at the estimate's arrival (behavior_node: the machine's state)."""
     series = TugSeries()
 
     def on_estimate(msg: AnchorEstimate) -> None:
-        series.add(node.now_s(), msg.tension_n, msg.capacity_n, msg.capacity_lower_n,
-                   msg.status, str(node.machine.state))
+        series.add(now(), msg.tension_n, msg.capacity_n, msg.capacity_lower_n, msg.status,
+                   state())
 
     node.create_subscription(AnchorEstimate, f'{cap_ns}/estimate', on_estimate, 10)
     return series

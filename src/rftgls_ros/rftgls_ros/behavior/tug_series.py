@@ -57,9 +57,10 @@ def _spans(ts: list[float], flags: list[bool]) -> list[tuple[float, float]]:
     return out
 
 
-def plot_tug_series(samples, path: str | Path, slow_ratio: float = 0.90,
+def plot_tug_series(samples, path: str | Path, slow_ratio: float | None = 0.90,
                     stop_ratio: float = 0.97, title: str = '') -> Path:
-    """Write the PNG; returns its path. Raises ValueError on an empty series."""
+    """Write the PNG; returns its path (slow_ratio None: no slow-down line). Raises
+    ValueError on an empty series."""
     samples = list(samples)
     if not samples:
         raise ValueError('no samples to plot')
@@ -77,10 +78,11 @@ def plot_tug_series(samples, path: str | Path, slow_ratio: float = 0.90,
     ax.plot(t, cap, color='k', lw=1.2, label='capacity')
     ax.plot(t, [s.capacity_lower_n if s.status in USABLE else math.nan for s in samples],
             color='0.45', lw=1, ls='--', label='lower bound')
-    ax.plot(t, [slow_ratio * c for c in cap], color='tab:orange', lw=0.8, ls=':',
-            label=f'slow down ({slow_ratio:.2f} C)')
+    if slow_ratio is not None:
+        ax.plot(t, [slow_ratio * c for c in cap], color='tab:orange', lw=0.8, ls=':',
+                label=f'slow down ({slow_ratio:.2f} C)')
     ax.plot(t, [stop_ratio * c for c in cap], color='tab:red', lw=0.8, ls=':',
-            label=f'margin guard stop ({stop_ratio:.2f} C)')
+            label=f'guard: stop ({stop_ratio:.2f} C)')
     bad = [(s.t_s, s.tension_n) for s in samples if s.status not in USABLE]
     if bad:
         ax.plot(*zip(*bad), 'x', color='tab:red', ms=3, label='no usable estimate')
@@ -106,7 +108,7 @@ def plot_tug_series(samples, path: str | Path, slow_ratio: float = 0.90,
 
 
 def write_tug_series(series: TugSeries, out_dir: str | Path, stem: str,
-                     slow_ratio: float = 0.90, stop_ratio: float = 0.97,
+                     slow_ratio: float | None = 0.90, stop_ratio: float = 0.97,
                      title: str = '') -> tuple[Path, Path] | None:
     """``stem``_tug.csv and ``stem``_tug.png in ``out_dir``; None when nothing was recorded."""
     if not series.samples:

@@ -4,7 +4,9 @@ Subscribes /winch/tension, /joint_states (winch_rope), /capacity_node/{capacity,
 status}; publishes /winch/speed, /burrow, /gait, /estop, and /winch/height, /winch/phi for
 capacity_node (h = Table II mean of the requested mode; phi from the tether length).
 Run it alone with the robot (or simulator), bridge_node and capacity_node, not together with
-behavior_node (both would command the winch).
+behavior_node (both would command the winch). On exit the session's capacity_node estimates are
+written as a time series to `report_dir` (default out/teleop; "" = none): teleop_tug.png/.csv
+(tension, capacity, lower bound, guard lines, status; time reeling in shaded as TUG).
 """
 from __future__ import annotations
 
@@ -24,6 +26,8 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64, String
 
+from ..behavior.tug_series import write_tug_series
+from ..capacity_query import record_tug
 from .model import TeleopConfig, TeleopModel
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -54,6 +58,9 @@ class TeleopNode(Node):
         self.create_subscription(TwistStamped, '/capacity_node/slip_twist', self.on_twist, 10)
         self.create_subscription(String, '/capacity_node/status', self.on_status, LATCHED)
         self.create_timer(0.05, self.on_timer)
+        self.report_dir = self.declare_parameter('report_dir', 'out/teleop').value
+        self.tug_series = record_tug(self, '/capacity_node', time.monotonic,
+                                     lambda: 'TUG' if self.model.winch > 0.0 else 'manual')
 
     def send(self, cmds) -> None:
         for topic, value in cmds:
@@ -130,6 +137,13 @@ def main(args=None) -> int:
             pass
         if old:
             termios.tcsetattr(fd, termios.TCSADRAIN, old)
+        if node.report_dir:
+            # The teleop guard: reeling in beyond limit_fraction x C needs the override.
+            out = write_tug_series(node.tug_series, node.report_dir, 'teleop', None,
+                                   node.model.cfg.limit_fraction,
+                                   'teleop session: capacity_node estimates')
+            if out:
+                print(f'teleop: tug time series {out[1]}')
         executor.remove_node(node)
         node.destroy_node()
         rclpy.try_shutdown()
