@@ -1,22 +1,12 @@
 """ament_python package rftgls_ros; also installs with plain pip."""
-import os
 from glob import glob
 
 from setuptools import find_packages, setup
 
 PACKAGE = 'rftgls_ros'
-# Repository root, through the real path of this file: colcon runs it from ros2_ws/src (a
-# symlink to src/) or from a copy in build/<pkg>, so '../..' would name another folder.
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
-
-
-def _outside(*pattern: str) -> list[str]:
-    """Files of the repository outside this package, relative to where setup.py runs
-    (data_files must be relative)."""
-    return sorted(os.path.relpath(f, os.getcwd()) for f in glob(os.path.join(ROOT, *pattern)))
 # Installed to share/rftgls_ros (found through the ament index by launch files and tools):
-# launch files, the node parameter files of the repository (ros2_ws/params) and the RViz /
-# Foxglove layouts.
+# launch files, the node parameter files (params is a symlink to the repository's
+# ros2_ws/params) and the RViz / Foxglove layouts.
 SHARE = 'share/' + PACKAGE
 
 setup(
@@ -28,7 +18,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
         (SHARE + '/launch', sorted(glob('launch/*.launch.py'))),
-        (SHARE + '/params', _outside('ros2_ws', 'params', '*.yaml')),
+        (SHARE + '/params', sorted(glob('params/*.yaml'))),
         (SHARE + '/config', sorted(glob('config/*.rviz') + glob('config/*.json'))),
     ],
     install_requires=['setuptools'],
