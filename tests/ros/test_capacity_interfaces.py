@@ -135,7 +135,8 @@ def test_estimate_and_markers_match_core(stack):
 
     markers = {m.ns: m for m in arr.markers if m.action == Marker.ADD}
     assert arr.markers[0].action == Marker.DELETEALL
-    assert {'limit_curve', 'tension', 'capacity', 'slip_twist', 'text'} <= set(markers)
+    assert {'limit_curve', 'tension', 'capacity', 'slip_twist', 'text', 'buried_facets',
+            'surface'} <= set(markers)
     assert all(m.header.frame_id == 'winch_link' for m in markers.values())
     c, s = math.cos(st.theta_b), math.sin(st.theta_b)
 
@@ -165,6 +166,18 @@ def test_estimate_and_markers_match_core(stack):
     head = np.array([[p.x, p.y, p.z] for p in markers['slip_twist'].points])[1]
     v = np.array(tw[:2]) / np.linalg.norm(tw[:2]) * 0.05
     np.testing.assert_allclose(head, body(*v), atol=1e-6)
+    # Buried leg facets: the core's posed robot, centroids below z = 0, relative to p.
+    from rftgls_core.robots.presets import get_robot
+    cent = get_robot('minirquad').pose(st, 'backward').facets.centroids
+    buried = cent[cent[:, 2] < 0.0]
+    assert len(buried) > 10
+    pts = np.array([[p.x, p.y, p.z] for p in markers['buried_facets'].points])
+    want = np.array([body(x, z - st.h) + [0.0, y, 0.0] for x, y, z in buried])
+    np.testing.assert_allclose(pts, want, atol=1e-6)
+    assert markers['buried_facets'].type == Marker.POINTS
+    # The free surface lies h below p.
+    surf = np.array([[p.x, p.y, p.z] for p in markers['surface'].points])
+    np.testing.assert_allclose(surf[0], body(-0.15, -st.h), atol=1e-9)
 
 
 def test_behavior_asks_capacity_node(ros_context):

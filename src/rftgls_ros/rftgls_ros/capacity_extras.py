@@ -11,7 +11,8 @@ topics stay in capacity_node.py for tools that only know standard messages.
                      for the same map.
   ~/markers          visualization_msgs/MarkerArray, at most every marker_period_s: geometry
                      from rftgls_ros.capacity.markers (limit curve at My = 0, tether force,
-                     capacity coloured by margin, slip direction, a text), in marker_frame_id.
+                     capacity coloured by margin, slip direction, buried leg facets, the
+                     free surface, a text), in marker_frame_id.
 
 Parameters (declared here): marker_period_s (s, 0 = no markers), marker_frame_id (the body
 frame at the winch point p, the URDF's winch_link), marker_force_scale_m_per_N (m drawn per N).
@@ -23,6 +24,7 @@ from __future__ import annotations
 import math
 import time
 
+import numpy as np
 from builtin_interfaces.msg import Duration
 from geometry_msgs.msg import Point, Twist
 from std_msgs.msg import ColorRGBA, Header
@@ -43,7 +45,7 @@ PARAMETERS = {
     'marker_force_scale_m_per_N': 0.01,
 }
 KINDS = {'line_strip': Marker.LINE_STRIP, 'arrow': Marker.ARROW,
-         'text': Marker.TEXT_VIEW_FACING}
+         'text': Marker.TEXT_VIEW_FACING, 'points': Marker.POINTS}
 
 
 def _num(x: float | None) -> float:
@@ -112,6 +114,8 @@ def marker_array(geoms, header: Header, lifetime_s: float) -> MarkerArray:
         m.color = ColorRGBA(r=g.rgba[0], g=g.rgba[1], b=g.rgba[2], a=g.rgba[3])
         if g.kind == 'arrow':   # shaft diameter, head diameter, head length
             m.scale.x, m.scale.y, m.scale.z = g.width_m, 2.5 * g.width_m, 4.0 * g.width_m
+        elif g.kind == 'points':  # point width and height
+            m.scale.x = m.scale.y = g.width_m
         elif g.kind == 'text':
             m.scale.z = g.width_m
             m.pose.position = Point(x=float(g.points[0, 0]), y=float(g.points[0, 1]),
@@ -144,6 +148,9 @@ class CapacityExtras:
         self.curve_map = primary if isinstance(primary, MapPredictor) else None
         self._curve_key: tuple | None = None
         self._curve: CurveSample | None = None
+        self._robot = None
+        self._buried_key: tuple | None = None
+        self._buried = None
         self._last_markers = -math.inf
 
     def on_query(self, req, res):
@@ -159,9 +166,26 @@ class CapacityExtras:
         geoms = estimate_markers(
             str(est.status), st.theta_b if st else None, est.phi_rad, est.capacity_N,
             est.tension_N, est.margin_N, est.slip_twist, est.slipping, self.curve(est),
-            self.style)
+            self.style, st.h if st else None, self.buried(est))
         mheader = Header(stamp=header.stamp, frame_id=self.frame_id)
         self.pub_markers.publish(marker_array(geoms, mheader, 3.0 * self.period_s))
+
+    def buried(self, est: Estimate):
+        """Buried leg facet centroids relative to p, world axes (m), cached per state; None
+        when the robot model is unknown here."""
+        if est.state is None:
+            return None
+        key = est.state.as_tuple()
+        if key != self._buried_key:
+            from rftgls_core.robots.presets import get_robot
+            try:
+                model = self._robot = self._robot or get_robot(self.node.params['robot'])
+            except (KeyError, ValueError):
+                return None
+            c = model.pose(est.state, self.pull).facets.centroids
+            self._buried = c[c[:, 2] < 0.0] - np.array([0.0, 0.0, est.state.h])
+            self._buried_key = key
+        return self._buried
 
     def curve(self, est: Estimate) -> CurveSample | None:
         """The limit curve at the estimate's state, from the map (cached per state)."""

@@ -9,6 +9,8 @@ What is drawn (all in the tether plane, the sagittal x-z plane through the winch
                (green: margin >= MARGIN_GREEN of the capacity, red: none or negative);
   slip_twist   the predicted slip direction (vx, vz) of p, twist_length_m long (red while
                slipping); its wy is in the text;
+  buried_facets  centroids of the leg facets below the free surface (the ones RFT loads);
+  surface      the free surface z = 0 (a line through the sagittal plane, h below p);
   text         status, capacity, tension and margin.
 
 Frames: the numbers come in world-aligned axes at p (docs/design/architecture.md, "Frames and
@@ -87,6 +89,17 @@ def world_to_body(xz: np.ndarray, theta_b: float) -> np.ndarray:
     return out
 
 
+def world_points_to_body(pts: np.ndarray, theta_b: float) -> np.ndarray:
+    """(n, 3) world-axis vectors (x, y, z) -> body frame B (the same rotation about y)."""
+    pts = np.atleast_2d(np.asarray(pts, dtype=float))
+    c, s = math.cos(theta_b), math.sin(theta_b)
+    out = np.empty_like(pts)
+    out[:, 0] = pts[:, 0] * c + pts[:, 2] * s
+    out[:, 1] = pts[:, 1]
+    out[:, 2] = -pts[:, 0] * s + pts[:, 2] * c
+    return out
+
+
 def margin_rgba(margin_N: float | None, capacity_N: float | None) -> tuple[float, ...]:
     """Red (no value or margin <= 0) through yellow to green (margin >= MARGIN_GREEN x C)."""
     if margin_N is None or capacity_N is None or not math.isfinite(margin_N) \
@@ -104,9 +117,12 @@ def estimate_markers(status: str, theta_b: float | None, phi: float | None,
                      capacity_N: float | None, tension_N: float | None,
                      margin_N: float | None, slip_twist: Sequence[float] | None,
                      slipping: bool, curve: CurveSample | None,
-                     style: MarkerStyle = MarkerStyle()) -> list[MarkerGeometry]:
+                     style: MarkerStyle = MarkerStyle(), h_m: float | None = None,
+                     buried_m: np.ndarray | None = None) -> list[MarkerGeometry]:
     """The markers of one estimate (see the module doc). Without a body pitch nothing can be
-    placed in the body frame: only the text is returned. A missing value draws nothing."""
+    placed in the body frame: only the text is returned. A missing value draws nothing.
+    h_m: height of p above the free surface (m); buried_m: (n, 3) buried facet centroids
+    relative to p in world axes (m)."""
     k = style.force_scale_m_per_N
     lines = [f'{status}']
     if _finite(capacity_N):
@@ -122,6 +138,15 @@ def estimate_markers(status: str, theta_b: float | None, phi: float | None,
     if not _finite(theta_b):
         return out
     assert theta_b is not None
+    if _finite(h_m):
+        assert h_m is not None
+        line = np.array([[-0.15, 0.0, -h_m], [0.15, 0.0, -h_m]])
+        out.append(MarkerGeometry('surface', 'line_strip', world_points_to_body(line, theta_b),
+                                  (0.8, 0.7, 0.4, 1.0), style.line_width_m))
+    if buried_m is not None and len(buried_m):
+        out.append(MarkerGeometry('buried_facets', 'points',
+                                  world_points_to_body(buried_m, theta_b), (0.55, 0.35, 0.1, 1.0),
+                                  0.002))
     if curve is not None:
         ok = np.isfinite(curve.capacity_N)
         if ok.sum() >= 2:
