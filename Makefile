@@ -8,6 +8,9 @@ STAMP := $(VENV)/.installed-stamp
 WS := ros2_ws
 PKGS := rftgls_core minirquad_driver rftgls_ros
 PKG_FILES := $(foreach p,$(PKGS),src/$(p)/setup.py src/$(p)/setup.cfg src/$(p)/package.xml)
+# Interface packages (ament_cmake + rosidl) built by colcon only; any change re-builds them.
+IFACE_PKGS := tf2_msgs rftgls_interfaces
+IFACE_FILES := $(shell find $(foreach p,$(IFACE_PKGS),src/$(p)) -type f 2>/dev/null)
 # DDS stays on loopback for everything started from here (discovery and sockets).
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export FASTRTPS_DEFAULT_PROFILES_FILE := $(CURDIR)/ros2_ws/params/fastdds_localhost.xml
@@ -30,12 +33,16 @@ $(STAMP): requirements/lock.txt $(PKG_FILES)
 	    -r requirements/lock.txt
 	$(BIN)/python -m pip install --disable-pip-version-check -q --no-deps --no-build-isolation \
 	    $(foreach p,$(PKGS),-e src/$(p))
+	$(BIN)/python tools/fix_rosidl_cmake.py
 	install -m 755 tools/ros2 tools/rftgls $(BIN)/
 	touch $@
 
-# colcon gives the ament layout (lib/<pkg>/<exe>) that `ros2 run` looks up.
-$(WS)/install/.built-stamp: $(STAMP) $(PKG_FILES)
-	source $(BIN)/activate && cd $(WS) && colcon build --symlink-install
+# colcon gives the ament layout (lib/<pkg>/<exe>) that `ros2 run` looks up. The interface
+# packages find the rosidl generators and type supports through AMENT_PREFIX_PATH = the venv
+# (docs/design/ros2-from-pip.md, "Interface packages from pip").
+$(WS)/install/.built-stamp: $(STAMP) $(PKG_FILES) $(IFACE_FILES)
+	source $(BIN)/activate && cd $(WS) && AMENT_PREFIX_PATH=$(CURDIR)/$(VENV) colcon build \
+	    --symlink-install --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE=$(CURDIR)/$(BIN)/python
 	touch $@
 
 build: setup

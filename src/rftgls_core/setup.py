@@ -1,4 +1,6 @@
 """ament_python package rftgls_core; also installs with plain pip."""
+from glob import glob
+
 from setuptools import find_packages, setup
 
 PACKAGE = 'rftgls_core'
@@ -11,6 +13,10 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
+        # The shipped maps (shipped_maps is a symlink to the repository's maps/): a plain
+        # `colcon build` installs them to share/rftgls_core/maps, where
+        # maps.shipped.maps_dir() finds them.
+        ('share/' + PACKAGE + '/maps', sorted(glob('shipped_maps/*.h5'))),
     ],
     install_requires=['setuptools'],
     zip_safe=False,

@@ -1,7 +1,13 @@
 """ament_python package rftgls_ros; also installs with plain pip."""
+from glob import glob
+
 from setuptools import find_packages, setup
 
 PACKAGE = 'rftgls_ros'
+# Installed to share/rftgls_ros (found through the ament index by launch files and tools):
+# launch files, the node parameter files (params is a symlink to the repository's
+# ros2_ws/params) and the RViz / Foxglove layouts.
+SHARE = 'share/' + PACKAGE
 
 setup(
     name=PACKAGE,
@@ -11,6 +17,9 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
+        (SHARE + '/launch', sorted(glob('launch/*.launch.py'))),
+        (SHARE + '/params', sorted(glob('params/*.yaml'))),
+        (SHARE + '/config', sorted(glob('config/*.rviz') + glob('config/*.json'))),
     ],
     install_requires=['setuptools'],
     zip_safe=False,

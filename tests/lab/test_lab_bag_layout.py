@@ -119,3 +119,59 @@ def test_planar_helpers():
     qs = planar.quaternion_from_theta(small)
     np.testing.assert_allclose(np.arcsin(2 * (qs[:, 0] * qs[:, 2] - qs[:, 3] * qs[:, 1])), small,
                                atol=1e-12)
+
+
+def test_bag_records_qos_and_static_frames_like_a_jazzy_recording(tmp_path):
+    """metadata.yaml as `ros2 bag play` reads it: storage mcap, offered QoS per topic (the
+    latched topics transient-local), and /tf_static with the bench's fixed frames."""
+    import yaml
+    from rosbags.rosbag2 import Reader
+    from rosbags.typesys import Stores, get_typestore
+
+    test = make_test()
+    write_pull_test(tmp_path / 'bag', test)
+    info = yaml.safe_load((tmp_path / 'bag' / 'metadata.yaml').read_text())
+    info = info['rosbag2_bagfile_information']
+    assert info['storage_identifier'] == 'mcap'
+    qos = {}
+    for t in info['topics_with_message_count']:
+        md = t['topic_metadata']
+        profiles = md['offered_qos_profiles']
+        profiles = yaml.safe_load(profiles) if isinstance(profiles, str) else profiles
+        assert len(profiles) == 1, md['name']
+        qos[md['name']] = profiles[0]
+    assert set(qos) <= set(TOPICS) and {'/lab/metadata', '/tf_static', '/winch/tension'} <= set(qos)
+    # rmw enums: reliability 1 = reliable; durability 1 = transient local, 2 = volatile
+    for topic, q in qos.items():
+        assert q['reliability'] in (1, 'reliable'), topic
+        latched = topic in ('/lab/metadata', '/tf_static')
+        assert q['durability'] in ((1, 'transient_local') if latched else (2, 'volatile')), topic
+        assert q['depth'] == (1 if latched else 100)
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    with Reader(tmp_path / 'bag') as r:
+        conns = [c for c in r.connections if c.topic == '/tf_static']
+        msgs = [ts.deserialize_cdr(raw, c.msgtype) for c, _, raw in r.messages(conns)]
+    assert len(msgs) == 1
+    tf = {(t.header.frame_id, t.child_frame_id): t.transform for t in msgs[0].transforms}
+    assert set(tf) == {('lab_world', 'aruco_tank'), ('lab_world', 'camera_optical')}
+    assert msgs[0].transforms[0].header.stamp.sec == test.t0_ns // 10**9
+    tank = tf[('lab_world', 'aruco_tank')]
+    assert (tank.translation.x, tank.translation.y, tank.translation.z) == (0.1, 0.0, 0.05)
+    # theta 0: marker x = world x, marker z = world -y: +90 deg about world x.
+    q = tank.rotation
+    assert (q.x, q.y, q.z, q.w) == pytest.approx((math.sqrt(0.5), 0, 0, math.sqrt(0.5)))
+    # The camera: tank marker 0.6 m in front of it (the fixture's T_cam_tank = translation z).
+    cam = tf[('lab_world', 'camera_optical')]
+    assert (cam.translation.x, cam.translation.y, cam.translation.z) == pytest.approx(
+        (0.1, 0.6, 0.05))
+
+
+def test_replay_latches_what_the_bag_says(tmp_path):
+    from rosbags.rosbag2 import Reader
+
+    from rftgls_ros.lab.replay import latched
+    write_pull_test(tmp_path / 'bag', make_test())
+    with Reader(tmp_path / 'bag') as r:
+        by_topic = {c.topic: latched(c) for c in r.connections}
+    assert by_topic.pop('/lab/metadata') and by_topic.pop('/tf_static')
+    assert not any(by_topic.values())

@@ -48,6 +48,8 @@ from .behavior import (
     write_report,
 )
 from .capacity.predictor import DEFAULT_MAP, MapPredictor
+from .behavior.tug_series import write_tug_series
+from .capacity_query import CAPACITY_SOURCES, ServicePredictor, record_tug
 
 WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's deadman (0.1 s)
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -100,7 +102,17 @@ class BehaviorNode(Node):
         cap_ns = declare(self, 'capacity_ns', 'capacity_node',
                          "capacity_node's name (relative: this node's namespace)").rstrip('/')
 
-        predictor = MapPredictor(self.map_file or DEFAULT_MAP)
+        # Modes are judged by capacity_node (~/query_capacity, rftgls_ros/capacity_query.py);
+        # this node's own map only when configured: capacity_source local_map, or
+        # own_capacity_fallback (that fallback is by definition this node's own map).
+        source = declare(self, 'capacity_source', 'service',
+                         'service = ask capacity_node ~/query_capacity; local_map = own map_file')
+        if source not in CAPACITY_SOURCES:
+            raise ValueError(f'capacity_source must be one of '
+                             f'{", ".join(CAPACITY_SOURCES)}, got {source!r}')
+        predictor = (MapPredictor(self.map_file or DEFAULT_MAP)
+                     if source == 'local_map' or self.cfg.own_capacity_fallback
+                     else ServicePredictor(self, f'{cap_ns}/query_capacity'))
         self.machine = BehaviorMachine(
             self.cfg, ModeChooser(predictor, self.cfg.safety_factor, self.cfg.phis_rad))
         self.obs = Observation(t=self.now_s())
@@ -128,6 +140,8 @@ class BehaviorNode(Node):
         self.create_subscription(String, f'{cap_ns}/status', self.on_status, LATCHED)
         self.cap_name = cap_ns.rsplit('/', 1)[-1]
         self.create_subscription(DiagnosticArray, '/diagnostics', self.on_diagnostics, 10)  # global
+        # The report's <stem>_tug.png time series (behavior/tug_series.py).
+        self.tug_series = record_tug(self, cap_ns, self.now_s, lambda: str(self.machine.state))
         self.create_timer(1.0 / rate, self.step)
         self.get_logger().info(
             f'sled {1e3 * self.cfg.sled_mass_kg:.0f} g (mu {self.cfg.sled_mu}), {self.cfg.cycles} '
@@ -239,6 +253,10 @@ class BehaviorNode(Node):
             csv_path, png_path = write_report(self.machine.records, self.report_dir,
                                               self.report_stem)
             self.get_logger().info(f'cycle report: {csv_path} and {png_path}')
+            tug = write_tug_series(self.tug_series, self.report_dir, self.report_stem,
+                                   self.cfg.slow_ratio, self.cfg.stop_ratio)
+            if tug:
+                self.get_logger().info(f'tug time series: {tug[1]}')
 
 
 def main(args=None) -> int:

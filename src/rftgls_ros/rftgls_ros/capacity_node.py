@@ -35,6 +35,7 @@ from .capacity.estimator import JOINTS, CapacityEstimator, Estimate
 from .capacity.inputs import gravity_problem, quat_xyzw_to_pitch
 from .capacity.params import PARAMETERS, RUNTIME, configs
 from .capacity.predictor import ConfigError, predictor_from_params, predictor_name
+from .capacity_extras import CapacityExtras
 
 
 class CapacityNode(Node):
@@ -74,6 +75,7 @@ class CapacityNode(Node):
         self.pub_status = self.create_publisher(String, '~/status', latched)
         # /diagnostics is global (every node reports there; REP-107), the rest is relative.
         self.pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self.extras = CapacityExtras(self)  # ~/estimate, ~/query_capacity, ~/markers
 
         sensor = qos_profile_sensor_data
         self.create_subscription(JointState, p['joint_states_topic'], self.on_joint_states,
@@ -244,6 +246,7 @@ class CapacityNode(Node):
         if out.publish_lower:
             self.pub_lower.publish(lower)
         self.pub_twist.publish(twist)
+        self.extras.publish(est, cap.header)
         self.last_estimate = est
         self.last_publish = time.monotonic()
         self.processing_s = time.perf_counter() - t0

@@ -5,6 +5,7 @@
     rftgls map info FILE [--json]
     rftgls map accuracy FILE [--samples N] [--reference direct] [--json]
     rftgls map refine FILE --out NEW.h5 [--tol PCT] [--samples N]
+    rftgls map plot FILE --x AXIS --y AXIS --out SLICE.png  (see cli/map_plot.py)
 
 Grid options take mm (h) and degrees (angles) as 'start:step:stop' (inclusive) or 'a,b,c';
 write negative values with '=' (--theta-l1=-40:20:40). Missing axes come from the robot's
@@ -93,6 +94,9 @@ def add_parser(sub) -> None:
     f.add_argument('--dry-run', action='store_true', help='report intervals, build nothing')
     f.add_argument('--quiet', action='store_true', help='no progress bar')
     f.set_defaults(run=run_refine)
+
+    from .map_plot import add_plot_parser  # `rftgls map plot` (heatmap slices), cli/map_plot.py
+    add_plot_parser(msub)
 
 
 def grid_from_args(args):

@@ -10,7 +10,9 @@ Search order (docs/design/map-integrity.md):
    cannot stand in for a shipped map.
 
 maps_dir() is `maps/` at the repository root that holds this package (symlinked and editable
-installs resolve to the source tree), or $RFTGLS_MAPS_DIR.
+installs resolve to the source tree), or $RFTGLS_MAPS_DIR; a plain (copying) `colcon build`
+installs the maps to <prefix>/share/rftgls_core/maps, found through the ament index
+(AMENT_PREFIX_PATH, read directly: the core imports no ROS package).
 """
 from __future__ import annotations
 
@@ -37,7 +39,14 @@ def maps_dir() -> Path:
     if env:
         return Path(env)
     # src/rftgls_core/rftgls_core/maps/shipped.py -> repository root.
-    return Path(__file__).resolve().parents[4] / 'maps'
+    repo = Path(__file__).resolve().parents[4] / 'maps'
+    if not repo.is_dir():
+        for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+            index = Path(prefix) / 'share' / 'ament_index' / 'resource_index' / 'packages'
+            share = Path(prefix) / 'share' / 'rftgls_core' / 'maps'
+            if prefix and (index / 'rftgls_core').is_file() and share.is_dir():
+                return share
+    return repo
 
 
 def _shipped_name(spec: str) -> str | None:

@@ -44,6 +44,10 @@ MARKERS = ('tank', 'robot')
 # topic -> (type, content). Every topic is optional except the metadata.
 TOPICS: dict[str, tuple[str, str]] = {
     '/lab/metadata': ('std_msgs/msg/String', 'PullTestMeta JSON, once at t0'),
+    '/tf_static': ('tf2_msgs/msg/TFMessage',
+                   'fixed frames, once at t0: lab_world -> aruco_tank (the metadata\'s '
+                   'tank_in_world) and lab_world -> camera_optical (from the first frame that '
+                   'tracked the tank marker; tracked bags only)'),
     '/joint_states': ('sensor_msgs/msg/JointState',
                       'leg angles, rad from -z_B about the axles: ' + ', '.join(JOINT_NAMES)),
     '/winch/tension': ('geometry_msgs/msg/WrenchStamped',
@@ -69,6 +73,28 @@ TOPICS: dict[str, tuple[str, str]] = {
 # text, and only these texts are ever resolved (to rosbags' typestore or an rclpy message
 # module). Anything else in a bag is skipped or refused, never imported.
 KNOWN_TYPES: frozenset[str] = frozenset(t for t, _ in TOPICS.values())
+# Offered QoS recorded per topic (metadata.yaml offered_qos_profiles), so a player replays
+# latched topics as latched: the metadata and /tf_static reliable + transient-local depth 1
+# (what a static transform broadcaster offers), everything else reliable, volatile, depth 100.
+LATCHED_TOPICS = ('/lab/metadata', '/tf_static')
+TANK_FRAME = 'aruco_tank'
+
+
+def offered_qos(topic: str) -> list:
+    """The rosbags QoS profile list recorded for a topic of the layout."""
+    from rosbags.interfaces import (
+        Qos,
+        QosDurability,
+        QosHistory,
+        QosLiveliness,
+        QosReliability,
+        QosTime,
+    )
+    latched = topic in LATCHED_TOPICS
+    zero = QosTime(0, 0)
+    return [Qos(QosHistory.KEEP_LAST, 1 if latched else 100, QosReliability.RELIABLE,
+                QosDurability.TRANSIENT_LOCAL if latched else QosDurability.VOLATILE,
+                zero, zero, QosLiveliness.AUTOMATIC, zero, False)]
 
 
 class BagError(ValueError):
@@ -311,15 +337,72 @@ def write_pull_test(path: str | Path, test: PullTest, storage: str = 'mcap') -> 
             header=header(k, CAMERA_FRAME), format='png',
             data=np.frombuffer(png, dtype=np.uint8))))
 
+    tf_static = _tf_static(ts, test, header(test.t0_ns, WORLD_FRAME))
+    if tf_static is not None:
+        events.append((test.t0_ns, '/tf_static', tf_static))
     events.sort(key=lambda e: e[0])  # stable: metadata stays first at t0
     with Writer(path, version=8, storage_plugin=plugin) as w:
         w.set_custom_data(CUSTOM_KEY, meta_json)
         conns = {}
         for topic in dict.fromkeys(e[1] for e in events):
-            conns[topic] = w.add_connection(topic, TOPICS[topic][0], typestore=ts)
+            conns[topic] = w.add_connection(topic, TOPICS[topic][0], typestore=ts,
+                                            offered_qos_profiles=offered_qos(topic))
         for k, topic, msg in events:
             w.write(conns[topic], k, ts.serialize_cdr(msg, TOPICS[topic][0]))
     return path
+
+
+def static_transforms(test: PullTest) -> list[tuple[str, str, np.ndarray]]:
+    """(parent, child, 4x4 parent <- child) of the bench's fixed frames: the tank marker in
+    lab_world (metadata tank_in_world (x, z, theta); marker axes x = world x rotated by theta
+    about -y, y = world z likewise, z = world -y), and, when the bag has marker poses, the
+    camera from the first frame that saw the tank marker: T_world_cam = T_world_tank
+    inv(T_cam_tank)."""
+    x, z, th = test.meta.markers.tank_in_world
+    c, s = math.cos(th), math.sin(th)
+    T_wt = np.eye(4)
+    T_wt[:3, 0], T_wt[:3, 1], T_wt[:3, 2] = [c, 0.0, s], [-s, 0.0, c], [0.0, -1.0, 0.0]
+    T_wt[:3, 3] = [x, 0.0, z]
+    out = [(WORLD_FRAME, TANK_FRAME, T_wt)]
+    tr = test.tracking
+    poses = (tr.marker_poses or {}).get('tank') if tr is not None else None
+    if poses is not None:
+        seen = [i for i in range(len(poses)) if tr.ok[i, 0] and np.isfinite(poses[i]).all()]
+        if seen:
+            out.append((WORLD_FRAME, CAMERA_FRAME, T_wt @ np.linalg.inv(poses[seen[0]])))
+    return out
+
+
+def _tf_static(ts, test: PullTest, header):
+    T = ts.types
+    transforms = []
+    for parent, child, M in static_transforms(test):
+        q = _quaternion(M[:3, :3])
+        transforms.append(T['geometry_msgs/msg/TransformStamped'](
+            header=T['std_msgs/msg/Header'](stamp=header.stamp, frame_id=parent),
+            child_frame_id=child, transform=T['geometry_msgs/msg/Transform'](
+                translation=T['geometry_msgs/msg/Vector3'](
+                    x=float(M[0, 3]), y=float(M[1, 3]), z=float(M[2, 3])),
+                rotation=T['geometry_msgs/msg/Quaternion'](x=q[0], y=q[1], z=q[2], w=q[3]))))
+    return T['tf2_msgs/msg/TFMessage'](transforms=transforms) if transforms else None
+
+
+def _quaternion(R: np.ndarray) -> tuple[float, float, float, float]:
+    """(x, y, z, w) of a rotation matrix (Shepperd's method: stable for every rotation)."""
+    tr = R[0, 0] + R[1, 1] + R[2, 2]
+    if tr > 0:
+        s = 2.0 * math.sqrt(1.0 + tr)
+        q = (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s, s / 4
+    else:
+        i = int(np.argmax(np.diag(R)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * math.sqrt(1.0 + R[i, i] - R[j, j] - R[k, k])
+        v = [0.0, 0.0, 0.0]
+        v[i] = s / 4
+        v[j] = (R[j, i] + R[i, j]) / s
+        v[k] = (R[k, i] + R[i, k]) / s
+        q = v[0], v[1], v[2], (R[k, j] - R[j, k]) / s
+    return tuple(float(a) for a in q)  # type: ignore[return-value]
 
 
 def _tracking_events(ts, tr: Tracking, tns, header) -> list:

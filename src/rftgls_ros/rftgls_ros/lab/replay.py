@@ -3,9 +3,10 @@
 Like `ros2 bag play` (not available from pip): every connection gets a publisher of its type,
 and each message's recorded CDR bytes go out unchanged (Publisher.publish accepts bytes,
 docs/design/ros2-from-pip.md). Timing: the original rate (rate=1), faster (rate=k), as fast as
-possible (rate=0), or lock-step (step() one message at a time, for tests). /lab/metadata is
-published reliable + transient-local so a late joiner still gets it; everything else reliable
-with a deep queue, so a fast replay does not drop (a best-effort subscriber still may).
+possible (rate=0), or lock-step (step() one message at a time, for tests). A topic whose
+recorded offered QoS is transient-local (/lab/metadata, /tf_static) is published reliable +
+transient-local so a late joiner still gets it; everything else reliable with a deep queue, so
+a fast replay does not drop (a best-effort subscriber still may).
 
 Feed capacity_node (its own defaults read /joint_states, /winch/tension, /winch/height):
 
@@ -30,7 +31,7 @@ from .bag_layout import KNOWN_TYPES, BagError, guard_bag_read
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
-LATCHED_TOPICS = ('/lab/metadata',)
+LATCHED_TOPICS = ('/lab/metadata',)   # bags recorded without offered QoS profiles
 
 
 def message_class(msgtype: str):
@@ -44,6 +45,17 @@ def message_class(msgtype: str):
         raise BagError(f'message type {msgtype!r} is not one of the lab layout\'s types')
     pkg, _, name = msgtype.split('/')
     return getattr(importlib.import_module(f'{pkg}.msg'), name)
+
+
+def latched(conn) -> bool:
+    """Replay a topic transient-local when its recorder offered it so (the offered QoS
+    profiles in the bag's metadata), or, for a bag without profiles, when it is a known
+    latched topic of the lab layout."""
+    from rosbags.interfaces import QosDurability
+    profiles = getattr(conn.ext, 'offered_qos_profiles', None) or []
+    if profiles:
+        return any(q.durability == QosDurability.TRANSIENT_LOCAL for q in profiles)
+    return conn.topic in LATCHED_TOPICS
 
 
 class BagReplayer:
@@ -68,7 +80,7 @@ class BagReplayer:
         self.publishers = {}
         for c in conns:
             if c.topic not in self.publishers:
-                qos = LATCHED if c.topic in LATCHED_TOPICS else 100
+                qos = LATCHED if latched(c) else 100
                 self.publishers[c.topic] = node.create_publisher(message_class(c.msgtype),
                                                                  c.topic, qos)
         # rosbags reads EVERY connection when given none: an empty selection is no messages.

@@ -4,7 +4,9 @@ Subscribes /winch/tension, /joint_states (winch_rope), /capacity_node/{capacity,
 status}; publishes /winch/speed, /burrow, /gait, /estop, and /winch/height, /winch/phi for
 capacity_node (h = Table II mean of the requested mode; phi from the tether length).
 Run it alone with the robot (or simulator), bridge_node and capacity_node, not together with
-behavior_node (both would command the winch).
+behavior_node (both would command the winch). On exit the session's capacity_node estimates are
+written as a time series to `report_dir` (default out/teleop; "" = none): teleop_tug.png/.csv
+(tension, capacity, lower bound, guard lines, status; time reeling in shaded as TUG).
 """
 from __future__ import annotations
 
@@ -25,6 +27,8 @@ from std_msgs.msg import Bool, Float64, String
 from minirquad_driver.node_main import declare, run_node, usage, wants_help
 from rftgls_core.conventions import WINCH_ROPE_JOINT
 
+from ..behavior.tug_series import write_tug_series
+from ..capacity_query import record_tug
 from .model import TeleopConfig, TeleopModel
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -70,6 +74,10 @@ class TeleopNode(Node):
         self.create_subscription(TwistStamped, 'capacity_node/slip_twist', self.on_twist, 10)
         self.create_subscription(String, 'capacity_node/status', self.on_status, LATCHED)
         self.create_timer(0.05, self.on_timer)
+        self.report_dir = declare(self, 'report_dir', 'out/teleop',
+                                  "session time series directory; '' = none")
+        self.tug_series = record_tug(self, 'capacity_node', time.monotonic,
+                                     lambda: 'TUG' if self.model.winch > 0.0 else 'manual')
 
     def send(self, cmds) -> None:
         for topic, value in cmds:
@@ -144,6 +152,13 @@ class Terminal:
         if self.old:
             termios.tcsetattr(self.fd, termios.TCSADRAIN, self.old)
         node.send([('winch', 0.0)])
+        if node.report_dir:
+            # The teleop guard: reeling in beyond limit_fraction x C needs the override.
+            out = write_tug_series(node.tug_series, node.report_dir, 'teleop', None,
+                                   node.model.cfg.limit_fraction,
+                                   'teleop session: capacity_node estimates')
+            if out:
+                print(f'teleop: tug time series {out[1]}')
 
 
 def main(args=None) -> int:

@@ -1,0 +1,38 @@
+"""Replay a lab pull-test bag into capacity_node (the lab prototype in glass beads).
+
+    ros2 launch rftgls_ros replay.launch.py bag:=/path/to/backward_L1-020_L2+020 rate:=1.0
+
+capacity_node is configured as in src/rftgls_ros/lab_README.md: the prototype's map, pitch and
+tether angle from the tracked topics, and inputs aged by receipt time (recorded stamps are in
+the past). `pull` must match the bag's pull direction (its metadata says which).
+"""
+import os
+
+from ament_index_python.packages import get_package_share_directory
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument
+from launch.substitutions import LaunchConfiguration
+from launch_ros.actions import Node
+
+
+def generate_launch_description():
+    params = os.path.join(get_package_share_directory('rftgls_ros'), 'params')
+    return LaunchDescription([
+        DeclareLaunchArgument('bag', description='lab bag directory (metadata.yaml + .mcap)'),
+        DeclareLaunchArgument('rate', default_value='1.0',
+                              description='replay speed factor (0 = as fast as possible)'),
+        DeclareLaunchArgument('pull', default_value='backward',
+                              description='pull direction of the bag (forward | backward)'),
+        Node(package='rftgls_ros', executable='rftgls_lab_replay',
+             arguments=[LaunchConfiguration('bag'), '--rate', LaunchConfiguration('rate')],
+             output='screen'),
+        Node(package='rftgls_ros', executable='capacity_node', name='capacity_node',
+             parameters=[os.path.join(params, 'capacity_node.yaml'),
+                         {'robot': 'prototype', 'medium': 'glass_beads',
+                          'map_file': 'maps/prototype_glass_beads.h5',
+                          'pull': LaunchConfiguration('pull'),
+                          'pitch_topic': '/lab/theta_b', 'phi_topic': '/winch/phi',
+                          'tension_component': 'tether',
+                          'freshness_source': 'receipt_time'}],
+             output='screen'),
+    ])

@@ -1,0 +1,206 @@
+"""capacity_node's project-typed outputs: the whole estimate, the query service and markers.
+
+Created by CapacityNode in one line and fed every published estimate; the standard-typed
+topics stay in capacity_node.py for tools that only know standard messages.
+
+  ~/estimate         rftgls_interfaces/AnchorEstimate: one estimate as a whole (status, reason,
+                     capacity, lower bound, margin, slip twist, assumed inputs, method, stamp).
+  ~/query_capacity   rftgls_interfaces/QueryCapacity: the capacity at a hypothetical state
+                     (behavior_node's "what if I burrow to this pose"), answered by the node's
+                     own predictor, so it gives the numbers of `rftgls capacity --method map`
+                     for the same map.
+  ~/markers          visualization_msgs/MarkerArray, at most every marker_period_s: geometry
+                     from rftgls_ros.capacity.markers (limit curve at My = 0, tether force,
+                     capacity coloured by margin, slip direction, buried leg facets, the
+                     free surface, a text), in marker_frame_id.
+
+Parameters (declared here): marker_period_s (s, 0 = no markers), marker_frame_id (the body
+frame at the winch point p, the URDF's winch_link), marker_force_scale_m_per_N (m drawn per N).
+The limit curve is sampled from a map predictor only (a live solver would need seconds for the
+~90 tether angles); with a live predictor it is left out.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from builtin_interfaces.msg import Duration
+from geometry_msgs.msg import Point, Twist
+from std_msgs.msg import ColorRGBA, Header
+from visualization_msgs.msg import Marker, MarkerArray
+
+from minirquad_driver.node_main import declare
+from rftgls_core.types import AnchorState, Pull, Status
+from rftgls_interfaces.msg import AnchorEstimate
+from rftgls_interfaces.srv import QueryCapacity
+
+from .capacity.estimator import Estimate
+from .capacity.markers import CurveSample, MarkerStyle, estimate_markers, limit_curve
+from .capacity.predictor import MapPredictor
+
+NAN = float('nan')
+# name -> (default, description, lo, hi); start-up only (read-only: a run-time change is
+# rejected by rclpy with its reason).
+PARAMETERS = {
+    'marker_period_s': (0.5, 'minimum time between two ~/markers', 0.0, 3600.0),
+    'marker_frame_id': ('winch_link', 'frame of the markers', None, None),
+    'marker_force_scale_m_per_N': (0.01, 'arrow length per newton', 0.0, 10.0),
+}
+KINDS = {'line_strip': Marker.LINE_STRIP, 'arrow': Marker.ARROW,
+         'text': Marker.TEXT_VIEW_FACING, 'points': Marker.POINTS}
+
+
+def _num(x: float | None) -> float:
+    return NAN if x is None else float(x)
+
+
+def _twist(v) -> Twist:
+    t = Twist()
+    vx, vz, wy = (NAN, NAN, NAN) if v is None else v
+    t.linear.x, t.linear.z, t.angular.y = float(vx), float(vz), float(wy)
+    return t
+
+
+def estimate_msg(est: Estimate, header: Header, pull: str) -> AnchorEstimate:
+    """The AnchorEstimate of one Estimate (NaN for every missing number)."""
+    st = est.state
+    return AnchorEstimate(
+        header=header, status=str(est.status), reason=est.reason, detail=est.detail,
+        has_value=est.has_value, capacity_n=_num(est.capacity_N),
+        capacity_lower_n=_num(est.capacity_lower_N), tension_n=_num(est.tension_N),
+        margin_n=_num(est.margin_N), slipping=bool(est.slipping),
+        slip_twist=_twist(est.slip_twist_raw), phi_rad=_num(est.phi_rad),
+        h_m=_num(st.h if st else None), theta_b_rad=_num(st.theta_b if st else None),
+        theta_l1_rad=_num(st.theta_l1 if st else None),
+        theta_l2_rad=_num(st.theta_l2 if st else None),
+        assumed_inputs=list(est.assumed), stale_inputs=list(est.stale),
+        warnings=list(est.warnings), method=est.predictor, pull=pull)
+
+
+def answer_query(predictor, default_pull: str, req, res):
+    """Fill a QueryCapacity response from predictor.predict (invalid_input on a bad request)."""
+    res.capacity_n = NAN
+    res.slip_twist = res.slip_twist_scaled = _twist(None)
+    res.method = predictor.name
+    values = (req.h_m, req.theta_b_rad, req.theta_l1_rad, req.theta_l2_rad, req.phi_rad)
+    pull = req.pull.strip() or default_pull
+    try:
+        Pull(pull)
+    except ValueError:
+        res.status, res.reason = str(Status.INVALID_INPUT), 'unknown_pull'
+        res.detail = f"pull must be 'forward' or 'backward' (or empty), got {req.pull!r}"
+        return res
+    if not all(math.isfinite(v) for v in values):
+        res.status, res.reason = str(Status.INVALID_INPUT), 'not_finite'
+        res.detail = f'state and phi must be finite, got {values}'
+        return res
+    r = predictor.predict(AnchorState(*values[:4]), values[4], pull)
+    res.status, res.reason, res.detail = str(r.status), r.reason, r.detail
+    res.has_value = r.status.has_value
+    res.capacity_n = _num(r.capacity_N)
+    res.slip_twist = _twist(r.slip_twist)
+    res.slip_twist_scaled = _twist(r.slip_twist_scaled)
+    res.flags = list(r.flags)
+    return res
+
+
+def marker_array(geoms, header: Header, lifetime_s: float) -> MarkerArray:
+    """visualization_msgs markers of MarkerGeometry items; a DELETEALL first clears the
+    markers of an earlier estimate that this one does not draw."""
+    out = [Marker(header=header, action=Marker.DELETEALL)]
+    life = Duration(sec=int(lifetime_s), nanosec=int((lifetime_s % 1.0) * 1e9))
+    for i, g in enumerate(geoms):
+        m = Marker(header=header, ns=g.ns, id=i, type=KINDS[g.kind], action=Marker.ADD,
+                   lifetime=life, text=g.text, frame_locked=True)
+        m.pose.orientation.w = 1.0
+        m.color = ColorRGBA(r=g.rgba[0], g=g.rgba[1], b=g.rgba[2], a=g.rgba[3])
+        if g.kind == 'arrow':   # shaft diameter, head diameter, head length
+            m.scale.x, m.scale.y, m.scale.z = g.width_m, 2.5 * g.width_m, 4.0 * g.width_m
+        elif g.kind == 'points':  # point width and height
+            m.scale.x = m.scale.y = g.width_m
+        elif g.kind == 'text':
+            m.scale.z = g.width_m
+            m.pose.position = Point(x=float(g.points[0, 0]), y=float(g.points[0, 1]),
+                                    z=float(g.points[0, 2]))
+        else:
+            m.scale.x = g.width_m
+        if g.kind != 'text':
+            m.points = [Point(x=float(x), y=float(y), z=float(z)) for x, y, z in g.points]
+        out.append(m)
+    return MarkerArray(markers=out)
+
+
+class CapacityExtras:
+    """Publishers and the service above, attached to a CapacityNode."""
+
+    def __init__(self, node):
+        self.node = node
+        p = {name: declare(node, name, default, text, lo=lo, hi=hi)
+             for name, (default, text, lo, hi) in PARAMETERS.items()}
+        self.period_s = float(p['marker_period_s'])
+        self.frame_id = p['marker_frame_id']
+        self.style = MarkerStyle(force_scale_m_per_N=float(p['marker_force_scale_m_per_N']))
+        self.pull = node.params['pull']
+        self.pub_estimate = node.create_publisher(AnchorEstimate, '~/estimate', 10)
+        self.pub_markers = node.create_publisher(MarkerArray, '~/markers', 2)
+        node.create_service(QueryCapacity, '~/query_capacity', self.on_query)
+        pred = node.estimator.predictor
+        primary = getattr(pred, 'primary', pred)     # LiveFallback: its map
+        self.curve_map = primary if isinstance(primary, MapPredictor) else None
+        self._curve_key: tuple | None = None
+        self._curve: CurveSample | None = None
+        self._robot = None
+        self._buried_key: tuple | None = None
+        self._buried = None
+        self._last_markers = -math.inf
+
+    def on_query(self, req, res):
+        return answer_query(self.node.estimator.predictor, self.pull, req, res)
+
+    def publish(self, est: Estimate, header: Header) -> None:
+        self.pub_estimate.publish(estimate_msg(est, header, self.pull))
+        now = time.monotonic()
+        if self.period_s <= 0.0 or now - self._last_markers < self.period_s:
+            return
+        self._last_markers = now
+        st = est.state
+        geoms = estimate_markers(
+            str(est.status), st.theta_b if st else None, est.phi_rad, est.capacity_N,
+            est.tension_N, est.margin_N, est.slip_twist_raw, est.slipping, self.curve(est),
+            self.style, st.h if st else None, self.buried(est))
+        mheader = Header(stamp=header.stamp, frame_id=self.frame_id)
+        self.pub_markers.publish(marker_array(geoms, mheader, 3.0 * self.period_s))
+
+    def buried(self, est: Estimate):
+        """Buried leg facet centroids relative to p, world axes (m), cached per state; None
+        when the robot model is unknown here."""
+        if est.state is None:
+            return None
+        key = est.state.as_tuple()
+        if key != self._buried_key:
+            from rftgls_core.robots.presets import get_robot
+            try:
+                model = self._robot = self._robot or get_robot(self.node.params['robot'])
+            except (KeyError, ValueError):
+                return None
+            c = model.pose(est.state, self.pull).facets.centroids
+            self._buried = c[c[:, 2] < 0.0] - np.array([0.0, 0.0, est.state.h])
+            self._buried_key = key
+        return self._buried
+
+    def curve(self, est: Estimate) -> CurveSample | None:
+        """The limit curve at the estimate's state, from the map (cached per state)."""
+        if self.curve_map is None or est.state is None:
+            return None
+        key = est.state.as_tuple()
+        if key != self._curve_key:
+            cmap, state, pull = self.curve_map, est.state, self.pull
+
+            def predict(phi: float) -> float | None:
+                r = cmap.predict(state, phi, pull)
+                return r.capacity_N if r.status.has_value else None
+
+            self._curve = limit_curve(predict, self.style.curve_phis_rad)
+            self._curve_key = key
+        return self._curve

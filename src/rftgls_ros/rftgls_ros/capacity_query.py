@@ -1,0 +1,94 @@
+"""behavior_node's "what if I burrow to this pose" question, asked of capacity_node.
+
+ServicePredictor is the ModeChooser's predictor ``(state, phi) -> (capacity N | None,
+Status)`` answered by capacity_node's ``~/query_capacity`` service (rftgls_interfaces/
+QueryCapacity), so the behaviour decides on the same map or model as the estimates it tugs on,
+and loads no copy of its own. The call blocks the caller for at most ``timeout_s``: the client
+lives on a private node spun by a private executor, so it can be called from a callback of
+the behaviour node's own executor.
+
+Safety: an unanswered question is no value. A missing service, a timeout or a malformed answer
+gives ``(None, Status.STALE)``, which the chooser never counts as sufficient (no tug on it);
+after a failure the service is not asked again for ``retry_s``, so a dead capacity_node
+cannot stall the behaviour's 50 Hz step once per question.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+
+from rftgls_core.types import AnchorState, Status
+from rftgls_interfaces.msg import AnchorEstimate
+from rftgls_interfaces.srv import QueryCapacity
+
+from .behavior.tug_series import TugSeries
+
+CAPACITY_SOURCES = ('service', 'local_map')
+
+
+class ServicePredictor:
+    """Capacity of hypothetical states from capacity_node's query service (see module doc)."""
+
+    def __init__(self, node, service: str, pull: str = 'backward', timeout_s: float = 2.0,
+                 retry_s: float = 1.0):
+        self.path = f'service {service}'   # what behavior_node logs as its capacity source
+        self.pull = pull
+        self.timeout_s = timeout_s
+        self.retry_s = retry_s
+        self._node = rclpy.create_node(f'{node.get_name()}_capacity_query',
+                                       namespace=node.get_namespace(), context=node.context)
+        self._client = self._node.create_client(QueryCapacity, service)
+        self._executor = SingleThreadedExecutor(context=node.context)
+        self._executor.add_node(self._node)
+        self._down_until = -math.inf
+        self.calls = 0      # answered questions (tests)
+
+    def __call__(self, state: AnchorState, phi: float) -> tuple[float | None, Status]:
+        if time.monotonic() < self._down_until:
+            return None, Status.STALE
+        if not self._client.wait_for_service(timeout_sec=self.timeout_s):
+            return self._failed(f'service {self._client.srv_name} not available')
+        req = QueryCapacity.Request(h_m=float(state.h), theta_b_rad=float(state.theta_b),
+                                    theta_l1_rad=float(state.theta_l1),
+                                    theta_l2_rad=float(state.theta_l2), phi_rad=float(phi),
+                                    pull=self.pull)
+        future = self._client.call_async(req)
+        self._executor.spin_until_future_complete(future, timeout_sec=self.timeout_s)
+        res = future.result() if future.done() else None
+        if res is None:
+            self._client.remove_pending_request(future)
+            return self._failed(f'no answer within {self.timeout_s:g} s')
+        try:
+            status = Status(res.status)
+        except ValueError:
+            return self._failed(f'unknown status {res.status!r}')
+        self.calls += 1
+        cap = res.capacity_n
+        return (cap if status.has_value and math.isfinite(cap) else None), status
+
+    def _failed(self, why: str) -> tuple[None, Status]:
+        self._node.get_logger().warning(f'capacity query failed ({why}): no value for '
+                                        f'{self.retry_s:g} s')
+        self._down_until = time.monotonic() + self.retry_s
+        return None, Status.STALE
+
+    def destroy(self) -> None:
+        self._executor.remove_node(self._node)
+        self._node.destroy_node()
+
+
+def record_tug(node, cap_ns: str, now, state) -> TugSeries:
+    """Record every capacity_node estimate (``{cap_ns}/estimate``) for the tug time series
+    (behavior/tug_series.py). now() -> s and state() -> str: the recording node's clock and
+    its state at the estimate's arrival (behavior_node: the machine's state)."""
+    series = TugSeries()
+
+    def on_estimate(msg: AnchorEstimate) -> None:
+        series.add(now(), msg.tension_n, msg.capacity_n, msg.capacity_lower_n, msg.status,
+                   state())
+
+    node.create_subscription(AnchorEstimate, f'{cap_ns}/estimate', on_estimate, 10)
+    return series
