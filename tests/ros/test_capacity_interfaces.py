@@ -185,7 +185,8 @@ def test_behavior_asks_capacity_node(ros_context):
     as behavior's own local map predictor (same shipped map) for every Table II mode."""
     import threading
 
-    from rftgls_ros.behavior import ANCHOR_MODES, MapPredictor
+    from rftgls_ros.behavior import ANCHOR_MODES
+    from rftgls_ros.capacity.predictor import MapPredictor
     from rftgls_ros.capacity_query import ServicePredictor
     node = CapacityNode(context=ros_context, parameter_overrides=[
         Parameter(k, value=v) for k, v in PARAMS.items()])
@@ -196,12 +197,13 @@ def test_behavior_asks_capacity_node(ros_context):
     asker = rclpy.create_node('behavior_node', context=ros_context)
     pred = ServicePredictor(asker, '/capacity_node/query_capacity', timeout_s=5.0)
     try:
-        local = MapPredictor(None)
+        local = MapPredictor()
         for name, mode in ANCHOR_MODES.items():
             for phi in (0.0, PHI):
                 state = mode.expected_state()
                 cap, status = pred(state, phi)
-                ref_cap, ref_status = local(state, phi)
+                ref = local.predict(state, phi, 'backward')
+                ref_cap, ref_status = (ref.capacity_N if ref.status.has_value else None), ref.status
                 assert status == ref_status, name
                 assert (cap is None) == (ref_cap is None)
                 if cap is not None:
@@ -237,8 +239,8 @@ def test_behavior_query_without_capacity_node_is_no_value(ros_context):
 def test_behavior_node_asks_the_service_unless_configured(ros_context):
     """capacity_source: service (default) -> ServicePredictor; local_map, or the explicit
     own_capacity_fallback, -> its own map; anything else refuses to start."""
-    from rftgls_ros.behavior import MapPredictor
     from rftgls_ros.behavior_node import BehaviorNode
+    from rftgls_ros.capacity.predictor import MapPredictor
     from rftgls_ros.capacity_query import ServicePredictor
 
     def chooser_predictor(**params):
@@ -252,5 +254,5 @@ def test_behavior_node_asks_the_service_unless_configured(ros_context):
     assert chooser_predictor() is ServicePredictor
     assert chooser_predictor(capacity_source='local_map') is MapPredictor
     assert chooser_predictor(own_capacity_fallback=True) is MapPredictor
-    with pytest.raises(SystemExit, match='capacity_source must be one of service, local_map'):
+    with pytest.raises(ValueError, match='capacity_source must be one of service, local_map'):
         chooser_predictor(capacity_source='guess')

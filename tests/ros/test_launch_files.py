@@ -55,7 +55,7 @@ def test_sim_launch_starts_the_whole_stack():
     port = sim.arguments[sim.arguments.index('--symlink') + 1]
     assert bridge.parameters == [{'port': port}]
     assert sim.arguments[sim.arguments.index('--sled-mass') + 1] == '0.6'
-    assert behavior.parameters[1]['sled_mass'] == 0.6
+    assert behavior.parameters[1]['sled_mass_kg'] == 0.6
 
 
 def test_checker_finds_mistakes(tmp_path):
@@ -76,7 +76,7 @@ def test_checker_finds_mistakes(tmp_path):
                 Node(package='minirquad_driver', executable='minirquad_sim',
                      parameters=[{'port': 'x'}]),
                 Node(package='rftgls_ros', executable='behavior_node',
-                     parameters=[{'sled_mass': LaunchConfiguration('undeclared')}]),
+                     parameters=[{'sled_mass_kg': LaunchConfiguration('undeclared')}]),
             ])
     '''))
     problems = launch_check.check(bad)

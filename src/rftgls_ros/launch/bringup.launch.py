@@ -26,7 +26,7 @@ def generate_launch_description():
                               description='mass of the sled to haul, kg'),
         DeclareLaunchArgument('cycles', default_value='3',
                               description='walk-burrow-tug cycles'),
-        Node(package='minirquad_driver', executable='bridge_node', name='minirquad_bridge',
+        Node(package='minirquad_driver', executable='bridge_node', name='bridge_node',
              parameters=[{'port': port}], output='screen'),
         Node(package='rftgls_ros', executable='capacity_node', name='capacity_node',
              parameters=[os.path.join(params, 'capacity_node.yaml'),
@@ -34,7 +34,7 @@ def generate_launch_description():
              output='screen'),
         Node(package='rftgls_ros', executable='behavior_node', name='behavior_node',
              parameters=[os.path.join(params, 'behavior_node.yaml'),
-                         {'sled_mass': LaunchConfiguration('sled_mass_kg'),
+                         {'sled_mass_kg': LaunchConfiguration('sled_mass_kg'),
                           'cycles': LaunchConfiguration('cycles')}],
              output='screen'),
     ])

@@ -47,8 +47,8 @@ from .behavior import (
     Observation,
     write_report,
 )
-from .capacity.predictor import DEFAULT_MAP, MapPredictor
 from .behavior.tug_series import write_tug_series
+from .capacity.predictor import DEFAULT_MAP, MapPredictor
 from .capacity_query import CAPACITY_SOURCES, ServicePredictor, record_tug
 
 WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's deadman (0.1 s)

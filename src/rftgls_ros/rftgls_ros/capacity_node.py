@@ -122,6 +122,10 @@ class CapacityNode(Node):
         """A run-time change of RUNTIME parameters: validated as a whole, then applied to the
         estimator and the node (the next estimate uses it), or rejected with the reason.
         Read-only (start-up) parameters never get here: rclpy rejects them first."""
+        mine = [x for x in params if x.name in PARAMETERS]
+        if not mine:   # parameters other modules declare (start-up only, read-only)
+            return SetParametersResult(successful=True)
+        params = mine
         proposed = {**self.params, **{x.name: x.value for x in params}}
         try:
             est_cfg, node_cfg = configs(proposed)

@@ -20,7 +20,8 @@ import time
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 
-from rftgls_core.types import AnchorState, Status
+from rftgls_core.surfaces.base import CapacityResult
+from rftgls_core.types import AnchorState, Pull, Status
 from rftgls_interfaces.msg import AnchorEstimate
 from rftgls_interfaces.srv import QueryCapacity
 
@@ -46,34 +47,54 @@ class ServicePredictor:
         self._down_until = -math.inf
         self.calls = 0      # answered questions (tests)
 
-    def __call__(self, state: AnchorState, phi: float) -> tuple[float | None, Status]:
+    def predict(self, state: AnchorState, phi: float, pull: Pull | str = '') -> CapacityResult:
+        """The core Predictor protocol (rftgls_core.predictor) over the query service. No
+        answer in time, or an answer this node cannot read, is `stale` with no value."""
         if time.monotonic() < self._down_until:
-            return None, Status.STALE
+            return self._no_value(phi, 'capacity_query_backoff')
         if not self._client.wait_for_service(timeout_sec=self.timeout_s):
-            return self._failed(f'service {self._client.srv_name} not available')
+            return self._failed(phi, f'service {self._client.srv_name} not available')
         req = QueryCapacity.Request(h_m=float(state.h), theta_b_rad=float(state.theta_b),
                                     theta_l1_rad=float(state.theta_l1),
                                     theta_l2_rad=float(state.theta_l2), phi_rad=float(phi),
-                                    pull=self.pull)
+                                    pull=str(pull or self.pull))
         future = self._client.call_async(req)
         self._executor.spin_until_future_complete(future, timeout_sec=self.timeout_s)
         res = future.result() if future.done() else None
         if res is None:
             self._client.remove_pending_request(future)
-            return self._failed(f'no answer within {self.timeout_s:g} s')
+            return self._failed(phi, f'no answer within {self.timeout_s:g} s')
         try:
             status = Status(res.status)
         except ValueError:
-            return self._failed(f'unknown status {res.status!r}')
+            return self._failed(phi, f'unknown status {res.status!r}')
         self.calls += 1
         cap = res.capacity_n
-        return (cap if status.has_value and math.isfinite(cap) else None), status
+        has = status.has_value and math.isfinite(cap)
 
-    def _failed(self, why: str) -> tuple[None, Status]:
+        def twist(t) -> tuple[float, float, float] | None:
+            v = (t.linear.x, t.linear.z, t.angular.y)
+            return v if has and all(math.isfinite(x) for x in v) else None
+        return CapacityResult(phi=phi, status=status, method=res.method,
+                              capacity_N=cap if has else None,
+                              slip_twist=twist(res.slip_twist),
+                              slip_twist_scaled=twist(res.slip_twist_scaled),
+                              reason=res.reason, detail=res.detail, flags=tuple(res.flags))
+
+    def __call__(self, state: AnchorState, phi: float) -> tuple[float | None, Status]:
+        """(capacity N or None, status): the short form the tests and tools print."""
+        r = self.predict(state, phi)
+        return (r.capacity_N if r.status.has_value else None), r.status
+
+    def _no_value(self, phi: float, reason: str) -> CapacityResult:
+        return CapacityResult(phi=phi, status=Status.STALE, method='capacity_query',
+                              reason=reason)
+
+    def _failed(self, phi: float, why: str) -> CapacityResult:
         self._node.get_logger().warning(f'capacity query failed ({why}): no value for '
                                         f'{self.retry_s:g} s')
         self._down_until = time.monotonic() + self.retry_s
-        return None, Status.STALE
+        return self._no_value(phi, 'capacity_query_failed')
 
     def destroy(self) -> None:
         self._executor.remove_node(self._node)
