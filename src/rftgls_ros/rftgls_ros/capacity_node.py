@@ -56,7 +56,7 @@ FRESHNESS_SOURCES = ('header_stamp', 'receipt_time')
 PARAMETERS = {
     # predictor
     'map_file': DEFAULT_MAP,          # '' = live computation with live_method
-    'live_method': 'direct',
+    'live_method': 'direct-warm',     # the cold direct's answers, warm-started per message
     'live_n_twists': 0,               # 0 = rftgls_core default
     'out_of_range_live_method': '',   # '' = none; else the live solver answers off-grid states
     'robot': 'minirquad',
@@ -391,6 +391,9 @@ class CapacityNode(Node):
             'input_to_output_ms_median': (f'{statistics.median(self.latency_s) * 1e3:.3f}'
                                           if self.latency_s else 'nan'),
         }
+        stats = getattr(self.estimator.predictor, 'stats', None)   # live direct-warm solver
+        if stats is not None:
+            values.update({f'solver_{k}': f'{v:.4g}' for k, v in stats().items()})
         status = DiagnosticStatus(level=level, name=f'{self.get_name()}: anchor capacity',
                                   message=message, hardware_id=self.params['robot'],
                                   values=[KeyValue(key=k, value=v) for k, v in values.items()])

@@ -227,7 +227,7 @@ class WarmDirect:
 
     method = 'direct'
 
-    def __init__(self, n_twists: int = 400, guard_triangles: int = 24,
+    def __init__(self, n_twists: int = 400, guard_triangles: int = 12,
                  clearance_fraction: float = 0.5, max_twist_drift_rad: float = 0.1,
                  max_capacity_change: float = 0.2, max_jacobian_change: float = 0.25,
                  max_phi_change_rad: float = 0.02, exit_exclusion_rad: float = 0.35,
