@@ -160,3 +160,27 @@ def test_the_bench_live_stream_is_answered_as_cold_and_mostly_warm():
     r = run_stream('minirquad', states, LIVE_PHI, Pull.BACKWARD)
     assert set(r['statuses']) == {Status.OK}
     assert r['fallbacks'] <= 10, r['reasons']     # <= 1 %: the p99 is a warm step
+
+
+def test_scalar_kernels_agree_with_the_numpy_versions():
+    from rftgls_core.surfaces import warm as W
+    rng = np.random.default_rng(6)
+    v = rng.normal(size=(40, 3))
+    tri = np.array([rng.choice(40, 3, replace=False) for _ in range(30)])
+    pts = rng.normal(size=(30, 3)) * 0.2
+    w0 = v + rng.normal(size=v.shape) * 0.01
+    clear = W._distances(*(w0[tri[:, i]] - pts for i in range(3))) + 0.05
+    closed, median = W._guard_use_loop(v, w0, tri, pts, np.full(30, 0.01), clear, 0.0)
+    ref = W._distances(*(v[tri[:, i]] - pts for i in range(3))) - 0.01
+    assert closed == pytest.approx(float(((clear - ref) / clear).max()), rel=1e-12)
+    assert median == pytest.approx(float(np.median(np.linalg.norm(v - w0, axis=1))))
+    for d in unit_rows_of(rng.normal(size=(20, 3))):
+        s_ref, f_ref = W._ray_hits(v[tri], d)
+        n, s, f = W._ray_hits_loop(v, tri, d)
+        assert n == len(s_ref)
+        if n:
+            assert s == pytest.approx(s_ref[0], rel=1e-12) and f == f_ref[0]
+
+
+def unit_rows_of(x):
+    return x / np.linalg.norm(x, axis=1, keepdims=True)

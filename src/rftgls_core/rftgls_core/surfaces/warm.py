@@ -308,14 +308,13 @@ class WarmDirect:
         wg = w_all[:n_g]
         # A changed pull angle swings the guarded ray points by up to s |dphi|.
         swing = a.s * abs(phi - a.phi)
-        c_new = _distances(*(wg[a.tri[:, i]] - a.points for i in range(3))) - a.slack - swing
-        closed = (a.clearance - c_new) / a.clearance
+        closed, typical = _guard_use_loop(wg, a.guard_wrenches, a.tri, a.points, a.slack,
+                                          a.clearance, swing)
         # Triangles that are no guards are at least `rest` away: the typical (median) motion
         # of the guard vertices stands for theirs. (Single vertices next to a switching
         # circle jump along the bridged segment as the state moves, so the maximum would
         # measure the jump, not the surface.)
-        typical = float(np.median(np.linalg.norm(wg - a.guard_wrenches, axis=1)))
-        use = max(float(closed.max()), (typical + swing) / a.rest) / self.clearance_fraction
+        use = max(float(closed), (float(typical) + swing) / a.rest) / self.clearance_fraction
         if not use <= 1.0:
             return None, 'guard_moved'
         d = problem.load_direction_scaled(phi)
@@ -332,15 +331,15 @@ class WarmDirect:
         # The cold solve's view around the exit: one crossing of the coarse patch, no thin
         # fold in front of the root where its chord is far, and no jump triangle (longer than
         # the anchor's) in front of the root.
-        s_c, f_c = _ray_hits(wg[a.patch], d)
-        if len(s_c) != 1:
+        n_c, s_c, f_c = _ray_hits_loop(wg, a.patch, d)
+        if n_c != 1:
             return None, 'second_exit'
-        if abs(s0 - float(s_c[0])) > 0.04 * s0:
+        if abs(s0 - float(s_c)) > 0.04 * s0:
             # The cold solve looks for a fold sheet thinner than the coarse mesh here (from
             # 5 %): the same search from the same root; no sheet means the same answer.
             if earlier_exit(eval_scaled, d, t0, s0) is not None:
                 return None, 'earlier_exit'
-        wf = wg[a.patch[f_c[0]]]
+        wf = wg[a.patch[f_c]]
         if float(np.linalg.norm(wf - np.roll(wf, 1, axis=0), axis=1).max()) > 1.5 * a.patch_edge:
             return None, 'jump_crossed'
         j_ref = max(float(np.linalg.norm(a.jacobian)), 1e-300)
@@ -526,3 +525,103 @@ class WarmAnchorModel:
                 if len(ts) else math.nan,
                 'steps': float(steps),
                 'fallback_rate': falls / steps if steps else math.nan}
+
+
+# -- small scalar kernels of a warm step (numba when installed; the numpy versions above are the
+# reference and the fallback). A warm step handles a few dozen triangles, where numpy's
+# per-call overhead is most of the time.
+try:
+    import numba
+except ImportError:  # pragma: no cover - machines without numba use the numpy versions
+    numba = None  # type: ignore[assignment]
+
+
+def _point_triangle(ax, ay, az, bx, by, bz, cx, cy, cz):
+    """Distance from the origin to the triangle (a, b, c), as _distances does it."""
+    e1x, e1y, e1z = bx - ax, by - ay, bz - az
+    e2x, e2y, e2z = cx - ax, cy - ay, cz - az
+    nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+    nn = nx * nx + ny * ny + nz * nz
+    s1 = (ay * bz - az * by) * nx + (az * bx - ax * bz) * ny + (ax * by - ay * bx) * nz
+    s2 = (by * cz - bz * cy) * nx + (bz * cx - bx * cz) * ny + (bx * cy - by * cx) * nz
+    s3 = (cy * az - cz * ay) * nx + (cz * ax - cx * az) * ny + (cx * ay - cy * ax) * nz
+    if s1 >= 0.0 and s2 >= 0.0 and s3 >= 0.0 and nn > 0.0:
+        return abs(nx * ax + ny * ay + nz * az) / math.sqrt(nn)
+    best = math.inf
+    for ux, uy, uz, vx, vy, vz in ((ax, ay, az, bx, by, bz), (bx, by, bz, cx, cy, cz),
+                                   (cx, cy, cz, ax, ay, az)):
+        ex, ey, ez = vx - ux, vy - uy, vz - uz
+        ee = max(ex * ex + ey * ey + ez * ez, 1e-300)
+        t = min(max(-(ux * ex + uy * ey + uz * ez) / ee, 0.0), 1.0)
+        px, py, pz = ux + t * ex, uy + t * ey, uz + t * ez
+        best = min(best, math.sqrt(px * px + py * py + pz * pz))
+    return best
+
+
+def _guard_use_loop(wg, w0, tri, points, slack, clearance, swing):
+    """(largest closed-in fraction of a guard triangle's clearance, median guard motion)."""
+    closed = -math.inf
+    for k in range(tri.shape[0]):
+        i, j, m = tri[k, 0], tri[k, 1], tri[k, 2]
+        px, py, pz = points[k, 0], points[k, 1], points[k, 2]
+        dist = _point_triangle(wg[i, 0] - px, wg[i, 1] - py, wg[i, 2] - pz,
+                               wg[j, 0] - px, wg[j, 1] - py, wg[j, 2] - pz,
+                               wg[m, 0] - px, wg[m, 1] - py, wg[m, 2] - pz)
+        closed = max(closed, (clearance[k] - (dist - slack[k] - swing)) / clearance[k])
+    motion = np.empty(wg.shape[0])
+    for k in range(wg.shape[0]):
+        dx, dy, dz = wg[k, 0] - w0[k, 0], wg[k, 1] - w0[k, 1], wg[k, 2] - w0[k, 2]
+        motion[k] = math.sqrt(dx * dx + dy * dy + dz * dz)
+    return closed, np.median(motion)
+
+
+def _ray_hits_loop(wg, patch, d, bary_tol=1e-9, dist_rtol=1e-9):
+    """_ray_hits on the triangles `patch` of `wg`: (distinct crossings, first s, its face)."""
+    n = patch.shape[0]
+    s_all = np.empty(n)
+    face = np.empty(n, dtype=np.int64)
+    h = 0
+    scale = 0.0
+    for k in range(n):
+        for c in range(3):
+            for q in range(3):
+                scale = max(scale, abs(wg[patch[k, c], q]))
+    dx, dy, dz = d[0], d[1], d[2]
+    for k in range(n):
+        a, b, c = patch[k, 0], patch[k, 1], patch[k, 2]
+        v0x, v0y, v0z = wg[a, 0], wg[a, 1], wg[a, 2]
+        e1x, e1y, e1z = wg[b, 0] - v0x, wg[b, 1] - v0y, wg[b, 2] - v0z
+        e2x, e2y, e2z = wg[c, 0] - v0x, wg[c, 1] - v0y, wg[c, 2] - v0z
+        # n_det = e2 x e1, det = n_det . d
+        det = (e2y * e1z - e2z * e1y) * dx + (e2z * e1x - e2x * e1z) * dy \
+            + (e2x * e1y - e2y * e1x) * dz
+        tol = 1e-12 * math.sqrt(e1x * e1x + e1y * e1y + e1z * e1z) \
+            * math.sqrt(e2x * e2x + e2y * e2y + e2z * e2z)
+        if not abs(det) > tol:
+            continue
+        inv = 1.0 / det
+        q0x, q0y, q0z = -v0x, -v0y, -v0z
+        u = ((e2y * q0z - e2z * q0y) * dx + (e2z * q0x - e2x * q0z) * dy
+             + (e2x * q0y - e2y * q0x) * dz) * inv
+        qx, qy, qz = q0y * e1z - q0z * e1y, q0z * e1x - q0x * e1z, q0x * e1y - q0y * e1x
+        v = (qx * dx + qy * dy + qz * dz) * inv
+        s = (e2x * qx + e2y * qy + e2z * qz) * inv
+        if u >= -bary_tol and v >= -bary_tol and u + v <= 1.0 + bary_tol and s > 0.0:
+            s_all[h] = s
+            face[h] = k
+            h += 1
+    if h == 0:
+        return 0, math.inf, -1
+    order = np.argsort(s_all[:h])
+    count = 1
+    for i in range(1, h):
+        if s_all[order[i]] - s_all[order[i - 1]] > dist_rtol * max(scale, 1e-300):
+            count += 1
+    return count, s_all[order[0]], face[order[0]]
+
+
+if numba is not None:
+    _jit = numba.njit(cache=True, nogil=True)
+    _point_triangle = _jit(_point_triangle)
+    _guard_use_loop = _jit(_guard_use_loop)
+    _ray_hits_loop = _jit(_ray_hits_loop)
