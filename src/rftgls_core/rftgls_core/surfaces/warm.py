@@ -14,17 +14,19 @@ have changed:
 
 * the anchor is clean: status ok, one coarse crossing, one root found by Newton (no closure
   search, no dense bracket, no earlier exit on a fold, no flag);
-* guards: the coarse (and, when the anchor evaluated it, the dense support-check) mesh
-  triangles that come closest to the origin and to the load-ray segment are re-evaluated at
-  every step; none of their vertices may have moved by more than `clearance_fraction` of the
-  smallest clearance. A status change needs the surface to pass the origin, a new first exit
-  needs it to cross the ray, and the closest triangles are the ones that would do it first;
-* the new root is a converged Newton root, its twist within `max_twist_drift_rad` of the
-  anchor's, its distance within `max_capacity_change` of it, and the Jacobian there within
-  `max_jacobian_change` of the anchor's (a facet switching between them changes it: a jump
-  crossed);
-* the pull angle within `max_phi_change_rad` of the anchor's (its effect on the ray segment is
-  added to the guard displacement).
+* guards (status, a new first exit): the coarse (and, when the anchor evaluated it, the dense
+  support-check) mesh triangles nearest the origin and the load-ray segment are re-evaluated at
+  every step; none may close in by more than `clearance_fraction` of its clearance, and the
+  typical motion of their vertices must stay below that fraction of the nearest other one;
+* the new root is a converged Newton root, its twist within `max_twist_drift_rad` and its
+  distance within `max_capacity_change` of the anchor's;
+* the cold solve's view around the exit: the coarse triangles there cast again give one
+  crossing, its thin-fold search (where the chord is far) finds no earlier sheet, and no jump
+  triangle lies in front of the root;
+* no jump crossed or next to the root: the residual derivative within `max_jacobian_change` of
+  the previous answer's, and the map linear to `ring_tol` on a ring of `ring_rad` around it;
+* the pull angle within `max_phi_change_rad` of the anchor's (its swing of the guarded ray
+  segment is added to the guards' motion).
 
 Anything else falls back to the cold solve, which becomes the next anchor when it is clean.
 """
@@ -41,7 +43,7 @@ from ..types import Status
 from .base import CapacityResult, GLSProblem
 from .closure import earlier_exit
 from .direct import DirectSurface
-from .newton import newton_on_sphere, unit_rows
+from .newton import unit_rows
 
 # Directions of the ring probe around a warm root (unit vectors of the tangent plane).
 _RING = np.column_stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi / 4)])
@@ -176,6 +178,15 @@ def newton_one(eval_scaled, d: np.ndarray, seed: np.ndarray, rtol: float = 1e-12
     return best_t, best_s, best_r, jac, False, local
 
 
+def _tangent_jacobian(local: tuple, d: np.ndarray) -> np.ndarray:
+    """The residual's derivative on the sphere's tangent plane as a (2, 3) map of twist
+    increments: independent of the (u, v) basis, which Newton picks per twist and which
+    swaps where the twist's smallest component changes."""
+    _, u, v, du, dv = local
+    proj = np.array([[-d[1], d[0], 0.0], [0.0, 0.0, 1.0]])
+    return np.outer(proj @ du, u) + np.outer(proj @ dv, v)
+
+
 @dataclass(frozen=True)
 class _Anchor:
     """What a clean cold solve leaves for the warm steps after it (scaled spaces)."""
@@ -183,7 +194,7 @@ class _Anchor:
     phi: float
     s: float                    # exit distance along d
     twist: np.ndarray           # (3,) exit twist, unit
-    jacobian: np.ndarray        # (2, 2) residual Jacobian at the exit
+    jacobian: np.ndarray        # (2, 3) residual derivative at the exit (_tangent_jacobian)
     guard_twists: np.ndarray    # (G, 3) unit twists of the guard vertices
     guard_wrenches: np.ndarray  # (G, 3) their wrenches at the anchor state
     tri: np.ndarray             # (T, 3) guard triangles, indices into guard_twists
@@ -211,7 +222,8 @@ class WarmDirect:
     clearance_fraction: guard vertices may move this fraction of the smallest clearance.
     max_twist_drift_rad: warm exit twist at most this far from the anchor's (scaled metric).
     max_capacity_change: warm exit distance within this relative change of the anchor's.
-    max_jacobian_change: Frobenius change of the 2x2 residual Jacobian, relative.
+    max_jacobian_change: Frobenius change of the residual's derivative on the tangent plane
+        from the previous answer's, relative.
     max_phi_change_rad: pull angle at most this far from the anchor's.
     exit_exclusion_rad: coarse triangles with a vertex this close to the exit twist are not
         ray guards (the exit's own motion is followed by Newton and the checks below).
@@ -220,9 +232,10 @@ class WarmDirect:
     max_iter: Newton iterations of a warm step.
     direct_options: passed to DirectSurface (rtol, fd_step, max_iter, gap_tol).
 
-    Learned state: anchor_ (None until a clean cold solve), twist_ (last exit twist, scaled
-    unit), n_steps_, n_fallbacks_, fallback_reasons_ (Counter), last_warm_ (bool),
-    last_reason_ (why the last step was cold, '' when warm).
+    Learned state: anchor_ (None until a clean cold solve), twist_ and jac_ (last exit twist,
+    scaled unit, and the residual derivative there), n_steps_, n_fallbacks_,
+    fallback_reasons_ (Counter), last_warm_ (bool), last_reason_ (why the last step was cold,
+    '' when warm).
     """
 
     method = 'direct'
@@ -250,6 +263,7 @@ class WarmDirect:
         """Forget the stream: the next step is cold."""
         self.anchor_: _Anchor | None = None
         self.twist_: np.ndarray | None = None
+        self.jac_: np.ndarray | None = None
         self.n_steps_ = 0
         self.n_fallbacks_ = 0
         self.fallback_reasons_: Counter[str] = Counter()
@@ -341,9 +355,13 @@ class WarmDirect:
                 return None, 'earlier_exit'
         wf = wg[a.patch[f_c]]
         if float(np.linalg.norm(wf - np.roll(wf, 1, axis=0), axis=1).max()) > 1.5 * a.patch_edge:
-            return None, 'jump_crossed'
-        j_ref = max(float(np.linalg.norm(a.jacobian)), 1e-300)
-        dj = float(np.linalg.norm(jac0 - a.jacobian)) / j_ref
+            return None, 'jump_in_front'
+        # against the previous answer's Jacobian: a facet switching between two messages
+        # changes it at once (slow drift over many messages is the twist and capacity checks')
+        assert self.jac_ is not None
+        g = _tangent_jacobian(local, d)
+        dj = float(np.linalg.norm(g - self.jac_)) / max(float(np.linalg.norm(self.jac_)),
+                                                        1e-300)
         sv = np.linalg.svd(jac0, compute_uv=False)
         if dj > self.max_jacobian_change or not sv[1] >= 1e-6 * sv[0]:
             return None, 'jump_crossed'
@@ -357,7 +375,7 @@ class WarmDirect:
         off = float(np.max(np.linalg.norm(eval_scaled(ring) - lin, axis=1))) / s0
         if off > self.ring_tol:
             return None, 'jump_near'
-        self.twist_ = t0
+        self.twist_, self.jac_ = t0, g
         detail = (f'warm start from the previous exit: guards used {use:.0%} of their '
                   f'allowance; Jacobian singular values {sv[0]:.3g}, {sv[1]:.3g}')
         return CapacityResult.make(phi, Status.OK, self.method, s0 * sc.force_N, t0, sc,
@@ -370,7 +388,7 @@ class WarmDirect:
         if _clean(r) and r.slip_twist_scaled is not None:
             self.anchor_ = self._make_anchor(surface, problem, float(phi), r)
             if self.anchor_ is not None:
-                self.twist_ = self.anchor_.twist
+                self.twist_, self.jac_ = self.anchor_.twist, self.anchor_.jacobian
         return r
 
     def _make_anchor(self, surface: DirectSurface, problem: GLSProblem, phi: float,
@@ -434,14 +452,15 @@ class WarmDirect:
         def eval_scaled(t: np.ndarray) -> np.ndarray:
             return sc.wrench_to_scaled(problem.wrenches(sc.twist_from_scaled(t)))
 
-        # One call: the guards' wrenches now, and the Jacobian at the exit (Newton from the
-        # exit converges at once and reports it).
+        # The Jacobian at the exit: Newton from the exit converges at once and reports it.
         opts = self.direct_options
-        _, _, _, jac, _, _ = newton_on_sphere(
-            eval_scaled, d, twist[None, :], float(opts.get('rtol', 1e-12)),
-            float(opts.get('fd_step', 1e-7)), 1)
+        lin = newton_one(eval_scaled, d, twist, float(opts.get('rtol', 1e-12)),
+                         float(opts.get('fd_step', 1e-7)), 1)[5]
+        if not lin:
+            return None
         w_guard = eval_scaled(guard_ts)
-        return _Anchor(phi=phi, s=s, twist=twist, jacobian=jac[0], guard_twists=guard_ts,
+        return _Anchor(phi=phi, s=s, twist=twist, jacobian=_tangent_jacobian(lin, d),
+                       guard_twists=guard_ts,
                        guard_wrenches=w_guard, tri=np.concatenate(tris),
                        points=points, clearance=clearance, slack=slack,
                        rest=rest, patch=patch, patch_edge=patch_edge)
