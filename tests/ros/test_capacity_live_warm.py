@@ -29,3 +29,44 @@ def test_warm_live_predictor_answers_as_cold_direct_and_reports_stats():
     stats = p.stats()
     assert stats['steps'] == 3 and stats['fallback_rate'] == pytest.approx(1 / 3)
     assert stats['solve_us_median'] > 0 and stats['solve_us_p99'] >= stats['solve_us_median']
+
+
+def test_node_live_mode_answers_with_the_warm_solver_and_reports_it(ros_context):
+    rclpy = pytest.importorskip('rclpy')  # noqa: F841
+    from _capacity_common import PHI, Probe
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+
+    from rftgls_ros.capacity_node import CapacityNode
+    params = {'map_file': '', 'phi_rad': PHI, 'phi_topic': '/winch/phi',
+              **{f'{n}_timeout_s': 5.0 for n in ('joint_states', 'pitch', 'tension', 'height',
+                                                 'phi')}}
+    node = CapacityNode(context=ros_context, parameter_overrides=[
+        Parameter(k, value=v) for k, v in params.items()])   # live_method: its default
+    ex = SingleThreadedExecutor(context=ros_context)
+    probe = Probe(ros_context, ex, expect_phi=True, expect_height=True)
+    ex.add_node(node)
+    ex.add_node(probe.node)
+    try:
+        probe.wait_matched()
+        assert node.estimator.predictor.name == 'live:direct-warm'
+        probe.state(DH, (0.0, 0.0))
+        est = node.estimator
+        assert probe.spin_until(lambda: len(est._joints) == 4 and 'pitch' in est._inputs
+                                and 'phi' in est._inputs and 'height' in est._inputs)
+        cap = probe.output_for(probe.tension(1.0).header.stamp)
+        cold = AnchorModel(minirquad(), get_medium('m90_sand'), method='direct').predict(
+            est.estimate(node.now_s()).state, PHI, 'backward')
+        d = (-math.cos(PHI), math.sin(PHI))
+        assert cap.wrench.force.x * d[0] + cap.wrench.force.z * d[1] == pytest.approx(
+            cold.capacity_N, rel=1e-6)
+        assert probe.spin_until(lambda: probe.last_diag() is not None
+                                and probe.last_diag().message == 'ok')
+        values = {kv.key: kv.value for kv in probe.last_diag().values}
+        assert float(values['solver_steps']) >= 1
+        assert 0.0 <= float(values['solver_fallback_rate']) <= 1.0
+        assert float(values['solver_solve_us_median']) > 0.0
+    finally:
+        ex.shutdown()
+        node.destroy_node()
+        probe.node.destroy_node()
