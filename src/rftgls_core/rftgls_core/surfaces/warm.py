@@ -219,7 +219,7 @@ class WarmDirect:
 
     n_twists: the cold solve's bracketing sphere (as DirectSurface, default 400).
     guard_triangles: triangles per mesh kept as guards (closest to the origin and the ray).
-    clearance_fraction: guard vertices may move this fraction of the smallest clearance.
+    clearance_fraction: a guard triangle may close in by this fraction of its clearance.
     max_twist_drift_rad: warm exit twist at most this far from the anchor's (scaled metric).
     max_capacity_change: warm exit distance within this relative change of the anchor's.
     max_jacobian_change: Frobenius change of the residual's derivative on the tangent plane
