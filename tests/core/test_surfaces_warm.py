@@ -184,3 +184,16 @@ def test_scalar_kernels_agree_with_the_numpy_versions():
 
 def unit_rows_of(x):
     return x / np.linalg.norm(x, axis=1, keepdims=True)
+
+
+@pytest.mark.parametrize('seed', [11])
+def test_random_streams_of_both_robots(seed):
+    # Random pose, pull, angle, drift and noise: wherever the stream goes, warm == cold.
+    rng = np.random.default_rng(seed)
+    for trial in range(6):
+        robot = ('minirquad', 'prototype')[trial % 2]
+        base = (rng.uniform(0.0, 0.045), *np.radians(rng.uniform((-15, -60, -60), (15, 60, 60))))
+        drift = (rng.uniform(-0.003, 0.003), *np.radians(rng.uniform(-5.0, 5.0, size=3)))
+        pull = Pull.BACKWARD if rng.uniform() < 0.5 else Pull.FORWARD
+        run_stream(robot, noisy(rng, base, 40, drift=drift),
+                   math.radians(rng.uniform(-40.0, 40.0)), pull)

@@ -227,8 +227,9 @@ class WarmDirect:
     max_phi_change_rad: pull angle at most this far from the anchor's.
     exit_exclusion_rad: coarse triangles with a vertex this close to the exit twist are not
         ray guards (the exit's own motion is followed by Newton and the checks below).
-    ring_rad, ring_tol: the map must follow its linear model at the root to ring_tol (relative
-        to the distance) on a ring of this radius, rad (no facet switches next to the exit).
+    ring_rad, ring_tol: rings of this radius and half of it around the root, rad: a misfit of
+        the linear model that does not shrink like r^2 (Richardson, beyond ring_tol of the
+        distance) is a facet switching next to the root, which falls back.
     max_iter: Newton iterations of a warm step.
     direct_options: passed to DirectSurface (rtol, fd_step, max_iter, gap_tol).
 
@@ -244,7 +245,7 @@ class WarmDirect:
                  clearance_fraction: float = 0.5, max_twist_drift_rad: float = 0.1,
                  max_capacity_change: float = 0.2, max_jacobian_change: float = 0.25,
                  max_phi_change_rad: float = 0.02, exit_exclusion_rad: float = 0.35,
-                 ring_rad: float = 3e-3, ring_tol: float = 1e-3, max_iter: int = 10,
+                 ring_rad: float = 3e-3, ring_tol: float = 2e-4, max_iter: int = 10,
                  **direct_options) -> None:
         self.n_twists = int(n_twists)
         self.guard_triangles = int(guard_triangles)
@@ -365,15 +366,25 @@ class WarmDirect:
         sv = np.linalg.svd(jac0, compute_uv=False)
         if dj > self.max_jacobian_change or not sv[1] >= 1e-6 * sv[0]:
             return None, 'jump_crossed'
-        # A facet switching right next to the root leaves a second sheet a hair in front of it
-        # (a small jump; its root can be the first exit): the map must follow its linear
-        # model on a small ring around the root.
+        # A facet switching right next to the root leaves a second sheet a hair away from it.
+        # Ring points beyond the switch are off the linear model by the jump; that sheet,
+        # the tangent plane shifted by the jump, meets the ray at s0 + (jump . n) / (d . n).
+        # In front of the root its root can be the first exit (the cold solve's seeds may
+        # land there, the warm seed does not); behind it, the root stays the first exit.
         w0, u, v, du, dv = local
-        ring = t0 + self.ring_rad * (_RING[:, :1] * u + _RING[:, 1:] * v)
+        r1, r2 = self.ring_rad, 0.5 * self.ring_rad
+        dirs = np.concatenate([r1 * _RING, r2 * _RING])
+        ring = t0 + dirs[:, :1] * u + dirs[:, 1:] * v
         ring /= np.linalg.norm(ring, axis=1, keepdims=True)
-        lin = w0 + self.ring_rad * (_RING[:, :1] * du + _RING[:, 1:] * dv)
-        off = float(np.max(np.linalg.norm(eval_scaled(ring) - lin, axis=1))) / s0
-        if off > self.ring_tol:
+        off = eval_scaled(ring) - (w0 + dirs[:, :1] * du + dirs[:, 1:] * dv)
+        # Richardson: the smooth part of the misfit grows like r^2, a jump does not; with the
+        # r^2 term removed, what is left is a jump between the root and the ring.
+        k = len(_RING)
+        rich = np.linalg.norm((4.0 * off[k:] - off[:k]) / 3.0, axis=1)
+        jumps = rich > self.ring_tol * s0
+        if np.any(jumps):
+            # The sheet beyond the switch may hold a second root, in front of this one or
+            # behind it; which root the cold solve's seeds then land on is theirs to decide.
             return None, 'jump_near'
         self.twist_, self.jac_ = t0, g
         detail = (f'warm start from the previous exit: guards used {use:.0%} of their '
