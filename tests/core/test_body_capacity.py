@@ -61,7 +61,8 @@ def test_sphere_pulled_up_holds_its_rft_force_plus_weight(stl, capsys):
     # the centre, so the slip is the pure upward translation.
     res = cli_json(capsys, *body_args(stl['sphere']))
     assert res['status'] == 'ok'
-    assert set(res) == {'capacity_N', 'slip_twist_scaled', 'slip_twist', 'slip_twist_raw', 'status', 'method',
+    assert set(res) == {'capacity_N', 'slip_twist_scaled', 'slip_twist', 'slip_twist_raw', 'status',
+                        'method',
                         'elapsed_s', 'reason', 'detail', 'char_length_m', 'flags',
                         'twist_spread_rad'}
     w = cli_json(capsys, 'wrench', '--mesh', stl['sphere'], '--units', 'm', '--position', '0',

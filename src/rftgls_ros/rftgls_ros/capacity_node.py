@@ -274,9 +274,13 @@ class CapacityNode(Node):
             'input_to_output_ms_median': (f'{statistics.median(self.latency_s) * 1e3:.3f}'
                                           if self.latency_s else 'nan'),
         })
+        stats = getattr(self.estimator.predictor, 'stats', None)   # live direct-warm solver
+        values = dict(d.values)
+        if stats is not None:
+            values.update({f'solver_{k}': f'{v:.4g}' for k, v in stats().items()})
         status = DiagnosticStatus(level=bytes([d.level]), name=d.name, message=d.message,
                                   hardware_id=self.params['robot'],
-                                  values=[KeyValue(key=k, value=v) for k, v in d.values.items()])
+                                  values=[KeyValue(key=k, value=v) for k, v in values.items()])
         arr = DiagnosticArray(status=[status])
         arr.header.stamp = self.get_clock().now().to_msg()
         return arr

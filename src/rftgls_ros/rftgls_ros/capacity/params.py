@@ -39,7 +39,8 @@ _TIMEOUT = 'age after which the {} input is stale, s'
 PARAMETERS: dict[str, Param] = {
     # predictor (start-up only: the map is loaded and checked once)
     'map_file': Param(DEFAULT_MAP, "HDF5 capacity map; '' = live computation with live_method"),
-    'live_method': Param('direct', 'live solver when map_file is empty'),
+    'live_method': Param('direct-warm', 'live solver when map_file is empty (direct-warm: '
+                         "the cold direct's answers, warm-started per message)"),
     'live_n_twists': Param(0, 'twists of the live solver; 0 = rftgls_core.anchor.'
                            'DEFAULT_TWISTS (1000) for every method, direct included', 0, 10**6),
     'out_of_range_live_method': Param('', "live solver answering off-grid states; '' = none"),

@@ -19,7 +19,7 @@ from rftgls_core.types import AnchorState, Pull, Status
 
 # The installed (shipped) map; rftgls_core.maps.resolve_map maps this name to maps_dir().
 DEFAULT_MAP = 'maps/minirquad_m90_sand.h5'
-LIVE_METHODS = ('direct', 'twist-mesh', 'alpha', 'ellipsoid')
+LIVE_METHODS = ('direct-warm', 'direct', 'twist-mesh', 'alpha', 'ellipsoid')
 
 
 class ConfigError(ValueError):
@@ -33,7 +33,9 @@ def predictor_name(predictor: Predictor) -> str:
 
 
 class LivePredictor:
-    """rftgls_core.anchor.AnchorModel computed per call (about 10 ms for twist-mesh).
+    """rftgls_core.anchor.AnchorModel computed per call (about 10 ms for twist-mesh), or for
+    'direct-warm' the core's warm-started direct (WarmAnchorModel: the cold direct's answers,
+    under a millisecond per message on a streaming robot; `stats()` for diagnostics).
     n_twists None: DEFAULT_TWISTS for every method (not the model's per-method default)."""
 
     def __init__(self, robot: str = 'minirquad', medium: str = 'm90_sand',
@@ -41,8 +43,13 @@ class LivePredictor:
         from rftgls_core.anchor import DEFAULT_TWISTS, AnchorModel
         from rftgls_core.rft.media import get_medium
         from rftgls_core.robots.presets import get_robot
-        self.model = AnchorModel(get_robot(robot), get_medium(medium), method=method,
-                                 n_twists=n_twists or DEFAULT_TWISTS)
+        from rftgls_core.surfaces.warm import WarmAnchorModel
+        if method == 'direct-warm':
+            self.model = WarmAnchorModel(get_robot(robot), get_medium(medium), n_twists=n_twists)
+            self.stats = self.model.stats
+        else:
+            self.model = AnchorModel(get_robot(robot), get_medium(medium), method=method,
+                                     n_twists=n_twists or DEFAULT_TWISTS)
         self.name = f'live:{method}'
 
     def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:

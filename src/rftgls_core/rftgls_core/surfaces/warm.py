@@ -1,0 +1,657 @@
+"""Warm-started `direct` over a stream of states: the previous exit seeds the next solve.
+
+A robot that streams its state at 100-1000 Hz moves its limit surface by little between two
+messages, so the exit twist of the last answer is an excellent Newton seed for the next one:
+a warm step costs the pose, one small wrench call for the guards and two to four Newton
+iterations (3 twists each) instead of the 400-twist bracketing sphere, its checks and, near
+the support edge, the 8,000-twist support check. The reasoning, the guards and their limits are
+on docs/design/warm-direct.md.
+
+The contract: a warm answer equals the cold `direct` answer (`DirectSurface(n_twists).fit(
+problem).capacity(phi)`) to the solver tolerance, status included. Warm steps are only taken
+next to an *anchor*, the last cold solve, and only while nothing the cold solve decided can
+have changed:
+
+* the anchor is clean: status ok, one coarse crossing, one root found by Newton (no closure
+  search, no dense bracket, no earlier exit on a fold, no flag);
+* guards (status, a new first exit): the coarse (and, when the anchor evaluated it, the dense
+  support-check) mesh triangles nearest the origin and the load-ray segment are re-evaluated at
+  every step; none may close in by more than `clearance_fraction` of its clearance, and the
+  typical motion of their vertices must stay below that fraction of the nearest other one;
+* the new root is a converged Newton root, its twist within `max_twist_drift_rad` and its
+  distance within `max_capacity_change` of the anchor's;
+* the cold solve's view around the exit: the coarse triangles there cast again give one
+  crossing, its thin-fold search (where the chord is far) finds no earlier sheet, and no jump
+  triangle lies in front of the root;
+* no jump crossed or next to the root: the residual derivative within `max_jacobian_change` of
+  the previous answer's, and the map linear to `ring_tol` on a ring of `ring_rad` around it;
+* the pull angle within `max_phi_change_rad` of the anchor's (its swing of the guarded ray
+  segment is added to the guards' motion).
+
+Anything else falls back to the cold solve, which becomes the next anchor when it is clean.
+"""
+from __future__ import annotations
+
+import math
+import time
+from collections import Counter, deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..types import Status
+from .base import CapacityResult, GLSProblem
+from .closure import earlier_exit
+from .direct import DirectSurface
+from .newton import unit_rows
+
+# Directions of the ring probe around a warm root (unit vectors of the tangent plane).
+_RING = np.column_stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi / 4)])
+# Samples of the load-ray segment (0, s] whose clearance the guards keep.
+_SEGMENT_POINTS = 12
+
+
+def triangle_distances(vertices: np.ndarray, faces: np.ndarray, point: np.ndarray
+                       ) -> np.ndarray:
+    """Euclidean distance from `point` (3,) to every triangle `faces` (F, 3) of `vertices`."""
+    p = np.asarray(point, dtype=float)
+    return _distances(*(vertices[faces[:, i]] - p for i in range(3)))
+
+
+def _distances(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Distance from the origin to the triangles (a, b, c), each (F, 3).
+
+    Closest point on a triangle (Ericson, Real-Time Collision Detection, 2005, sec. 5.1.5):
+    the projection on the plane when it falls inside, else the nearest of the three edges.
+    """
+    n = _cross(b - a, c - a)
+    nn = np.einsum('ij,ij->i', n, n)
+    # barycentric signs of the projected origin: inside when all three sub-areas agree with n
+    inside = ((np.einsum('ij,ij->i', _cross(a, b), n) >= 0)
+              & (np.einsum('ij,ij->i', _cross(b, c), n) >= 0)
+              & (np.einsum('ij,ij->i', _cross(c, a), n) >= 0) & (nn > 0))
+    plane = np.abs(np.einsum('ij,ij->i', n, a)) / np.sqrt(np.maximum(nn, 1e-300))
+
+    def seg(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        e = v - u
+        t = np.clip(-np.einsum('ij,ij->i', u, e) / np.maximum(np.einsum('ij,ij->i', e, e),
+                                                              1e-300), 0.0, 1.0)
+        return np.linalg.norm(u + t[:, None] * e, axis=1)
+
+    edge = np.minimum(np.minimum(seg(a, b), seg(b, c)), seg(c, a))
+    return np.where(inside, plane, edge)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of (F, 3) arrays (np.cross costs more than the work here)."""
+    out = np.empty_like(a)
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
+def _fd_batch(t: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The twist, its two forward-difference neighbours (as newton._tangent_basis), u, v."""
+    k = int(np.argmin(np.abs(t)))
+    helper = np.zeros(3)
+    helper[k] = 1.0
+    u = np.array([t[1] * helper[2] - t[2] * helper[1], t[2] * helper[0] - t[0] * helper[2],
+                  t[0] * helper[1] - t[1] * helper[0]])
+    u /= math.sqrt(u @ u)
+    v = np.array([t[1] * u[2] - t[2] * u[1], t[2] * u[0] - t[0] * u[2],
+                  t[0] * u[1] - t[1] * u[0]])
+    batch = np.stack([t, t + h * u, t + h * v])
+    batch[1:] /= np.linalg.norm(batch[1:], axis=1, keepdims=True)
+    return batch, u, v
+
+
+def _ray_hits(tri: np.ndarray, d: np.ndarray, bary_tol: float = 1e-9,
+              dist_rtol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+    """raycast.all_hits for a few triangles (T, 3, 3) and a ray from the origin: the sorted
+    distinct crossing distances and their triangles (same tolerances, less overhead)."""
+    v0, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    n_det = _cross(e2, e1)
+    det = n_det @ d
+    det_tol = 1e-12 * np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
+    ok = np.abs(det) > det_tol
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    q0 = -v0
+    q = _cross(q0, e1)
+    u = (_cross(e2, q0) @ d) * inv
+    v = (q @ d) * inv
+    s = np.einsum('ij,ij->i', e2, q) * inv
+    hit = ok & (u >= -bary_tol) & (v >= -bary_tol) & (u + v <= 1.0 + bary_tol) & (s > 0.0)
+    idx = np.flatnonzero(hit)
+    order = idx[np.argsort(s[idx])]
+    ss = s[order]
+    keep = np.ones(len(order), dtype=bool)
+    keep[1:] = np.diff(ss) > dist_rtol * max(float(np.abs(tri).max()), 1e-300)
+    return ss[keep], order[keep]
+
+
+def newton_one(eval_scaled, d: np.ndarray, seed: np.ndarray, rtol: float = 1e-12,
+               fd_step: float = 1e-7, max_iter: int = 10, first: np.ndarray | None = None
+               ) -> tuple[np.ndarray, float, float, np.ndarray, bool, tuple]:
+    """`newton.newton_on_sphere` for one seed, with the same steps, tolerance, trust region
+    and backtracking, written for a single 3-vector (the batched version's array overhead is
+    most of a warm step). `first`: the wrenches of the seed's first batch (_fd_batch), when the
+    caller evaluated them already. Returns (twist, s, residual, jacobian (2, 2), converged,
+    local) with local = (W(t), u, v, dW/du, dW/dv) at that twist (the local linear model)."""
+    e1 = np.array([-d[1], d[0], 0.0])
+    t = seed / np.linalg.norm(seed)
+    best_t, best_r, best_s = t, math.inf, 0.0
+    best_step = np.zeros(2)
+    bu = bv = np.zeros(3)
+    jac = np.zeros((2, 2))
+    local: tuple = ()
+    lam = 1.0
+    for it in range(max_iter):
+        batch, u, v = _fd_batch(t, fd_step)
+        w = first if (it == 0 and first is not None) else eval_scaled(batch)
+        r = np.array([e1 @ w[0], w[0, 2]])
+        rn = math.hypot(r[0], r[1])
+        dw1, dw2 = w[1] - w[0], w[2] - w[0]
+        j_now = np.array([[e1 @ dw1, e1 @ dw2], [dw1[2], dw2[2]]]) / fd_step
+        improved = rn < best_r
+        if improved:
+            best_t, best_r, best_s, jac = t, rn, float(d @ w[0]), j_now
+            local = (w[0], u, v, dw1 / fd_step, dw2 / fd_step)
+        if best_r <= rtol * max(abs(best_s), 1e-3):
+            return best_t, best_s, best_r, jac, True, local
+        if improved:
+            det = jac[0, 0] * jac[1, 1] - jac[0, 1] * jac[1, 0]
+            if det != 0.0:
+                step = -np.array([jac[1, 1] * r[0] - jac[0, 1] * r[1],
+                                  -jac[1, 0] * r[0] + jac[0, 0] * r[1]]) / det
+            else:
+                step = -np.linalg.pinv(jac) @ r
+            nrm = math.hypot(step[0], step[1])
+            step *= min(1.0, 0.3 / max(nrm, 1e-300))   # trust region, rad
+            best_step, bu, bv, lam = step, u, v, 1.0
+        else:
+            lam *= 0.5
+            if lam < 1e-6:
+                break
+        t = best_t + lam * (best_step[0] * bu + best_step[1] * bv)
+        t = t / math.sqrt(t @ t)
+    return best_t, best_s, best_r, jac, False, local
+
+
+def _tangent_jacobian(local: tuple, d: np.ndarray) -> np.ndarray:
+    """The residual's derivative on the sphere's tangent plane as a (2, 3) map of twist
+    increments: independent of the (u, v) basis, which Newton picks per twist and which
+    swaps where the twist's smallest component changes."""
+    _, u, v, du, dv = local
+    proj = np.array([[-d[1], d[0], 0.0], [0.0, 0.0, 1.0]])
+    return np.outer(proj @ du, u) + np.outer(proj @ dv, v)
+
+
+@dataclass(frozen=True)
+class _Anchor:
+    """What a clean cold solve leaves for the warm steps after it (scaled spaces)."""
+
+    phi: float
+    s: float                    # exit distance along d
+    twist: np.ndarray           # (3,) exit twist, unit
+    jacobian: np.ndarray        # (2, 3) residual derivative at the exit (_tangent_jacobian)
+    guard_twists: np.ndarray    # (G, 3) unit twists of the guard vertices
+    guard_wrenches: np.ndarray  # (G, 3) their wrenches at the anchor state
+    tri: np.ndarray             # (T, 3) guard triangles, indices into guard_twists
+    points: np.ndarray          # (T, 3) the point each guard triangle keeps clear of
+    clearance: np.ndarray       # (T,) its distance at the anchor state, less the slack
+    slack: np.ndarray           # (T,) half a segment spacing for ray samples, else 0
+    rest: float                 # smallest clearance of any triangle that is no guard
+    patch: np.ndarray           # (P, 3) coarse triangles around the exit, into guard_twists
+    patch_edge: float           # longest edge of the triangle the ray crossed at the anchor
+
+
+def _clean(r: CapacityResult) -> bool:
+    """A cold answer the warm steps may continue: one crossing, one Newton root, no flag."""
+    return (r.status is Status.OK and not r.flags and r.n_hits == 1
+            and not any(w in r.detail for w in ('closure', 'dense bracket', 'earlier exit'))
+            and r.detail.startswith('coarse crossings 1,'))
+
+
+class WarmDirect:
+    """Warm-started `direct` (scikit-learn style: hyper-parameters here, learned state in
+    attributes with a trailing underscore). `solve(problem, phi)` answers one state of a stream.
+
+    n_twists: the cold solve's bracketing sphere (as DirectSurface, default 400).
+    guard_triangles: triangles per mesh kept as guards (closest to the origin and the ray).
+    clearance_fraction: a guard triangle may close in by this fraction of its clearance.
+    max_twist_drift_rad: warm exit twist at most this far from the anchor's (scaled metric).
+    max_capacity_change: warm exit distance within this relative change of the anchor's.
+    max_jacobian_change: Frobenius change of the residual's derivative on the tangent plane
+        from the previous answer's, relative.
+    max_phi_change_rad: pull angle at most this far from the anchor's.
+    exit_exclusion_rad: coarse triangles with a vertex this close to the exit twist are not
+        ray guards (the exit's own motion is followed by Newton and the checks below).
+    ring_rad, ring_tol: rings of this radius and half of it around the root, rad: a misfit of
+        the linear model that does not shrink like r^2 (Richardson, beyond ring_tol of the
+        distance) is a facet switching next to the root, which falls back.
+    max_iter: Newton iterations of a warm step.
+    direct_options: passed to DirectSurface (rtol, fd_step, max_iter, gap_tol).
+
+    Learned state: anchor_ (None until a clean cold solve), twist_ and jac_ (last exit twist,
+    scaled unit, and the residual derivative there), n_steps_, n_fallbacks_,
+    fallback_reasons_ (Counter), last_warm_ (bool), last_reason_ (why the last step was cold,
+    '' when warm).
+    """
+
+    method = 'direct'
+
+    def __init__(self, n_twists: int = 400, guard_triangles: int = 12,
+                 clearance_fraction: float = 0.5, max_twist_drift_rad: float = 0.1,
+                 max_capacity_change: float = 0.2, max_jacobian_change: float = 0.25,
+                 max_phi_change_rad: float = 0.02, exit_exclusion_rad: float = 0.35,
+                 ring_rad: float = 3e-3, ring_tol: float = 2e-4, max_iter: int = 10,
+                 **direct_options) -> None:
+        self.n_twists = int(n_twists)
+        self.guard_triangles = int(guard_triangles)
+        self.clearance_fraction = float(clearance_fraction)
+        self.max_twist_drift_rad = float(max_twist_drift_rad)
+        self.max_capacity_change = float(max_capacity_change)
+        self.max_jacobian_change = float(max_jacobian_change)
+        self.max_phi_change_rad = float(max_phi_change_rad)
+        self.exit_exclusion_rad = float(exit_exclusion_rad)
+        self.ring_rad, self.ring_tol = float(ring_rad), float(ring_tol)
+        self.max_iter = int(max_iter)
+        self.direct_options = dict(direct_options)
+        self.reset()
+
+    def reset(self) -> WarmDirect:
+        """Forget the stream: the next step is cold."""
+        self.anchor_: _Anchor | None = None
+        self.twist_: np.ndarray | None = None
+        self.jac_: np.ndarray | None = None
+        self.n_steps_ = 0
+        self.n_fallbacks_ = 0
+        self.fallback_reasons_: Counter[str] = Counter()
+        self.last_warm_ = False
+        self.last_reason_ = ''
+        return self
+
+    def forget(self) -> None:
+        """Drop the anchor but keep the counters (the stream went somewhere unanswerable)."""
+        self.anchor_ = None
+        self.twist_ = None
+
+    @property
+    def fallback_rate_(self) -> float:
+        return self.n_fallbacks_ / self.n_steps_ if self.n_steps_ else math.nan
+
+    # -- one step -----------------------------------------------------------------------------
+    def solve(self, problem: GLSProblem, phi: float) -> CapacityResult:
+        """Capacity along d(phi) of the state whose wrench map `problem` describes; the same
+        answer as the cold `direct`, warm when the guards allow it."""
+        self.n_steps_ += 1
+        why = self._why_not_warm(phi)
+        if not why:
+            r, why = self._warm(problem, float(phi))
+            if r is not None:
+                self.last_warm_, self.last_reason_ = True, ''
+                return r
+        self.n_fallbacks_ += 1
+        self.fallback_reasons_[why] += 1
+        self.last_warm_, self.last_reason_ = False, why
+        return self._cold(problem, phi)
+
+    def _why_not_warm(self, phi: float) -> str:
+        a = self.anchor_
+        if a is None:
+            return 'no_anchor'
+        if not math.isfinite(phi) or abs(phi - a.phi) > self.max_phi_change_rad:
+            return 'phi_moved'
+        return ''
+
+    def _warm(self, problem: GLSProblem, phi: float) -> tuple[CapacityResult | None, str]:
+        a = self.anchor_
+        assert a is not None and self.twist_ is not None
+        sc = problem.scaling
+
+        def eval_scaled(ts: np.ndarray) -> np.ndarray:
+            return sc.wrench_to_scaled(problem.wrenches(sc.twist_from_scaled(ts)))
+
+        # Guards: how far the surface moved near the origin and the load ray since the anchor;
+        # evaluated in one call with Newton's first batch.
+        batch0, _, _ = _fd_batch(self.twist_, float(self.direct_options.get('fd_step', 1e-7)))
+        n_g = len(a.guard_twists)
+        w_all = eval_scaled(np.concatenate([a.guard_twists, batch0]))
+        if not np.all(np.isfinite(w_all)):
+            return None, 'non_finite'
+        wg = w_all[:n_g]
+        # A changed pull angle swings the guarded ray points by up to s |dphi|.
+        swing = a.s * abs(phi - a.phi)
+        closed, typical = _guard_use_loop(wg, a.guard_wrenches, a.tri, a.points, a.slack,
+                                          a.clearance, swing)
+        # Triangles that are no guards are at least `rest` away: the typical (median) motion
+        # of the guard vertices stands for theirs. (Single vertices next to a switching
+        # circle jump along the bridged segment as the state moves, so the maximum would
+        # measure the jump, not the surface.)
+        use = max(float(closed), (float(typical) + swing) / a.rest) / self.clearance_fraction
+        if not use <= 1.0:
+            return None, 'guard_moved'
+        d = problem.load_direction_scaled(phi)
+        opts = self.direct_options
+        t0, s0, _, jac0, conv, local = newton_one(
+            eval_scaled, d, self.twist_, float(opts.get('rtol', 1e-12)),
+            float(opts.get('fd_step', 1e-7)), self.max_iter, first=w_all[n_g:])
+        if not (conv and s0 > 0.0 and math.isfinite(s0)):
+            return None, 'no_convergence'
+        if float(np.arccos(np.clip(t0 @ a.twist, -1.0, 1.0))) > self.max_twist_drift_rad:
+            return None, 'twist_moved'
+        if abs(s0 / a.s - 1.0) > self.max_capacity_change:
+            return None, 'capacity_moved'
+        # The cold solve's view around the exit: one crossing of the coarse patch, no thin
+        # fold in front of the root where its chord is far, and no jump triangle (longer than
+        # the anchor's) in front of the root.
+        n_c, s_c, f_c = _ray_hits_loop(wg, a.patch, d)
+        if n_c != 1:
+            return None, 'second_exit'
+        if abs(s0 - float(s_c)) > 0.04 * s0:
+            # The cold solve looks for a fold sheet thinner than the coarse mesh here (from
+            # 5 %): the same search from the same root; no sheet means the same answer.
+            if earlier_exit(eval_scaled, d, t0, s0) is not None:
+                return None, 'earlier_exit'
+        wf = wg[a.patch[f_c]]
+        if float(np.linalg.norm(wf - np.roll(wf, 1, axis=0), axis=1).max()) > 1.5 * a.patch_edge:
+            return None, 'jump_in_front'
+        # against the previous answer's Jacobian: a facet switching between two messages
+        # changes it at once (slow drift over many messages is the twist and capacity checks')
+        assert self.jac_ is not None
+        g = _tangent_jacobian(local, d)
+        dj = float(np.linalg.norm(g - self.jac_)) / max(float(np.linalg.norm(self.jac_)),
+                                                        1e-300)
+        sv = np.linalg.svd(jac0, compute_uv=False)
+        if dj > self.max_jacobian_change or not sv[1] >= 1e-6 * sv[0]:
+            return None, 'jump_crossed'
+        # A facet switching right next to the root leaves a second sheet a hair away from it.
+        # Ring points beyond the switch are off the linear model by the jump; that sheet,
+        # the tangent plane shifted by the jump, meets the ray at s0 + (jump . n) / (d . n).
+        # In front of the root its root can be the first exit (the cold solve's seeds may
+        # land there, the warm seed does not); behind it, the root stays the first exit.
+        w0, u, v, du, dv = local
+        r1, r2 = self.ring_rad, 0.5 * self.ring_rad
+        dirs = np.concatenate([r1 * _RING, r2 * _RING])
+        ring = t0 + dirs[:, :1] * u + dirs[:, 1:] * v
+        ring /= np.linalg.norm(ring, axis=1, keepdims=True)
+        off = eval_scaled(ring) - (w0 + dirs[:, :1] * du + dirs[:, 1:] * dv)
+        # Richardson: the smooth part of the misfit grows like r^2, a jump does not; with the
+        # r^2 term removed, what is left is a jump between the root and the ring.
+        k = len(_RING)
+        rich = np.linalg.norm((4.0 * off[k:] - off[:k]) / 3.0, axis=1)
+        jumps = rich > self.ring_tol * s0
+        if np.any(jumps):
+            # The sheet beyond the switch may hold a second root, in front of this one or
+            # behind it; which root the cold solve's seeds then land on is theirs to decide.
+            return None, 'jump_near'
+        self.twist_, self.jac_ = t0, g
+        detail = (f'warm start from the previous exit: guards used {use:.0%} of their '
+                  f'allowance; Jacobian singular values {sv[0]:.3g}, {sv[1]:.3g}')
+        return CapacityResult.make(phi, Status.OK, self.method, s0 * sc.force_N, t0, sc,
+                                   n_hits=1, detail=detail), ''
+
+    def _cold(self, problem: GLSProblem, phi: float) -> CapacityResult:
+        surface = DirectSurface(self.n_twists, **self.direct_options).fit(problem)
+        r = surface.capacity(phi)
+        self.anchor_, self.twist_ = None, None
+        if _clean(r) and r.slip_twist_scaled is not None:
+            self.anchor_ = self._make_anchor(surface, problem, float(phi), r)
+            if self.anchor_ is not None:
+                self.twist_, self.jac_ = self.anchor_.twist, self.anchor_.jacobian
+        return r
+
+    def _make_anchor(self, surface: DirectSurface, problem: GLSProblem, phi: float,
+                     r: CapacityResult) -> _Anchor | None:
+        assert r.capacity_N is not None and r.slip_twist_scaled is not None
+        assert surface.sphere is not None
+        sc = problem.scaling
+        s = r.capacity_N / sc.force_N
+        twist = unit_rows(np.asarray(r.slip_twist_scaled, dtype=float)[None, :])[0]
+        d = problem.load_direction_scaled(phi)
+        # Clearance of each coarse triangle: to the origin (status), and to the load-ray
+        # segment (a new earlier crossing) except near the exit, whose motion Newton and its
+        # checks follow. The segment is sampled; half the sample spacing is taken off.
+        sphere, ws = surface.sphere, surface._ws
+        near_exit = (sphere.twists_scaled[sphere.faces] @ twist).max(axis=1) \
+            > math.cos(self.exit_exclusion_rad)
+        c_coarse = _clearance(ws, sphere.faces, np.zeros(3))
+        p_coarse = np.zeros((len(sphere.faces), 3))
+        step = s / (_SEGMENT_POINTS - 1)
+        for p in np.arange(1, _SEGMENT_POINTS)[:, None] * step * d[None, :]:
+            c_seg = _clearance(ws, sphere.faces, p, ~near_exit) - 0.5 * step
+            closer = c_seg < c_coarse
+            c_coarse[closer], p_coarse[closer] = c_seg[closer], p
+        meshes = [(sphere.twists_scaled, sphere.faces, c_coarse, p_coarse)]
+        if surface.support_samples_ is not None:   # the dense support check decided too
+            dense, wsd = surface.support_samples_
+            meshes.append((dense.twists_scaled, dense.faces,
+                           _clearance(wsd, dense.faces, np.zeros(3)),
+                           np.zeros((len(dense.faces), 3))))
+        ts_all, tris, pts, clear, rest, base = [], [], [], [], math.inf, 0
+        for ts, faces, c, which in meshes:
+            k = min(self.guard_triangles, len(faces) - 1)
+            order = np.argpartition(c, k)
+            guard, others = order[:k], order[k:]
+            rest = min(rest, float(c[others].min()))
+            idx, local = np.unique(faces[guard].ravel(), return_inverse=True)
+            ts_all.append(ts[idx])
+            tris.append(base + local.reshape(-1, 3))
+            pts.append(which[guard])
+            clear.append(c[guard])
+            base += len(idx)
+        # The coarse triangles around the exit: a warm step casts the ray on them again, as
+        # the cold solve would (a second crossing, a chord far from the root, a jump).
+        idx, local = np.unique(sphere.faces[near_exit].ravel(), return_inverse=True)
+        ts_all.append(sphere.twists_scaled[idx])
+        patch = base + local.reshape(-1, 3)
+        hits = _ray_hits(ws[idx][local.reshape(-1, 3)], d)[1]
+        if len(hits) != 1:
+            return None
+        f0 = sphere.faces[near_exit][hits[0]]
+        patch_edge = float(np.linalg.norm(ws[f0] - ws[np.roll(f0, 1)], axis=1).max())
+        clearance = np.concatenate(clear)
+        points = np.concatenate(pts)
+        # the segment samples' clearances had half a spacing taken off; the raw distance is
+        # what a warm step measures again
+        slack = np.where(np.any(points != 0.0, axis=1), 0.5 * step, 0.0)
+        if not (np.all(clearance > 0.0) and rest > 0.0):
+            return None
+        guard_ts = np.concatenate(ts_all)
+
+        def eval_scaled(t: np.ndarray) -> np.ndarray:
+            return sc.wrench_to_scaled(problem.wrenches(sc.twist_from_scaled(t)))
+
+        # The Jacobian at the exit: Newton from the exit converges at once and reports it.
+        opts = self.direct_options
+        lin = newton_one(eval_scaled, d, twist, float(opts.get('rtol', 1e-12)),
+                         float(opts.get('fd_step', 1e-7)), 1)[5]
+        if not lin:
+            return None
+        w_guard = eval_scaled(guard_ts)
+        return _Anchor(phi=phi, s=s, twist=twist, jacobian=_tangent_jacobian(lin, d),
+                       guard_twists=guard_ts,
+                       guard_wrenches=w_guard, tri=np.concatenate(tris),
+                       points=points, clearance=clearance, slack=slack,
+                       rest=rest, patch=patch, patch_edge=patch_edge)
+
+
+def _clearance(ws: np.ndarray, faces: np.ndarray, point: np.ndarray,
+               mask: np.ndarray | None = None) -> np.ndarray:
+    """Distance of every triangle to `point`; only triangles that can be close are measured
+    exactly (inf elsewhere, and where `mask` is False): a triangle is no closer than its
+    nearest vertex minus 0.58 of its longest edge (every point of a triangle lies within
+    L / sqrt(3) of some vertex)."""
+    v = ws - point
+    upper = np.linalg.norm(v, axis=1)[faces].min(axis=1)
+    edge = np.linalg.norm(ws[faces] - ws[np.roll(faces, 1, axis=1)], axis=2).max(axis=1)
+    lower = upper - edge / math.sqrt(3.0)
+    ok = np.ones(len(faces), dtype=bool) if mask is None else mask
+    if not np.any(ok):
+        return np.full(len(faces), np.inf)
+    # enough candidates to know the few closest and a bound on all others
+    bound = np.partition(upper[ok], min(64, int(ok.sum()) - 1))[min(64, int(ok.sum()) - 1)]
+    cand = np.flatnonzero(ok & (lower <= bound))
+    out = np.where(ok, np.maximum(lower, 0.0), np.inf)
+    out[cand] = triangle_distances(ws, faces[cand], point)
+    return out
+
+
+class WarmAnchorModel:
+    """The live predictor of a streaming robot: `predict(state, phi, pull)` like
+    rftgls_core.anchor.AnchorModel with method 'direct', answered by a WarmDirect per pull.
+
+    Keeps the solver time of the last `window` calls (`stats()`: median and p99 in us, the
+    fallback rate) for diagnostics.
+    """
+
+    def __init__(self, robot, medium, model: str = 'agarwal', n_twists: int | None = None,
+                 backend: str = 'auto', window: int = 1000, **warm_options) -> None:
+        from ..anchor import AnchorModel  # anchor imports surfaces: import on use
+        self.model = AnchorModel(robot, medium, model=model, method='direct',
+                                 n_twists=n_twists, backend=backend)
+        self.warm_options = dict(warm_options)
+        self.solvers: dict[str, WarmDirect] = {}
+        self.times_s: deque[float] = deque(maxlen=int(window))
+        self.name = 'direct-warm'
+
+    def solver(self, pull) -> WarmDirect:
+        key = str(getattr(pull, 'value', pull))
+        if key not in self.solvers:
+            self.solvers[key] = WarmDirect(self.model.n_twists, **self.warm_options)
+        return self.solvers[key]
+
+    def predict(self, state, phi: float, pull) -> CapacityResult:
+        t0 = time.perf_counter()
+        try:
+            return self._predict(state, phi, pull)
+        finally:
+            self.times_s.append(time.perf_counter() - t0)
+
+    def _predict(self, state, phi: float, pull) -> CapacityResult:
+        from ..types import AnchorState
+        m = self.model
+        solver = self.solver(pull)
+        if not isinstance(state, AnchorState) or not state.is_finite():
+            solver.forget()
+            return m.predict(state, phi, pull)     # the model's own invalid_state answer
+        if m.robot.state_range.violations(state):
+            solver.forget()
+            return m.predict(state, phi, pull)
+        anchor = m.pose(state, pull)
+        if anchor.body.facets_active == 0:
+            solver.forget()
+            return m.predict(state, phi, pull)
+        return solver.solve(anchor.problem, phi)
+
+    def stats(self) -> dict[str, float]:
+        """solve_us_median, solve_us_p99 over the window; steps and fallback_rate in all."""
+        steps = sum(s.n_steps_ for s in self.solvers.values())
+        falls = sum(s.n_fallbacks_ for s in self.solvers.values())
+        ts = np.sort(np.asarray(self.times_s)) * 1e6
+        return {'solve_us_median': float(np.median(ts)) if len(ts) else math.nan,
+                'solve_us_p99': float(ts[min(len(ts) - 1, int(math.ceil(0.99 * len(ts))) - 1)])
+                if len(ts) else math.nan,
+                'steps': float(steps),
+                'fallback_rate': falls / steps if steps else math.nan}
+
+
+# -- small scalar kernels of a warm step (numba when installed; the numpy versions above are the
+# reference and the fallback). A warm step handles a few dozen triangles, where numpy's
+# per-call overhead is most of the time.
+try:
+    import numba
+except ImportError:  # pragma: no cover - machines without numba use the numpy versions
+    numba = None  # type: ignore[assignment]
+
+
+def _point_triangle(ax, ay, az, bx, by, bz, cx, cy, cz):
+    """Distance from the origin to the triangle (a, b, c), as _distances does it."""
+    e1x, e1y, e1z = bx - ax, by - ay, bz - az
+    e2x, e2y, e2z = cx - ax, cy - ay, cz - az
+    nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+    nn = nx * nx + ny * ny + nz * nz
+    s1 = (ay * bz - az * by) * nx + (az * bx - ax * bz) * ny + (ax * by - ay * bx) * nz
+    s2 = (by * cz - bz * cy) * nx + (bz * cx - bx * cz) * ny + (bx * cy - by * cx) * nz
+    s3 = (cy * az - cz * ay) * nx + (cz * ax - cx * az) * ny + (cx * ay - cy * ax) * nz
+    if s1 >= 0.0 and s2 >= 0.0 and s3 >= 0.0 and nn > 0.0:
+        return abs(nx * ax + ny * ay + nz * az) / math.sqrt(nn)
+    best = math.inf
+    for ux, uy, uz, vx, vy, vz in ((ax, ay, az, bx, by, bz), (bx, by, bz, cx, cy, cz),
+                                   (cx, cy, cz, ax, ay, az)):
+        ex, ey, ez = vx - ux, vy - uy, vz - uz
+        ee = max(ex * ex + ey * ey + ez * ez, 1e-300)
+        t = min(max(-(ux * ex + uy * ey + uz * ez) / ee, 0.0), 1.0)
+        px, py, pz = ux + t * ex, uy + t * ey, uz + t * ez
+        best = min(best, math.sqrt(px * px + py * py + pz * pz))
+    return best
+
+
+def _guard_use_loop(wg, w0, tri, points, slack, clearance, swing):
+    """(largest closed-in fraction of a guard triangle's clearance, median guard motion)."""
+    closed = -math.inf
+    for k in range(tri.shape[0]):
+        i, j, m = tri[k, 0], tri[k, 1], tri[k, 2]
+        px, py, pz = points[k, 0], points[k, 1], points[k, 2]
+        dist = _point_triangle(wg[i, 0] - px, wg[i, 1] - py, wg[i, 2] - pz,
+                               wg[j, 0] - px, wg[j, 1] - py, wg[j, 2] - pz,
+                               wg[m, 0] - px, wg[m, 1] - py, wg[m, 2] - pz)
+        closed = max(closed, (clearance[k] - (dist - slack[k] - swing)) / clearance[k])
+    motion = np.empty(wg.shape[0])
+    for k in range(wg.shape[0]):
+        dx, dy, dz = wg[k, 0] - w0[k, 0], wg[k, 1] - w0[k, 1], wg[k, 2] - w0[k, 2]
+        motion[k] = math.sqrt(dx * dx + dy * dy + dz * dz)
+    return closed, np.median(motion)
+
+
+def _ray_hits_loop(wg, patch, d, bary_tol=1e-9, dist_rtol=1e-9):
+    """_ray_hits on the triangles `patch` of `wg`: (distinct crossings, first s, its face)."""
+    n = patch.shape[0]
+    s_all = np.empty(n)
+    face = np.empty(n, dtype=np.int64)
+    h = 0
+    scale = 0.0
+    for k in range(n):
+        for c in range(3):
+            for q in range(3):
+                scale = max(scale, abs(wg[patch[k, c], q]))
+    dx, dy, dz = d[0], d[1], d[2]
+    for k in range(n):
+        a, b, c = patch[k, 0], patch[k, 1], patch[k, 2]
+        v0x, v0y, v0z = wg[a, 0], wg[a, 1], wg[a, 2]
+        e1x, e1y, e1z = wg[b, 0] - v0x, wg[b, 1] - v0y, wg[b, 2] - v0z
+        e2x, e2y, e2z = wg[c, 0] - v0x, wg[c, 1] - v0y, wg[c, 2] - v0z
+        # n_det = e2 x e1, det = n_det . d
+        det = (e2y * e1z - e2z * e1y) * dx + (e2z * e1x - e2x * e1z) * dy \
+            + (e2x * e1y - e2y * e1x) * dz
+        tol = 1e-12 * math.sqrt(e1x * e1x + e1y * e1y + e1z * e1z) \
+            * math.sqrt(e2x * e2x + e2y * e2y + e2z * e2z)
+        if not abs(det) > tol:
+            continue
+        inv = 1.0 / det
+        q0x, q0y, q0z = -v0x, -v0y, -v0z
+        u = ((e2y * q0z - e2z * q0y) * dx + (e2z * q0x - e2x * q0z) * dy
+             + (e2x * q0y - e2y * q0x) * dz) * inv
+        qx, qy, qz = q0y * e1z - q0z * e1y, q0z * e1x - q0x * e1z, q0x * e1y - q0y * e1x
+        v = (qx * dx + qy * dy + qz * dz) * inv
+        s = (e2x * qx + e2y * qy + e2z * qz) * inv
+        if u >= -bary_tol and v >= -bary_tol and u + v <= 1.0 + bary_tol and s > 0.0:
+            s_all[h] = s
+            face[h] = k
+            h += 1
+    if h == 0:
+        return 0, math.inf, -1
+    order = np.argsort(s_all[:h])
+    count = 1
+    for i in range(1, h):
+        if s_all[order[i]] - s_all[order[i - 1]] > dist_rtol * max(scale, 1e-300):
+            count += 1
+    return count, s_all[order[0]], face[order[0]]
+
+
+if numba is not None:
+    _jit = numba.njit(cache=True, nogil=True)
+    _point_triangle = _jit(_point_triangle)
+    _guard_use_loop = _jit(_guard_use_loop)
+    _ray_hits_loop = _jit(_ray_hits_loop)

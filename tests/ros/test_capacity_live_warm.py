@@ -1,0 +1,72 @@
+"""capacity_node's live mode (map_file ''): the default live method is the core's warm-started
+direct, which answers as the cold direct does and reports its own time and fallback rate."""
+import math
+
+import pytest
+
+from rftgls_core.anchor import AnchorModel
+from rftgls_core.rft.media import get_medium
+from rftgls_core.robots.presets import minirquad
+from rftgls_core.types import AnchorState
+from rftgls_ros.capacity.predictor import LIVE_METHODS, make_predictor
+from rftgls_ros.capacity_node import PARAMETERS
+
+DH = AnchorState.from_degrees(0.034, 5.0, -40.0, 30.0)
+
+
+def test_live_mode_defaults_to_the_warm_solver():
+    assert PARAMETERS['live_method'] == 'direct-warm' and 'direct-warm' in LIVE_METHODS
+
+
+def test_warm_live_predictor_answers_as_cold_direct_and_reports_stats():
+    p = make_predictor('', live_method='direct-warm')
+    cold = AnchorModel(minirquad(), get_medium('m90_sand'), method='direct')
+    phi = math.radians(-20.0)
+    for dl in (0.0, 1e-4, 2e-4):
+        st = AnchorState(DH.h, DH.theta_b, DH.theta_l1 + dl, DH.theta_l2)
+        r, c = p.predict(st, phi, 'backward'), cold.predict(st, phi, 'backward')
+        assert r.status is c.status and r.capacity_N == pytest.approx(c.capacity_N, rel=1e-6)
+    stats = p.stats()
+    assert stats['steps'] == 3 and stats['fallback_rate'] == pytest.approx(1 / 3)
+    assert stats['solve_us_median'] > 0 and stats['solve_us_p99'] >= stats['solve_us_median']
+
+
+def test_node_live_mode_answers_with_the_warm_solver_and_reports_it(ros_context):
+    rclpy = pytest.importorskip('rclpy')  # noqa: F841
+    from _capacity_common import PHI, Probe
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+
+    from rftgls_ros.capacity_node import CapacityNode
+    params = {'map_file': '', 'phi_rad': PHI, 'phi_topic': '/winch/phi',
+              **{f'{n}_timeout_s': 5.0 for n in ('joint_states', 'pitch', 'tension', 'height',
+                                                 'phi')}}
+    node = CapacityNode(context=ros_context, parameter_overrides=[
+        Parameter(k, value=v) for k, v in params.items()])   # live_method: its default
+    ex = SingleThreadedExecutor(context=ros_context)
+    probe = Probe(ros_context, ex, expect_phi=True, expect_height=True)
+    ex.add_node(node)
+    ex.add_node(probe.node)
+    try:
+        probe.wait_matched()
+        assert node.estimator.predictor.name == 'live:direct-warm'
+        probe.state(DH, (0.0, 0.0))
+        est = node.estimator
+        assert probe.spin_until(lambda: len(est._joints) == 4 and 'pitch' in est._inputs
+                                and 'phi' in est._inputs and 'height' in est._inputs)
+        cap = probe.output_for(probe.tension(1.0).header.stamp)
+        cold = AnchorModel(minirquad(), get_medium('m90_sand'), method='direct').predict(
+            est.estimate(node.now_s()).state, PHI, 'backward')
+        d = (-math.cos(PHI), math.sin(PHI))
+        assert cap.wrench.force.x * d[0] + cap.wrench.force.z * d[1] == pytest.approx(
+            cold.capacity_N, rel=1e-6)
+        assert probe.spin_until(lambda: probe.last_diag() is not None
+                                and probe.last_diag().message == 'ok')
+        values = {kv.key: kv.value for kv in probe.last_diag().values}
+        assert float(values['solver_steps']) >= 1
+        assert 0.0 <= float(values['solver_fallback_rate']) <= 1.0
+        assert float(values['solver_solve_us_median']) > 0.0
+    finally:
+        ex.shutdown()
+        node.destroy_node()
+        probe.node.destroy_node()
