@@ -42,6 +42,7 @@ setup(
             'behavior_node = rftgls_ros.behavior_node:main',
             'behavior_demo = rftgls_ros.demo:main',
             'teleop = rftgls_ros.teleop.main:main',
+            'state_publisher = rftgls_ros.state_publisher:main',
         ],
     },
 )

@@ -49,8 +49,9 @@ def test_sim_launch_starts_the_whole_stack():
     nodes = launch_check.parse(installed('sim.launch.py'), {'sled_mass_kg': '0.6'}).nodes
     exes = [(n.package, n.executable) for n in nodes]
     assert exes == [('minirquad_driver', 'minirquad_sim'), ('minirquad_driver', 'bridge_node'),
-                    ('rftgls_ros', 'capacity_node'), ('rftgls_ros', 'behavior_node')]
-    sim, bridge, _cap, behavior = nodes
+                    ('rftgls_ros', 'capacity_node'), ('rftgls_ros', 'state_publisher'),
+                    ('rftgls_ros', 'behavior_node')]
+    sim, bridge, _cap, _tf, behavior = nodes
     # The simulator's pty symlink is the port the bridge opens; the sled mass reaches both.
     port = sim.arguments[sim.arguments.index('--symlink') + 1]
     assert bridge.parameters == [{'port': port}]

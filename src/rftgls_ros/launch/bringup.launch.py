@@ -1,4 +1,5 @@
-"""Bring up MiniRQuad's stack on a robot: serial bridge, capacity_node, behavior_node.
+"""Bring up MiniRQuad's stack on a robot: serial bridge, capacity_node, state_publisher (TF),
+behavior_node.
 
     ros2 launch rftgls_ros bringup.launch.py port:=/dev/ttyACM0 sled_mass_kg:=0.4
 
@@ -32,6 +33,9 @@ def generate_launch_description():
              parameters=[os.path.join(params, 'capacity_node.yaml'),
                          {'phi_topic': '/winch/phi'}],
              output='screen'),
+        # /tf_static and /tf from the URDF, the joint states, the IMU pitch and the height.
+        Node(package='rftgls_ros', executable='state_publisher', name='state_publisher',
+             parameters=[{'robot': 'minirquad'}], output='screen'),
         Node(package='rftgls_ros', executable='behavior_node', name='behavior_node',
              parameters=[os.path.join(params, 'behavior_node.yaml'),
                          {'sled_mass_kg': LaunchConfiguration('sled_mass_kg'),

@@ -1,0 +1,178 @@
+"""state_publisher: /tf_static and /tf of the robot from its URDF, joint states and body pose.
+
+robot_state_publisher's job (it has no wheel here), plus the body pose a legged anchor has:
+/tf_static (tf2_msgs/TFMessage, transient local) holds the URDF's fixed joints (imu_link,
+winch_link); /tf holds the leg joints from /joint_states (the bridge's names
+leg_proximal_left ... or the URDF's left_proximal_hip ...), and odom -> base_link and
+odom -> anchor at every pitch sample (none before the first: the body has no pose yet).
+
+ESTIMATED: the body pitch theta_B (from the IMU orientation, or from `pitch_topic`) and the
+height h of the winch point p above the free surface (`height_topic`, behavior_node's estimate
+of the burrowed height; parameter `height_m` until the first sample). ASSUMED: p stands at
+x = y = 0 of odom (the robot observes no horizontal position), no roll or yaw (the planar
+model), odom's z = 0 is the free surface. The math is in rftgls_ros.tf_tree (ROS-free).
+"""
+from __future__ import annotations
+
+import sys
+
+from geometry_msgs.msg import TransformStamped
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from sensor_msgs.msg import Imu, JointState
+from std_msgs.msg import Float64
+
+from minirquad_driver.node_main import declare, run_node, usage, wants_help
+from rftgls_core.conventions import quat_xyzw_to_pitch
+from rftgls_core.description import DATA
+from tf2_msgs.msg import TFMessage
+
+from .tf_tree import (
+    Transform,
+    UrdfError,
+    moving_transforms,
+    odom_to_anchor,
+    odom_to_base,
+    parse_urdf_joints,
+    static_transforms,
+)
+
+PARAMETERS = {
+    'robot_description': ('', 'URDF text; empty = the shipped URDF of `robot`'),
+    'robot': ('minirquad', "shipped URDF when robot_description is empty: 'minirquad' or "
+              "'prototype'"),
+    'frame_prefix': ('', 'put in front of every frame name (several robots on one /tf)'),
+    'odom_frame': ('odom', 'world frame: x, y of p not observed (0), z = 0 on the free surface'),
+    'anchor_frame': ('anchor', "world-aligned frame at p (capacity_node's frame_id); '' = none"),
+    'joint_states_topic': ('joint_states', 'sensor_msgs/JointState topic'),
+    'imu_topic': ('imu', 'sensor_msgs/Imu topic (orientation -> body pitch)'),
+    'pitch_topic': ('', "std_msgs/Float64 body pitch in rad; replaces the IMU if set"),
+    'height_topic': ('winch/height', "std_msgs/Float64 height of p in m; '' = height_m only"),
+    'height_m': (0.03, 'height of p above the free surface until a height sample'),
+}
+
+
+class ConfigError(ValueError):
+    """A parameter that cannot be used (one line)."""
+
+
+class StatePublisher(Node):
+    """Publishes the robot's TF tree; ConfigError from the constructor on a bad URDF."""
+
+    def __init__(self, **kwargs):
+        super().__init__('state_publisher', **kwargs)
+        p = {}
+        for name, (default, text) in PARAMETERS.items():
+            lo, hi = (-1.0, 10.0) if name == 'height_m' else (None, None)
+            p[name] = declare(self, name, default, text, lo=lo, hi=hi)
+        urdf = p['robot_description']
+        if not urdf:
+            path = DATA / f'{p["robot"]}.urdf'
+            if not path.is_file():
+                raise ConfigError(f'robot {p["robot"]!r} has no shipped URDF ({path.name})')
+            urdf = path.read_text()
+        try:
+            self.joints = parse_urdf_joints(urdf)
+        except UrdfError as exc:
+            raise ConfigError(str(exc)) from None
+        self.prefix = p['frame_prefix']
+        self.odom = self.prefix + p['odom_frame']
+        self.base = self.prefix + 'base_link'
+        self.anchor = self.prefix + p['anchor_frame'] if p['anchor_frame'] else ''
+        self.height_m = float(p['height_m'])
+        self.height_measured = False
+        self.pitch_rad: float | None = None
+
+        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        # /tf and /tf_static are global by ROS convention (tf2 listens there); several robots
+        # share them through frame_prefix.
+        self.pub_static = self.create_publisher(TFMessage, '/tf_static', latched)
+        self.pub_tf = self.create_publisher(TFMessage, '/tf', 100)
+        sensor = qos_profile_sensor_data
+        self.create_subscription(JointState, p['joint_states_topic'], self.on_joints, sensor)
+        if p['pitch_topic']:
+            self.create_subscription(Float64, p['pitch_topic'], self.on_pitch, sensor)
+        else:
+            self.create_subscription(Imu, p['imu_topic'], self.on_imu, sensor)
+        if p['height_topic']:
+            self.create_subscription(Float64, p['height_topic'], self.on_height, sensor)
+        self.publish_static()
+        self.get_logger().info(
+            f'{len(self.joints)} URDF joints, pitch from '
+            f'{p["pitch_topic"] or p["imu_topic"]}, height from '
+            f'{p["height_topic"] or "parameter height_m"} (assumed {self.height_m} m until a '
+            'sample); x, y of p not observed (0)')
+
+    def stamped(self, transforms: list[Transform], stamp) -> TFMessage:
+        msg = TFMessage()
+        for t in transforms:
+            ts = TransformStamped()
+            ts.header.stamp = stamp
+            ts.header.frame_id = t.parent
+            ts.child_frame_id = t.child
+            tr, r = ts.transform.translation, ts.transform.rotation
+            tr.x, tr.y, tr.z = t.translation
+            r.x, r.y, r.z, r.w = t.rotation
+            msg.transforms.append(ts)
+        return msg
+
+    def now(self):
+        return self.get_clock().now().to_msg()
+
+    def publish_static(self) -> None:
+        self.pub_static.publish(self.stamped(static_transforms(self.joints, self.prefix),
+                                             self.now()))
+
+    def on_joints(self, msg: JointState) -> None:
+        ts = moving_transforms(self.joints, list(msg.name), list(msg.position), self.prefix)
+        if ts:
+            stamp = msg.header.stamp
+            if stamp.sec == 0 and stamp.nanosec == 0:
+                stamp = self.now()
+            self.pub_tf.publish(self.stamped(ts, stamp))
+
+    def on_imu(self, msg: Imu) -> None:
+        if msg.orientation_covariance[0] == -1.0:   # REP-145: no orientation in this IMU
+            return
+        o = msg.orientation
+        try:
+            self.pitch_rad = quat_xyzw_to_pitch(o.x, o.y, o.z, o.w)
+        except ValueError:       # a zero/NaN quaternion: keep the last good pitch
+            return
+        self.publish_pose(msg.header.stamp)
+
+    def on_pitch(self, msg: Float64) -> None:
+        if msg.data == msg.data:    # not NaN
+            self.pitch_rad = float(msg.data)
+            self.publish_pose(None)
+
+    def on_height(self, msg: Float64) -> None:
+        if msg.data == msg.data:
+            self.height_m = float(msg.data)
+            self.height_measured = True
+
+    def publish_pose(self, stamp) -> None:
+        # Only with a measured pitch: before the first sample the body has no pose in odom
+        # (a level body drawn from nothing would look like a measurement).
+        if self.pitch_rad is None:
+            return
+        if stamp is None or (stamp.sec == 0 and stamp.nanosec == 0):
+            stamp = self.now()
+        ts = [odom_to_base(self.height_m, self.pitch_rad, self.odom, self.base)]
+        if self.anchor:
+            ts.append(odom_to_anchor(self.height_m, self.odom, self.anchor))
+        self.pub_tf.publish(self.stamped(ts, stamp))
+
+
+def main(args=None) -> int:
+    if wants_help(args):
+        print(usage('state_publisher', 'rftgls_ros', __doc__,
+                    {n: d for n, (d, _t) in PARAMETERS.items()}))
+        return 0
+    return run_node(StatePublisher, 'state_publisher', config_errors=(ConfigError,),
+                    args=args)
+
+
+if __name__ == '__main__':
+    sys.exit(main())
