@@ -304,7 +304,8 @@ def parameter_values(entry: NodeEntry, node_name: str) -> tuple[dict[str, Any], 
                             'does not exist')
             continue
         doc = yaml.safe_load(p.read_text()) or {}
-        sections = [doc[k]['ros__parameters'] for k in ('/**', node_name, '/' + node_name)
+        sections = [doc[k]['ros__parameters'] for k in ('/**', node_name, '/' + node_name,
+                                                                '/**/' + node_name)
                     if k in doc and 'ros__parameters' in (doc[k] or {})]
         if not sections:
             problems.append(f'{entry.source}: {entry.executable}: {p.name} has no section for '
