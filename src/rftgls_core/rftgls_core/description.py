@@ -162,6 +162,7 @@ class AnchorDescription:
     pull_scale: dict[str, np.ndarray]
     pull_links: tuple[str, ...]
     symmetry: str = ''             # '' or 'sagittal': a claim, checked per pose, never trusted
+    sha256: str = ''               # identity: description_sha256 of the files it was read from
 
     @property
     def state_names(self) -> tuple[str, ...]:
@@ -287,7 +288,56 @@ def load_description(path: str | Path) -> AnchorDescription:
         medium=str(doc.get('medium', 'glass_beads')), height_var=str(bp.get('height') or ''),
         pitch_var=str(bp.get('pitch') or ''), state=tuple(state),
         pull_scale={k: np.asarray(v, dtype=float) for k, v in ps.items() if k != 'links'},
-        pull_links=tuple(ps.get('links') or ()), symmetry=_symmetry(path, doc))
+        pull_links=tuple(ps.get('links') or ()), symmetry=_symmetry(path, doc),
+        sha256=description_sha256(path))
+
+
+def description_sha256(path: str | Path) -> str:
+    """Identity of a description: hex SHA-256 over the bytes of its YAML, its URDF and every
+    mesh file the URDF names (in the URDF's order; file names left out, so a copy of the same
+    files elsewhere has the same identity). A map records it and answers only for it."""
+    import hashlib
+
+    import yaml
+
+    path = Path(path)
+    h = hashlib.sha256(b'rftgls.anchor_description/1\0')
+
+    def feed(data: bytes) -> None:
+        h.update(len(data).to_bytes(8, 'little') + data)
+    try:
+        text = path.read_bytes()
+        feed(text)
+        doc = yaml.safe_load(text)
+        urdf = path.parent / str(doc['urdf'])
+        feed(urdf.read_bytes())
+        root = ET.parse(urdf).getroot()
+        seen: list[Path] = []
+        for el in root.iter('mesh'):
+            fname = (el.get('filename') or '').replace('file://', '')
+            file = (urdf.parent / fname) if not Path(fname).is_absolute() else Path(fname)
+            if file not in seen:
+                seen.append(file)
+                feed(file.read_bytes())
+    except (OSError, KeyError, TypeError, ET.ParseError, yaml.YAMLError) as exc:
+        raise DescriptionError(f'{path}: cannot hash the description ({exc})') from None
+    return h.hexdigest()
+
+
+def map_axes(desc: AnchorDescription) -> dict[str, np.ndarray]:
+    """The default map axes of a description: state name -> nodes (SI), from each variable's
+    `map: [start, stop, count]`; DescriptionError naming the variables without one."""
+    missing = [v.name for v in desc.state if v.map_range is None]
+    if missing:
+        raise DescriptionError(f'{desc.source}: state variable(s) {", ".join(missing)} have no '
+                               'map range (`map: [start, stop, count]`); give one in the YAML '
+                               'or on the command line')
+    out = {}
+    for v in desc.state:
+        assert v.map_range is not None
+        lo, hi, n = v.map_range
+        out[v.name] = np.linspace(lo, hi, n)
+    return out
 
 
 def _symmetry(path: Path, doc: dict) -> str:

@@ -36,7 +36,14 @@ def add_parser(sub) -> None:
     msub = p.add_subparsers(dest='map_command', required=True, metavar='ACTION')
 
     b = msub.add_parser('build', help='compute a map and write it to an HDF5 file')
-    b.add_argument('--robot', required=True, choices=sorted(ROBOTS))
+    who = b.add_mutually_exclusive_group(required=True)
+    who.add_argument('--robot', choices=sorted(ROBOTS))
+    who.add_argument('--anchor', metavar='FILE.yaml',
+                     help='anchor description: a map over ITS state variables (their map '
+                          'ranges; --axis NAME=RANGE replaces one, in the YAML\'s unit)')
+    b.add_argument('--axis', action='append', default=[], metavar='NAME=RANGE',
+                   help='with --anchor: nodes of a state variable, start:step:stop or a,b,c in '
+                        'its unit (may repeat)')
     add_medium_args(b)
     b.add_argument('--method', default=DEFAULT_METHOD, choices=sorted(METHOD_NAMES),
                    help='limit-surface method (default: %(default)s)')
@@ -130,7 +137,51 @@ def canonical_command(args, medium_name: str) -> str:
     return shlex.join(parts)
 
 
+def run_build_anchor(args) -> int:
+    """`map build --anchor`: a described map (maps/described.py) over the description's state
+    variables, built in this process."""
+    from ..description import load_description
+    from ..maps.described import build_described_map, description_grid, save_described_map
+    from ..maps.grid import DEFAULT_PHI_DEG, parse_range
+    if args.workers not in (None, 1) or args.scheduler:
+        raise ValueError('--anchor maps are built in this process: drop --workers/--scheduler')
+    if any(getattr(args, d) is not None for a, d, _ in GRID_FLAGS if a != 'phi'):
+        raise ValueError('--anchor takes its state axes by --axis NAME=RANGE (the robot axes '
+                         '--h/--theta-* belong to --robot)')
+    desc = load_description(args.anchor)
+    args.default_medium = desc.medium
+    medium = medium_from_args(args)
+    overrides = {}
+    for item in args.axis:
+        name, sep, text = item.partition('=')
+        if not sep:
+            raise ValueError(f'--axis wants NAME=RANGE, got {item!r}')
+        overrides[name.strip()] = parse_range(text)
+    phi = parse_range(args.phi_deg) if args.phi_deg is not None else DEFAULT_PHI_DEG
+    pulls = None if args.pulls == 'forward,backward' else tuple(
+        p.strip() for p in args.pulls.split(',') if p.strip())
+    grid = description_grid(desc, overrides, phi, pulls)
+    out = os.fspath(args.out)
+    if not out.endswith(('.h5', '.hdf5')):
+        raise ValueError(f'--out must end with .h5 or .hdf5, got {out!r}')
+    n_twists = None if args.n_twists == DEFAULT_TWISTS else args.n_twists
+    data = build_described_map(desc, medium, grid, method=args.method, model=args.model,
+                               n_twists=n_twists, progress=not args.quiet,
+                               command=shlex.join(['rftgls', 'map', 'build', '--anchor',
+                                                   str(args.anchor), '--medium', medium.name]))
+    path = save_described_map(out, data)
+    codes = np.bincount(data.status.reshape(-1))
+    from ..maps.hdf5 import STATUS_NAMES
+    counts = ', '.join(f'{STATUS_NAMES[i]} {int(c)}' for i, c in enumerate(codes) if c)
+    print(f'{path}: {desc.name} ({desc.sha256[:12]}): {grid.describe()}; answers: {counts}')
+    return 0
+
+
 def run_build(args) -> int:
+    if args.anchor is not None:
+        return run_build_anchor(args)
+    if args.axis:
+        raise ValueError('--axis belongs to --anchor; --robot takes --h/--theta-b/...')
     from ..maps.build import build_map, status_counts
     from ..maps.hdf5 import save_map
     medium = medium_from_args(args)
