@@ -19,7 +19,7 @@ from rftgls_core.description import (
 )
 from rftgls_core.geometry.shapes import ellipsoid
 from rftgls_core.geometry.stl import write_stl
-from rftgls_core.maps import CapacityMap, resolve_map
+from rftgls_core.maps import CapacityMap, MapFileError, resolve_map
 from rftgls_core.maps.described import (
     DescribedMap,
     build_described_map,
@@ -89,6 +89,8 @@ def test_a_box_map_has_the_description_axes_and_the_live_answers(box_anchor, tmp
     got = cmap.query(node, math.radians(90.0), 'backward', desc.sha256)
     assert want.status is Status.OK and got.status is Status.OK
     assert got.capacity_N == pytest.approx(want.capacity_N, rel=1e-6)
+    assert got.slip_twist_scaled == pytest.approx(want.slip_twist_scaled, abs=1e-6)
+    assert got.slip_twist == pytest.approx(want.slip_twist, abs=1e-6)
     # Deeper holds more (RFT stress grows with depth), and half-way between two nodes the map
     # answers their mean.
     a, b = (cmap.query({'depth': d, 'tilt': 0.0}, 0.0, 'backward', desc.sha256).capacity_N
@@ -102,6 +104,11 @@ def test_a_box_map_has_the_description_axes_and_the_live_answers(box_anchor, tmp
     refused = cmap.query(node, 0.0, 'backward', other)
     assert refused.status is Status.INVALID_INPUT and refused.reason == 'description_mismatch'
     assert refused.capacity_N is None
+    # A changed value is caught by the content hash.
+    with h5py.File(out, 'r+') as f:
+        f['capacity_N'][0, 0, 0, 0] *= 2.0
+    with pytest.raises(MapFileError, match='content_sha256'):
+        DescribedMap.load(out)
 
 
 def test_the_identity_follows_the_files_not_their_place(box_anchor, tmp_path):
@@ -139,6 +146,9 @@ def test_cli_builds_an_anchor_map_and_refuses_a_missing_range(box_anchor, tmp_pa
                  '--phi=0,90', '--quiet']) == 0
     assert 'depth -0.05..-0.04 m (2), tilt 0..10 deg (2)' in capsys.readouterr().out
     assert DescribedMap.load(out).grid.state_shape == (2, 2)
+    assert main(['map', 'info', str(out)]) == 0
+    info = capsys.readouterr().out
+    assert 'description box_anchor' in info and 'tilt      [rad]  2 nodes: 0 10 deg' in info
     code = main(['map', 'build', '--anchor', str(box_anchor / 'no_range.yaml'), '--out',
                  str(tmp_path / 'x.h5'), '--quiet'])
     err = capsys.readouterr().err.strip().splitlines()

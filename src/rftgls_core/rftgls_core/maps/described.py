@@ -7,6 +7,7 @@ and default map ranges; this module builds, stores and queries maps over exactly
     /                          schema 'rftgls.described_map', schema_version 1
         description_sha256     identity of the description (description.description_sha256)
         description_name       its `name:`
+        char_length_m          L_c of the scaled twists (the description's char_length_m)
         state_names            the state variables in the description's order
         medium, method, rft_model, n_twists, space, provenance_json (medium parameters),
         package_version, build_command, build_time_utc, content_sha256
@@ -53,7 +54,7 @@ SCHEMA = 'rftgls.described_map'
 SCHEMA_VERSION = 1
 METHOD = 'map'
 ANSWER_ATTRS = ('description_sha256', 'state_names', 'medium', 'method', 'rft_model',
-                'n_twists', 'space', 'provenance_json')
+                'n_twists', 'space', 'char_length_m', 'provenance_json')
 OTHER_ATTRS = ('description_name', 'package_version', 'build_command', 'build_time_utc')
 _BAD_PRIORITY = (Status.UNSUPPORTED, Status.DEGENERATE, Status.INVALID_INPUT, Status.STALE)
 
@@ -198,6 +199,7 @@ def build_described_map(desc, medium, grid: DescribedGrid | None = None, *,
     attrs = {'description_sha256': desc.sha256, 'description_name': desc.name,
              'state_names': ','.join(grid.names), 'medium': medium.name, 'method': method,
              'rft_model': sm.stress_model.name, 'n_twists': int(sm.n_twists), 'space': space,
+             'char_length_m': float(desc.char_length),
              'provenance_json': json.dumps({'medium': dataclasses.asdict(medium)},
                                            sort_keys=True),
              'package_version': __version__, 'build_command': command,
@@ -390,7 +392,11 @@ class DescribedMap:
             return self._fail(Status.DEGENERATE, 'twist_cancels',
                               'the corner slip twists cancel exactly')
         ts = tw / norm
+        # Raw direction: (v, w L_c) -> (v, w), renormalised (the force scale cancels).
+        raw = ts / np.r_[np.ones(3), np.full(3, float(self.data.attrs['char_length_m']))]
+        raw /= np.linalg.norm(raw)
         return SceneResult(Status.OK, METHOD, str(self.data.attrs['space']),
                            capacity_N=max(c, 0.0),
+                           slip_twist=tuple(float(x) for x in raw),
                            slip_twist_scaled=tuple(float(x) for x in ts),
                            detail=f'twist_confidence={norm:.3f}')
