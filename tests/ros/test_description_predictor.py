@@ -85,3 +85,12 @@ def test_the_sim_ground_on_the_shipped_description_is_the_preset_ground():
     dh = ANCHOR_MODES['DH']
     light = described.predict(dh, 0.0).capacity
     assert light is not None and heavy.predict(dh, 0.0).capacity > light
+
+
+def test_the_warm_live_method_name_gives_the_cold_direct_on_a_description():
+    # integ's default live_method is 'direct-warm' (the cold direct's answers, warm-started)
+    p = predictor_from_params('', 'direct', robot_description=MINIRQUAD)
+    q = DescriptionPredictor(MINIRQUAD, 'm90_sand', 'direct-warm')
+    dh = ANCHOR_MODES['DH']
+    assert q.model.method == 'direct'
+    assert q.predict(dh, 0.0, 'backward').capacity_N == p.predict(dh, 0.0, 'backward').capacity_N

@@ -62,6 +62,9 @@ class DescriptionPredictor:
         from rftgls_core.description import DescriptionError, DescriptionModel
         from rftgls_core.rft.media import get_medium
         desc = _description(path)
+        # 'direct-warm' (integ's warm-started direct, the cold direct's answers) has no
+        # description variant yet: the cold direct answers the same, only slower.
+        method = 'direct' if method == 'direct-warm' else method
         try:
             self.model = DescriptionModel(desc, get_medium(medium or desc.medium),
                                           method=method, n_twists=n_twists or DEFAULT_TWISTS)
