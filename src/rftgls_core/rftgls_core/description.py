@@ -162,6 +162,7 @@ class AnchorDescription:
     pull_scale: dict[str, np.ndarray]
     pull_links: tuple[str, ...]
     symmetry: str = ''             # '' or 'sagittal': a claim, checked per pose, never trusted
+    sha256: str = ''               # identity: description_sha256 of the files it was read from
 
     @property
     def state_names(self) -> tuple[str, ...]:
@@ -287,7 +288,56 @@ def load_description(path: str | Path) -> AnchorDescription:
         medium=str(doc.get('medium', 'glass_beads')), height_var=str(bp.get('height') or ''),
         pitch_var=str(bp.get('pitch') or ''), state=tuple(state),
         pull_scale={k: np.asarray(v, dtype=float) for k, v in ps.items() if k != 'links'},
-        pull_links=tuple(ps.get('links') or ()), symmetry=_symmetry(path, doc))
+        pull_links=tuple(ps.get('links') or ()), symmetry=_symmetry(path, doc),
+        sha256=description_sha256(path))
+
+
+def description_sha256(path: str | Path) -> str:
+    """Identity of a description: hex SHA-256 over the bytes of its YAML, its URDF and every
+    mesh file the URDF names (in the URDF's order; file names left out, so a copy of the same
+    files elsewhere has the same identity). A map records it and answers only for it."""
+    import hashlib
+
+    import yaml
+
+    path = Path(path)
+    h = hashlib.sha256(b'rftgls.anchor_description/1\0')
+
+    def feed(data: bytes) -> None:
+        h.update(len(data).to_bytes(8, 'little') + data)
+    try:
+        text = path.read_bytes()
+        feed(text)
+        doc = yaml.safe_load(text)
+        urdf = path.parent / str(doc['urdf'])
+        feed(urdf.read_bytes())
+        root = ET.parse(urdf).getroot()
+        seen: list[Path] = []
+        for el in root.iter('mesh'):
+            fname = (el.get('filename') or '').replace('file://', '')
+            file = (urdf.parent / fname) if not Path(fname).is_absolute() else Path(fname)
+            if file not in seen:
+                seen.append(file)
+                feed(file.read_bytes())
+    except (OSError, KeyError, TypeError, ET.ParseError, yaml.YAMLError) as exc:
+        raise DescriptionError(f'{path}: cannot hash the description ({exc})') from None
+    return h.hexdigest()
+
+
+def map_axes(desc: AnchorDescription) -> dict[str, np.ndarray]:
+    """The default map axes of a description: state name -> nodes (SI), from each variable's
+    `map: [start, stop, count]`; DescriptionError naming the variables without one."""
+    missing = [v.name for v in desc.state if v.map_range is None]
+    if missing:
+        raise DescriptionError(f'{desc.source}: state variable(s) {", ".join(missing)} have no '
+                               'map range (`map: [start, stop, count]`); give one in the YAML '
+                               'or on the command line')
+    out = {}
+    for v in desc.state:
+        assert v.map_range is not None
+        lo, hi, n = v.map_range
+        out[v.name] = np.linspace(lo, hi, n)
+    return out
 
 
 def _symmetry(path: Path, doc: dict) -> str:
@@ -306,6 +356,99 @@ def state_values(state: AnchorState) -> dict[str, float]:
     """A robot AnchorState as the shipped descriptions' state variables (SI)."""
     return {'h': state.h, 'theta_b': state.theta_b, 'theta_l1': state.theta_l1,
             'theta_l2': state.theta_l2}
+
+
+ROBOT_STATE = ('h', 'theta_b', 'theta_l1', 'theta_l2')
+
+
+class DescriptionModel:
+    """AnchorModel's interface (fit / predict_many / predict on an AnchorState, sagittal
+    (vx, vz, wy) answers) on a description with the robots' four state variables, for the
+    consumers that speak AnchorState (capacity_node's live solver, the simulator ground).
+    The sagittal reduction is used only where the posed facets pass the mirror check
+    (scene.pull_plane_symmetry); elsewhere the answer is `invalid_input` `not_symmetric`
+    (these consumers cannot carry a 6D twist; `rftgls capacity --anchor` can). For a shipped
+    robot it gives AnchorModel's numbers (tests/core/test_description.py).
+
+    mass_scale multiplies the described mass (the simulator's heavier or lighter true robot).
+    """
+
+    def __init__(self, desc: AnchorDescription, medium, model: str = 'agarwal',
+                 method: str | None = None, n_twists: int | None = None,
+                 backend: str = 'auto', mass_scale: float = 1.0):
+        from .anchor import DEFAULT_METHOD, DEFAULT_TWISTS, DEFAULT_TWISTS_BY_METHOD
+        from .rft.models import make_model
+        from .surfaces.registry import surface_class
+        if sorted(desc.state_names) != sorted(ROBOT_STATE):
+            raise DescriptionError(f'{desc.source}: needs the state variables '
+                                   f'{", ".join(ROBOT_STATE)}, declares '
+                                   f'{", ".join(desc.state_names)}')
+        self.description = desc
+        self.medium = medium
+        self.stress_model = make_model(model, medium)
+        self.method = method or DEFAULT_METHOD
+        self.surface_cls = surface_class(self.method)
+        self.n_twists = int(n_twists if n_twists is not None
+                            else DEFAULT_TWISTS_BY_METHOD.get(self.method, DEFAULT_TWISTS))
+        self.backend = backend
+        self.mass_scale = float(mass_scale)
+
+    def _fail(self, status, reason: str, detail: str):
+        from .surfaces.base import CapacityResult
+        return CapacityResult(phi=math.nan, status=status, method=self.method, reason=reason,
+                              detail=detail)
+
+    def fit(self, state: AnchorState, pull: Pull | str):
+        """(fitted surface, None) or (None, failure result), as AnchorModel.fit."""
+        import dataclasses
+
+        from .rft.engine import BuriedBody
+        from .scene import pull_plane_symmetry
+        from .surfaces.base import GLSProblem
+        from .surfaces.scaling import Scaling
+        from .types import Status
+        if not isinstance(state, AnchorState) or not state.is_finite():
+            return None, self._fail(Status.INVALID_INPUT, 'invalid_state',
+                                    f'anchor state must be finite, got {state!r}')
+        values = state_values(state)
+        outside = self.violations(values)
+        if outside:
+            return None, self._fail(Status.OUT_OF_RANGE, 'outside_physical_range',
+                                    f'not a {self.description.name} pose: ' + '; '.join(outside))
+        scene = self.description.scene(values, pull)
+        if self.mass_scale != 1.0:
+            scene = dataclasses.replace(scene, mass=scene.mass * self.mass_scale)
+        if len(scene.buried()) == 0:
+            return None, self._fail(Status.UNSUPPORTED, 'no_buried_leg',
+                                    f'no facet is below the surface (h = {state.h:.4f} m)')
+        sym = pull_plane_symmetry(scene, 0.0)
+        if not sym.symmetric:
+            return None, self._fail(Status.INVALID_INPUT, 'not_symmetric',
+                                    'sagittal answers need mirror symmetry: ' + sym.detail)
+        p = np.asarray(scene.ref, dtype=float)
+        body = BuriedBody(scene.facets, self.stress_model, ref=p, mirror_y=float(p[1]),
+                          backend=self.backend)
+        w = scene.weight
+        gravity = np.array([0.0, -w, w * (scene.com[0] - p[0])])
+
+        def wrench_fn(twists: np.ndarray) -> np.ndarray:
+            return -body.planar_wrench(twists) - gravity
+        scaling = Scaling(w if w > 0.0 else 1.0, scene.char_length)
+        return self.surface_cls(n_twists=self.n_twists).fit(GLSProblem(wrench_fn, scaling)), None
+
+    def violations(self, values: dict[str, float]) -> list[str]:
+        return self.description.violations(values)
+
+    def predict_many(self, state: AnchorState, phis, pull: Pull | str) -> list:
+        from .surfaces.base import CapacityResult
+        phis = np.atleast_1d(np.asarray(phis, dtype=float))
+        surface, failure = self.fit(state, pull)
+        if surface is None:
+            return [CapacityResult(**{**failure.__dict__, 'phi': float(p)}) for p in phis]
+        return surface.capacity_many(phis)
+
+    def predict(self, state: AnchorState, phi: float, pull: Pull | str):
+        return self.predict_many(state, [phi], pull)[0]
 
 
 # ----------------------------------------------------------------- writing the shipped ones

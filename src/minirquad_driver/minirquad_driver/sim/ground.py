@@ -125,6 +125,8 @@ def _unit_twist(raw, phi: float) -> tuple[float, float, float]:
 class LiveGround:
     """The simulator's true ground: rftgls_core's live solver on its own robot and medium.
 
+    anchor: path of an anchor description YAML (rftgls_core.description) to use instead of
+    the robot preset (it must declare h, theta_b, theta_l1, theta_l2); '' = the preset.
     robot, medium: preset names (the medium may also be a medium JSON file as written by
     ``rftgls calibrate``); medium_scale: multiplies the medium's stress scales (xi_n, zeta),
     e.g. 0.7 for sand 30 % weaker than the preset; mass_scale: multiplies the true robot's
@@ -139,7 +141,8 @@ class LiveGround:
                  medium_scale: float = 1.0, mass_scale: float = 1.0, method: str = 'direct',
                  fallback_method: str | None = 'twist-mesh', pull: str = 'backward',
                  h_step: float = 1e-3, angle_step: float = math.radians(1.0),
-                 phi_step: float = math.radians(1.0), cache_size: int = 512):
+                 phi_step: float = math.radians(1.0), cache_size: int = 512,
+                 anchor: str = ''):
         from rftgls_core.anchor import AnchorModel
         from rftgls_core.rft.media import load_medium
         from rftgls_core.robots.presets import get_robot
@@ -154,9 +157,18 @@ class LiveGround:
         body = get_robot(robot)
         self.robot = dataclasses.replace(body, mass=body.mass * mass_scale) \
             if mass_scale != 1.0 else body
-        self.models = [AnchorModel(self.robot, self.medium, method=method)]
-        if fallback_method and fallback_method != method:
-            self.models.append(AnchorModel(self.robot, self.medium, method=fallback_method))
+        self.anchor = anchor
+        if anchor:
+            # An anchor description instead of the preset (same four state variables; the
+            # shipped descriptions give the preset's numbers): its mass scaled the same way.
+            from rftgls_core.description import DescriptionModel, load_description
+            desc = load_description(anchor)
+            self.models = [DescriptionModel(desc, self.medium, method=m, mass_scale=mass_scale)
+                           for m in dict.fromkeys((method, fallback_method)) if m]
+        else:
+            self.models = [AnchorModel(self.robot, self.medium, method=method)]
+            if fallback_method and fallback_method != method:
+                self.models.append(AnchorModel(self.robot, self.medium, method=fallback_method))
         self.pull = pull
         self.steps = (h_step, angle_step, phi_step)
         self.cache_size = cache_size
@@ -165,8 +177,9 @@ class LiveGround:
         self.fits = 0                                 # count of states fitted (for tests)
 
     def describe(self) -> str:
-        return (f'live {self.models[0].method} solver, robot {self.robot.name} '
-                f'({self.robot.mass:.3f} kg), medium {self.medium.name} '
+        body = f'anchor description {self.anchor}' if self.anchor else \
+            f'robot {self.robot.name} ({self.robot.mass:.3f} kg)'
+        return (f'live {self.models[0].method} solver, {body}, medium {self.medium.name} '
                 f'(xi_n {self.medium.xi_n:.3g} N/m^3)')
 
     def warm_up(self) -> None:

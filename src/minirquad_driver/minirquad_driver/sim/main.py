@@ -44,6 +44,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help='live: rftgls_core solver (default); map: the shipped map the stack '
                         'predicts with; table: placeholder')
     t.add_argument('--true-robot', default='minirquad', help='robot preset of the live ground')
+    t.add_argument('--anchor', default='', metavar='FILE.yaml',
+                   help='anchor description of the live ground instead of --true-robot '
+                        '(state variables h, theta_b, theta_l1, theta_l2)')
     t.add_argument('--true-medium', default='m90_sand',
                    help='medium preset or medium JSON file of the live ground')
     t.add_argument('--true-medium-scale', type=float, default=1.0,
@@ -191,7 +194,8 @@ def _ground(args: argparse.Namespace):
     if args.ground != 'live':
         return make_ground(args.ground)
     ground = make_ground('live', robot=args.true_robot, medium=args.true_medium,
-                         medium_scale=args.true_medium_scale, mass_scale=args.true_mass_scale)
+                         medium_scale=args.true_medium_scale, mass_scale=args.true_mass_scale,
+                         anchor=args.anchor)
     ground.warm_up()   # compile and cache before the link opens: no stall mid-run
     return ground
 

@@ -36,7 +36,14 @@ def add_parser(sub) -> None:
     msub = p.add_subparsers(dest='map_command', required=True, metavar='ACTION')
 
     b = msub.add_parser('build', help='compute a map and write it to an HDF5 file')
-    b.add_argument('--robot', required=True, choices=sorted(ROBOTS))
+    who = b.add_mutually_exclusive_group(required=True)
+    who.add_argument('--robot', choices=sorted(ROBOTS))
+    who.add_argument('--anchor', metavar='FILE.yaml',
+                     help='anchor description: a map over ITS state variables (their map '
+                          'ranges; --axis NAME=RANGE replaces one, in the YAML\'s unit)')
+    b.add_argument('--axis', action='append', default=[], metavar='NAME=RANGE',
+                   help='with --anchor: nodes of a state variable, start:step:stop or a,b,c in '
+                        'its unit (may repeat)')
     add_medium_args(b)
     b.add_argument('--method', default=DEFAULT_METHOD, choices=sorted(METHOD_NAMES),
                    help='limit-surface method (default: %(default)s)')
@@ -130,7 +137,64 @@ def canonical_command(args, medium_name: str) -> str:
     return shlex.join(parts)
 
 
+def run_build_anchor(args) -> int:
+    """`map build --anchor`: a described map (maps/described.py) over the description's state
+    variables, built in this process."""
+    from ..description import load_description
+    from ..maps.described import build_described_map, description_grid, save_described_map
+    from ..maps.grid import DEFAULT_PHI_DEG, parse_range
+    if args.workers not in (None, 1) or args.scheduler:
+        raise ValueError('--anchor maps are built in this process: drop --workers/--scheduler')
+    if any(getattr(args, d) is not None for a, d, _ in GRID_FLAGS if a != 'phi'):
+        raise ValueError('--anchor takes its state axes by --axis NAME=RANGE (the robot axes '
+                         '--h/--theta-* belong to --robot)')
+    desc = load_description(args.anchor)
+    args.default_medium = desc.medium
+    medium = medium_from_args(args)
+    overrides = {}
+    for item in args.axis:
+        name, sep, text = item.partition('=')
+        if not sep:
+            raise ValueError(f'--axis wants NAME=RANGE, got {item!r}')
+        overrides[name.strip()] = parse_range(text)
+    phi = parse_range(args.phi_deg) if args.phi_deg is not None else DEFAULT_PHI_DEG
+    pulls = None if args.pulls == 'forward,backward' else tuple(
+        p.strip() for p in args.pulls.split(',') if p.strip())
+    grid = description_grid(desc, overrides, phi, pulls)
+    out = os.fspath(args.out)
+    if not out.endswith(('.h5', '.hdf5')):
+        raise ValueError(f'--out must end with .h5 or .hdf5, got {out!r}')
+    if args.n_twists < 8:
+        raise ValueError(f'--n-twists must be >= 8, got {args.n_twists}')
+    # As for robot maps: --n-twists (default DEFAULT_TWISTS) for every method.
+    data = build_described_map(desc, medium, grid, method=args.method, model=args.model,
+                               n_twists=args.n_twists, progress=not args.quiet,
+                               command=_anchor_command(args, medium.name))
+    path = save_described_map(out, data)
+    codes = np.bincount(data.status.reshape(-1))
+    from ..maps.hdf5 import STATUS_NAMES
+    counts = ', '.join(f'{STATUS_NAMES[i]} {int(c)}' for i, c in enumerate(codes) if c)
+    print(f'{path}: {desc.name} ({desc.sha256[:12]}): {grid.describe()}; answers: {counts}')
+    return 0
+
+
+def _anchor_command(args, medium_name: str) -> str:
+    """The command line that rebuilds an --anchor map (execution options and --out left out)."""
+    parts = ['rftgls', 'map', 'build', '--anchor', str(args.anchor), '--medium', medium_name,
+             '--model', args.model, '--method', args.method, '--n-twists', str(args.n_twists)]
+    parts += [f'--axis={a}' for a in args.axis]
+    if args.phi_deg is not None:
+        parts.append(f'--phi={args.phi_deg}')
+    if args.pulls != 'forward,backward':
+        parts += ['--pulls', args.pulls]
+    return shlex.join(parts)
+
+
 def run_build(args) -> int:
+    if args.anchor is not None:
+        return run_build_anchor(args)
+    if args.axis:
+        raise ValueError('--axis belongs to --anchor; --robot takes --h/--theta-b/...')
     from ..maps.build import build_map, status_counts
     from ..maps.hdf5 import save_map
     medium = medium_from_args(args)
@@ -189,7 +253,54 @@ def _stored_hash(path: str) -> str | None:
     return None if value is None else str(value)
 
 
+def described_info(path: str) -> dict:
+    """`map info` of a described map (maps/described.py)."""
+    from ..maps.described import load_described_map
+    from ..maps.hdf5 import STATUS_NAMES
+    data = load_described_map(path)
+    g = data.grid
+    axes = {}
+    for n, u, a in zip(g.names, g.units, g.axes):
+        f = 180.0 / math.pi if u == 'deg' else 1.0
+        axes[n] = {'n': len(a), 'units': 'rad' if u == 'deg' else 'm', 'min': float(a[0]),
+                   'max': float(a[-1]), f'values_{u}': [round(float(x) * f, 6) for x in a]}
+    axes['phi'] = {'n': len(g.phi), 'units': 'rad', 'min': float(g.phi[0]),
+                   'max': float(g.phi[-1]),
+                   'values_deg': [round(math.degrees(float(x)), 6) for x in g.phi]}
+    counts = np.bincount(data.status.reshape(-1), minlength=len(STATUS_NAMES))
+    at = data.attrs
+    return {'file': str(path), 'size_bytes': os.path.getsize(path), 'schema': at['schema'],
+            'schema_version': at['schema_version'], 'description': at['description_name'],
+            'description_sha256': at['description_sha256'], 'medium': at['medium'],
+            'method': at['method'], 'rft_model': at['rft_model'], 'n_twists': at['n_twists'],
+            'space': at['space'], 'pulls': list(g.pulls), 'axes': axes,
+            'n_states': g.n_states, 'shape': list(g.shape),
+            'status_counts': {STATUS_NAMES[i]: int(c) for i, c in enumerate(counts) if c},
+            'reasons': [r for r in data.reason_names if r],
+            'package_version': at['package_version'], 'build_command': at['build_command'],
+            'build_time_utc': at.get('build_time_utc', ''), 'integrity': 'verified',
+            'content_sha256': at['content_sha256']}
+
+
 def run_info(args) -> int:
+    from ..maps.described import is_described_map
+    if is_described_map(args.file):
+        info = described_info(args.file)
+        if args.json:
+            print_json(info)
+            return 0
+        print(f"{info['file']}: {info['schema']} v{info['schema_version']}, description "
+              f"{info['description']} ({info['description_sha256'][:12]}), medium "
+              f"{info['medium']}, method {info['method']}, space {info['space']}")
+        for name, ax in info['axes'].items():
+            human = next(k for k in ax if k.startswith('values_'))
+            print(f"  {name:9s} [{ax['units']}] {ax['n']:2d} nodes: "
+                  + ' '.join(f'{v:g}' for v in ax[human]) + f' {human[7:]}')
+        print(f"pulls {', '.join(info['pulls'])}; {info['n_states']} states; answers: "
+              + ', '.join(f'{k} {v}' for k, v in info['status_counts'].items()))
+        print(f"built {info['build_time_utc']}: {info['build_command']}; integrity verified "
+              f"(content_sha256 {info['content_sha256']})")
+        return 0
     info = info_dict(args.file)
     if args.json:
         print_json(info)

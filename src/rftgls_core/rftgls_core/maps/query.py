@@ -204,6 +204,23 @@ class CapacityMap:
     def provenance(self) -> dict:
         return self.data.provenance
 
+    @property
+    def description_sha256(self) -> str:
+        """Identity of the anchor description the map answers for. A robot map (--robot)
+        answers for its robot's shipped description, which gives the same numbers as the
+        preset (tests/core/test_description.py); its content hash stays what it was."""
+        from ..description import description_sha256, shipped_description
+        return description_sha256(shipped_description(self.robot_name))
+
+    def check_description(self, description_sha256: str) -> None:
+        """Refuse (ValueError, one line) a caller that poses another description than the
+        one the map was built for: a map answers only for its own anchor."""
+        mine = self.description_sha256
+        if description_sha256 != mine:
+            raise ValueError(f'{self.source or "map"}: built for the {self.robot_name} '
+                             f'description {mine[:12]}, not for description '
+                             f'{description_sha256[:12]}')
+
     # -- single query (hot path) -----------------------------------------------------------
     def _invalid(self, phi, reason: str, detail: str) -> CapacityResult:
         try:

@@ -56,6 +56,44 @@ class LivePredictor:
         return self.model.predict(state, phi, pull)
 
 
+class DescriptionPredictor:
+    """The live solver on an anchor description (ROS parameter `robot_description` = path of
+    its YAML): rftgls_core.description.DescriptionModel, AnchorModel's interface on the posed
+    description. The node estimates (h, theta_b, theta_l1, theta_l2), so the description must
+    declare those state variables (as the shipped ones do); for a shipped robot it gives the
+    numbers of LivePredictor (tests/ros/test_description_predictor.py)."""
+
+    def __init__(self, path: str, medium: str = '', method: str = 'direct',
+                 n_twists: int | None = None):
+        from rftgls_core.anchor import DEFAULT_TWISTS
+        from rftgls_core.description import DescriptionError, DescriptionModel
+        from rftgls_core.rft.media import get_medium
+        desc = _description(path)
+        # 'direct-warm' (integ's warm-started direct, the cold direct's answers) has no
+        # description variant yet: the cold direct answers the same, only slower.
+        method = 'direct' if method == 'direct-warm' else method
+        try:
+            self.model = DescriptionModel(desc, get_medium(medium or desc.medium),
+                                          method=method, n_twists=n_twists or DEFAULT_TWISTS)
+        except DescriptionError as exc:
+            raise ConfigError(f'robot_description: capacity_node estimates h, theta_b, '
+                              f'theta_l1, theta_l2: {_one_line(exc)}') from exc
+        self.description = desc
+        self.name = f'live:{method}:{desc.name}'
+
+    def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
+        return self.model.predict(state, phi, pull)
+
+
+def _description(path: str):
+    """The loaded description of the `robot_description` parameter (ConfigError, one line)."""
+    from rftgls_core.description import DescriptionError, load_description
+    try:
+        return load_description(path)
+    except DescriptionError as exc:
+        raise ConfigError(f'robot_description: {_one_line(exc)}') from exc
+
+
 def resolve_map_path(path: str) -> Path:
     """rftgls_core.maps.resolve_map (the one resolver: explicit path, then the installed maps,
     never the current directory implicitly); MapFileError when there is no such map."""
@@ -71,7 +109,8 @@ class MapPredictor:
     """
 
     def __init__(self, path: str | os.PathLike = DEFAULT_MAP, robot: str | None = None,
-                 medium: str | None = None, pull: str | None = None):
+                 medium: str | None = None, pull: str | None = None,
+                 description_sha256: str | None = None):
         from rftgls_core.maps import CapacityMap, MapFileError
         try:
             self.path = resolve_map_path(str(path))
@@ -94,6 +133,12 @@ class MapPredictor:
             if want is not None and want.strip().lower() != str(have).lower():
                 raise ConfigError(f'map file {self.path} is for {what} {have!r}, '
                                   f'the node is configured for {want!r}')
+        if description_sha256 is not None:
+            try:
+                self.map.check_description(description_sha256)
+            except ValueError as exc:
+                raise ConfigError(f'map file {self.path} does not answer for robot_description: '
+                                  f'{_one_line(exc)}') from exc
         if pull is not None and str(pull) not in self.map.pulls:
             raise ConfigError(f'map file {self.path} holds pulls {list(self.map.pulls)}, '
                               f'not {str(pull)!r}')
@@ -128,28 +173,37 @@ class LiveFallback:
 
 def predictor_from_params(map_file: str, live_method: str = 'direct', robot: str = 'minirquad',
                    medium: str = 'm90_sand', n_twists: int = 0,
-                   pull: str | None = None, out_of_range_live_method: str = '') -> Predictor:
+                   pull: str | None = None, out_of_range_live_method: str = '',
+                   robot_description: str = '') -> Predictor:
     """capacity_node's predictor from its parameters: the map predictor when map_file is set
     (with the live solver `out_of_range_live_method` answering outside its grid when that is
-    set), else the live one. Raises ConfigError."""
+    set), else the live one. robot_description: path of an anchor description YAML for the
+    live solver (and the identity a map must answer for); '' = the `robot` preset.
+    Raises ConfigError."""
+    desc = robot_description.strip()
     if map_file.strip():
-        cmap = MapPredictor(map_file.strip(), robot, medium, pull)
+        sha = _description(desc).sha256 if desc else None
+        cmap = MapPredictor(map_file.strip(), robot, medium, pull, description_sha256=sha)
         if out_of_range_live_method.strip():
             return LiveFallback(cmap, _live(robot, medium, out_of_range_live_method.strip(),
-                                            n_twists, 'out_of_range_live_method'))
+                                            n_twists, 'out_of_range_live_method', desc))
         return cmap
-    return _live(robot, medium, live_method, n_twists, 'live_method')
+    return _live(robot, medium, live_method, n_twists, 'live_method', desc)
 
 
 def _live(robot: str, medium: str, live_method: str, n_twists: int,
-          param: str) -> LivePredictor:
+          param: str, robot_description: str = '') -> LivePredictor | DescriptionPredictor:
     if live_method not in LIVE_METHODS:
         raise ConfigError(f'{param} must be one of {", ".join(LIVE_METHODS)}, '
                           f'got {live_method!r}')
     if n_twists < 0:
         raise ConfigError(f'live_n_twists must be >= 0 (0 = DEFAULT_TWISTS), got {n_twists}')
     try:
+        if robot_description:
+            return DescriptionPredictor(robot_description, medium, live_method, n_twists or None)
         return LivePredictor(robot, medium, live_method, n_twists or None)
+    except ConfigError:
+        raise
     except (ValueError, ImportError, AttributeError) as exc:
         # AttributeError: a surface class the core names but does not (yet) provide.
         raise ConfigError(f'cannot build the live {live_method!r} predictor: {exc}') from exc
