@@ -27,7 +27,7 @@ MINIRQUAD = str(shipped_description('minirquad'))
 def test_the_shipped_description_gives_the_live_predictor_numbers(method):
     ref = predictor_from_params('', method, 'minirquad', 'm90_sand', 0, 'backward')
     desc = predictor_from_params('', method, 'minirquad', 'm90_sand', 0, 'backward',
-                                 robot_description=MINIRQUAD)
+                                 anchor_description_file=MINIRQUAD)
     assert isinstance(ref, LivePredictor) and isinstance(desc, DescriptionPredictor)
     for state in ANCHOR_MODES.values():          # Table II: DH, DL, SH
         for pull in ('backward', 'forward'):
@@ -42,17 +42,17 @@ def test_the_shipped_description_gives_the_live_predictor_numbers(method):
 
 
 def test_the_default_parameter_keeps_the_robot_shortcut():
-    assert DEFAULTS['robot_description'] == ''
+    assert DEFAULTS['anchor_description_file'] == ''
 
 
 def test_a_map_for_another_description_is_refused():
     proto = str(shipped_description('prototype'))
-    with pytest.raises(ConfigError, match='does not answer for robot_description'):
+    with pytest.raises(ConfigError, match='does not answer for anchor_description_file'):
         predictor_from_params('minirquad', robot='minirquad', medium='m90_sand',
-                              robot_description=proto)
+                              anchor_description_file=proto)
     # the robot's own description is accepted with its shipped map
     predictor_from_params('minirquad', robot='minirquad', medium='m90_sand',
-                          robot_description=MINIRQUAD)
+                          anchor_description_file=MINIRQUAD)
 
 
 def test_a_description_the_node_cannot_estimate_is_one_line(tmp_path):
@@ -60,10 +60,10 @@ def test_a_description_the_node_cannot_estimate_is_one_line(tmp_path):
     yml = (tmp_path / 'minirquad.yaml').read_text().replace('name: theta_b,', 'name: pitch,')
     (tmp_path / 'renamed.yaml').write_text(yml.replace('pitch: theta_b', 'pitch: pitch'))
     with pytest.raises(ConfigError, match='estimates h, theta_b') as err:
-        predictor_from_params('', robot_description=str(tmp_path / 'renamed.yaml'))
+        predictor_from_params('', anchor_description_file=str(tmp_path / 'renamed.yaml'))
     assert '\n' not in str(err.value)
-    with pytest.raises(ConfigError, match='robot_description: .*cannot read'):
-        predictor_from_params('', robot_description=str(tmp_path / 'missing.yaml'))
+    with pytest.raises(ConfigError, match='anchor_description_file: .*cannot read'):
+        predictor_from_params('', anchor_description_file=str(tmp_path / 'missing.yaml'))
 
 
 def test_the_sim_ground_on_the_shipped_description_is_the_preset_ground():
@@ -89,7 +89,7 @@ def test_the_sim_ground_on_the_shipped_description_is_the_preset_ground():
 
 def test_the_warm_live_method_name_gives_the_cold_direct_on_a_description():
     # integ's default live_method is 'direct-warm' (the cold direct's answers, warm-started)
-    p = predictor_from_params('', 'direct', robot_description=MINIRQUAD)
+    p = predictor_from_params('', 'direct', anchor_description_file=MINIRQUAD)
     q = DescriptionPredictor(MINIRQUAD, 'm90_sand', 'direct-warm')
     dh = ANCHOR_MODES['DH']
     assert q.model.method == 'direct'

@@ -57,7 +57,7 @@ class CapacityNode(Node):
         predictor = predictor_from_params(p['map_file'], p['live_method'], p['robot'],
                                           p['medium'], p['live_n_twists'], p['pull'],
                                           p['out_of_range_live_method'],
-                                          robot_description=p['robot_description'])
+                                          anchor_description_file=p['anchor_description_file'])
         self.estimator = CapacityEstimator(predictor, est_cfg)
         self.frame_id = p['frame_id']
         self.tension_component = self.config.tension_component

@@ -45,7 +45,7 @@ PARAMETERS: dict[str, Param] = {
                            'DEFAULT_TWISTS (1000) for every method, direct included', 0, 10**6),
     'out_of_range_live_method': Param('', "live solver answering off-grid states; '' = none"),
     'robot': Param('minirquad', 'robot preset (must match the map)'),
-    'robot_description': Param('', "anchor description YAML for the live solver (a map must "
+    'anchor_description_file': Param('', "anchor description YAML for the live solver (a map must "
                                "answer for it); '' = the robot preset"),
     'medium': Param('m90_sand', 'medium preset (must match the map)'),
     'pull': Param('backward', "C-leg orientation to the pull: 'forward' or 'backward'"),

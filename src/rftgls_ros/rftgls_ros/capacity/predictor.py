@@ -57,7 +57,7 @@ class LivePredictor:
 
 
 class DescriptionPredictor:
-    """The live solver on an anchor description (ROS parameter `robot_description` = path of
+    """The live solver on an anchor description (ROS parameter `anchor_description_file` = path of
     its YAML): rftgls_core.description.DescriptionModel, AnchorModel's interface on the posed
     description. The node estimates (h, theta_b, theta_l1, theta_l2), so the description must
     declare those state variables (as the shipped ones do); for a shipped robot it gives the
@@ -76,7 +76,7 @@ class DescriptionPredictor:
             self.model = DescriptionModel(desc, get_medium(medium or desc.medium),
                                           method=method, n_twists=n_twists or DEFAULT_TWISTS)
         except DescriptionError as exc:
-            raise ConfigError(f'robot_description: capacity_node estimates h, theta_b, '
+            raise ConfigError(f'anchor_description_file: capacity_node estimates h, theta_b, '
                               f'theta_l1, theta_l2: {_one_line(exc)}') from exc
         self.description = desc
         self.name = f'live:{method}:{desc.name}'
@@ -86,12 +86,12 @@ class DescriptionPredictor:
 
 
 def _description(path: str):
-    """The loaded description of the `robot_description` parameter (ConfigError, one line)."""
+    """The loaded description of the `anchor_description_file` parameter (ConfigError, one line)."""
     from rftgls_core.description import DescriptionError, load_description
     try:
         return load_description(path)
     except DescriptionError as exc:
-        raise ConfigError(f'robot_description: {_one_line(exc)}') from exc
+        raise ConfigError(f'anchor_description_file: {_one_line(exc)}') from exc
 
 
 def resolve_map_path(path: str) -> Path:
@@ -137,8 +137,8 @@ class MapPredictor:
             try:
                 self.map.check_description(description_sha256)
             except ValueError as exc:
-                raise ConfigError(f'map file {self.path} does not answer for robot_description: '
-                                  f'{_one_line(exc)}') from exc
+                raise ConfigError(f'map file {self.path} does not answer for '
+                                  f'anchor_description_file: {_one_line(exc)}') from exc
         if pull is not None and str(pull) not in self.map.pulls:
             raise ConfigError(f'map file {self.path} holds pulls {list(self.map.pulls)}, '
                               f'not {str(pull)!r}')
@@ -174,13 +174,13 @@ class LiveFallback:
 def predictor_from_params(map_file: str, live_method: str = 'direct', robot: str = 'minirquad',
                    medium: str = 'm90_sand', n_twists: int = 0,
                    pull: str | None = None, out_of_range_live_method: str = '',
-                   robot_description: str = '') -> Predictor:
+                   anchor_description_file: str = '') -> Predictor:
     """capacity_node's predictor from its parameters: the map predictor when map_file is set
     (with the live solver `out_of_range_live_method` answering outside its grid when that is
-    set), else the live one. robot_description: path of an anchor description YAML for the
+    set), else the live one. anchor_description_file: path of an anchor description YAML for the
     live solver (and the identity a map must answer for); '' = the `robot` preset.
     Raises ConfigError."""
-    desc = robot_description.strip()
+    desc = anchor_description_file.strip()
     if map_file.strip():
         sha = _description(desc).sha256 if desc else None
         cmap = MapPredictor(map_file.strip(), robot, medium, pull, description_sha256=sha)
@@ -192,15 +192,16 @@ def predictor_from_params(map_file: str, live_method: str = 'direct', robot: str
 
 
 def _live(robot: str, medium: str, live_method: str, n_twists: int,
-          param: str, robot_description: str = '') -> LivePredictor | DescriptionPredictor:
+          param: str, anchor_description_file: str = '') -> LivePredictor | DescriptionPredictor:
     if live_method not in LIVE_METHODS:
         raise ConfigError(f'{param} must be one of {", ".join(LIVE_METHODS)}, '
                           f'got {live_method!r}')
     if n_twists < 0:
         raise ConfigError(f'live_n_twists must be >= 0 (0 = DEFAULT_TWISTS), got {n_twists}')
     try:
-        if robot_description:
-            return DescriptionPredictor(robot_description, medium, live_method, n_twists or None)
+        if anchor_description_file:
+            return DescriptionPredictor(anchor_description_file, medium, live_method,
+                                        n_twists or None)
         return LivePredictor(robot, medium, live_method, n_twists or None)
     except ConfigError:
         raise
