@@ -1,10 +1,10 @@
 """``behavior_demo``: the whole stack without ``launch`` (``make demo``).
 
 For each sled mass it starts the simulated MiniRQuad (``minirquad_sim`` on a pseudo-terminal),
-``bridge_node``, ``capacity_node`` and ``behavior_node`` as ``ros2 run`` processes, prints
-the behaviour's decisions and live predictions, waits for its cycles to finish, stops every
-child (SIGINT -> timed wait -> SIGTERM -> kill), and writes the merged cycle report
-(CSV + PNG, like the paper's Fig. 12) under ``--out``.
+``bridge_node``, ``capacity_node``, ``state_publisher`` (TF) and ``behavior_node`` as ``ros2 run``
+processes, prints the behaviour's decisions and live predictions, waits for its cycles to
+finish, stops every child (SIGINT -> timed wait -> SIGTERM -> kill), and writes the merged
+cycle report (CSV + PNG, like the paper's Fig. 12) under ``--out``.
 
     behavior_demo --out out/demo                         # simulator, 3 cycles x 400 g, 600 g
     behavior_demo --port /dev/ttyACM0 --sleds 0.4        # a real robot on a serial port
@@ -58,6 +58,7 @@ def _ros2_run(pkg: str, exe: str) -> list[str]:
     return [sys.executable, '-m', {'minirquad_sim': 'minirquad_driver.sim.main',
                                    'bridge_node': 'minirquad_driver.bridge_node',
                                    'capacity_node': 'rftgls_ros.capacity_node',
+                                   'state_publisher': 'rftgls_ros.state_publisher',
                                    'behavior_node': 'rftgls_ros.behavior_node'}[exe]]
 
 
@@ -140,6 +141,9 @@ def run_set(args, sled: float, env: dict, out: Path, params: Path | None) -> Pat
             cap += ['--params-file', str(cap_params)]
         cap += ['-p', 'phi_topic:=winch/phi']   # relative: behavior_node's winch/phi
         stack.start('capacity_node', cap)
+        # /tf and /tf_static for RViz/Foxglove (odom -> base_link -> legs, imu_link, winch_link)
+        stack.start('state_publisher', [*_ros2_run('rftgls_ros', 'state_publisher'),
+                                        '--ros-args', '-p', 'robot:=minirquad'])
         beh = [*_ros2_run('rftgls_ros', 'behavior_node'), '--ros-args']
         if params:
             beh += ['--params-file', str(params)]

@@ -109,15 +109,7 @@ def run(args) -> int:
         result = model.predict(state, phi, args.pull)
         char_length = model.robot.char_length
     elapsed = time.perf_counter() - t0
-    scaled = list(result.slip_twist_scaled) if result.slip_twist_scaled else None
-    out = {'capacity_N': result.capacity_N,
-           'slip_twist_scaled': scaled,
-           'slip_twist': scaled,   # deprecated: the old key of slip_twist_scaled, one release
-
-           'slip_twist_raw': list(result.slip_twist) if result.slip_twist else None,
-           'status': result.status.value, 'method': result.method, 'elapsed_s': elapsed,
-           'reason': result.reason, 'detail': result.detail, 'char_length_m': char_length,
-           'flags': list(result.flags), 'twist_spread_rad': result.twist_spread_rad}
+    out = result_json(result, elapsed, char_length)
     if args.json:
         print_json(out)
     else:
@@ -242,15 +234,7 @@ def run_scene(args) -> int:
                        n_twists=args.twists, space=args.space)
     result = model.predict(scene, math.radians(args.phi), math.radians(args.yaw))
     elapsed = time.perf_counter() - t0
-    scaled6 = list(result.slip_twist_scaled) if result.slip_twist_scaled else None
-    out = {'capacity_N': result.capacity_N,
-           'slip_twist_scaled': scaled6,
-           'slip_twist': scaled6,   # deprecated: the old key of slip_twist_scaled, one release
-           'slip_twist_raw': list(result.slip_twist) if result.slip_twist else None,
-           'status': result.status.value, 'method': result.method, 'elapsed_s': elapsed,
-           'reason': result.reason, 'detail': result.detail,
-           'char_length_m': scene.char_length, 'flags': list(result.flags),
-           'twist_spread_rad': result.twist_spread_rad}
+    out = result_json(result, elapsed, scene.char_length)
     if args.json:
         print_json(out)
         return 0
@@ -264,3 +248,16 @@ def run_scene(args) -> int:
         print('flags: ' + ', '.join(result.flags))
     print(('reason: ' + result.reason + ': ' if result.reason else '') + result.detail)
     return 0
+
+
+def result_json(result, elapsed_s: float, char_length_m: float) -> dict:
+    """The JSON of every `rftgls capacity` answer (robot, anchor or single body): capacity N,
+    slip twists (scaled metric and raw, 3 or 6 components), status, timing and flags."""
+    scaled = list(result.slip_twist_scaled) if result.slip_twist_scaled else None
+    return {'capacity_N': result.capacity_N,
+            'slip_twist_scaled': scaled,
+            'slip_twist': scaled,   # deprecated: the old key of slip_twist_scaled, one release
+            'slip_twist_raw': list(result.slip_twist) if result.slip_twist else None,
+            'status': result.status.value, 'method': result.method, 'elapsed_s': elapsed_s,
+            'reason': result.reason, 'detail': result.detail, 'char_length_m': char_length_m,
+            'flags': list(result.flags), 'twist_spread_rad': result.twist_spread_rad}
