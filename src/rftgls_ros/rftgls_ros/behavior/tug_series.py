@@ -15,6 +15,8 @@ from collections import deque
 from dataclasses import astuple, dataclass, fields
 from pathlib import Path
 
+from rftgls_core.charts.figure_io import save
+
 USABLE = ('ok', 'assumed')
 
 
@@ -99,11 +101,8 @@ def plot_tug_series(samples, path: str | Path, slow_ratio: float | None = 0.90,
     ax_s.set_xlabel('time [s]')
     ax_s.set_ylabel('status', fontsize=8)
     fig.suptitle(title or 'tug: tension, capacity and guard lines (capacity_node estimates)')
-    fig.tight_layout()
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)     # layout, folder, write, free
     return path
 
 

@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from rftgls_core.charts.figure_io import save
+
 from .bag_layout import PullTest, read_pull_test
 from .predict import (
     METHODS,
@@ -170,11 +172,8 @@ def plot_fig8(tests: list[PullTest], preds: dict[str, list[PredictedPull]], path
         a.grid(alpha=0.3)
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)     # layout, folder, write, free
     return path
 
 
