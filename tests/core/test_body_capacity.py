@@ -171,3 +171,26 @@ def test_simulate_pull_follows_a_body_from_the_command_line(tmp_path, capsys):
     # the CLI's thetaB is relative to the initial pose, the figure's absolute (-30 deg)
     assert np.degrees(float(rows[-1]['theta_b_rad'])) - 30.0 == pytest.approx(
         ref['theta_b_deg'][-1], abs=1e-4)
+
+
+@pytest.mark.parametrize('depth', [0.04, 0.045, 0.05])
+def test_a_box_pulled_up_on_the_6d_path(tmp_path, capsys, depth):
+    # A 40 x 30 x 20 mm box whose two-triangle faces are not mirror images of each other goes
+    # 6D. Pulled straight up it slips by the pure upward translation, where every side facet
+    # switches (n.v = 0): the ray passes a jump, and the twist on that switching set misses it
+    # only by the facet-centroid quadrature of the depth-graded side stress. It was
+    # `degenerate` `no_root`; now it is the RFT force of the translation (`rftgls wrench`,
+    # independent of the limit-surface code) plus the weight, flagged `on_jump`.
+    from rftgls_core.geometry.shapes import box
+    path = tmp_path / 'box.stl'
+    write_stl(path, box(0.04, 0.03, 0.02), units='m')
+    mass = 0.05
+    res = cli_json(capsys, 'capacity', '--mesh', str(path), '--units', 'm', '--position', '0',
+                   '0', str(-depth), '--rpy', '0', '0', '0', '--tether', '0', '0',
+                   str(-depth + 0.01), '--mass', str(mass), '--phi', '90', '--json')
+    assert res['status'] == 'ok', res['detail']
+    assert 'full 6D' in res['detail'] and 'on_jump' in res['flags']
+    w = cli_json(capsys, 'wrench', '--mesh', str(path), '--units', 'm', '--position', '0',
+                 '0', str(-depth), '--twist', '0', '0', '1', '0', '0', '0', '--json')
+    assert res['capacity_N'] == pytest.approx(-w['force_N'][2] + mass * G, rel=0.02)
+    assert res['slip_twist'][2] > 0.99

@@ -47,11 +47,55 @@ def test_urdf_has_the_frames_of_a_tf_publisher(robot):
         'left_proximal_leg', 'left_distal_leg', 'right_proximal_leg', 'right_distal_leg'}
 
 
-def test_urdf_parses_with_a_standard_library():
-    yourdfpy = pytest.importorskip('yourdfpy')
-    urdf = yourdfpy.URDF.load(str(DATA / 'minirquad.urdf'), load_meshes=False)
-    assert set(urdf.actuated_joint_names) == {'left_proximal_hip', 'left_distal_hip',
-                                              'right_proximal_hip', 'right_distal_hip'}
+@pytest.mark.parametrize('robot', ROBOTS)
+def test_urdf_parses_with_a_standard_library(robot):
+    """ROS's own URDF parser (urdf_parser_py, PyPI urdf-parser-py) reads the shipped URDF; the
+    leg transforms composed from what it reads (base pose, joint origin, rotation about the
+    joint axis with scipy's Rotation, mesh scale) place the leg mesh exactly where the robot
+    preset's own posing (robots/model.py, written independently of the URDF) puts it."""
+    from scipy.spatial.transform import Rotation
+    from urdf_parser_py.urdf import URDF
+
+    from rftgls_core.geometry.stl import read_stl
+    from rftgls_core.geometry.transforms import rot_y
+
+    urdf = URDF.from_xml_file(str(DATA / f'{robot}.urdf'))
+    assert urdf.name == robot
+    assert {ln.name for ln in urdf.links} == {
+        'base_link', 'imu_link', 'winch_link', 'left_proximal_leg', 'left_distal_leg',
+        'right_proximal_leg', 'right_distal_leg'}
+    joints = {j.name: j for j in urdf.joints}
+    hips = ('left_proximal_hip', 'left_distal_hip', 'right_proximal_hip', 'right_distal_hip')
+    assert {n for n, j in joints.items() if j.type == 'revolute'} == set(hips)
+    assert {joints[n].type for n in ('imu_link_joint', 'winch_link_joint')} == {'fixed'}
+    assert all(joints[h].parent == 'base_link' and joints[h].axis == [0.0, -1.0, 0.0]
+               for h in hips)
+    assert joints['winch_link_joint'].origin.xyz == [0.0, 0.0, 0.0]    # p is the tether point
+    links = {ln.name: ln for ln in urdf.links}
+    leg = read_stl(DATA / 'c_leg.stl', units='m')
+    model = get_robot(robot)
+    for state in STATES:
+        body = rot_y(-state.theta_b)
+        p = np.array([0.0, 0.0, state.h])
+        angle = {'proximal': state.theta_l1, 'distal': state.theta_l2}
+        posed = {}
+        for h in hips:
+            j = joints[h]
+            rot = body @ Rotation.from_euler('xyz', j.origin.rpy).as_matrix() \
+                @ Rotation.from_rotvec(angle[h.split('_')[1]] * np.array(j.axis)).as_matrix()
+            hip = p + body @ np.array(j.origin.xyz)
+            scale = np.array(links[j.child].collision.geometry.scale)
+            mesh = type(leg)(leg.vertices * scale, leg.faces if np.prod(scale) > 0
+                             else leg.faces[:, ::-1])
+            posed[h] = mesh.facets().transformed(rot, hip)
+        # forward pulls use the leg mesh as it is (Pull.FORWARD, robots/model.py)
+        ref = model.pose(state, Pull.FORWARD).facets
+        ours = [posed[h] for h in hips]
+        cent = np.vstack([f.centroids for f in ours])
+        norm = np.vstack([f.normals for f in ours])
+        assert np.allclose(cent, ref.centroids, atol=1e-12)
+        assert np.allclose(norm, ref.normals, atol=1e-12)
+        assert np.allclose(np.concatenate([f.areas for f in ours]), ref.areas, rtol=1e-12)
 
 
 # Table II poses (the demo's DH, DL, SH) and two more of the prototype's grid.

@@ -327,10 +327,12 @@ class Surface6:
             for kk in stalled[:3]:
                 hit = self._on_switching_set(t[kk], origin, d)
                 if hit is not None:
+                    exact = hit[2] <= self.rtol * max(hit[1], 1e-3)
                     t = np.vstack([t, hit[0]])
                     s, res = np.r_[s, hit[1]], np.r_[res, hit[2]]
-                    conv, ok = np.r_[conv, True], np.r_[ok, True]
-                    break
+                    conv, ok = np.r_[conv, exact], np.r_[ok, True]
+                    if exact:
+                        break
         bridged = False
         if not np.any(conv & (s > 0.0)):
             # Still nothing exact: the ray passes a jump. Its exit on the closure (the jump
@@ -406,7 +408,9 @@ class Surface6:
         scaled, normalised switch forms); their switching set is the null space N of b_J, a
         linear subspace of twists. Starting from t_b projected onto it, Gauss-Newton in that
         subspace (least squares on the 5 residuals). Returns (twist, s, residual) when the
-        residual vanishes (rtol), else None."""
+        residual vanishes (rtol); else the set's closest approach to the ray when it misses by
+        at most gap_tol of the distance (a gap candidate: a set of dimension 1 or 2, e.g. a box
+        pulled straight up, may not contain the root); else None."""
         assert self.problem is not None
         a = self.problem.switch_forms
         if a is None or len(a) == 0:
@@ -415,6 +419,7 @@ class Surface6:
         proj = complement_basis(d)
         h = 1e-7
         lead = np.abs(b @ t_b)
+        line: tuple[np.ndarray, float, float] | None = None
         for delta in (1e-6, 1e-4, 1e-3, 1e-2):
             rows = b[lead < delta]
             if len(rows) == 0:
@@ -422,6 +427,17 @@ class Surface6:
             _, sv, vt = np.linalg.svd(rows, full_matrices=True)
             rank = int(np.sum(sv > 1e-9 * sv[0]))
             null = vt[rank:]                               # (k, 6) orthonormal rows
+            if len(null) == 1:
+                # The switching set is one line (e.g. a box pulled straight up: every side
+                # facet switches only on the pure translation): no Newton, the twist is fixed.
+                # Its miss is the jump the ray passes; kept as a gap candidate (gap_tol).
+                t = null[0] * (1.0 if null[0] @ t_b >= 0.0 else -1.0)
+                w = self._eval(t[None])[0] - origin
+                s_line, miss = float(w @ d), float(np.linalg.norm(proj @ w))
+                if s_line > 0.0 and miss <= self.gap_tol * s_line and (
+                        line is None or miss < line[2]):
+                    line = (t, s_line, miss)
+                continue
             if len(null) < 2:
                 continue
             t = null.T @ (null @ t_b)
@@ -454,7 +470,10 @@ class Surface6:
                 cur_t = _unit_rows(best[0] + lam * step @ basis)
             if best is not None and best[1] > 0.0 and best[2] <= self.rtol * max(best[1], 1e-3):
                 return best
-        return None
+            if best is not None and 0.0 < best[1] and best[2] <= self.gap_tol * best[1] and (
+                    line is None or best[2] < line[2]):
+                line = best     # the set's closest approach to the ray: a gap candidate
+        return line
 
     def capacity(self, direction: np.ndarray) -> Result6:
         """Capacity along the unit force direction (3,) (the tether's pull, world), no moment
