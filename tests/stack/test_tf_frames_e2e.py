@@ -84,6 +84,74 @@ def transforms(msg) -> list[Transform]:
     return out
 
 
+def collect(ros_context, nodes, must, log_text=lambda: ''):
+    """Subscribe to every topic `nodes` publish whose type carries a header, until each of
+    `must` (and every other one found) has messages; returns (messages by topic, types)."""
+    probe = rclpy.create_node('tf_probe', context=ros_context)
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(probe)
+    got: dict[str, list] = {}
+    types: dict[str, str] = {}
+    static = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    # Best effort + volatile matches every publisher (reliable or not, latched or not).
+    any_qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT,
+                         durability=DurabilityPolicy.VOLATILE)
+
+    def discover():
+        names = {n for n, _ns in probe.get_node_names_and_namespaces()}
+        for node in nodes:
+            if node not in names:
+                continue
+            for topic, (typ, *_rest) in probe.get_publisher_names_and_types_by_node(node, '/'):
+                if topic in types:
+                    continue
+                types[topic] = typ
+                cls = msg_class(typ)
+                if has_header(cls):
+                    got[topic] = []
+                    probe.create_subscription(
+                        cls, topic, got[topic].append, static if topic == '/tf_static'
+                        else any_qos)
+
+    def complete():
+        return must <= set(got) and all(got.values()) and \
+            {n for n, _ns in probe.get_node_names_and_namespaces()} >= set(nodes)
+
+    end = time.monotonic() + 60
+    while time.monotonic() < end and not complete():
+        discover()
+        ex.spin_once(timeout_sec=0.05)
+    settle = time.monotonic() + 1.0       # a few more of each (and late-found topics)
+    while time.monotonic() < settle:
+        discover()
+        ex.spin_once(timeout_sec=0.05)
+    empty = sorted(t for t, v in got.items() if not v)
+    ok = complete()
+    ex.shutdown()
+    probe.destroy_node()
+    assert ok, f'missing {sorted(must - set(got))}, silent {empty}\n' + log_text()
+    return got, types
+
+
+def frames_and_tree(got, types):
+    """(frame_id -> topics using it, the TF tree from /tf and /tf_static)."""
+    tree = TfTree()
+    for m in got.get('/tf_static', []):
+        tree.add(transforms(m))
+    for m in got.get('/tf', []):
+        tree.add(transforms(m))
+    frames: dict[str, set[str]] = {}
+    for topic, msgs in got.items():
+        for m in msgs:
+            for f in headers(m):
+                if f == '':
+                    assert types[topic] in NON_SPATIAL, f'{topic}: empty frame_id'
+                    continue
+                frames.setdefault(f, set()).add(topic)
+    return frames, tree
+
+
 def test_every_frame_id_resolves(tmp_path, spawn, ros_context):
     link, tty = tmp_path / 'link', str(tmp_path / 'tty')
     logs = {n: open(tmp_path / f'{n}.log', 'w') for n in ('sim', *NODES)}
@@ -103,64 +171,11 @@ def test_every_frame_id_resolves(tmp_path, spawn, ros_context):
         spawn(['ros2', 'run', pkg, n, '--ros-args', *args[n]], stdout=logs[n],
               stderr=logs[n], cwd=REPO)
 
-    probe = rclpy.create_node('tf_probe', context=ros_context)
-    ex = SingleThreadedExecutor(context=ros_context)
-    ex.add_node(probe)
-    got: dict[str, list] = {}
-    types: dict[str, str] = {}
-    static = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
-                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
-    # Best effort + volatile matches every publisher (reliable or not, latched or not).
-    any_qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT,
-                         durability=DurabilityPolicy.VOLATILE)
-
-    def discover():
-        names = {n for n, _ns in probe.get_node_names_and_namespaces()}
-        for node in NODES:
-            if node not in names:
-                continue
-            for topic, (typ, *_rest) in probe.get_publisher_names_and_types_by_node(node, '/'):
-                if topic in types:
-                    continue
-                types[topic] = typ
-                cls = msg_class(typ)
-                if has_header(cls):
-                    got[topic] = []
-                    probe.create_subscription(
-                        cls, topic, got[topic].append, static if topic == '/tf_static'
-                        else any_qos)
-
-    def complete():
-        return MUST <= set(got) and all(got.values()) and \
-            {n for n, _ns in probe.get_node_names_and_namespaces()} >= set(NODES)
-
-    end = time.monotonic() + 60
-    while time.monotonic() < end and not complete():
-        discover()
-        ex.spin_once(timeout_sec=0.05)
-    settle = time.monotonic() + 1.0       # a few more of each (and late-found topics)
-    while time.monotonic() < settle:
-        discover()
-        ex.spin_once(timeout_sec=0.05)
     for f in logs.values():
         f.flush()
-    empty = sorted(t for t, v in got.items() if not v)
-    assert complete(), (f'missing {sorted(MUST - set(got))}, silent {empty}\n'
-                        + (tmp_path / 'state_publisher.log').read_text())
-
-    tree = TfTree()
-    for m in got['/tf_static']:
-        tree.add(transforms(m))
-    for m in got['/tf']:
-        tree.add(transforms(m))
-    frames: dict[str, set[str]] = {}
-    for topic, msgs in got.items():
-        for m in msgs:
-            for f in headers(m):
-                if f == '':
-                    assert types[topic] in NON_SPATIAL, f'{topic}: empty frame_id'
-                    continue
-                frames.setdefault(f, set()).add(topic)
+    got, types = collect(ros_context, NODES, MUST,
+                         lambda: (tmp_path / 'state_publisher.log').read_text())
+    frames, tree = frames_and_tree(got, types)
     assert tree.unresolved(frames, root='odom') == {}, frames
     # The frames the nodes use by default are among them (so they were checked above).
     assert PARAMETERS['frame_id'].default == 'anchor'
@@ -173,5 +188,37 @@ def test_every_frame_id_resolves(tmp_path, spawn, ros_context):
                 'right_distal_leg'):
         assert tree.root(leg) == 'odom', leg
     print({f: sorted(t) for f, t in frames.items()}, sorted(got))
-    ex.shutdown()
-    probe.destroy_node()
+
+
+SAMPLE_BAG = REPO / 'src/rftgls_ros/rftgls_ros/lab/samples/forward_L1-040_L2+000'
+
+
+def test_replay_frames_resolve(tmp_path, spawn, ros_context):
+    """A lab bag replayed into capacity_node with state_publisher, configured as
+    replay.launch.py does: every frame_id (the bag's lab_world/camera frames, capacity_node's
+    anchor and winch_link) reaches the one root lab_world."""
+    logs = {n: open(tmp_path / f'{n}.log', 'w') for n in ('replay', 'capacity_node',
+                                                          'state_publisher')}
+    spawn(['ros2', 'run', 'rftgls_ros', 'capacity_node', '--ros-args', '--params-file',
+           'ros2_ws/params/capacity_node.yaml', '-p', 'robot:=prototype', '-p',
+           'medium:=glass_beads', '-p', 'map_file:=maps/prototype_glass_beads.h5', '-p',
+           'pull:=forward', '-p', 'pitch_topic:=/lab/theta_b', '-p', 'phi_topic:=/winch/phi',
+           '-p', 'tension_component:=tether', '-p', 'freshness_source:=receipt_time'],
+          stdout=logs['capacity_node'], stderr=logs['capacity_node'], cwd=REPO)
+    spawn(['ros2', 'run', 'rftgls_ros', 'state_publisher', '--ros-args', '-p',
+           'robot:=prototype', '-p', 'odom_frame:=lab_world', '-p',
+           'pitch_topic:=/lab/theta_b'],
+          stdout=logs['state_publisher'], stderr=logs['state_publisher'], cwd=REPO)
+    spawn(['ros2', 'run', 'rftgls_ros', 'rftgls_lab_replay', str(SAMPLE_BAG), '--rate', '1.0',
+           '--wait-subscribers', '5'],
+          stdout=logs['replay'], stderr=logs['replay'], cwd=REPO)
+    for f in logs.values():
+        f.flush()
+    got, types = collect(ros_context, ('lab_replay', 'capacity_node', 'state_publisher'),
+                         {'/tf_static', '/tf', '/winch/tension', '/capacity_node/capacity',
+                          '/capacity_node/markers'},
+                         lambda: '\n'.join((tmp_path / f'{n}.log').read_text() for n in logs))
+    frames, tree = frames_and_tree(got, types)
+    assert tree.unresolved(frames, root='lab_world') == {}, frames
+    assert '/capacity_node/capacity' in frames['anchor']
+    assert '/capacity_node/markers' in frames['winch_link']

@@ -35,4 +35,12 @@ def generate_launch_description():
                           'tension_component': 'tether',
                           'freshness_source': 'receipt_time'}],
              output='screen'),
+        # TF for the replay: the bag's /tf_static holds lab_world -> aruco_tank (-> camera);
+        # state_publisher hangs the robot on lab_world (odom_frame): base_link, legs,
+        # winch_link and `anchor` (capacity_node's frame). Its x, y of p are not taken from the
+        # tracker (state_publisher assumes 0), pitch and height are the replayed ones.
+        Node(package='rftgls_ros', executable='state_publisher', name='state_publisher',
+             parameters=[{'robot': 'prototype', 'odom_frame': 'lab_world',
+                          'pitch_topic': '/lab/theta_b'}],
+             output='screen'),
     ])
