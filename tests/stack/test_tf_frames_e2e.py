@@ -214,7 +214,7 @@ def test_replay_frames_resolve(tmp_path, spawn, ros_context):
           stdout=logs['replay'], stderr=logs['replay'], cwd=REPO)
     for f in logs.values():
         f.flush()
-    got, types = collect(ros_context, ('lab_replay', 'capacity_node', 'state_publisher'),
+    got, types = collect(ros_context, ('rftgls_lab_replay', 'capacity_node', 'state_publisher'),
                          {'/tf_static', '/tf', '/winch/tension', '/capacity_node/capacity',
                           '/capacity_node/markers'},
                          lambda: '\n'.join((tmp_path / f'{n}.log').read_text() for n in logs))

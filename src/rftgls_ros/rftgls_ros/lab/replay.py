@@ -139,7 +139,7 @@ def main(argv: list[str] | None = None) -> int:
                     help='s to wait for discovery before the first message')
     args = ap.parse_args(argv)
     rclpy.init()
-    node = Node('lab_replay')
+    node = Node('rftgls_lab_replay')   # the node is named as its executable
     try:
         rep = BagReplayer(node, args.bag, args.topics, args.skip_images)
         # Give DDS discovery a moment, or the first messages go to nobody.
