@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rftgls_core.conventions import LEG_KEYS, pitch_to_quat_xyzw
-from rftgls_core.geometry.transforms import rpy_matrix
+from rftgls_core.geometry.transforms import parse_vector, rpy_matrix
 
 MOVING = ('revolute', 'continuous', 'prismatic')
 KINDS = MOVING + ('fixed', 'floating', 'planar')
@@ -98,15 +98,7 @@ def matrix_to_quat(r: np.ndarray) -> tuple[float, float, float, float]:
 
 
 def _floats(text: str | None, default: tuple[float, ...], what: str) -> np.ndarray:
-    if text is None:
-        return np.array(default, dtype=float)
-    try:
-        v = np.array([float(x) for x in text.split()], dtype=float)
-    except ValueError:
-        raise UrdfError(f'{what}: not numbers: {text!r}') from None
-    if v.shape != (len(default),) or not np.all(np.isfinite(v)):
-        raise UrdfError(f'{what}: need {len(default)} finite numbers, got {text!r}')
-    return v
+    return parse_vector(text, default, what, UrdfError)
 
 
 def parse_urdf_joints(text: str) -> list[UrdfJoint]:

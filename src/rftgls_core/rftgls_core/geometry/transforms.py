@@ -26,3 +26,19 @@ def rot_z(a: float) -> np.ndarray:
 
 def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     return rot_z(yaw) @ rot_y(pitch) @ rot_x(roll)
+
+
+def parse_vector(text: str | None, default: tuple[float, ...], what: str,
+                 error: type[ValueError] = ValueError) -> np.ndarray:
+    """A URDF-style attribute of space-separated numbers ('0 0 1.5') as a float array of
+    len(default), or `default` when the attribute is absent (None). Raises `error` (one line,
+    naming `what`) when the text is not len(default) finite numbers."""
+    if text is None:
+        return np.array(default, dtype=float)
+    try:
+        v = np.array([float(x) for x in text.split()], dtype=float)
+    except ValueError:
+        raise error(f'{what}: not numbers: {text!r}') from None
+    if v.shape != (len(default),) or not np.all(np.isfinite(v)):
+        raise error(f'{what}: need {len(default)} finite numbers, got {text!r}')
+    return v

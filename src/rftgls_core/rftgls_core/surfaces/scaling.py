@@ -20,12 +20,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .newton import unit_rows
 from .sampling import fibonacci_sphere
 
 
-def _unit_rows(x: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(x, axis=-1, keepdims=True)
-    return x / np.where(n > 0.0, n, 1.0)
+def check_scales(force_N: float, length_m: float) -> None:
+    """ValueError unless the force scale (N) and the length scale (m) are finite and > 0."""
+    for name, v in (('force scale', force_N), ('length scale', length_m)):
+        if not (np.isfinite(v) and v > 0.0):
+            raise ValueError(f'{name} must be finite and > 0, got {v!r}')
 
 
 @dataclass(frozen=True)
@@ -36,10 +39,7 @@ class Scaling:
     length_m: float
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.force_N) and self.force_N > 0.0):
-            raise ValueError(f'force scale must be finite and > 0, got {self.force_N!r}')
-        if not (np.isfinite(self.length_m) and self.length_m > 0.0):
-            raise ValueError(f'length scale must be finite and > 0, got {self.length_m!r}')
+        check_scales(self.force_N, self.length_m)
 
     @property
     def diag(self) -> np.ndarray:
@@ -60,7 +60,7 @@ class Scaling:
 
         Only the direction matters (RFT is rate independent); S t is (vx, vz, wy L_c) times s_F.
         """
-        return _unit_rows(np.asarray(twist, dtype=float) * self.diag)
+        return unit_rows(np.asarray(twist, dtype=float) * self.diag)
 
     def twist_from_scaled(self, twist_s: np.ndarray) -> np.ndarray:
         """(..., 3) scaled twists -> raw twist directions S^-1 ts, normalised to |t| = 1.
@@ -68,7 +68,7 @@ class Scaling:
         The raw norm mixes m/s and rad/s; it is only a convention to return a direction with a
         fixed size. Compare twists in the scaled metric, never with raw angles.
         """
-        return _unit_rows(np.asarray(twist_s, dtype=float) / self.diag)
+        return unit_rows(np.asarray(twist_s, dtype=float) / self.diag)
 
     # -- choosing the scales from data ------------------------------------------------------
     @classmethod
