@@ -39,7 +39,7 @@ from functools import lru_cache
 import numpy as np
 
 from .surfaces.newton import damped_newton_step, unit_rows
-from .surfaces.scaling import check_scales
+from .surfaces.scaling import DiagonalScaling
 from .types import Status
 
 WrenchFn6 = Callable[[np.ndarray], np.ndarray]
@@ -52,32 +52,13 @@ SETTLED_RTOL = 1e-4   # closure patch: relative spread of the last distances acc
 
 
 @dataclass(frozen=True)
-class Scaling6:
+class Scaling6(DiagonalScaling):
     """Force scale s_F (N) and length L_c (m) of the scaled 6D spaces (see module doc)."""
-
-    force_N: float
-    length_m: float
-
-    def __post_init__(self) -> None:
-        check_scales(self.force_N, self.length_m)
 
     @property
     def diag(self) -> np.ndarray:
         f, lc = self.force_N, self.length_m
         return np.array([f, f, f, f * lc, f * lc, f * lc])
-
-    def wrench_to_scaled(self, w: np.ndarray) -> np.ndarray:
-        return np.asarray(w, dtype=float) / self.diag
-
-    def wrench_from_scaled(self, ws: np.ndarray) -> np.ndarray:
-        return np.asarray(ws, dtype=float) * self.diag
-
-    def twist_to_scaled(self, t: np.ndarray) -> np.ndarray:
-        return unit_rows(np.asarray(t, dtype=float) * self.diag)
-
-    def twist_from_scaled(self, ts: np.ndarray) -> np.ndarray:
-        """Raw twist directions (unit Euclidean norm, a convention) of scaled twists."""
-        return unit_rows(np.asarray(ts, dtype=float) / self.diag)
 
 
 @lru_cache(maxsize=8)
