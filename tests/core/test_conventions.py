@@ -96,3 +96,9 @@ def test_vectorised_pitch_quaternion_matches_the_scalar_form_on_the_whole_circle
     small = th[np.abs(th) < math.pi / 2]
     np.testing.assert_allclose([cv.quat_xyzw_to_pitch(*r) for r in q[np.abs(th) < math.pi / 2]],
                                small, atol=1e-12)
+
+
+@pytest.mark.parametrize('phi', [0.0, -0.35, 0.35, -1.5, 2.5])
+def test_tether_phi_from_xz_inverts_the_direction(phi):
+    x, z = cv.tether_direction_xz(phi)
+    assert cv.tether_phi_from_xz(3.0 * x, 3.0 * z) == pytest.approx(phi, abs=1e-12)

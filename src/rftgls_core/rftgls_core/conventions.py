@@ -172,6 +172,12 @@ def tether_direction_xz(phi: float) -> tuple[float, float]:
     return (-math.cos(phi), math.sin(phi))
 
 
+def tether_phi_from_xz(x: float, z: float) -> float:
+    """Tether angle phi (rad, in (-pi, pi]) of a pull along (x, z) in world axes (any length
+    > 0): the inverse of `tether_direction_xz`, atan2(z, -x)."""
+    return math.atan2(z, -x)
+
+
 def tether_phi(h_p: float, h_attach: float, free_length: float) -> float:
     """Tether angle phi (rad) of a taut straight tether from p (height h_p, m) to the sled
     attachment (height h_attach, m) with free_length m between them: asin((h_attach - h_p) /

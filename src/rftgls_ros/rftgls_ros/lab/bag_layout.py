@@ -35,6 +35,7 @@ from rftgls_core.conventions import (
     axle_angles,
     leg_keys_from_joint_names,
     tether_direction_xz,
+    tether_phi_from_xz,
 )
 from rftgls_core.geometry.transforms import matrix_to_quat
 from rftgls_core.types import AnchorState
@@ -487,7 +488,7 @@ def _read_pull_test(path, images: bool) -> PullTest:
             elif c.topic == '/winch/tension':
                 f = msg.wrench.force
                 force.append((k, math.sqrt(f.x * f.x + f.y * f.y + f.z * f.z),
-                              math.atan2(f.z, -f.x)))
+                              tether_phi_from_xz(f.x, f.z)))
             elif c.topic == '/lab/p_pose':
                 o = msg.pose.orientation
                 pose.append((k, msg.pose.position.x, msg.pose.position.z,
