@@ -82,3 +82,23 @@ def test_tether_direction_and_angle():
 def test_edge_units():
     assert cv.deg_to_rad(180.0) == pytest.approx(math.pi)
     assert cv.mm_to_m(12.5) == pytest.approx(0.0125)
+
+
+def test_vectorised_pitch_quaternion_matches_the_scalar_form_on_the_whole_circle():
+    th = np.linspace(-3.1, 3.1, 41)
+    q = cv.pitch_to_quat_xyzw_array(th)
+    assert q.shape == (41, 4)
+    np.testing.assert_allclose(q, [cv.pitch_to_quat_xyzw(t) for t in th], atol=1e-15)
+    np.testing.assert_allclose(cv.pure_pitch_quat_xyzw_to_pitch_array(q), th, atol=1e-12)
+    # -q is the same rotation; the result stays in (-pi, pi]
+    back = cv.pure_pitch_quat_xyzw_to_pitch_array(-q)
+    np.testing.assert_allclose(back, th, atol=1e-12)
+    small = th[np.abs(th) < math.pi / 2]
+    np.testing.assert_allclose([cv.quat_xyzw_to_pitch(*r) for r in q[np.abs(th) < math.pi / 2]],
+                               small, atol=1e-12)
+
+
+@pytest.mark.parametrize('phi', [0.0, -0.35, 0.35, -1.5, 2.5])
+def test_tether_phi_from_xz_inverts_the_direction(phi):
+    x, z = cv.tether_direction_xz(phi)
+    assert cv.tether_phi_from_xz(3.0 * x, 3.0 * z) == pytest.approx(phi, abs=1e-12)

@@ -83,3 +83,18 @@ def test_capacity_band_linear_and_sampled():
     # the two propagations agree on the spread within sampling error
     assert mc.std_N == pytest.approx(lin.std_N, rel=0.35)
     assert mc.lower_N < lin.mean_N
+
+
+def test_lab_predictors_are_core_predictors():
+    """The lab builds its predictors through the core protocol: the live model answers
+    predict(state, phi, pull) with a CapacityResult like every other consumer sees."""
+    from rftgls_core.predictor import Predictor
+    from rftgls_core.surfaces.base import CapacityResult
+    from rftgls_ros.lab.predict import make_predictor
+    p = make_predictor('twist-mesh', 'minirquad', load_medium('m90_sand'))
+    assert isinstance(p, Predictor)
+    r = p.predict(AnchorState(0.034, math.radians(5.0), math.radians(-40.0),
+                              math.radians(30.0)), math.radians(-20.0), 'backward')
+    assert isinstance(r, CapacityResult) and r.status.has_value and r.capacity_N > 0
+    with pytest.raises(ValueError, match='map file'):
+        make_predictor('map', 'minirquad', load_medium('m90_sand'))

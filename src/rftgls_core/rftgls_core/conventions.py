@@ -1,8 +1,9 @@
 """Conventions every package shares: joint names, leg angles, body pitch, tether direction, units.
 
-ROS-free and dependency-free (math only), so rftgls_core, rftgls_ros and minirquad_driver all
-import it. Each conversion exists here once; frames, units, shapes and component order are
-stated in every docstring (docs/design/architecture.md#frames-and-signs explains the choices).
+ROS-free and dependency-free (math only; the vectorised `*_array` forms import numpy when
+called), so rftgls_core, rftgls_ros and minirquad_driver all import it. Each conversion exists
+here once; frames, units, shapes and component order are stated in every docstring
+(docs/design/architecture.md#frames-and-signs explains the choices).
 
 Frames
   world   z up, x horizontal in the sagittal plane pointing from the winch point p toward the
@@ -119,6 +120,26 @@ def pitch_to_quat_xyzw(theta_b: float) -> tuple[float, float, float, float]:
     return (0.0, math.sin(half), 0.0, math.cos(half))
 
 
+def pitch_to_quat_xyzw_array(theta_b):
+    """Vectorised `pitch_to_quat_xyzw`: theta_b (...,) rad, nose up positive -> (..., 4)
+    quaternions (x, y, z, w), body -> world, no roll or yaw."""
+    import numpy as np
+    half = -0.5 * np.asarray(theta_b, dtype=float)
+    zero = np.zeros_like(half)
+    return np.stack([zero, np.sin(half), zero, np.cos(half)], axis=-1)
+
+
+def pure_pitch_quat_xyzw_to_pitch_array(q):
+    """Inverse of `pitch_to_quat_xyzw_array` on the whole circle: (..., 4) quaternions
+    (x, y, z, w) of rotations about y only -> theta_b (...,) rad in (-pi, pi], nose up positive.
+    Unlike `quat_xyzw_to_pitch` (any rotation, |theta_b| <= pi/2) it ignores x and z: use it only
+    where the rotation is a pitch by construction (planar poses)."""
+    import numpy as np
+    q = np.asarray(q, dtype=float)
+    theta = -2.0 * np.arctan2(q[..., 1], q[..., 3])
+    return np.pi - np.mod(np.pi - theta, TWO_PI)
+
+
 def quat_xyzw_to_pitch(x: float, y: float, z: float, w: float) -> float:
     """Body pitch theta_B (rad, nose up positive) from the body -> world quaternion (x, y, z, w).
 
@@ -149,6 +170,12 @@ def tether_direction_xz(phi: float) -> tuple[float, float]:
     phi (rad): (-cos phi, sin phi). The same as rftgls_core.types.pull_direction's force part
     (that one is the 3-vector (Fx, Fz, My) of planar wrench space)."""
     return (-math.cos(phi), math.sin(phi))
+
+
+def tether_phi_from_xz(x: float, z: float) -> float:
+    """Tether angle phi (rad, in (-pi, pi]) of a pull along (x, z) in world axes (any length
+    > 0): the inverse of `tether_direction_xz`, atan2(z, -x)."""
+    return math.atan2(z, -x)
 
 
 def tether_phi(h_p: float, h_attach: float, free_length: float) -> float:

@@ -27,7 +27,7 @@ import numpy as np
 
 from .geometry.mesh import Facets, TriMesh
 from .geometry.stl import MeshError, read_stl, write_stl
-from .geometry.transforms import rot_y, rpy_matrix
+from .geometry.transforms import parse_vector, rot_y, rpy_matrix
 from .scene import Scene
 from .types import AnchorState, Pull
 
@@ -38,16 +38,8 @@ class DescriptionError(ValueError):
     """A description that cannot be used (one line, names the file)."""
 
 
-def _floats(text: str | None, n: int, default: tuple[float, ...], what: str) -> np.ndarray:
-    if text is None:
-        return np.array(default, dtype=float)
-    try:
-        v = np.array([float(x) for x in text.split()], dtype=float)
-    except ValueError:
-        raise DescriptionError(f'{what}: not numbers: {text!r}') from None
-    if v.shape != (n,) or not np.all(np.isfinite(v)):
-        raise DescriptionError(f'{what}: need {n} finite numbers, got {text!r}')
-    return v
+def _floats(text: str | None, default: tuple[float, ...], what: str) -> np.ndarray:
+    return parse_vector(text, default, what, DescriptionError)
 
 
 @dataclass(frozen=True)
@@ -71,8 +63,8 @@ class Joint:
 def _transform(origin) -> np.ndarray:
     t = np.eye(4)
     if origin is not None:
-        t[:3, :3] = rpy_matrix(*_floats(origin.get('rpy'), 3, (0, 0, 0), 'origin rpy'))
-        t[:3, 3] = _floats(origin.get('xyz'), 3, (0, 0, 0), 'origin xyz')
+        t[:3, :3] = rpy_matrix(*_floats(origin.get('rpy'), (0, 0, 0), 'origin rpy'))
+        t[:3, 3] = _floats(origin.get('xyz'), (0, 0, 0), 'origin xyz')
     return t
 
 
@@ -102,14 +94,14 @@ def read_urdf(path: str | Path) -> tuple[dict[str, Link], list[Joint]]:
                 m = read_stl(file, units='m')
             except (MeshError, OSError) as exc:
                 raise DescriptionError(f'{path}: link {name!r}: {exc}') from None
-            scale = _floats(geo.get('scale'), 3, (1, 1, 1), f'link {name} mesh scale')
+            scale = _floats(geo.get('scale'), (1, 1, 1), f'link {name} mesh scale')
             m = TriMesh(m.vertices * scale, m.faces if np.prod(scale) > 0 else m.faces[:, ::-1])
             mesh = m.transformed(t[:3, :3], t[:3, 3])
         mass, com = 0.0, np.zeros(3)
         inertial = el.find('inertial')
         if inertial is not None:
             mel = inertial.find('mass')
-            mass = float(_floats(mel.get('value') if mel is not None else None, 1, (0.0,),
+            mass = float(_floats(mel.get('value') if mel is not None else None, (0.0,),
                                  f'link {name} mass')[0])
             com = _transform(inertial.find('origin'))[:3, 3]
         links[name] = Link(name, mesh, mass, com)
@@ -119,7 +111,7 @@ def read_urdf(path: str | Path) -> tuple[dict[str, Link], list[Joint]]:
         if parent is None or child is None:
             raise DescriptionError(f'{path}: joint {el.get("name")!r} lacks parent or child')
         axis_el = el.find('axis')
-        ax = _floats(axis_el.get('xyz') if axis_el is not None else None, 3, (1, 0, 0),
+        ax = _floats(axis_el.get('xyz') if axis_el is not None else None, (1, 0, 0),
                      f'joint {el.get("name")} axis')
         joints.append(Joint(el.get('name') or '', el.get('type') or 'fixed',
                             parent.get('link') or '', child.get('link') or '',

@@ -38,6 +38,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from .surfaces.newton import damped_newton_step, unit_rows
+from .surfaces.scaling import DiagonalScaling
 from .types import Status
 
 WrenchFn6 = Callable[[np.ndarray], np.ndarray]
@@ -49,40 +51,14 @@ EARLIER_ROUNDS = 4    # rounds of that search (each only while it finds candidat
 SETTLED_RTOL = 1e-4   # closure patch: relative spread of the last distances accepted
 
 
-def _unit_rows(x: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(x, axis=-1, keepdims=True)
-    return x / np.where(n > 0.0, n, 1.0)
-
-
 @dataclass(frozen=True)
-class Scaling6:
+class Scaling6(DiagonalScaling):
     """Force scale s_F (N) and length L_c (m) of the scaled 6D spaces (see module doc)."""
-
-    force_N: float
-    length_m: float
-
-    def __post_init__(self) -> None:
-        for name, v in (('force scale', self.force_N), ('length scale', self.length_m)):
-            if not (math.isfinite(v) and v > 0.0):
-                raise ValueError(f'{name} must be finite and > 0, got {v!r}')
 
     @property
     def diag(self) -> np.ndarray:
         f, lc = self.force_N, self.length_m
         return np.array([f, f, f, f * lc, f * lc, f * lc])
-
-    def wrench_to_scaled(self, w: np.ndarray) -> np.ndarray:
-        return np.asarray(w, dtype=float) / self.diag
-
-    def wrench_from_scaled(self, ws: np.ndarray) -> np.ndarray:
-        return np.asarray(ws, dtype=float) * self.diag
-
-    def twist_to_scaled(self, t: np.ndarray) -> np.ndarray:
-        return _unit_rows(np.asarray(t, dtype=float) * self.diag)
-
-    def twist_from_scaled(self, ts: np.ndarray) -> np.ndarray:
-        """Raw twist directions (unit Euclidean norm, a convention) of scaled twists."""
-        return _unit_rows(np.asarray(ts, dtype=float) / self.diag)
 
 
 @lru_cache(maxsize=8)
@@ -91,7 +67,7 @@ def sphere5(n: int) -> np.ndarray:
     its antipodes included (every cloud then has both senses of each motion). Read-only."""
     half = (int(n) + 1) // 2
     g = np.random.default_rng(20230517).normal(size=(half, 6))
-    pts = _unit_rows(np.concatenate([g, -g])[: int(n)])
+    pts = unit_rows(np.concatenate([g, -g])[: int(n)])
     pts.setflags(write=False)
     return pts
 
@@ -146,7 +122,7 @@ def _householder_bases(t: np.ndarray) -> np.ndarray:
     sgn = np.where(t[np.arange(k), j] >= 0.0, 1.0, -1.0)
     u = t.copy()
     u[np.arange(k), j] -= sgn
-    u = _unit_rows(u)
+    u = unit_rows(u)
     h = np.eye(dim)[None] - 2.0 * u[:, :, None] * u[:, None, :]
     keep = np.ones((k, dim), dtype=bool)
     keep[np.arange(k), j] = False
@@ -169,7 +145,7 @@ def newton_on_sphere6(eval_scaled: Callable[[np.ndarray], np.ndarray], origin: n
     """
     proj = complement_basis(d)                           # (5, 6)
     k = len(seeds)
-    t = _unit_rows(np.asarray(seeds, dtype=float))
+    t = unit_rows(np.asarray(seeds, dtype=float))
     best_t, best_r, s = t.copy(), np.full(k, np.inf), np.zeros(k)
     best_step = np.zeros((k, 5))
     best_basis = np.zeros((k, 5, 6))
@@ -178,7 +154,7 @@ def newton_on_sphere6(eval_scaled: Callable[[np.ndarray], np.ndarray], origin: n
     it = 0
     for it in range(1, max_iter + 1):  # noqa: B007 (returned)
         basis = _householder_bases(t)                    # (k, 5, 6)
-        probe = _unit_rows(t[:, None, :] + fd_step * basis)   # (k, 5, 6)
+        probe = unit_rows(t[:, None, :] + fd_step * basis)   # (k, 5, 6)
         batch = np.concatenate([t, probe.reshape(-1, 6)])
         w = eval_scaled(batch) - origin
         w0, wp = w[:k], w[k:].reshape(k, 5, 6)
@@ -194,17 +170,12 @@ def newton_on_sphere6(eval_scaled: Callable[[np.ndarray], np.ndarray], origin: n
             break
         fresh = improved & ~conv
         if np.any(fresh):
-            try:
-                step = -np.linalg.solve(jac[fresh], r[fresh][..., None])[..., 0]
-            except np.linalg.LinAlgError:
-                step = -np.einsum('kij,kj->ki', np.linalg.pinv(jac[fresh]), r[fresh])
-            nrm = np.linalg.norm(step, axis=1, keepdims=True)
-            step *= np.minimum(1.0, 0.3 / np.maximum(nrm, 1e-300))   # trust region, rad
+            step = damped_newton_step(jac[fresh], r[fresh])
             best_step[fresh] = step
             best_basis[fresh] = basis[fresh]
             lam[fresh] = 1.0
         lam[~improved & ~conv] *= 0.5
-        nxt = _unit_rows(best_t + np.einsum('k,ki,kij->kj', lam, best_step, best_basis))
+        nxt = unit_rows(best_t + np.einsum('k,ki,kij->kj', lam, best_step, best_basis))
         t = np.where(conv[:, None], best_t, nxt)
         if np.all(conv | (lam < 1e-6)):
             break
@@ -369,13 +340,13 @@ class Surface6:
         radius halves. Returns (twist, s, miss) once the radius is below angle_tol (miss: the
         off-ray residual of the twist itself, the jump size), else None."""
         proj = complement_basis(d)
-        t = _unit_rows(t_b[None])[0]
+        t = unit_rows(t_b[None])[0]
         rho = radius
         s_model = math.nan
         history: list[float] = []
         for _ in range(max_iter):
             basis = _householder_bases(t[None])[0]                  # (5, 6)
-            pts = _unit_rows(np.vstack([t, t + rho * basis, t - rho * basis]))
+            pts = unit_rows(np.vstack([t, t + rho * basis, t - rho * basis]))
             w = self._eval(pts) - origin
             coords = np.column_stack([np.ones(len(pts)), (pts - t) @ basis.T])
             coef = np.linalg.lstsq(coords, w, rcond=None)[0]         # (6 params, 6 outputs)
@@ -387,7 +358,7 @@ class Surface6:
                 c *= rho / step
             else:
                 rho *= 0.5
-            t = _unit_rows((t + c @ basis)[None])[0]
+            t = unit_rows((t + c @ basis)[None])[0]
             history.append(s_model)
             if rho < angle_tol:
                 break
@@ -415,7 +386,7 @@ class Surface6:
         a = self.problem.switch_forms
         if a is None or len(a) == 0:
             return None
-        b = _unit_rows(a / self.problem.scaling.diag)     # a . t = (a / S) . (S t)
+        b = unit_rows(a / self.problem.scaling.diag)     # a . t = (a / S) . (S t)
         proj = complement_basis(d)
         h = 1e-7
         lead = np.abs(b @ t_b)
@@ -450,7 +421,7 @@ class Surface6:
             for _ in range(max_iter):
                 c = null @ cur_t
                 tb = _householder_bases(c[None])[0] @ null      # (k-1, 6) tangent, in N
-                batch = np.vstack([cur_t, _unit_rows(cur_t + h * tb)])
+                batch = np.vstack([cur_t, unit_rows(cur_t + h * tb)])
                 w = self._eval(batch) - origin
                 r = proj @ w[0]
                 rn, s_now = float(np.linalg.norm(r)), float(w[0] @ d)
@@ -467,7 +438,7 @@ class Surface6:
                     lam *= 0.5
                     if lam < 1e-6:
                         break
-                cur_t = _unit_rows(best[0] + lam * step @ basis)
+                cur_t = unit_rows(best[0] + lam * step @ basis)
             if best is not None and best[1] > 0.0 and best[2] <= self.rtol * max(best[1], 1e-3):
                 return best
             if best is not None and 0.0 < best[1] and best[2] <= self.gap_tol * best[1] and (
@@ -498,7 +469,7 @@ class Surface6:
                        f'{ex.residual / ex.s:.2g} of the distance')
         if ex.n_roots > 1:
             flags += ('multiple_crossings',)
-        ts = _unit_rows(ex.twist)
+        ts = unit_rows(ex.twist)
         raw = self.problem.scaling.twist_from_scaled(ts)
         return Result6(Status.OK, capacity_N=ex.s * sf,
                        slip_twist=tuple(float(v) for v in raw),

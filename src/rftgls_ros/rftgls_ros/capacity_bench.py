@@ -39,10 +39,11 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 
+from rftgls_core.conventions import LEG_JOINT_NAMES, pitch_to_quat_xyzw
+
 from .capacity.predictor import DEFAULT_MAP, resolve_map_path
 from .capacity_node import CapacityNode
 
-JOINTS = ('leg_proximal_left', 'leg_proximal_right', 'leg_distal_left', 'leg_distal_right')
 # The DH anchor of the paper's Table II; the bench wiggles theta_L1 around it.
 DH = (0.034, math.radians(5.0), math.radians(-40.0), math.radians(30.0))
 PHI = math.radians(-20.0)
@@ -86,7 +87,7 @@ class Rig:
         self.statuses: set[str] = set()
         self.probe.create_subscription(WrenchStamped, '/capacity_node/capacity', self.on_out,
                                        1000)
-        self.msg = JointState(name=list(JOINTS))
+        self.msg = JointState(name=list(LEG_JOINT_NAMES))
         self.Float64 = Float64
         self.stream = None
         if live:   # leg angles of the core bench's live stream (noise and slow burrowing)
@@ -103,7 +104,8 @@ class Rig:
         from geometry_msgs.msg import WrenchStamped
         from sensor_msgs.msg import Imu
         imu = Imu()
-        imu.orientation.y, imu.orientation.w = math.sin(-DH[1] / 2), math.cos(-DH[1] / 2)
+        o = imu.orientation
+        o.x, o.y, o.z, o.w = pitch_to_quat_xyzw(DH[1])
         self.pub_imu.publish(imu)
         self.pub_height.publish(self.Float64(data=DH[0]))
         self.pub_phi.publish(self.Float64(data=PHI))
@@ -136,6 +138,17 @@ def spin_until(executor, cond, timeout: float) -> bool:
     return cond()
 
 
+def spin_in_thread(executor, stop: threading.Event, period_s: float) -> threading.Thread:
+    """Spin `executor` in a daemon thread (spin_once waits up to period_s) until `stop` is set."""
+    def spin():
+        while not stop.is_set():
+            executor.spin_once(timeout_sec=period_s)
+
+    th = threading.Thread(target=spin, daemon=True)
+    th.start()
+    return th
+
+
 def run(map_file: str, n: int) -> dict:
     ctx = rclpy.Context()
     rclpy.init(context=ctx, domain_id=int(os.environ.get('ROS_DOMAIN_ID', '0')))
@@ -145,13 +158,7 @@ def run(map_file: str, n: int) -> dict:
     node_ex = SingleThreadedExecutor(context=ctx)
     node_ex.add_node(rig.node)
     stop = threading.Event()
-
-    def spin_node():
-        while not stop.is_set():
-            node_ex.spin_once(timeout_sec=0.05)
-
-    th = threading.Thread(target=spin_node, daemon=True)
-    th.start()
+    th = spin_in_thread(node_ex, stop, 0.05)
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(rig.probe)
     out = {'predictor': rig.node.estimator.predictor.name}
@@ -181,13 +188,7 @@ def run(map_file: str, n: int) -> dict:
         out['status_last'] = str(rig.node.last_estimate.status)
         # Sustained rate: free-running inputs at a fixed rate; the probe spins in a thread.
         stop_probe = threading.Event()
-
-        def spin_probe():
-            while not stop_probe.is_set():
-                ex.spin_once(timeout_sec=0.01)
-
-        tp = threading.Thread(target=spin_probe, daemon=True)
-        tp.start()
+        tp = spin_in_thread(ex, stop_probe, 0.01)
         best = 0
         k0 = n + 10
         try:

@@ -108,22 +108,7 @@ def run(args) -> int:
         model = model_from_args(args)
         result = model.predict(state, phi, args.pull)
         char_length = model.robot.char_length
-    elapsed = time.perf_counter() - t0
-    out = result_json(result, elapsed, char_length)
-    if args.json:
-        print_json(out)
-    else:
-        cap = 'none' if result.capacity_N is None else f'{result.capacity_N:.3f} N'
-        print(f'capacity {cap}  status {result.status.value}  method {result.method}  '
-              f'({1e3 * elapsed:.1f} ms)')
-        if result.slip_twist_scaled:
-            print('slip twist (scaled vx, vz, wy*L_c): '
-                  + ' '.join(f'{v:+.4f}' for v in result.slip_twist_scaled))
-        if result.flags:
-            print('flags: ' + ', '.join(result.flags))
-        if result.reason:
-            print(f'reason: {result.reason}: {result.detail}')
-    return 0
+    return report(args, result, time.perf_counter() - t0, char_length, cap_format='.3f')
 
 
 # --------------------------------------------------------------------- single bodies, 6D
@@ -233,20 +218,35 @@ def run_scene(args) -> int:
     model = SceneModel(medium_from_args(args), model=args.model, method=args.method,
                        n_twists=args.twists, space=args.space)
     result = model.predict(scene, math.radians(args.phi), math.radians(args.yaw))
-    elapsed = time.perf_counter() - t0
-    out = result_json(result, elapsed, scene.char_length)
+    return report(args, result, time.perf_counter() - t0, scene.char_length, cap_format='.4g',
+                  space=result.space, always_detail=True)
+
+
+_TWIST_NAMES = {3: 'vx, vz, wy*L_c', 6: 'vx, vy, vz, wx*L_c, wy*L_c, wz*L_c'}
+
+
+def report(args, result, elapsed_s: float, char_length_m: float, *, cap_format: str,
+           space: str | None = None, always_detail: bool = False) -> int:
+    """Print one capacity answer: JSON with --json, else lines for people (capacity in N with
+    cap_format, status, method, the space when given, time; the scaled slip twist, flags, and
+    reason: detail, the detail alone too when always_detail). Returns the exit status 0."""
     if args.json:
-        print_json(out)
+        print_json(result_json(result, elapsed_s, char_length_m))
         return 0
-    cap = 'none' if result.capacity_N is None else f'{result.capacity_N:.4g} N'
+    cap = 'none' if result.capacity_N is None else f'{result.capacity_N:{cap_format}} N'
+    where = f'space {space}  ' if space is not None else ''
     print(f'capacity {cap}  status {result.status.value}  method {result.method}  '
-          f'space {result.space}  ({1e3 * elapsed:.1f} ms)')
+          f'{where}({1e3 * elapsed_s:.1f} ms)')
     if result.slip_twist_scaled:
-        print('slip twist (scaled vx, vy, vz, wx*L_c, wy*L_c, wz*L_c): '
+        names = _TWIST_NAMES[len(result.slip_twist_scaled)]
+        print(f'slip twist (scaled {names}): '
               + ' '.join(f'{v:+.4f}' for v in result.slip_twist_scaled))
     if result.flags:
         print('flags: ' + ', '.join(result.flags))
-    print(('reason: ' + result.reason + ': ' if result.reason else '') + result.detail)
+    if result.reason:
+        print(f'reason: {result.reason}: {result.detail}')
+    elif always_detail:
+        print(result.detail)
     return 0
 
 

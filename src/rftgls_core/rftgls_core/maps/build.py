@@ -35,7 +35,7 @@ from ..anchor import DEFAULT_METHOD, DEFAULT_TWISTS, AnchorModel
 from ..rft.media import Medium, get_medium
 from ..robots.presets import get_robot
 from .grid import MapGrid, default_grid
-from .hdf5 import STATUS_NAMES, MapData
+from .hdf5 import STATUS_NAMES, MapData, empty_answers
 
 
 @dataclass(frozen=True)
@@ -183,11 +183,7 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
         results = _run_pool(spec, grid, chunks, min(workers, len(chunks)))
 
     P, K, S = len(grid.pulls), len(grid.phi), grid.n_states
-    cap = np.full((S, P, K), np.nan)
-    ts = np.full((S, P, K, 3), np.nan)
-    tr = np.full((S, P, K, 3), np.nan)
-    status = np.zeros((S, P, K), dtype=np.uint8)
-    reasons = np.empty((S, P, K), dtype=object)
+    cap, ts, tr, status, reasons = empty_answers((S, P, K), 3)
     from tqdm import tqdm
     with tqdm(total=S, unit='state', file=sys.stderr, disable=not progress,
               desc=f'map {spec.robot}/{med.name}', dynamic_ncols=True) as bar:

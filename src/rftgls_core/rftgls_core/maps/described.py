@@ -30,7 +30,6 @@ the grid; and a query that names a different description identity is refused
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import itertools
 import json
 import math
@@ -46,8 +45,8 @@ from .. import __version__
 from ..scene import SceneResult
 from ..types import Status
 from .errors import MapFileError
-from .grid import DEFAULT_PHI_DEG, check_axis
-from .hdf5 import STATUS_NAMES
+from .grid import DEFAULT_PHI_DEG, GridShape, check_axis, check_pulls
+from .hdf5 import STATUS_NAMES, ContentHash, empty_answers
 from .interpolate import locate
 
 SCHEMA = 'rftgls.described_map'
@@ -60,7 +59,7 @@ _BAD_PRIORITY = (Status.UNSUPPORTED, Status.DEGENERATE, Status.INVALID_INPUT, St
 
 
 @dataclass(frozen=True, eq=False)
-class DescribedGrid:
+class DescribedGrid(GridShape):
     """State axes of a described map (SI, the description's order), phi (rad) and pulls."""
 
     names: tuple[str, ...]
@@ -76,20 +75,7 @@ class DescribedGrid:
         object.__setattr__(self, 'axes', tuple(check_axis(n, a)
                                                for n, a in zip(self.names, self.axes)))
         object.__setattr__(self, 'phi', check_axis('phi', self.phi))
-        if not self.pulls or len(set(self.pulls)) != len(self.pulls):
-            raise ValueError(f'pulls must be distinct and non-empty, got {self.pulls!r}')
-
-    @property
-    def state_shape(self) -> tuple[int, ...]:
-        return tuple(len(a) for a in self.axes)
-
-    @property
-    def n_states(self) -> int:
-        return int(np.prod(self.state_shape))
-
-    @property
-    def shape(self) -> tuple[int, ...]:
-        return (len(self.pulls),) + self.state_shape + (len(self.phi),)
+        check_pulls(self.pulls)
 
     def values(self, k: int) -> dict[str, float]:
         """State values (SI, by name) of flat C-order state index k."""
@@ -167,11 +153,7 @@ def build_described_map(desc, medium, grid: DescribedGrid | None = None, *,
     space = 'sagittal' if desc.symmetry == 'sagittal' else 'auto'
     sm = SceneModel(medium, model=model, method=method, n_twists=n_twists, space=space)
     P, K, S = len(grid.pulls), len(grid.phi), grid.n_states
-    cap = np.full((P, S, K), np.nan)
-    ts = np.full((P, S, K, 6), np.nan)
-    tr = np.full((P, S, K, 6), np.nan)
-    status = np.zeros((P, S, K), dtype=np.uint8)
-    reasons = np.empty((P, S, K), dtype=object)
+    cap, ts, tr, status, reasons = empty_answers((P, S, K), 6)
     for k in tqdm(range(S), unit='state', disable=not progress, desc=f'map {desc.name}'):
         values = grid.values(k)
         outside = desc.violations(values)
@@ -212,29 +194,17 @@ def build_described_map(desc, medium, grid: DescribedGrid | None = None, *,
 
 def content_sha256(data: DescribedMapData) -> str:
     """Hex SHA-256 over what defines the answers (as hdf5.content_sha256 for robot maps)."""
-    h = hashlib.sha256(b'rftgls.described_map/content/1\0')
-
-    def feed(name: str, payload: bytes) -> None:
-        h.update(name.encode() + b'\0' + len(payload).to_bytes(8, 'little') + payload)
-
-    def array(name: str, a, dtype: str) -> None:
-        a = np.ascontiguousarray(np.asarray(a).astype(dtype, copy=False))
-        feed(name, f'{a.dtype.str}{a.shape}'.encode() + b'\0' + a.tobytes())
+    h = ContentHash(b'rftgls.described_map/content/1\0')
     for key in ANSWER_ATTRS:
-        feed(f'@{key}', str(data.attrs.get(key, '')).encode())
+        h.feed(f'@{key}', str(data.attrs.get(key, '')).encode())
     g = data.grid
     for n, u, a in zip(g.names, g.units, g.axes):
-        feed(f'unit/{n}', u.encode())
-        array(f'axes/{n}', a, '<f8')
-    array('axes/phi', g.phi, '<f8')
-    feed('axes/pull', '\n'.join(g.pulls).encode())
-    array('capacity_N', data.capacity_N, '<f4')
-    array('slip_twist_scaled', data.slip_twist_scaled, '<f4')
-    array('slip_twist', data.slip_twist, '<f4')
-    array('status', data.status, 'u1')
-    feed('status_names', '\n'.join(STATUS_NAMES).encode())
-    array('reason', data.reason, 'u1')
-    feed('reason_names', '\n'.join(data.reason_names).encode())
+        h.feed(f'unit/{n}', u.encode())
+        h.array(f'axes/{n}', a, '<f8')
+    h.array('axes/phi', g.phi, '<f8')
+    h.feed('axes/pull', '\n'.join(g.pulls).encode())
+    h.answers(data.capacity_N, data.slip_twist_scaled, data.slip_twist, data.status,
+              STATUS_NAMES, data.reason, data.reason_names)
     return h.hexdigest()
 
 

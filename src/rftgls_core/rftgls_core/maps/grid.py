@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -65,8 +66,42 @@ def parse_range(text: str) -> np.ndarray:
         raise ValueError(f'bad range {text!r}: use start:step:stop (step > 0) or a,b,c') from None
 
 
+def check_pulls(pulls: tuple[str, ...]) -> tuple[str, ...]:
+    """pulls unchanged when distinct and non-empty; ValueError otherwise."""
+    if not pulls or len(set(pulls)) != len(pulls):
+        raise ValueError(f'pulls must be distinct and non-empty, got {pulls!r}')
+    return pulls
+
+
+class _HasAxes(Protocol):
+    @property
+    def axes(self) -> tuple[np.ndarray, ...]: ...
+    @property
+    def phi(self) -> np.ndarray: ...
+    @property
+    def pulls(self) -> tuple[str, ...]: ...
+
+
+class GridShape:
+    """Array shapes of a map grid with `axes` (state axes in order), `phi` and `pulls`; shared
+    by the robot grid and the described grid, whose answer arrays are laid out alike."""
+
+    @property
+    def state_shape(self: _HasAxes) -> tuple[int, ...]:
+        return tuple(len(a) for a in self.axes)
+
+    @property
+    def n_states(self: _HasAxes) -> int:
+        return int(np.prod([len(a) for a in self.axes]))
+
+    @property
+    def shape(self: _HasAxes) -> tuple[int, ...]:
+        """Shape of a per-answer array: (n_pull, *state axes, n_phi)."""
+        return (len(self.pulls),) + tuple(len(a) for a in self.axes) + (len(self.phi),)
+
+
 @dataclass(frozen=True, eq=False)
-class MapGrid:
+class MapGrid(GridShape):
     """State axes (m, rad), pull angles phi (rad) and pull orientations of a map."""
 
     h: np.ndarray
@@ -81,10 +116,8 @@ class MapGrid:
             a = check_axis(name, getattr(self, name))
             a.setflags(write=False)
             object.__setattr__(self, name, a)
-        pulls = tuple(Pull(p).value for p in self.pulls)
-        if not pulls or len(set(pulls)) != len(pulls):
-            raise ValueError(f'pulls must be distinct and non-empty, got {self.pulls!r}')
-        object.__setattr__(self, 'pulls', pulls)
+        object.__setattr__(self, 'pulls', check_pulls(tuple(Pull(p).value
+                                                            for p in self.pulls)))
 
     def __eq__(self, other) -> bool:
         return (isinstance(other, MapGrid) and self.pulls == other.pulls
@@ -102,19 +135,6 @@ class MapGrid:
     @property
     def axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         return (self.h, self.theta_b, self.theta_l1, self.theta_l2)
-
-    @property
-    def state_shape(self) -> tuple[int, int, int, int]:
-        return (len(self.h), len(self.theta_b), len(self.theta_l1), len(self.theta_l2))
-
-    @property
-    def n_states(self) -> int:
-        return int(np.prod(self.state_shape))
-
-    @property
-    def shape(self) -> tuple[int, ...]:
-        """Shape of a per-answer array: (n_pull, n_h, n_b, n_l1, n_l2, n_phi)."""
-        return (len(self.pulls),) + self.state_shape + (len(self.phi),)
 
     def state(self, k: int) -> AnchorState:
         """The anchor state of flat (C-order) state index k."""

@@ -129,6 +129,47 @@ def _canon_attr(value) -> bytes:
     return b's:' + str(value).encode('utf-8')
 
 
+def empty_answers(shape: tuple[int, ...], twist_dim: int):
+    """Answer arrays to fill, (capacity_N, slip_twist_scaled, slip_twist, status, reasons):
+    NaN capacities and twists (twist_dim components last), status 0, reasons None (object)."""
+    return (np.full(shape, np.nan), np.full(shape + (twist_dim,), np.nan),
+            np.full(shape + (twist_dim,), np.nan), np.zeros(shape, dtype=np.uint8),
+            np.empty(shape, dtype=object))
+
+
+class ContentHash:
+    """SHA-256 over a map's answers, item by item (robot maps and described maps alike).
+
+    Each item is fed as its name, its payload length and the payload; arrays are cast to the
+    stored dtype and fed as dtype, shape and little-endian C-order bytes. The first bytes are
+    the map kind's tag, so two kinds never share a digest.
+    """
+
+    def __init__(self, tag: bytes):
+        self._h = hashlib.sha256(tag)
+
+    def feed(self, name: str, payload: bytes) -> None:
+        self._h.update(name.encode() + b'\0' + len(payload).to_bytes(8, 'little') + payload)
+
+    def array(self, name: str, a, dtype: str) -> None:
+        a = np.ascontiguousarray(np.asarray(a).astype(dtype, copy=False))
+        self.feed(name, f'{a.dtype.str}{a.shape}'.encode() + b'\0' + a.tobytes())
+
+    def answers(self, capacity_N, slip_twist_scaled, slip_twist, status, status_names, reason,
+                reason_names) -> None:
+        """The answer arrays and their name tables, in the stored dtypes and this order."""
+        self.array('capacity_N', capacity_N, '<f4')
+        self.array('slip_twist_scaled', slip_twist_scaled, '<f4')
+        self.array('slip_twist', slip_twist, '<f4')
+        self.array('status', status, 'u1')
+        self.feed('status_names', '\n'.join(map(str, status_names)).encode())
+        self.array('reason', reason, 'u1')
+        self.feed('reason_names', '\n'.join(map(str, reason_names)).encode())
+
+    def hexdigest(self) -> str:
+        return self._h.hexdigest()
+
+
 def content_sha256(grid: MapGrid, capacity_N, slip_twist_scaled, slip_twist, status,
                    status_names, reason, reason_names, attrs: dict) -> str:
     """Hex SHA-256 over everything that defines a map's answers, in the stored dtypes.
@@ -137,27 +178,14 @@ def content_sha256(grid: MapGrid, capacity_N, slip_twist_scaled, slip_twist, sta
     attributes and name tables), so a changed value, a relabelled pull, a flipped bit in an
     axis or a re-ordered status table all change the digest.
     """
-    h = hashlib.sha256(b'rftgls.capacity_map/content/1\0')
-
-    def feed(name: str, payload: bytes) -> None:
-        h.update(name.encode() + b'\0' + len(payload).to_bytes(8, 'little') + payload)
-
-    def array(name: str, a, dtype: str) -> None:
-        a = np.ascontiguousarray(np.asarray(a).astype(dtype, copy=False))
-        feed(name, f'{a.dtype.str}{a.shape}'.encode() + b'\0' + a.tobytes())
-
+    h = ContentHash(b'rftgls.capacity_map/content/1\0')
     for key in ANSWER_ATTRS:
-        feed(f'@{key}', _canon_attr(attrs.get(key, '')))
+        h.feed(f'@{key}', _canon_attr(attrs.get(key, '')))
     for name in AXES:
-        array(f'axes/{name}', getattr(grid, name), '<f8')
-    feed('axes/pull', '\n'.join(grid.pulls).encode())
-    array('capacity_N', capacity_N, '<f4')
-    array('slip_twist_scaled', slip_twist_scaled, '<f4')
-    array('slip_twist', slip_twist, '<f4')
-    array('status', status, 'u1')
-    feed('status_names', '\n'.join(map(str, status_names)).encode())
-    array('reason', reason, 'u1')
-    feed('reason_names', '\n'.join(map(str, reason_names)).encode())
+        h.array(f'axes/{name}', getattr(grid, name), '<f8')
+    h.feed('axes/pull', '\n'.join(grid.pulls).encode())
+    h.answers(capacity_N, slip_twist_scaled, slip_twist, status, status_names, reason,
+              reason_names)
     return h.hexdigest()
 
 

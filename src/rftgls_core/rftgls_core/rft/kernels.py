@@ -22,6 +22,7 @@ If numba is missing, `AVAILABLE` is False and the engine uses numpy.
 """
 from __future__ import annotations
 
+import functools
 import math
 import multiprocessing
 import os
@@ -114,6 +115,27 @@ def _coefficients(poly, f):
             q[26], q[27], q[28], q[29])
 
 
+@_jit(inline=True)
+def _rest_tolerances(s2max, rest_tol):
+    """Per twist of a block: a facet is at rest below rest_tol x the fastest facet speed
+    (s2max: squared speeds, the tolerance floored at the dtype's tiny); in s2max's dtype."""
+    nb = s2max.shape[0]
+    tol = np.empty(nb, dtype=s2max.dtype)
+    tiny = np.finfo(s2max.dtype).tiny
+    # sqrt is monotone and correctly rounded: sqrt(max s^2) == max(sqrt(s^2)).
+    for i in range(nb):
+        tol[i] = rest_tol * max(math.sqrt(s2max[i]), tiny)
+    return tol
+
+
+@_jit(inline=True)
+def _store(acc, m0, out):
+    """Block accumulators acc (width, nb) into out[m0:m0 + nb, :width] (twist-major)."""
+    for i in range(acc.shape[1]):
+        for j in range(acc.shape[0]):
+            out[m0 + i, j] = acc[j, i]
+
+
 @_jit()
 def _spatial_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
     """Wrenches of twists m0..m1 (tw (6, M), SoA) into out[m0:m1]; c = (0, 1, lead, rest)."""
@@ -130,11 +152,7 @@ def _spatial_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
             vy = tw[1, m] + tw[5, m] * rx - tw[3, m] * rz
             vz = tw[2, m] + tw[3, m] * ry - tw[4, m] * rx
             s2max[i] = max(s2max[i], vx * vx + vy * vy + vz * vz)
-    # sqrt is monotone and correctly rounded: sqrt(max s^2) == max(sqrt(s^2)).
-    tol = np.empty(nb, dtype=tw.dtype)
-    tiny = np.finfo(tw.dtype).tiny
-    for i in range(nb):
-        tol[i] = rest_tol * max(math.sqrt(s2max[i]), tiny)
+    tol = _rest_tolerances(s2max, rest_tol)
     acc = np.zeros((6, nb))
     for f in range(nf):
         rx, ry, rz = r[f, 0], r[f, 1], r[f, 2]
@@ -165,9 +183,7 @@ def _spatial_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
             acc[3, i] += ry * fz - rz * fy
             acc[4, i] += rz * fx - rx * fz
             acc[5, i] += rx * fy - ry * fx
-    for i in range(nb):
-        for j in range(6):
-            out[m0 + i, j] = acc[j, i]
+    _store(acc, m0, out)
 
 
 @_jit()
@@ -185,10 +201,7 @@ def _planar_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
             vx = tw[0, m] + tw[2, m] * rz
             vz = tw[1, m] - tw[2, m] * rx
             s2max[i] = max(s2max[i], vx * vx + vz * vz)
-    tol = np.empty(nb, dtype=tw.dtype)
-    tiny = np.finfo(tw.dtype).tiny
-    for i in range(nb):
-        tol[i] = rest_tol * max(math.sqrt(s2max[i]), tiny)
+    tol = _rest_tolerances(s2max, rest_tol)
     acc = np.zeros((3, nb))
     for f in range(nf):
         rx, rz = r[f, 0], r[f, 2]
@@ -213,41 +226,40 @@ def _planar_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
             acc[0, i] += fx
             acc[1, i] += fz
             acc[2, i] += rz * fx - rx * fz
-    for i in range(nb):
-        for j in range(3):
-            out[m0 + i, j] = acc[j, i]
+    _store(acc, m0, out)
+
+
+@_jit(inline=True)
+def _block(planar, b, tw, r, n, nd, poly, w, mu, c, out):
+    """Block number b of twists tw (planar: (3, M) -> out (M, 3); else (6, M) -> (M, 6))."""
+    m0, m1 = b * BLOCK, min(tw.shape[1], (b + 1) * BLOCK)
+    if planar:
+        _planar_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out)
+    else:
+        _spatial_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out)
 
 
 @_jit()
-def spatial_serial(tw, r, n, nd, poly, w, mu, c, out):
-    """(Fx, Fy, Fz, Mx, My, Mz) / xi_n per spatial twist, tw (6, M); one thread."""
-    m = tw.shape[1]
-    for b in range((m + BLOCK - 1) // BLOCK):
-        _spatial_block(tw, b * BLOCK, min(m, (b + 1) * BLOCK), r, n, nd, poly, w, mu, c, out)
+def blocks_serial(planar, tw, r, n, nd, poly, w, mu, c, out):
+    """All blocks of tw in one thread (planar: bool, see `_block`)."""
+    for b in range((tw.shape[1] + BLOCK - 1) // BLOCK):
+        _block(planar, b, tw, r, n, nd, poly, w, mu, c, out)
 
 
 @_jit(parallel=True)
-def spatial_parallel(tw, r, n, nd, poly, w, mu, c, out):
-    """As spatial_serial, blocks spread over numba's threads."""
-    m = tw.shape[1]
-    for b in _prange((m + BLOCK - 1) // BLOCK):
-        _spatial_block(tw, b * BLOCK, min(m, (b + 1) * BLOCK), r, n, nd, poly, w, mu, c, out)
+def blocks_parallel(planar, tw, r, n, nd, poly, w, mu, c, out):
+    """As blocks_serial, the blocks spread over numba's threads."""
+    for b in _prange((tw.shape[1] + BLOCK - 1) // BLOCK):
+        _block(planar, b, tw, r, n, nd, poly, w, mu, c, out)
 
 
-@_jit()
-def planar_serial(tw, r, n, nd, poly, w, mu, c, out):
-    """(Fx, Fz, My) / xi_n per planar twist, tw (3, M) = (vx, vz, wy); one thread."""
-    m = tw.shape[1]
-    for b in range((m + BLOCK - 1) // BLOCK):
-        _planar_block(tw, b * BLOCK, min(m, (b + 1) * BLOCK), r, n, nd, poly, w, mu, c, out)
-
-
-@_jit(parallel=True)
-def planar_parallel(tw, r, n, nd, poly, w, mu, c, out):
-    """As planar_serial, blocks spread over numba's threads."""
-    m = tw.shape[1]
-    for b in _prange((m + BLOCK - 1) // BLOCK):
-        _planar_block(tw, b * BLOCK, min(m, (b + 1) * BLOCK), r, n, nd, poly, w, mu, c, out)
+# The engine's four entry points, args (tw, r, n, nd, poly, w, mu, c, out):
+# (Fx, Fy, Fz, Mx, My, Mz) / xi_n per spatial twist, tw (6, M), and
+# (Fx, Fz, My) / xi_n per planar twist, tw (3, M) = (vx, vz, wy); one thread or numba's threads.
+spatial_serial = functools.partial(blocks_serial, False)
+spatial_parallel = functools.partial(blocks_parallel, False)
+planar_serial = functools.partial(blocks_serial, True)
+planar_parallel = functools.partial(blocks_parallel, True)
 
 
 def constants(dtype) -> np.ndarray:

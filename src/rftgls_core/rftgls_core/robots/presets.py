@@ -28,27 +28,30 @@ def _leg(n_arc: int):
                  n_arc=n_arc)
 
 
+# What the two robots share and the paper does not give (see the table above).
+_ASSUMED = {'leg_width_m': 'assumed', 'axle_z_m': 'assumed', 'leg_y_m': 'assumed',
+            'com': 'assumed midway between axles', 'plate_length_m': 'assumed'}
+
+
+def _robot(name: str, mass: float, axles: tuple[float, float], leg_y: tuple[float, float],
+           plate_length: float, n_arc: int, notes: dict[str, str]) -> RobotModel:
+    """A robot of the paper's layout: mass kg, axles x (m from p), the same C-legs at
+    AXLE_HEIGHT, centre of mass midway between the axles, L_c = 0.1 m."""
+    return RobotModel(
+        name=name, mass=mass, com=(0.5 * sum(axles), AXLE_HEIGHT), axle_x=axles,
+        axle_z=AXLE_HEIGHT, leg_y=leg_y, leg_mesh=_leg(n_arc), plate_length=plate_length,
+        char_length=0.1, notes={**notes, **_ASSUMED})
+
+
 @lru_cache(maxsize=16)
 def prototype(n_arc: int = LEG_ARC_SEGMENTS) -> RobotModel:
-    axles = (0.050, 0.120)
-    return RobotModel(
-        name='prototype', mass=0.120, com=(0.5 * sum(axles), AXLE_HEIGHT), axle_x=axles,
-        axle_z=AXLE_HEIGHT, leg_y=(0.040, 0.055), leg_mesh=_leg(n_arc), plate_length=0.140,
-        char_length=0.1,
-        notes={'leg_width_m': 'assumed', 'axle_z_m': 'assumed', 'leg_y_m': 'assumed',
-               'com': 'assumed midway between axles', 'plate_length_m': 'assumed'})
+    return _robot('prototype', 0.120, (0.050, 0.120), (0.040, 0.055), 0.140, n_arc, {})
 
 
 @lru_cache(maxsize=16)
 def minirquad(n_arc: int = LEG_ARC_SEGMENTS) -> RobotModel:
-    axles = (0.030, 0.120)
-    return RobotModel(
-        name='minirquad', mass=0.296, com=(0.5 * sum(axles), AXLE_HEIGHT), axle_x=axles,
-        axle_z=AXLE_HEIGHT, leg_y=(0.045, 0.055), leg_mesh=_leg(n_arc), plate_length=0.150,
-        char_length=0.1,
-        notes={'proximal_axle_x_m': 'assumed (wheelbase 0.090 m from the paper)',
-               'leg_width_m': 'assumed', 'axle_z_m': 'assumed', 'leg_y_m': 'assumed',
-               'com': 'assumed midway between axles', 'plate_length_m': 'assumed'})
+    return _robot('minirquad', 0.296, (0.030, 0.120), (0.045, 0.055), 0.150, n_arc,
+                  {'proximal_axle_x_m': 'assumed (wheelbase 0.090 m from the paper)'})
 
 
 ROBOTS = {'prototype': prototype, 'minirquad': minirquad}

@@ -23,7 +23,20 @@ def _tangent_basis(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def unit_rows(x: np.ndarray) -> np.ndarray:
-    return x / np.linalg.norm(x, axis=-1, keepdims=True)
+    """Rows of x (..., n) scaled to unit length; an all-zero row stays zero."""
+    n = np.linalg.norm(x, axis=-1, keepdims=True)
+    return x / np.where(n > 0.0, n, 1.0)
+
+
+def damped_newton_step(jac: np.ndarray, r: np.ndarray, max_norm: float = 0.3) -> np.ndarray:
+    """Newton steps -J^-1 r per row (jac (k, n, n), r (k, n)), pseudo-inverse when a J is
+    singular, each shortened to at most max_norm (rad on the unit sphere: a trust region)."""
+    try:
+        step = -np.linalg.solve(jac, r[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        step = -np.einsum('kij,kj->ki', np.linalg.pinv(jac), r)
+    nrm = np.linalg.norm(step, axis=1, keepdims=True)
+    return step * np.minimum(1.0, max_norm / np.maximum(nrm, 1e-300))
 
 
 def newton_on_sphere(eval_scaled: Callable[[np.ndarray], np.ndarray], d: np.ndarray,
@@ -70,12 +83,7 @@ def newton_on_sphere(eval_scaled: Callable[[np.ndarray], np.ndarray], d: np.ndar
         step = np.zeros((k, 2))
         for_new = improved & ~conv
         if np.any(for_new):
-            try:
-                step_n = -np.linalg.solve(jac[for_new], r[for_new][..., None])[..., 0]
-            except np.linalg.LinAlgError:
-                step_n = -np.einsum('kij,kj->ki', np.linalg.pinv(jac[for_new]), r[for_new])
-            nrm = np.linalg.norm(step_n, axis=1, keepdims=True)
-            step_n *= np.minimum(1.0, 0.3 / np.maximum(nrm, 1e-300))  # trust region, rad
+            step_n = damped_newton_step(jac[for_new], r[for_new])
             step[for_new] = step_n
             best_step[for_new] = step_n
             bu, bv = best_uv

@@ -20,35 +20,31 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .newton import unit_rows
 from .sampling import fibonacci_sphere
 
 
-def _unit_rows(x: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(x, axis=-1, keepdims=True)
-    return x / np.where(n > 0.0, n, 1.0)
-
-
 @dataclass(frozen=True)
-class Scaling:
-    """Force scale s_F (N) and characteristic length L_c (m) of the scaled wrench/twist spaces."""
+class DiagonalScaling:
+    """Force scale s_F (N) and length L_c (m) of a scaled wrench/twist space with the diagonal
+    scale S = `diag` (forces by s_F, moments by s_F L_c): the planar `Scaling` here and the
+    spatial gls6d.Scaling6 differ only in S."""
 
     force_N: float
     length_m: float
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.force_N) and self.force_N > 0.0):
-            raise ValueError(f'force scale must be finite and > 0, got {self.force_N!r}')
-        if not (np.isfinite(self.length_m) and self.length_m > 0.0):
-            raise ValueError(f'length scale must be finite and > 0, got {self.length_m!r}')
+        for name, v in (('force scale', self.force_N), ('length scale', self.length_m)):
+            if not (np.isfinite(v) and v > 0.0):
+                raise ValueError(f'{name} must be finite and > 0, got {v!r}')
 
     @property
     def diag(self) -> np.ndarray:
-        """S = (s_F, s_F, s_F L_c) in (N, N, N m)."""
-        return np.array([self.force_N, self.force_N, self.force_N * self.length_m])
+        raise NotImplementedError
 
     # -- wrenches ---------------------------------------------------------------------------
     def wrench_to_scaled(self, wrench: np.ndarray) -> np.ndarray:
-        """(..., 3) raw (N, N, N m) -> dimensionless (Fx/s_F, Fz/s_F, My/(s_F L_c))."""
+        """(..., n) raw wrenches (N, N m) -> dimensionless W / S."""
         return np.asarray(wrench, dtype=float) / self.diag
 
     def wrench_from_scaled(self, wrench_s: np.ndarray) -> np.ndarray:
@@ -56,19 +52,29 @@ class Scaling:
 
     # -- twists -----------------------------------------------------------------------------
     def twist_to_scaled(self, twist: np.ndarray) -> np.ndarray:
-        """(..., 3) raw twists (m/s, m/s, rad/s) -> unit scaled twists ts = S t / |S t|.
+        """(..., n) raw twists (m/s, rad/s) -> unit scaled twists ts = S t / |S t|.
 
-        Only the direction matters (RFT is rate independent); S t is (vx, vz, wy L_c) times s_F.
+        Only the direction matters (RFT is rate independent); S t is (v, w L_c) times s_F.
         """
-        return _unit_rows(np.asarray(twist, dtype=float) * self.diag)
+        return unit_rows(np.asarray(twist, dtype=float) * self.diag)
 
     def twist_from_scaled(self, twist_s: np.ndarray) -> np.ndarray:
-        """(..., 3) scaled twists -> raw twist directions S^-1 ts, normalised to |t| = 1.
+        """(..., n) scaled twists -> raw twist directions S^-1 ts, normalised to |t| = 1.
 
         The raw norm mixes m/s and rad/s; it is only a convention to return a direction with a
         fixed size. Compare twists in the scaled metric, never with raw angles.
         """
-        return _unit_rows(np.asarray(twist_s, dtype=float) / self.diag)
+        return unit_rows(np.asarray(twist_s, dtype=float) / self.diag)
+
+
+@dataclass(frozen=True)
+class Scaling(DiagonalScaling):
+    """Force scale s_F (N) and characteristic length L_c (m) of the scaled wrench/twist spaces."""
+
+    @property
+    def diag(self) -> np.ndarray:
+        """S = (s_F, s_F, s_F L_c) in (N, N, N m)."""
+        return np.array([self.force_N, self.force_N, self.force_N * self.length_m])
 
     # -- choosing the scales from data ------------------------------------------------------
     @classmethod

@@ -29,6 +29,15 @@ from pathlib import Path
 
 import numpy as np
 
+from rftgls_core.conventions import (
+    LEG_JOINT_NAMES,
+    LEG_KEYS,
+    axle_angles,
+    leg_keys_from_joint_names,
+    tether_direction_xz,
+    tether_phi_from_xz,
+)
+from rftgls_core.geometry.transforms import matrix_to_quat
 from rftgls_core.types import AnchorState
 
 from . import planar
@@ -36,7 +45,7 @@ from . import planar
 SCHEMA = 'rftgls_lab.pull_test'
 SCHEMA_VERSION = 1
 CUSTOM_KEY = 'rftgls_lab.metadata'
-JOINT_NAMES = ('leg_proximal_left', 'leg_proximal_right', 'leg_distal_left', 'leg_distal_right')
+JOINT_NAMES = LEG_JOINT_NAMES
 WORLD_FRAME = 'lab_world'
 CAMERA_FRAME = 'camera_optical'
 MARKERS = ('tank', 'robot')
@@ -307,7 +316,8 @@ def write_pull_test(path: str | Path, test: PullTest, storage: str = 'mcap') -> 
     events.append((test.t0_ns, '/lab/metadata', T['std_msgs/msg/String'](data=meta_json)))
     for t, f, phi in zip(test.force_t, test.tension_N, test.phi_rad):
         k = tns(t)
-        force = V3(x=-f * math.cos(phi), y=0.0, z=f * math.sin(phi))
+        dx, dz = tether_direction_xz(phi)
+        force = V3(x=f * dx, y=0.0, z=f * dz)
         events.append((k, '/winch/tension', T['geometry_msgs/msg/WrenchStamped'](
             header=header(k, WORLD_FRAME),
             wrench=T['geometry_msgs/msg/Wrench'](force=force, torque=V3(x=0.0, y=0.0, z=0.0)))))
@@ -377,7 +387,7 @@ def _tf_static(ts, test: PullTest, header):
     T = ts.types
     transforms = []
     for parent, child, M in static_transforms(test):
-        q = _quaternion(M[:3, :3])
+        q = matrix_to_quat(M[:3, :3])
         transforms.append(T['geometry_msgs/msg/TransformStamped'](
             header=T['std_msgs/msg/Header'](stamp=header.stamp, frame_id=parent),
             child_frame_id=child, transform=T['geometry_msgs/msg/Transform'](
@@ -385,24 +395,6 @@ def _tf_static(ts, test: PullTest, header):
                     x=float(M[0, 3]), y=float(M[1, 3]), z=float(M[2, 3])),
                 rotation=T['geometry_msgs/msg/Quaternion'](x=q[0], y=q[1], z=q[2], w=q[3]))))
     return T['tf2_msgs/msg/TFMessage'](transforms=transforms) if transforms else None
-
-
-def _quaternion(R: np.ndarray) -> tuple[float, float, float, float]:
-    """(x, y, z, w) of a rotation matrix (Shepperd's method: stable for every rotation)."""
-    tr = R[0, 0] + R[1, 1] + R[2, 2]
-    if tr > 0:
-        s = 2.0 * math.sqrt(1.0 + tr)
-        q = (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s, s / 4
-    else:
-        i = int(np.argmax(np.diag(R)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        s = 2.0 * math.sqrt(1.0 + R[i, i] - R[j, j] - R[k, k])
-        v = [0.0, 0.0, 0.0]
-        v[i] = s / 4
-        v[j] = (R[j, i] + R[i, j]) / s
-        v[k] = (R[k, i] + R[i, k]) / s
-        q = v[0], v[1], v[2], (R[k, j] - R[j, k]) / s
-    return tuple(float(a) for a in q)  # type: ignore[return-value]
 
 
 def _tracking_events(ts, tr: Tracking, tns, header) -> list:
@@ -431,30 +423,11 @@ def _tracking_events(ts, tr: Tracking, tns, header) -> list:
 
 def _pose_msg(ts, M: np.ndarray, hdr):
     T = ts.types
-    q = _quat_from_matrix(M[:3, :3])
+    q = matrix_to_quat(M[:3, :3])
     return T['geometry_msgs/msg/PoseStamped'](header=hdr, pose=T['geometry_msgs/msg/Pose'](
         position=T['geometry_msgs/msg/Point'](x=float(M[0, 3]), y=float(M[1, 3]),
                                               z=float(M[2, 3])),
         orientation=T['geometry_msgs/msg/Quaternion'](x=q[0], y=q[1], z=q[2], w=q[3])))
-
-
-def _quat_from_matrix(R: np.ndarray) -> tuple[float, float, float, float]:
-    """(x, y, z, w) of a rotation matrix (Shepperd's method: stable for every rotation)."""
-    tr = np.trace(R)
-    i = int(np.argmax([tr, R[0, 0], R[1, 1], R[2, 2]]))
-    if i == 0:
-        s = 2.0 * math.sqrt(1.0 + tr)
-        q = (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s, s / 4
-    elif i == 1:
-        s = 2.0 * math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2])
-        q = s / 4, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s, (R[2, 1] - R[1, 2]) / s
-    elif i == 2:
-        s = 2.0 * math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2])
-        q = (R[0, 1] + R[1, 0]) / s, s / 4, (R[1, 2] + R[2, 1]) / s, (R[0, 2] - R[2, 0]) / s
-    else:
-        s = 2.0 * math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1])
-        q = (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, s / 4, (R[1, 0] - R[0, 1]) / s
-    return tuple(float(v) for v in q)
 
 
 def _matrix_from_pose(pose) -> np.ndarray:
@@ -515,19 +488,19 @@ def _read_pull_test(path, images: bool) -> PullTest:
             elif c.topic == '/winch/tension':
                 f = msg.wrench.force
                 force.append((k, math.sqrt(f.x * f.x + f.y * f.y + f.z * f.z),
-                              math.atan2(f.z, -f.x)))
+                              tether_phi_from_xz(f.x, f.z)))
             elif c.topic == '/lab/p_pose':
                 o = msg.pose.orientation
                 pose.append((k, msg.pose.position.x, msg.pose.position.z,
                              float(planar.theta_from_quaternion(np.array([o.x, o.y, o.z, o.w])))))
             elif c.topic == '/joint_states':
-                pos = dict(zip(msg.name, msg.position))
-                try:
-                    l1 = 0.5 * (pos['leg_proximal_left'] + pos['leg_proximal_right'])
-                    l2 = 0.5 * (pos['leg_distal_left'] + pos['leg_distal_right'])
-                except KeyError:
+                keys = leg_keys_from_joint_names(msg.name)
+                legs = {keys[n]: v for n, v in zip(msg.name, msg.position) if n in keys}
+                if len(legs) < len(LEG_KEYS):
                     continue  # other joints only
-                joints.append((k, l1, l2))
+                # left/right agreement is the analysis' concern (the raw legs are not kept)
+                axles = axle_angles(legs, math.pi)
+                joints.append((k, axles.theta_l1, axles.theta_l2))
             elif c.topic == '/lab/tracking':
                 diag.append((k, msg))
             elif c.topic.startswith('/lab/aruco/'):

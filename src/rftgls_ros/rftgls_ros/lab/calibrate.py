@@ -41,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rftgls_core.predictor import Predictor
 from rftgls_core.rft.media import Medium
 from rftgls_core.types import AnchorState
 
@@ -280,7 +281,7 @@ def calibrate(pulls: list[PullObservation],
 
     def pull_forces(xi: float, mu: float) -> np.ndarray:
         med = custom_medium(xi_n=xi, mu_surf=mu)
-        models = {}
+        models: dict[str, Predictor] = {}
         out = np.empty(len(pulls))
         for i, ob in enumerate(pulls):
             if ob.robot not in models:

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from rftgls_core.charts.figure_io import save
+from rftgls_core.predictor import Predictor
 
 from .bag_layout import PullTest, read_pull_test
 from .predict import (
@@ -182,7 +183,7 @@ def evaluate(tests: list[PullTest], methods: list[str], map_path: str | Path | N
              integrator: str = 'heun', progress: bool = True
              ) -> tuple[list[Row], dict[str, list[PredictedPull]]]:
     """Predict every test with every method (medium: None = each bag's own medium)."""
-    predictors: dict = {}
+    predictors: dict[tuple, Predictor] = {}
     rows: list[Row] = []
     preds: dict[str, list[PredictedPull]] = {m: [] for m in methods}
     jobs = [(t, m) for t in tests for m in methods]

@@ -11,6 +11,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from rftgls_core.conventions import (
+    pitch_to_quat_xyzw_array,
+    pure_pitch_quat_xyzw_to_pitch_array,
+)
+
 
 def compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a o b: pose b (given in frame a) expressed in a's parent frame."""
@@ -46,17 +51,7 @@ def from_marker_transform(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return pose, T[..., 2, 3]
 
 
-def quaternion_from_theta(theta: np.ndarray) -> np.ndarray:
-    """(x, y, z, w) of a rotation by theta about world -y (x_B raised by theta toward z).
-
-    Matches capacity_node's reader thetaB = asin(2 (qx qz - qw qy)).
-    """
-    half = 0.5 * np.asarray(theta, float)
-    zero = np.zeros_like(half)
-    return np.stack([zero, -np.sin(half), zero, np.cos(half)], axis=-1)
-
-
-def theta_from_quaternion(q: np.ndarray) -> np.ndarray:
-    """Inverse of quaternion_from_theta for rotations about the y axis (x, y, z, w)."""
-    q = np.asarray(q, float)
-    return wrap(-2.0 * np.arctan2(q[..., 1], q[..., 3]))
+# Planar theta is the body pitch theta_b of rftgls_core.conventions (x_B raised toward z, a
+# rotation about world -y); the quaternion forms live there.
+quaternion_from_theta = pitch_to_quat_xyzw_array
+theta_from_quaternion = pure_pitch_quat_xyzw_to_pitch_array

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rftgls_core.predictor import Predictor
 from rftgls_core.rft.media import Medium, medium_from_dict
 from rftgls_core.rft.media import load_medium as core_load_medium
 from rftgls_core.robots.presets import get_robot
@@ -34,7 +35,9 @@ def load_medium(spec: str | Path | dict) -> Medium:
 
 
 def make_predictor(method: str, robot: str, medium: Medium, map_path: str | Path | None = None,
-                   n_twists: int | None = None):
+                   n_twists: int | None = None) -> Predictor:
+    """The core Predictor of `method` (one of METHODS) for `robot` in `medium`: the live
+    AnchorModel, or for 'map' the CapacityMap at map_path (checked to be of `robot`)."""
     if method == 'map':
         if map_path is None:
             raise ValueError("method 'map' needs a map file")
@@ -91,7 +94,7 @@ class PredictedPull:
         return float(np.nanmax(f)) if np.isfinite(f).any() else math.nan
 
 
-def predict_pull(predictor, test: PullTest, method: str, step: float = 1e-3,
+def predict_pull(predictor: Predictor, test: PullTest, method: str, step: float = 1e-3,
                  max_travel: float = 0.04, integrator: str = 'heun',
                  state: AnchorState | None = None) -> PredictedPull:
     """Capacity and slip trajectory of `test` (initial state measured unless given)."""

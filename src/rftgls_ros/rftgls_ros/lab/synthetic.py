@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rftgls_core.predictor import Predictor
 from rftgls_core.rft.media import Medium, custom_medium, get_medium
 from rftgls_core.types import AnchorState
 
@@ -52,7 +53,7 @@ def synthesize(state: AnchorState, pull: str, truth: Medium, nominal: Medium,
                generator: str = '', speed: float = 2e-3, hold_s: float = 1.0,
                step: float = 1e-3, max_travel: float = 0.04, integrator: str = 'heun',
                method: str = 'twist-mesh', sensors: SensorModel = SensorModel(),
-               seed: int = 0, predictor=None) -> PullTest:
+               seed: int = 0, predictor: Predictor | None = None) -> PullTest:
     """One synthetic pull test (SI). speed: pull speed of p along its path, m/s."""
     from rftgls_core.robots.presets import get_robot
     from rftgls_core.sim.trajectory import simulate_pull
