@@ -34,6 +34,8 @@ from .. import __version__
 from ..anchor import DEFAULT_METHOD, DEFAULT_TWISTS, AnchorModel
 from ..rft.media import Medium, get_medium
 from ..robots.presets import get_robot
+from ..surfaces.twist_sphere import TwistSphere
+from .edge import node_margin_gradient, node_support_margin
 from .grid import MapGrid, default_grid
 from .hdf5 import STATUS_NAMES, MapData
 
@@ -64,6 +66,8 @@ class ChunkResult:
     slip_twist: np.ndarray
     status: np.ndarray
     reason: list
+    support_margin: np.ndarray      # (len(ks), P), maps/edge.py
+    margin_grad: np.ndarray         # (len(ks), P, 4)
 
 
 _local = threading.local()   # per thread (Dask runs tasks on threads), per process
@@ -81,6 +85,7 @@ def _anchor_model(spec: BuildSpec) -> AnchorModel:
 def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResult:
     """Run the AnchorModel at the flat state indices ks for every pull and pull angle."""
     model = _anchor_model(spec)
+    sphere = TwistSphere.build(spec.n_twists)
     idx = np.asarray(ks, dtype=np.intp)
     n, P, K = len(idx), len(grid.pulls), len(grid.phi)
     cap = np.full((n, P, K), np.nan)
@@ -88,6 +93,8 @@ def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResul
     tr = np.full((n, P, K, 3), np.nan)
     status = np.zeros((n, P, K), dtype=np.uint8)
     reason = [[[''] * K for _ in range(P)] for _ in range(n)]
+    margin = np.full((n, P), np.nan)
+    grad = np.full((n, P, 4), np.nan)
     for a, k in enumerate(idx.tolist()):
         state = grid.state(k)
         for p, pull in enumerate(grid.pulls):
@@ -98,7 +105,11 @@ def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResul
                     cap[a, p, j] = r.capacity_N
                     ts[a, p, j] = r.slip_twist_scaled
                     tr[a, p, j] = r.slip_twist
-    return ChunkResult(idx, cap, ts, tr, status, reason)
+            held = bool(np.isfinite(cap[a, p]).any())
+            margin[a, p] = node_support_margin(model, sphere, state, pull, held)
+            if np.isfinite(margin[a, p]):
+                grad[a, p] = node_margin_gradient(model, sphere, grid, k, pull)
+    return ChunkResult(idx, cap, ts, tr, status, reason, margin, grad)
 
 
 def chunk_indices(n_states: int, workers: int, per_worker: int = 8) -> list[np.ndarray]:
@@ -187,6 +198,8 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
     ts = np.full((S, P, K, 3), np.nan)
     tr = np.full((S, P, K, 3), np.nan)
     status = np.zeros((S, P, K), dtype=np.uint8)
+    margin = np.full((S, P), np.nan)
+    grad = np.full((S, P, 4), np.nan)
     reasons = np.empty((S, P, K), dtype=object)
     from tqdm import tqdm
     with tqdm(total=S, unit='state', file=sys.stderr, disable=not progress,
@@ -194,6 +207,8 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
         for r in results:
             cap[r.ks], ts[r.ks], tr[r.ks], status[r.ks] = (r.capacity_N, r.slip_twist_scaled,
                                                            r.slip_twist, r.status)
+            margin[r.ks] = r.support_margin
+            grad[r.ks] = r.margin_grad
             for a, k in enumerate(r.ks.tolist()):
                 for p in range(P):
                     reasons[k, p, :] = r.reason[a][p]
@@ -221,7 +236,8 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
                    slip_twist_scaled=arrange(ts).astype(np.float32),
                    slip_twist=arrange(tr).astype(np.float32),
                    status=arrange(status), reason=arrange(reason), reason_names=names,
-                   attrs=attrs)
+                   attrs=attrs, support_margin=arrange(margin).astype(np.float32),
+                   support_margin_grad=arrange(grad).astype(np.float32))
 
 
 def spec_from_map(data: MapData) -> BuildSpec:
