@@ -1,11 +1,12 @@
 """Capacity-map files: the HDF5 schema, `save_map` and `load_map` (with validation).
 
-Schema `rftgls.capacity_map`, version 1 (SCHEMA_VERSION). P = number of pull orientations,
-(Nh, Nb, N1, N2) = state axes, K = pull angles. Everything is SI.
+Schema `rftgls.capacity_map`, version 2 (SCHEMA_VERSION; version 1 files, without the two
+support-margin datasets, still load, with the edge-margin rule off). P = number of pull
+orientations, (Nh, Nb, N1, N2) = state axes, K = pull angles. Everything is SI.
 
     /                          root attributes
         schema                 'rftgls.capacity_map'
-        schema_version         int, 1
+        schema_version         int, 2 (1: no /support_margin*)
         robot, medium          preset names
         method, rft_model      limit-surface method, RFT stress model name
         n_twists               twists sampled per state
@@ -36,6 +37,12 @@ Schema `rftgls.capacity_map`, version 1 (SCHEMA_VERSION). P = number of pull ori
                                (types.Status values)
     /reason                    (P, Nh, Nb, N1, N2, K) uint8; attr reason_names: code -> reason
                                string of CapacityResult ('' = none), sorted
+    /support_margin            (P, Nh, Nb, N1, N2) float32, scaled metric: distance of the
+                               origin from the sampled limit surface, >= 0 where the weight is
+                               held, <= 0 where not, NaN without a surface (edge.py)
+    /support_margin_grad       (P, Nh, Nb, N1, N2, 4) float32, its gradient along (h, theta_b,
+                               theta_l1, theta_l2) in 1/m and 1/rad (NaN: a sample without
+                               a surface)
 
 Axes are strictly increasing, finite, with >= 2 nodes. Every axis and value array must exist
 with exactly these shapes and dtype kinds; a file that fails any check raises MapFileError with

@@ -19,6 +19,14 @@ Policies (docs/design/architecture.md, docs/design/limit-surfaces.md):
   does not fall to 0), so no blend can place the edge; near the valued corners the state
   measured on the holding side (maps/README.md: 300 random states per robot, no answer where
   the live solver says unsupported, worst overestimate that of interior cells).
+- Support edge, edge-margin rule (default on schema-2 maps, edge.py): otherwise, when the
+  valueless corners are all UNSUPPORTED and every weighted corner has a support margin, the
+  margin is interpolated (the multilinear blend of the 16 state corners' first-order Taylor
+  predictions m_i + grad_i . (x - x_i)); at >= edge_min_margin (EDGE_MIN_MARGIN, 0.13) the
+  query lies on the holding side and the answer is the valued corners' blend, renormalised,
+  capped at s_F x margin (a lower bound of the first exit: the origin is at least that far
+  from the surface), status OK with the flag 'edge_margin' (maps/README.md: 3 x 300 random
+  states per robot, no answer where the live solver has none, overestimate unchanged).
 - Support edge, zeros rule (opt-in, `support_edge=True`): a corner that cannot hold the weight
   (UNSUPPORTED) has capacity 0, the value capacity falls to where the origin leaves the limit
   surface. A cell whose only valueless corners are unsupported then answers the blend with
