@@ -196,3 +196,16 @@ def test_schema_2_roundtrip_hash_and_validation(tmp_path):
     flipped = dataclasses.replace(data, support_margin=-np.abs(data.support_margin) - 0.1)
     with pytest.raises(MapFileError, match='support_margin does not match'):
         load_map(save_map(tmp_path / 'flip.h5', flipped))
+
+
+def test_edge_cell_corners_marks_only_cells_that_straddle_the_support_edge():
+    """On a 3 x 2 x 2 x 2 grid held only at h index 0: the cells between h index 0 and 1
+    straddle the edge, so their corners (h index 0 and 1) need the gradient, h index 2 not;
+    a pull held everywhere needs none."""
+    from rftgls_core.maps.build import edge_cell_corners
+    held = np.zeros((2, 3, 2, 2, 2), dtype=bool)
+    held[0, 0] = True
+    held[1] = True
+    need = edge_cell_corners(held)
+    assert need[0, :2].all() and not need[0, 2].any()
+    assert not need[1].any()

@@ -41,8 +41,9 @@ orientations, (Nh, Nb, N1, N2) = state axes, K = pull angles. Everything is SI.
                                origin from the sampled limit surface, >= 0 where the weight is
                                held, <= 0 where not, NaN without a surface (edge.py)
     /support_margin_grad       (P, Nh, Nb, N1, N2, 4) float32, its gradient along (h, theta_b,
-                               theta_l1, theta_l2) in 1/m and 1/rad (NaN: a sample without
-                               a surface)
+                               theta_l1, theta_l2) in 1/m and 1/rad, at the corners of cells
+                               whose nodes disagree on support (NaN elsewhere, or where a
+                               sample has no surface)
 
 Axes are strictly increasing, finite, with >= 2 nodes. Every axis and value array must exist
 with exactly these shapes and dtype kinds; a file that fails any check raises MapFileError with
