@@ -1,8 +1,9 @@
 """Information from inside support-edge cells: the per-node support margin (schema 2 maps).
 
-The capacity along d(phi) does not fall to zero at the support edge, it stops (docs/design/
-maps.md): what ends is the origin of W_ext space (zero external load: the robot's weight
-alone) lying inside the limit surface, and that happens in another load direction. The
+The capacity along d(phi) does not fall to zero at the support edge, it stops
+(docs/design/maps.md): what ends is the origin of W_ext space (zero external load: the
+robot's weight alone) lying inside the limit surface, and that happens in another load
+direction. The
 support margin is a continuous quantity whose zero is that edge, so the map can interpolate it
 inside a cell whose corners disagree on support:
 
