@@ -112,7 +112,7 @@ def test_cli_build_info_and_errors(tmp_path):
                           text=True, timeout=60)
     assert info.returncode == 0, info.stderr
     d = json.loads(info.stdout)
-    assert d['schema_version'] == 1 and d['axes']['h']['values_mm'] == [10, 20]
+    assert d['schema_version'] == 2 and d['axes']['h']['values_mm'] == [10, 20]
     out.write_bytes(out.read_bytes()[:300])
     bad = subprocess.run(CLI + ['map', 'info', str(out)], capture_output=True, text=True,
                          timeout=60)

@@ -44,7 +44,7 @@ def _rehash(path):
             d = _read(f, None)
         f.attrs[HASH_ATTR] = content_sha256(
             d.grid, d.capacity_N, d.slip_twist_scaled, d.slip_twist, d.status, STATUS_NAMES,
-            d.reason, list(d.reason_names), d.attrs)
+            d.reason, list(d.reason_names), d.attrs, d.support_margin, d.support_margin_grad)
 
 
 def test_saved_map_carries_its_hash_and_verifies(saved):

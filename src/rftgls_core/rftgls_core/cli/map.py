@@ -229,7 +229,8 @@ def info_dict(path: str) -> dict:
                       'max': float(v[-1]), f'values_{unit}': [round(float(x) * f, 6) for x in v]}
     prov = data.provenance
     return {'file': str(path), 'size_bytes': os.path.getsize(path), 'schema': SCHEMA,
-            'schema_version': SCHEMA_VERSION, 'robot': data.attrs['robot'],
+            'schema_version': SCHEMA_VERSION if data.support_margin is not None else 1,
+            'robot': data.attrs['robot'],
             'medium': data.attrs['medium'], 'method': data.attrs['method'],
             'rft_model': data.attrs['rft_model'], 'n_twists': data.attrs['n_twists'],
             'scaling': {'force_N': data.attrs['scaling_force_N'],

@@ -34,6 +34,9 @@ from .. import __version__
 from ..anchor import DEFAULT_METHOD, DEFAULT_TWISTS, AnchorModel
 from ..rft.media import Medium, get_medium
 from ..robots.presets import get_robot
+from ..surfaces.twist_sphere import TwistSphere
+from ..types import Status
+from .edge import node_margin_gradient, node_support_margin
 from .grid import MapGrid, default_grid
 from .hdf5 import STATUS_NAMES, MapData, empty_answers
 
@@ -64,6 +67,7 @@ class ChunkResult:
     slip_twist: np.ndarray
     status: np.ndarray
     reason: list
+    support_margin: np.ndarray      # (len(ks), P), maps/edge.py
 
 
 _local = threading.local()   # per thread (Dask runs tasks on threads), per process
@@ -81,6 +85,7 @@ def _anchor_model(spec: BuildSpec) -> AnchorModel:
 def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResult:
     """Run the AnchorModel at the flat state indices ks for every pull and pull angle."""
     model = _anchor_model(spec)
+    sphere = TwistSphere.build(spec.n_twists)
     idx = np.asarray(ks, dtype=np.intp)
     n, P, K = len(idx), len(grid.pulls), len(grid.phi)
     cap = np.full((n, P, K), np.nan)
@@ -88,6 +93,7 @@ def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResul
     tr = np.full((n, P, K, 3), np.nan)
     status = np.zeros((n, P, K), dtype=np.uint8)
     reason = [[[''] * K for _ in range(P)] for _ in range(n)]
+    margin = np.full((n, P), np.nan)
     for a, k in enumerate(idx.tolist()):
         state = grid.state(k)
         for p, pull in enumerate(grid.pulls):
@@ -98,7 +104,41 @@ def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResul
                     cap[a, p, j] = r.capacity_N
                     ts[a, p, j] = r.slip_twist_scaled
                     tr[a, p, j] = r.slip_twist
-    return ChunkResult(idx, cap, ts, tr, status, reason)
+            held = bool(np.isfinite(cap[a, p]).any())
+            margin[a, p] = node_support_margin(model, sphere, state, pull, held)
+    return ChunkResult(idx, cap, ts, tr, status, reason, margin)
+
+
+def solve_grad_chunk(spec: BuildSpec, grid: MapGrid, jobs: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Support-margin gradients (edge.node_margin_gradient) of jobs (M, 2) = (flat state
+    index, pull index): (jobs, (M, 4))."""
+    model = _anchor_model(spec)
+    sphere = TwistSphere.build(spec.n_twists)
+    out = np.full((len(jobs), 4), np.nan)
+    for a, (k, p) in enumerate(np.asarray(jobs, dtype=np.intp).tolist()):
+        out[a] = node_margin_gradient(model, sphere, grid, k, grid.pulls[p])
+    return np.asarray(jobs), out
+
+
+def edge_cell_corners(held: np.ndarray) -> np.ndarray:
+    """(P, Nh, Nb, N1, N2) bool: corners of the cells whose corners disagree on support
+    (`held`, same shape). Only the edge-margin rule reads the margin gradient, and only in
+    such cells, so the build computes it there alone."""
+    shape = held.shape[1:]
+    any_h = np.zeros((held.shape[0],) + tuple(n - 1 for n in shape), dtype=bool)
+    all_h = np.ones_like(any_h)
+    offsets = [tuple((c >> (3 - a)) & 1 for a in range(4)) for c in range(16)]
+    for o in offsets:
+        sl = (slice(None),) + tuple(slice(b, b + n - 1) for b, n in zip(o, shape))
+        any_h |= held[sl]
+        all_h &= held[sl]
+    mixed = any_h & ~all_h
+    out = np.zeros_like(held)
+    for o in offsets:
+        sl = (slice(None),) + tuple(slice(b, b + n - 1) for b, n in zip(o, shape))
+        out[sl] |= mixed
+    return out
 
 
 def chunk_indices(n_states: int, workers: int, per_worker: int = 8) -> list[np.ndarray]:
@@ -107,15 +147,15 @@ def chunk_indices(n_states: int, workers: int, per_worker: int = 8) -> list[np.n
     return [np.arange(s, min(s + size, n_states)) for s in range(0, n_states, size)]
 
 
-def _run_inline(spec, grid, chunks) -> Iterator[ChunkResult]:
+def _run_inline(spec, grid, chunks, fn=solve_chunk) -> Iterator:
     for c in chunks:
-        yield solve_chunk(spec, grid, c)
+        yield fn(spec, grid, c)
 
 
-def _run_pool(spec, grid, chunks, workers) -> Iterator[ChunkResult]:
+def _run_pool(spec, grid, chunks, workers, fn=solve_chunk) -> Iterator:
     ctx = multiprocessing.get_context('spawn')
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-        futures = [pool.submit(solve_chunk, spec, grid, c) for c in chunks]
+        futures = [pool.submit(fn, spec, grid, c) for c in chunks]
         try:
             for fut in as_completed(futures):
                 yield fut.result()
@@ -124,7 +164,8 @@ def _run_pool(spec, grid, chunks, workers) -> Iterator[ChunkResult]:
                 fut.cancel()
 
 
-def _run_dask(spec, grid, chunks, address: str, timeout_s: float) -> Iterator[ChunkResult]:
+def _run_dask(spec, grid, chunks, address: str, timeout_s: float,
+              fn=solve_chunk) -> Iterator:
     try:
         from dask.distributed import Client
         from dask.distributed import as_completed as dask_completed
@@ -135,7 +176,7 @@ def _run_dask(spec, grid, chunks, address: str, timeout_s: float) -> Iterator[Ch
     except (OSError, TimeoutError) as exc:
         raise OSError(f'cannot reach Dask scheduler {address}: {exc}') from None
     try:
-        futures = [client.submit(solve_chunk, spec, grid, c, pure=False) for c in chunks]
+        futures = [client.submit(fn, spec, grid, c, pure=False) for c in chunks]
         try:
             # loop= explicitly: the client is not made the process-wide default.
             for fut in dask_completed(futures, loop=client.loop):
@@ -175,25 +216,45 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
     if workers < 1:
         raise ValueError(f'workers must be >= 1, got {workers}')
     chunks = chunk_indices(grid.n_states, 4 if scheduler else workers)
-    if scheduler:
-        results = _run_dask(spec, grid, chunks, scheduler, scheduler_timeout_s)
-    elif workers == 1 or len(chunks) == 1:
-        results = _run_inline(spec, grid, chunks)
-    else:
-        results = _run_pool(spec, grid, chunks, min(workers, len(chunks)))
+
+    def run(chunks, fn=solve_chunk) -> Iterator:
+        if scheduler:
+            return _run_dask(spec, grid, chunks, scheduler, scheduler_timeout_s, fn)
+        if workers == 1 or len(chunks) == 1:
+            return _run_inline(spec, grid, chunks, fn)
+        return _run_pool(spec, grid, chunks, min(workers, len(chunks)), fn)
+
+    results = run(chunks)
 
     P, K, S = len(grid.pulls), len(grid.phi), grid.n_states
     cap, ts, tr, status, reasons = empty_answers((S, P, K), 3)
+    margin = np.full((S, P), np.nan)
+    grad = np.full((S, P, 4), np.nan)
     from tqdm import tqdm
     with tqdm(total=S, unit='state', file=sys.stderr, disable=not progress,
               desc=f'map {spec.robot}/{med.name}', dynamic_ncols=True) as bar:
         for r in results:
             cap[r.ks], ts[r.ks], tr[r.ks], status[r.ks] = (r.capacity_N, r.slip_twist_scaled,
                                                            r.slip_twist, r.status)
+            margin[r.ks] = r.support_margin
             for a, k in enumerate(r.ks.tolist()):
                 for p in range(P):
                     reasons[k, p, :] = r.reason[a][p]
             bar.update(len(r.ks))
+
+    # Second pass: the margin gradient at the corners of cells that straddle the support edge
+    # (the only cells whose rule reads it); NaN elsewhere.
+    valued_codes = [STATUS_NAMES.index(st.value) for st in Status if st.has_value]
+    held = np.asarray(np.isin(status, valued_codes).any(axis=2)).T.reshape((P,) + grid.state_shape)
+    need = edge_cell_corners(held) & np.isfinite(margin.T.reshape(held.shape))
+    pk = np.argwhere(need.reshape(P, -1))               # (M, 2) = (pull, flat state)
+    jobs = np.column_stack([pk[:, 1], pk[:, 0]]) if len(pk) else np.zeros((0, 2), np.intp)
+    grad = np.full((S, P, 4), np.nan)
+    if len(jobs):
+        size = max(1, math.ceil(len(jobs) / max(1, (4 if scheduler else workers) * 8)))
+        for js, g4 in run([jobs[i:i + size] for i in range(0, len(jobs), size)],
+                          solve_grad_chunk):
+            grad[js[:, 0], js[:, 1]] = g4
 
     # Sorted table: the reason codes do not depend on completion order.
     names = tuple(sorted(set(reasons.reshape(-1).tolist()) | {''}))
@@ -217,7 +278,8 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
                    slip_twist_scaled=arrange(ts).astype(np.float32),
                    slip_twist=arrange(tr).astype(np.float32),
                    status=arrange(status), reason=arrange(reason), reason_names=names,
-                   attrs=attrs)
+                   attrs=attrs, support_margin=arrange(margin).astype(np.float32),
+                   support_margin_grad=arrange(grad).astype(np.float32))
 
 
 def spec_from_map(data: MapData) -> BuildSpec:

@@ -1,11 +1,12 @@
 """Capacity-map files: the HDF5 schema, `save_map` and `load_map` (with validation).
 
-Schema `rftgls.capacity_map`, version 1 (SCHEMA_VERSION). P = number of pull orientations,
-(Nh, Nb, N1, N2) = state axes, K = pull angles. Everything is SI.
+Schema `rftgls.capacity_map`, version 2 (SCHEMA_VERSION; version 1 files, without the two
+support-margin datasets, still load, with the edge-margin rule off). P = number of pull
+orientations, (Nh, Nb, N1, N2) = state axes, K = pull angles. Everything is SI.
 
     /                          root attributes
         schema                 'rftgls.capacity_map'
-        schema_version         int, 1
+        schema_version         int, 2 (1: no /support_margin*)
         robot, medium          preset names
         method, rft_model      limit-surface method, RFT stress model name
         n_twists               twists sampled per state
@@ -36,6 +37,13 @@ Schema `rftgls.capacity_map`, version 1 (SCHEMA_VERSION). P = number of pull ori
                                (types.Status values)
     /reason                    (P, Nh, Nb, N1, N2, K) uint8; attr reason_names: code -> reason
                                string of CapacityResult ('' = none), sorted
+    /support_margin            (P, Nh, Nb, N1, N2) float32, scaled metric: distance of the
+                               origin from the sampled limit surface, >= 0 where the weight is
+                               held, <= 0 where not, NaN without a surface (edge.py)
+    /support_margin_grad       (P, Nh, Nb, N1, N2, 4) float32, its gradient along (h, theta_b,
+                               theta_l1, theta_l2) in 1/m and 1/rad, at the corners of cells
+                               whose nodes disagree on support (NaN elsewhere, or where a
+                               sample has no surface)
 
 Axes are strictly increasing, finite, with >= 2 nodes. Every axis and value array must exist
 with exactly these shapes and dtype kinds; a file that fails any check raises MapFileError with
@@ -66,7 +74,9 @@ from .grid import AXIS_HUMAN, AXIS_UNITS, STATE_AXES, MapGrid, check_axis
 from .shipped import SHIPPED_SHA256, maps_dir
 
 SCHEMA = 'rftgls.capacity_map'
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+# Versions this reader handles: 1 (no /support_margin: the edge-margin rule is off) and 2.
+READABLE_VERSIONS = (1, 2)
 STATUS_NAMES = tuple(s.value for s in Status)          # code -> name written by this version
 VOLATILE_ATTRS = ('build_time_utc',)
 REQUIRED_ATTRS = ('schema', 'schema_version', 'robot', 'medium', 'method', 'rft_model',
@@ -102,6 +112,12 @@ class MapData:
     # package), 'verified' (matches its own content_sha256), 'unverified' (no hash stored),
     # '' (built in memory, not loaded).
     integrity: str = ''
+    # Schema 2 (maps/edge.py): support margin per node and pull (P, Nh, Nb, N1, N2), scaled
+    # metric, >= 0 where the weight is held, <= 0 where not, NaN without a surface. None for
+    # a version-1 file (the edge-margin rule is then off).
+    support_margin: np.ndarray | None = None
+    # Its gradient along the state axes (P, Nh, Nb, N1, N2, 4): 1/m for h, 1/rad for angles.
+    support_margin_grad: np.ndarray | None = None
 
     @property
     def provenance(self) -> dict:
@@ -171,7 +187,8 @@ class ContentHash:
 
 
 def content_sha256(grid: MapGrid, capacity_N, slip_twist_scaled, slip_twist, status,
-                   status_names, reason, reason_names, attrs: dict) -> str:
+                   status_names, reason, reason_names, attrs: dict,
+                   support_margin=None, support_margin_grad=None) -> str:
     """Hex SHA-256 over everything that defines a map's answers, in the stored dtypes.
 
     Each item is fed as name, dtype, shape and little-endian C-order bytes (or tagged text for
@@ -186,6 +203,9 @@ def content_sha256(grid: MapGrid, capacity_N, slip_twist_scaled, slip_twist, sta
     h.feed('axes/pull', '\n'.join(grid.pulls).encode())
     h.answers(capacity_N, slip_twist_scaled, slip_twist, status, status_names, reason,
               reason_names)
+    if support_margin is not None:   # schema 2; a version-1 file keeps its digest
+        h.array('support_margin', support_margin, '<f4')
+        h.array('support_margin_grad', support_margin_grad, '<f4')
     return h.hexdigest()
 
 
@@ -224,11 +244,21 @@ def save_map(path: str | Path, data: MapData) -> Path:
         raise ValueError(f'map attributes missing: {", ".join(missing)}')
     comp = {'compression': 'gzip', 'compression_opts': 4, 'shuffle': True, 'track_times': False}
     reason_names = list(data.reason_names) if data.reason_names else ['']
+    margin, grad = data.support_margin, data.support_margin_grad
+    if (margin is None) != (grad is None):
+        raise ValueError('support_margin and support_margin_grad go together (schema 2)')
+    if margin is not None and margin.shape != g.shape[:-1]:
+        raise ValueError(f'support_margin has shape {margin.shape}, grid needs {g.shape[:-1]}')
+    if grad is not None and grad.shape != g.shape[:-1] + (4,):
+        raise ValueError(f'support_margin_grad has shape {grad.shape}, grid needs '
+                         f'{g.shape[:-1] + (4,)}')
     digest = content_sha256(g, data.capacity_N, data.slip_twist_scaled, data.slip_twist,
-                            data.status, STATUS_NAMES, data.reason, reason_names, data.attrs)
+                            data.status, STATUS_NAMES, data.reason, reason_names, data.attrs,
+                            margin, grad)
     with h5py.File(path, 'w', track_order=True) as f:
         f.attrs['schema'] = SCHEMA
-        f.attrs['schema_version'] = SCHEMA_VERSION
+        # A map without the support margin (built in memory by older code) stays version 1.
+        f.attrs['schema_version'] = SCHEMA_VERSION if margin is not None else 1
         for key in REQUIRED_ATTRS[2:] + VOLATILE_ATTRS:
             if key in data.attrs:
                 f.attrs[key] = data.attrs[key]
@@ -246,6 +276,10 @@ def save_map(path: str | Path, data: MapData) -> Path:
         st.attrs['status_names'] = list(STATUS_NAMES)
         rs = f.create_dataset('reason', data=data.reason.astype(np.uint8), **comp)
         rs.attrs['reason_names'] = reason_names
+        if margin is not None:
+            f.create_dataset('support_margin', data=margin.astype(np.float32), **comp)
+            assert grad is not None
+            f.create_dataset('support_margin_grad', data=grad.astype(np.float32), **comp)
     return path
 
 
@@ -279,10 +313,10 @@ def _read(f: h5py.File, expected_sha256: str | None = None) -> MapData:
     version = _attr(f.attrs.get('schema_version'))
     if not isinstance(version, int) or isinstance(version, bool):
         raise MapFileError(f'schema_version {version!r} is not an integer')
-    if version != SCHEMA_VERSION:
+    if version not in READABLE_VERSIONS:
         newer = ' (newer than this reader)' if version > SCHEMA_VERSION else ''
         raise MapFileError(f'schema version {version}{newer}; this reader handles '
-                           f'version {SCHEMA_VERSION}')
+                           f'versions {", ".join(map(str, READABLE_VERSIONS))}')
     missing = [a for a in REQUIRED_ATTRS if a not in f.attrs]
     if missing:
         raise MapFileError(f'root attributes missing: {", ".join(missing)}')
@@ -346,10 +380,18 @@ def _read(f: h5py.File, expected_sha256: str | None = None) -> MapData:
     if reason.size and int(reason.max()) >= len(reason_names):
         raise MapFileError(f'/reason code {int(reason.max())} is outside its table')
 
+    margin = grad = None
+    if version >= 2:
+        margin = _dataset(f, 'support_margin', shape[:-1], 'f')
+        grad = _dataset(f, 'support_margin_grad', shape[:-1] + (4,), 'f')
+    elif 'support_margin' in f or 'support_margin_grad' in f:
+        raise MapFileError('schema version 1 file carries /support_margin (version 2 data)')
+
     stored = _attr(f.attrs.get(HASH_ATTR)) if HASH_ATTR in f.attrs else None
     digest = None
     if stored is not None or expected_sha256 is not None:
-        digest = content_sha256(grid, cap, ts, tr, status, names, reason, reason_names, attrs)
+        digest = content_sha256(grid, cap, ts, tr, status, names, reason, reason_names, attrs,
+                                margin, grad)
     if expected_sha256 is not None and digest != expected_sha256:
         assert digest is not None
         raise MapFileError(f'content hash {digest[:12]}... does not match the hash recorded '
@@ -374,9 +416,20 @@ def _read(f: h5py.File, expected_sha256: str | None = None) -> MapData:
     norms = np.linalg.norm(ts[valued].astype(np.float64), axis=-1)
     if not np.all(np.abs(norms - 1.0) < 1e-3):
         raise MapFileError('slip_twist_scaled is not a unit vector at a node with a value')
+    if margin is not None:
+        # Signed by support: >= 0 where a pull angle has a value (the weight is held), <= 0
+        # where none has; NaN (no surface) only at a node without any value.
+        held = valued.any(axis=-1)
+        if np.any(np.isinf(margin)) or np.any(held & ~(margin >= 0.0)) \
+                or np.any(~held & (margin > 0.0)):
+            raise MapFileError('support_margin does not match the node statuses (must be '
+                               '>= 0 where the weight is held, <= 0 or NaN where it is not)')
+        assert grad is not None
+        if np.any(np.isinf(grad)):
+            raise MapFileError('support_margin_grad is infinite')
     return MapData(grid=grid, capacity_N=cap, slip_twist_scaled=ts, slip_twist=tr,
                    status=status, reason=reason, reason_names=tuple(reason_names), attrs=attrs,
-                   integrity=integrity)
+                   integrity=integrity, support_margin=margin, support_margin_grad=grad)
 
 
 def load_map(path: str | Path, expected_sha256: str | None = None) -> MapData:

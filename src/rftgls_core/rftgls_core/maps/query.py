@@ -19,6 +19,14 @@ Policies (docs/design/architecture.md, docs/design/limit-surfaces.md):
   does not fall to 0), so no blend can place the edge; near the valued corners the state
   measured on the holding side (maps/README.md: 300 random states per robot, no answer where
   the live solver says unsupported, worst overestimate that of interior cells).
+- Support edge, edge-margin rule (default on schema-2 maps, edge.py): otherwise, when the
+  valueless corners are all UNSUPPORTED and every weighted corner has a support margin, the
+  margin is interpolated (the multilinear blend of the 16 state corners' first-order Taylor
+  predictions m_i + grad_i . (x - x_i)); at >= edge_min_margin (EDGE_MIN_MARGIN, 0.13) the
+  query lies on the holding side and the answer is the valued corners' blend, renormalised,
+  capped at s_F x margin (a lower bound of the first exit: the origin is at least that far
+  from the surface), status OK with the flag 'edge_margin' (maps/README.md: 3 x 300 random
+  states per robot, no answer where the live solver has none, overestimate unchanged).
 - Support edge, zeros rule (opt-in, `support_edge=True`): a corner that cannot hold the weight
   (UNSUPPORTED) has capacity 0, the value capacity falls to where the origin leaves the limit
   surface. A cell whose only valueless corners are unsupported then answers the blend with
@@ -58,6 +66,10 @@ CANCEL_NORM = 1e-9        # below this the blended twist has no direction
 # are all unsupported answers the blend of its valued corners, renormalised, when they carry
 # at least this share of the interpolation weight (measured: 300 random states per robot).
 EDGE_MIN_WEIGHT = 0.9
+# Edge-margin rule (schema 2 maps, maps/edge.py): inside a cell that straddles the support edge
+# the interpolated support margin (scaled metric) must reach this value to answer; measured on
+# 300 random states per robot against the live solver (maps/README.md).
+EDGE_MIN_MARGIN = 0.13
 # Most conservative first: a cell touching an unsupported node is reported unsupported.
 BAD_PRIORITY = (Status.UNSUPPORTED, Status.DEGENERATE, Status.INVALID_INPUT, Status.STALE)
 AXIS_NAMES = STATE_AXES + ('phi',)
@@ -76,7 +88,8 @@ class BatchAnswer:
     value; confidence (N,) pre-normalisation twist norm (NaN without value); status (N,)
     uint8 codes into hdf5.STATUS_NAMES; out_of_grid (N, 5) bool per axis (h, theta_b,
     theta_l1, theta_l2, phi); support_edge (N,) bool, answered by the zeros rule;
-    edge_valued (N,) bool, answered by the valued-corner rule.
+    edge_valued (N,) bool, answered by the valued-corner rule; edge_margin (N,) bool,
+    answered by the edge-margin rule.
     """
 
     capacity_N: np.ndarray
@@ -87,6 +100,7 @@ class BatchAnswer:
     out_of_grid: np.ndarray
     support_edge: np.ndarray
     edge_valued: np.ndarray
+    edge_margin: np.ndarray
 
     def statuses(self) -> list[Status]:
         return [_STATUS_OF[c] for c in self.status]
@@ -109,18 +123,24 @@ class CapacityMap:
     """A loaded capacity map; `query` is the onboard hot path (pure Python, ~10 us)."""
 
     def __init__(self, data: MapData, source: str = '', support_edge: bool = False,
-                 edge_min_weight: float = EDGE_MIN_WEIGHT) -> None:
+                 edge_min_weight: float = EDGE_MIN_WEIGHT,
+                 edge_min_margin: float | None = EDGE_MIN_MARGIN) -> None:
         """support_edge: answer cells next to unsupported nodes by the zeros rule (opt-in: its
         measured error, maps/README.md, is far larger than the interior's).
         edge_min_weight: the valued-corner rule answers a cell whose valueless corners are all
         unsupported when the valued corners carry at least this share of the weight (> 1
-        switches the rule off)."""
+        switches the rule off).
+        edge_min_margin: the edge-margin rule (schema-2 maps) answers a cell straddling the
+        support edge where the interpolated support margin is >= this; None switches it off."""
         self.data = data
         self.source = source
         self.support_edge = bool(support_edge)
         if not (math.isfinite(edge_min_weight) and edge_min_weight > 0.0):
             raise ValueError(f'edge_min_weight must be a positive share, got {edge_min_weight}')
         self.edge_min_weight = float(edge_min_weight)
+        if edge_min_margin is not None and not math.isfinite(edge_min_margin):
+            raise ValueError(f'edge_min_margin must be finite or None, got {edge_min_margin}')
+        self.edge_min_margin = None if edge_min_margin is None else float(edge_min_margin)
         g = data.grid
         self._axes = [list(map(float, getattr(g, n))) for n in AXIS_NAMES]
         n_pull = len(g.pulls)
@@ -135,6 +155,7 @@ class CapacityMap:
         self._pull_index = {p: i for i, p in enumerate(g.pulls)}
         prov = data.attrs
         self._s_lc = float(prov['scaling_length_m'])
+        self._s_f = float(prov['scaling_force_N'])
         # Per pull: node tuple (cap, tsx, tsz, tsw) or None, plus status/reason codes.
         cap = data.capacity_N.astype(np.float64).reshape(n_pull, -1)
         ts = data.slip_twist_scaled.astype(np.float64).reshape(n_pull, -1, 3)
@@ -160,14 +181,35 @@ class CapacityMap:
         self._valued = valued
         self._status_flat = status
         self._offsets, self._bits = corner_offsets(self._strides)
+        # Edge-margin rule (schema 2): per state node (flat C order), the support margin (None
+        # without a surface) and its gradient along the state axes (NaN -> 0: that corner
+        # contributes its plain margin).
+        self._margin: list[list[float | None]] | None = None
+        self._mgrad: list[list[tuple[float, ...]]] | None = None
+        self._margin_flat = self._margin_ok = self._mgrad_flat = None
+        self._bits16 = [tuple(int(b) for b in row)
+                        for row in corner_offsets(self._strides[:4])[1].tolist()]
+        self._n_states = int(np.prod(g.state_shape))
+        if (data.support_margin is not None and data.support_margin_grad is not None
+                and self.edge_min_margin is not None):
+            marg = data.support_margin.astype(np.float64).reshape(n_pull, -1)
+            grad = np.nan_to_num(data.support_margin_grad.astype(np.float64).reshape(
+                n_pull, -1, 4), nan=0.0)
+            self._margin = [[None if math.isnan(x) else x for x in row]
+                            for row in marg.tolist()]
+            self._mgrad = [[tuple(r) for r in row] for row in grad.tolist()]
+            self._margin_ok = np.isfinite(marg)
+            self._margin_flat = np.where(self._margin_ok, marg, 0.0)
+            self._mgrad_flat = grad
 
     # -- construction and metadata ---------------------------------------------------------
     @classmethod
     def load(cls, path: str | Path, support_edge: bool = False,
-             edge_min_weight: float = EDGE_MIN_WEIGHT) -> 'CapacityMap':
+             edge_min_weight: float = EDGE_MIN_WEIGHT,
+             edge_min_margin: float | None = EDGE_MIN_MARGIN) -> 'CapacityMap':
         """Read and validate a map file (MapFileError, a ValueError, on any problem)."""
         return cls(load_map(path), source=str(path), support_edge=support_edge,
-                   edge_min_weight=edge_min_weight)
+                   edge_min_weight=edge_min_weight, edge_min_margin=edge_min_margin)
 
     @property
     def grid(self) -> MapGrid:
@@ -331,6 +373,7 @@ class CapacityMap:
                 x2 += w * a3
         n_corners = n_terms * (1 + dk)
         flags: tuple[str, ...] = ()
+        edge_m = 0.0
         if bad is not None:
             # Valueless corners that are all unsupported (any other status withholds the value):
             # - valued-corner rule: when the valued corners carry >= edge_min_weight of the
@@ -347,7 +390,18 @@ class CapacityMap:
             elif only_unsupported and self.support_edge:
                 flags = ('support_edge',)
             else:
-                return self._bad_cell(p, coords[4], bad, n_corners)
+                m = (self._edge_margin(p, coords)
+                     if only_unsupported and self._margin is not None else None)
+                if m is None:
+                    return self._bad_cell(p, coords[4], bad, n_corners)
+                # The valued corners' blend, capped by the margin: the first exit along any
+                # load direction lies at least the origin's distance from the surface away
+                # (s_F m in N, d has no moment part), so the cap is a lower bound where the
+                # valued corners' capacity does not continue to the query.
+                inv = 1.0 / w_valued
+                c, x0, x1, x2 = min(c * inv, self._s_f * m), x0 * inv, x1 * inv, x2 * inv
+                edge_m = m
+                flags = ('edge_margin',)
         norm = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
         if norm < CANCEL_NORM:
             return CapacityResult(phi=coords[4], status=Status.DEGENERATE, method=METHOD,
@@ -362,6 +416,11 @@ class CapacityMap:
         if flags == ('support_edge',):
             detail += (f'; support edge: {len(bad or [])} unsupported corners counted as 0 N '
                        f'(valued weight {w_valued:.3f})')
+        elif flags == ('edge_margin',):
+            detail += (f'; support edge: interpolated support margin {edge_m:.4f} >= '
+                       f'{self.edge_min_margin:g}: blend of the valued corners capped at '
+                       f's_F x margin = {self._s_f * edge_m:.3f} N, {len(bad or [])} '
+                       'unsupported corners left out')
         elif flags:
             detail += (f'; support edge: blend of the valued corners (weight {w_valued:.3f} >= '
                        f'{self.edge_min_weight:g}), {len(bad or [])} unsupported corners left out')
@@ -372,6 +431,42 @@ class CapacityMap:
                               capacity_N=max(c, 0.0), slip_twist=raw, slip_twist_scaled=ts,
                               unchecked_capacity_N=max(c, 0.0), reason='', detail=detail,
                               flags=flags)
+
+    def _edge_margin(self, p: int, coords: tuple[float, ...]) -> float | None:
+        """Edge-margin rule: the support margin at the query, the multilinear blend of the 16
+        state corners' first-order Taylor predictions m_i + grad_i . (x - x_i) (maps/edge.py),
+        or None when a weighted corner has no margin (no surface) or the result is below
+        edge_min_margin (the query may lie past the support edge)."""
+        assert self._margin is not None and self._mgrad is not None
+        assert self.edge_min_margin is not None
+        axes = self._axes
+        node0, fr, width = 0, [0.0] * 4, [0.0] * 4
+        for a in range(4):
+            xs = axes[a]
+            i, t, _ = locate(xs, coords[a])
+            node0 = node0 * len(xs) + i
+            fr[a] = t
+            width[a] = xs[i + 1] - xs[i] if i + 1 < len(xs) else 0.0
+        # node strides of the state grid (C order)
+        n1, n2, n3 = len(axes[1]), len(axes[2]), len(axes[3])
+        strides = (n1 * n2 * n3, n2 * n3, n3, 1)
+        ws = weights4(fr[0], fr[1], fr[2], fr[3])
+        marg, grads = self._margin[p], self._mgrad[p]
+        m = 0.0
+        for bits, w in zip(self._bits16, ws):
+            if w == 0.0:
+                continue
+            j = (node0 + bits[0] * strides[0] + bits[1] * strides[1] + bits[2] * strides[2]
+                 + bits[3] * strides[3])
+            mj = marg[j]
+            if mj is None:
+                return None
+            gj = grads[j]
+            m += w * (mj + gj[0] * (fr[0] - bits[0]) * width[0]
+                      + gj[1] * (fr[1] - bits[1]) * width[1]
+                      + gj[2] * (fr[2] - bits[2]) * width[2]
+                      + gj[3] * (fr[3] - bits[3]) * width[3])
+        return m if m >= self.edge_min_margin else None
 
     def _out_of_grid(self, coords, out: list[tuple[int, int]]) -> CapacityResult:
         detail = '; '.join(
@@ -436,6 +531,18 @@ class CapacityMap:
         worst_code = np.zeros(n, dtype=np.intp)
         w_valued = np.zeros(n)
         other_bad = np.zeros(n, dtype=bool)     # a valueless corner that is not unsupported
+        has_margin = self._margin_flat is not None
+        marg = np.zeros(n)                      # interpolated support margin (Taylor blend)
+        no_margin = np.zeros(n, dtype=bool)     # a weighted corner without one
+        widths = np.zeros((n, 4))
+        node0 = np.zeros(n, dtype=np.intp)
+        for a in range(4):
+            xa = np.asarray(self._axes[a])
+            ia = np.clip(np.searchsorted(xa, np.clip(coords[:, a], xa[0], xa[-1]),
+                                         side='right') - 1, 0, len(xa) - 2)
+            widths[:, a] = xa[ia + 1] - xa[ia]
+            node0 = node0 * len(xa) + ia
+        node_strides = np.asarray(flat_strides(self.grid.state_shape), dtype=np.intp)
         for off, bits in zip(self._offsets, self._bits):
             w = np.prod(np.where(bits == 1, frac, 1.0 - frac), axis=1)
             k = base + off
@@ -446,6 +553,16 @@ class CapacityMap:
             tw += np.where((use & good)[:, None], w[:, None] * self._ts_flat[p, k], 0.0)
             code = self._status_flat[p, k].astype(np.intp)
             other_bad |= use & ~good & (code != _UNSUPPORTED)
+            if has_margin and bits[4] == 0:   # the margin does not depend on phi
+                assert self._margin_flat is not None and self._margin_ok is not None
+                assert self._mgrad_flat is not None
+                wm = np.prod(np.where(bits[:4] == 1, frac[:, :4], 1.0 - frac[:, :4]), axis=1)
+                um = wm > 0.0
+                j = node0 + bits[:4] @ node_strides
+                dx = (frac[:, :4] - bits[:4]) * widths
+                pred = self._margin_flat[p, j] + np.einsum('ij,ij->i', self._mgrad_flat[p, j], dx)
+                marg += np.where(um, wm * pred, 0.0)
+                no_margin |= um & ~self._margin_ok[p, j]
             rank = _RANK_OF_CODE[code]
             hit = use & ~good & (rank < worst)
             worst = np.where(hit, rank, worst)
@@ -455,9 +572,15 @@ class CapacityMap:
         only_unsup = (worst < len(_RANK)) & ~other_bad & (w_valued > 0.0)
         valued_rule = only_unsup & (w_valued >= self.edge_min_weight - 1e-12)
         edge = only_unsup & ~valued_rule & self.support_edge
-        has_bad = (worst < len(_RANK)) & ~edge & ~valued_rule
-        inv = np.where(valued_rule, 1.0 / np.where(w_valued > 0.0, w_valued, 1.0), 1.0)
+        margin_rule = only_unsup & ~valued_rule & ~edge & has_margin & ~no_margin
+        if has_margin:
+            assert self.edge_min_margin is not None
+            margin_rule &= marg >= self.edge_min_margin
+        has_bad = (worst < len(_RANK)) & ~edge & ~valued_rule & ~margin_rule
+        inv = np.where(valued_rule | margin_rule,
+                       1.0 / np.where(w_valued > 0.0, w_valued, 1.0), 1.0)
         cap = cap * inv
+        cap = np.where(margin_rule, np.minimum(cap, self._s_f * marg), cap)
         tw = tw * inv[:, None]
         norm = np.linalg.norm(tw, axis=1)
         status = np.where(norm < CANCEL_NORM, _CODE[Status.DEGENERATE], _CODE[Status.OK])
@@ -476,4 +599,4 @@ class CapacityMap:
                            slip_twist=np.where(ok[:, None], raw, nan),
                            confidence=np.where(ok, norm, nan), status=status,
                            out_of_grid=out & finite[:, None], support_edge=ok & edge,
-                           edge_valued=ok & valued_rule)
+                           edge_valued=ok & valued_rule, edge_margin=ok & margin_rule)

@@ -70,6 +70,9 @@ FLAGS = {
                     'counted as 0 N (conservative)',
     'edge_valued': 'a map cell next to states that cannot hold the weight, answered by the '
                    'blend of its valued corners (they carry most of the weight; maps/README.md)',
+    'edge_margin': 'a map cell across the support edge, on the holding side by its interpolated '
+                   'support margin: the valued corners\' blend capped by s_F x margin '
+                   '(maps/README.md)',
 }
 
 
