@@ -43,7 +43,7 @@ from ..types import Status
 from .base import CapacityResult, GLSProblem
 from .closure import earlier_exit
 from .direct import DirectSurface
-from .newton import unit_rows
+from .newton import newton_on_sphere, unit_rows
 
 # Directions of the ring probe around a warm root (unit vectors of the tangent plane).
 _RING = np.column_stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi / 4)])
@@ -231,6 +231,11 @@ class WarmDirect:
         the linear model that does not shrink like r^2 (Richardson, beyond ring_tol of the
         distance) is a facet switching next to the root, which falls back.
     max_iter: Newton iterations of a warm step.
+    seed_check: run the cold solve's own seeds at every warm step (exact, ~1 ms of a
+        contended core; False gives the faster warm step that can miss a nearer root).
+    seed_iter: Newton iterations given to the cold solve's own four seeds (the crossed coarse
+        triangle's barycentric and vertex twists); each must reach the warm root by then, to
+        seed_rtol of the distance (looser than the cold solve's: only where they end matters).
     direct_options: passed to DirectSurface (rtol, fd_step, max_iter, gap_tol).
 
     Learned state: anchor_ (None until a clean cold solve), twist_ and jac_ (last exit twist,
@@ -246,6 +251,7 @@ class WarmDirect:
                  max_capacity_change: float = 0.2, max_jacobian_change: float = 0.25,
                  max_phi_change_rad: float = 0.02, exit_exclusion_rad: float = 0.35,
                  ring_rad: float = 3e-3, ring_tol: float = 2e-4, max_iter: int = 10,
+                 seed_check: bool = True, seed_iter: int = 8, seed_rtol: float = 1e-8,
                  **direct_options) -> None:
         self.n_twists = int(n_twists)
         self.guard_triangles = int(guard_triangles)
@@ -257,6 +263,8 @@ class WarmDirect:
         self.exit_exclusion_rad = float(exit_exclusion_rad)
         self.ring_rad, self.ring_tol = float(ring_rad), float(ring_tol)
         self.max_iter = int(max_iter)
+        self.seed_check = bool(seed_check)
+        self.seed_iter, self.seed_rtol = int(seed_iter), float(seed_rtol)
         self.direct_options = dict(direct_options)
         self.reset()
 
@@ -386,11 +394,52 @@ class WarmDirect:
             # The sheet beyond the switch may hold a second root, in front of this one or
             # behind it; which root the cold solve's seeds then land on is theirs to decide.
             return None, 'jump_near'
+        # The cold solve's own seeds: the crossed coarse triangle's barycentric twist and its
+        # three vertex twists. Where the map has a second sheet or a jump gap near the root,
+        # one of them can end on a nearer root (or a gap point within gap_tol of the ray) the
+        # warm seed never sees; the cold solve reports that one. Run them as it does.
+        why = (self._seeds_agree(eval_scaled, d, wg, a.patch[f_c], float(s_c), t0, s0)
+               if self.seed_check else '')
+        if why:
+            return None, why
         self.twist_, self.jac_ = t0, g
         detail = (f'warm start from the previous exit: guards used {use:.0%} of their '
                   f'allowance; Jacobian singular values {sv[0]:.3g}, {sv[1]:.3g}')
         return CapacityResult.make(phi, Status.OK, self.method, s0 * sc.force_N, t0, sc,
                                    n_hits=1, detail=detail), ''
+
+    def _seeds_agree(self, eval_scaled, d: np.ndarray, wg: np.ndarray, face: np.ndarray,
+                     s_c: float, t0: np.ndarray, s0: float) -> str:
+        """'' when every seed of the cold solve (the crossed coarse triangle `face`, indices
+        into the guard twists, its vertex wrenches in `wg`, crossed at s_c) converges to the
+        warm root (t0, s0) within `seed_iter` Newton iterations, else the fallback reason."""
+        a = self.anchor_
+        assert a is not None
+        tv, wv = a.guard_twists[face], wg[face]
+        # barycentric coordinates of the crossing s_c d in the triangle (as raycast.all_hits)
+        e = np.column_stack([wv[1] - wv[0], wv[2] - wv[0]])
+        uv = np.linalg.lstsq(e, s_c * d - wv[0], rcond=None)[0]
+        bary = np.clip(np.array([1.0 - uv[0] - uv[1], uv[0], uv[1]]), 0.0, 1.0)
+        bary /= max(float(bary.sum()), np.finfo(float).tiny)
+        seeds = np.concatenate([unit_rows((bary @ tv)[None, :]), tv])
+        opts = self.direct_options
+        gap_tol = float(opts.get('gap_tol', 2e-3))
+        # Only where each seed ends matters (the root itself is the warm one): a looser
+        # tolerance than the cold solve's saves its last one or two calls.
+        t, s, res, _, conv, _ = newton_on_sphere(
+            eval_scaled, d, seeds, self.seed_rtol, float(opts.get('fd_step', 1e-7)),
+            self.seed_iter)
+        if not np.all(conv):
+            # a seed still off the ray: the cold solve's longer run may stall in a jump gap
+            # (accepted within gap_tol) or reach another root; only it can say where
+            if np.any((res <= gap_tol * np.maximum(np.abs(s), 1e-3)) & (s > 0.0)
+                      & (s < s0 * (1.0 - 1e-7))):
+                return 'seed_nearer'
+            return 'seed_unsettled'
+        ang = np.arccos(np.clip(t @ t0, -1.0, 1.0))
+        if np.any(np.abs(s - s0) > 1e-5 * s0) or np.any(ang > 1e-4):
+            return 'seed_other_root'
+        return ''
 
     def _cold(self, problem: GLSProblem, phi: float) -> CapacityResult:
         surface = DirectSurface(self.n_twists, **self.direct_options).fit(problem)
