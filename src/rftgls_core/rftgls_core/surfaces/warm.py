@@ -231,11 +231,10 @@ class WarmDirect:
         the linear model that does not shrink like r^2 (Richardson, beyond ring_tol of the
         distance) is a facet switching next to the root, which falls back.
     max_iter: Newton iterations of a warm step.
-    seed_check: run the cold solve's own seeds at every warm step (exact, ~1 ms of a
-        contended core; False gives the faster warm step that can miss a nearer root).
-    seed_iter: Newton iterations given to the cold solve's own four seeds (the crossed coarse
-        triangle's barycentric and vertex twists); each must reach the warm root by then, to
-        seed_rtol of the distance (looser than the cold solve's: only where they end matters).
+    seed_check: run the cold solve's own four seeds (the crossed coarse triangle's
+        barycentric and vertex twists) with the warm seed in one batched Newton; each must
+        reach the warm root (False: the faster warm step that can miss a nearer root).
+    seed_iter: Newton iterations of that batch (at least max_iter).
     direct_options: passed to DirectSurface (rtol, fd_step, max_iter, gap_tol).
 
     Learned state: anchor_ (None until a clean cold solve), twist_ and jac_ (last exit twist,
@@ -251,8 +250,7 @@ class WarmDirect:
                  max_capacity_change: float = 0.2, max_jacobian_change: float = 0.25,
                  max_phi_change_rad: float = 0.02, exit_exclusion_rad: float = 0.35,
                  ring_rad: float = 3e-3, ring_tol: float = 2e-4, max_iter: int = 10,
-                 seed_check: bool = True, seed_iter: int = 8, seed_rtol: float = 1e-8,
-                 **direct_options) -> None:
+                 seed_check: bool = True, seed_iter: int = 10, **direct_options) -> None:
         self.n_twists = int(n_twists)
         self.guard_triangles = int(guard_triangles)
         self.clearance_fraction = float(clearance_fraction)
@@ -264,7 +262,7 @@ class WarmDirect:
         self.ring_rad, self.ring_tol = float(ring_rad), float(ring_tol)
         self.max_iter = int(max_iter)
         self.seed_check = bool(seed_check)
-        self.seed_iter, self.seed_rtol = int(seed_iter), float(seed_rtol)
+        self.seed_iter = int(seed_iter)
         self.direct_options = dict(direct_options)
         self.reset()
 
@@ -342,21 +340,39 @@ class WarmDirect:
             return None, 'guard_moved'
         d = problem.load_direction_scaled(phi)
         opts = self.direct_options
-        t0, s0, _, jac0, conv, local = newton_one(
-            eval_scaled, d, self.twist_, float(opts.get('rtol', 1e-12)),
-            float(opts.get('fd_step', 1e-7)), self.max_iter, first=w_all[n_g:])
+        rtol, fd = float(opts.get('rtol', 1e-12)), float(opts.get('fd_step', 1e-7))
+        # The cold solve's view around the exit: one crossing of the coarse patch (below: no
+        # thin fold in front of the root where its chord is far, no jump triangle longer than
+        # the anchor's in front of the root).
+        n_c, s_c, f_c = _ray_hits_loop(wg, a.patch, d)
+        if n_c != 1:
+            return None, 'second_exit'
+        local: tuple | None = None
+        seeds_why = ''
+        if self.seed_check:
+            # The cold solve's own seeds (the crossed coarse triangle's barycentric twist and
+            # its three vertex twists) ride in the same batched Newton calls as the warm seed:
+            # the cold answer is the smallest root any of them reaches, and where the map has
+            # a second sheet or a jump gap near the root one of them can end on a nearer root
+            # (or a gap point within gap_tol of the ray) that the warm seed never sees.
+            seeds = self._cold_seeds(d, wg, a.patch[f_c], float(s_c))
+            ts, ss, res, jacs, convs, _ = newton_on_sphere(
+                eval_scaled, d, np.concatenate([self.twist_[None, :], seeds]), rtol, fd,
+                max(self.max_iter, self.seed_iter))
+            t0, s0, jac0, conv = ts[0], float(ss[0]), jacs[0], bool(convs[0])
+            if conv:
+                seeds_why = self._seeds_agree(ts[1:], ss[1:], res[1:], convs[1:], t0, s0)
+        else:
+            t0, s0, _, jac0, conv, local = newton_one(eval_scaled, d, self.twist_, rtol, fd,
+                                                      self.max_iter, first=w_all[n_g:])
         if not (conv and s0 > 0.0 and math.isfinite(s0)):
             return None, 'no_convergence'
         if float(np.arccos(np.clip(t0 @ a.twist, -1.0, 1.0))) > self.max_twist_drift_rad:
             return None, 'twist_moved'
         if abs(s0 / a.s - 1.0) > self.max_capacity_change:
             return None, 'capacity_moved'
-        # The cold solve's view around the exit: one crossing of the coarse patch, no thin
-        # fold in front of the root where its chord is far, and no jump triangle (longer than
-        # the anchor's) in front of the root.
-        n_c, s_c, f_c = _ray_hits_loop(wg, a.patch, d)
-        if n_c != 1:
-            return None, 'second_exit'
+        if seeds_why:
+            return None, seeds_why
         if abs(s0 - float(s_c)) > 0.04 * s0:
             # The cold solve looks for a fold sheet thinner than the coarse mesh here (from
             # 5 %): the same search from the same root; no sheet means the same answer.
@@ -365,6 +381,20 @@ class WarmDirect:
         wf = wg[a.patch[f_c]]
         if float(np.linalg.norm(wf - np.roll(wf, 1, axis=0), axis=1).max()) > 1.5 * a.patch_edge:
             return None, 'jump_in_front'
+        # Rings around the root (below); with the seed check the root's local linear model
+        # (its forward differences) is evaluated in the same call.
+        r1, r2 = self.ring_rad, 0.5 * self.ring_rad
+        dirs = np.concatenate([r1 * _RING, r2 * _RING])
+        if local is None:
+            bt, u, v = _fd_batch(t0, fd)
+            ring = unit_rows(t0 + dirs[:, :1] * u + dirs[:, 1:] * v)
+            wr = eval_scaled(np.concatenate([bt, ring]))
+            local = (wr[0], u, v, (wr[1] - wr[0]) / fd, (wr[2] - wr[0]) / fd)
+            w_ring = wr[3:]
+        else:
+            _, u, v, _, _ = local
+            ring = unit_rows(t0 + dirs[:, :1] * u + dirs[:, 1:] * v)
+            w_ring = None
         # against the previous answer's Jacobian: a facet switching between two messages
         # changes it at once (slow drift over many messages is the twist and capacity checks')
         assert self.jac_ is not None
@@ -380,11 +410,9 @@ class WarmDirect:
         # In front of the root its root can be the first exit (the cold solve's seeds may
         # land there, the warm seed does not); behind it, the root stays the first exit.
         w0, u, v, du, dv = local
-        r1, r2 = self.ring_rad, 0.5 * self.ring_rad
-        dirs = np.concatenate([r1 * _RING, r2 * _RING])
-        ring = t0 + dirs[:, :1] * u + dirs[:, 1:] * v
-        ring /= np.linalg.norm(ring, axis=1, keepdims=True)
-        off = eval_scaled(ring) - (w0 + dirs[:, :1] * du + dirs[:, 1:] * dv)
+        if w_ring is None:
+            w_ring = eval_scaled(ring)
+        off = w_ring - (w0 + dirs[:, :1] * du + dirs[:, 1:] * dv)
         # Richardson: the smooth part of the misfit grows like r^2, a jump does not; with the
         # r^2 term removed, what is left is a jump between the root and the ring.
         k = len(_RING)
@@ -394,41 +422,31 @@ class WarmDirect:
             # The sheet beyond the switch may hold a second root, in front of this one or
             # behind it; which root the cold solve's seeds then land on is theirs to decide.
             return None, 'jump_near'
-        # The cold solve's own seeds: the crossed coarse triangle's barycentric twist and its
-        # three vertex twists. Where the map has a second sheet or a jump gap near the root,
-        # one of them can end on a nearer root (or a gap point within gap_tol of the ray) the
-        # warm seed never sees; the cold solve reports that one. Run them as it does.
-        why = (self._seeds_agree(eval_scaled, d, wg, a.patch[f_c], float(s_c), t0, s0)
-               if self.seed_check else '')
-        if why:
-            return None, why
         self.twist_, self.jac_ = t0, g
         detail = (f'warm start from the previous exit: guards used {use:.0%} of their '
                   f'allowance; Jacobian singular values {sv[0]:.3g}, {sv[1]:.3g}')
         return CapacityResult.make(phi, Status.OK, self.method, s0 * sc.force_N, t0, sc,
                                    n_hits=1, detail=detail), ''
 
-    def _seeds_agree(self, eval_scaled, d: np.ndarray, wg: np.ndarray, face: np.ndarray,
-                     s_c: float, t0: np.ndarray, s0: float) -> str:
-        """'' when every seed of the cold solve (the crossed coarse triangle `face`, indices
-        into the guard twists, its vertex wrenches in `wg`, crossed at s_c) converges to the
-        warm root (t0, s0) within `seed_iter` Newton iterations, else the fallback reason."""
+    def _cold_seeds(self, d: np.ndarray, wg: np.ndarray, face: np.ndarray, s_c: float
+                    ) -> np.ndarray:
+        """The cold solve's seeds (4, 3) at the crossing s_c d of the coarse triangle `face`
+        (indices into the guard twists, vertex wrenches in `wg`): its barycentric twist (as
+        raycast.all_hits) and its three vertex twists."""
         a = self.anchor_
         assert a is not None
         tv, wv = a.guard_twists[face], wg[face]
-        # barycentric coordinates of the crossing s_c d in the triangle (as raycast.all_hits)
         e = np.column_stack([wv[1] - wv[0], wv[2] - wv[0]])
         uv = np.linalg.lstsq(e, s_c * d - wv[0], rcond=None)[0]
         bary = np.clip(np.array([1.0 - uv[0] - uv[1], uv[0], uv[1]]), 0.0, 1.0)
         bary /= max(float(bary.sum()), np.finfo(float).tiny)
-        seeds = np.concatenate([unit_rows((bary @ tv)[None, :]), tv])
-        opts = self.direct_options
-        gap_tol = float(opts.get('gap_tol', 2e-3))
-        # Only where each seed ends matters (the root itself is the warm one): a looser
-        # tolerance than the cold solve's saves its last one or two calls.
-        t, s, res, _, conv, _ = newton_on_sphere(
-            eval_scaled, d, seeds, self.seed_rtol, float(opts.get('fd_step', 1e-7)),
-            self.seed_iter)
+        return np.concatenate([unit_rows((bary @ tv)[None, :]), tv])
+
+    def _seeds_agree(self, t: np.ndarray, s: np.ndarray, res: np.ndarray, conv: np.ndarray,
+                     t0: np.ndarray, s0: float) -> str:
+        """'' when every cold seed's Newton run (twists t, distances s, residuals res,
+        converged) ended on the warm root (t0, s0), else the fallback reason."""
+        gap_tol = float(self.direct_options.get('gap_tol', 2e-3))
         if not np.all(conv):
             # a seed still off the ray: the cold solve's longer run may stall in a jump gap
             # (accepted within gap_tol) or reach another root; only it can say where
@@ -437,7 +455,8 @@ class WarmDirect:
                 return 'seed_nearer'
             return 'seed_unsettled'
         ang = np.arccos(np.clip(t @ t0, -1.0, 1.0))
-        if np.any(np.abs(s - s0) > 1e-5 * s0) or np.any(ang > 1e-4):
+        # the cold solve's own tolerances: distinct roots 1e-7 apart, twist spread 1e-4 rad
+        if np.any(np.abs(s - s0) > 1e-7 * s0) or np.any(ang > 1e-4):
             return 'seed_other_root'
         return ''
 
