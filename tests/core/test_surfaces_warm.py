@@ -216,3 +216,32 @@ def test_random_streams_where_a_cold_seed_finds_a_nearer_root(trial, n_states):
     assert not r.mismatches, r.mismatches
     assert any(why.startswith('seed_') for why in r.reasons), r.reasons
     assert WarmDirect().seed_check
+
+
+def test_newton_batch_is_the_cold_solves_newton():
+    # The warm step runs the cold solve's seeds through newton_batch (scalar kernels); the
+    # cold solve runs them through newton.newton_on_sphere: same roots, residuals, Jacobians,
+    # convergence and iteration count, on a real MiniRQuad map from the cold solve's seeds
+    # and from random twists (some of which do not converge in a few iterations).
+    from rftgls_core.surfaces.newton import newton_on_sphere
+    from rftgls_core.surfaces.warm import newton_batch
+    m = AnchorModel(get_robot('minirquad'), get_medium('m90_sand'), method='direct')
+    problem = m.pose(AnchorState(*DH), Pull.BACKWARD).problem
+    sc = problem.scaling
+
+    def ev(t):
+        return sc.wrench_to_scaled(problem.wrenches(sc.twist_from_scaled(t)))
+
+    d = problem.load_direction_scaled(math.radians(-20.0))
+    seeds = unit_rows_of(np.random.default_rng(7).normal(size=(6, 3)))
+    # Rounding differs (numpy's cross and norm against scalar arithmetic); forward differences
+    # of 1e-7 rad turn 1e-16 into about 1e-9 along an unconverged path, none at a root.
+    for max_iter, tol in ((3, 1e-6), (40, 1e-9)):
+        ref = newton_on_sphere(ev, d, seeds, 1e-12, 1e-7, max_iter)
+        got = newton_batch(ev, d, seeds, 1e-12, 1e-7, max_iter)
+        assert got[5] == ref[5] and np.array_equal(got[4], ref[4])
+        for a, b in zip(got[:3], ref[:3]):
+            np.testing.assert_allclose(a, b, rtol=tol, atol=tol)
+        np.testing.assert_allclose(got[3], ref[3], rtol=1e-6, atol=1e-6)   # a difference / 1e-7
+    assert ref[4].any()
+    np.testing.assert_allclose(got[1][ref[4]], ref[1][ref[4]], rtol=1e-12)

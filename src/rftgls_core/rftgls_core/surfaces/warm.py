@@ -43,7 +43,7 @@ from ..types import Status
 from .base import CapacityResult, GLSProblem
 from .closure import earlier_exit
 from .direct import DirectSurface
-from .newton import newton_on_sphere, unit_rows
+from .newton import unit_rows
 
 # Directions of the ring probe around a warm root (unit vectors of the tangent plane).
 _RING = np.column_stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi / 4)])
@@ -176,6 +176,34 @@ def newton_one(eval_scaled, d: np.ndarray, seed: np.ndarray, rtol: float = 1e-12
         t = best_t + lam * (best_step[0] * bu + best_step[1] * bv)
         t = t / math.sqrt(t @ t)
     return best_t, best_s, best_r, jac, False, local
+
+
+def newton_batch(eval_scaled, d: np.ndarray, seeds: np.ndarray, rtol: float = 1e-12,
+                 fd_step: float = 1e-7, max_iter: int = 40):
+    """`newton.newton_on_sphere` (same steps, tolerance, trust region, backtracking and
+    returns) for a handful of seeds, each iteration's arithmetic in two scalar kernels
+    (_newton_batch_twists, _newton_update): numpy's per-call overhead on five seeds cost
+    more than the wrench calls themselves. The cold solve keeps the reference version; a
+    test holds the two equal."""
+    d = np.ascontiguousarray(d, dtype=float)
+    t = np.ascontiguousarray(unit_rows(np.asarray(seeds, dtype=float)))
+    k = len(t)
+    best_t = t.copy()
+    best_r = np.full(k, np.inf)
+    best_step = np.zeros((k, 2))
+    bu, bv = np.zeros((k, 3)), np.zeros((k, 3))
+    lam = np.ones(k)
+    jac = np.zeros((k, 2, 2))
+    s = np.zeros(k)
+    conv = np.zeros(k, dtype=np.bool_)
+    it = 0
+    for it in range(1, max_iter + 1):  # noqa: B007 (the count is returned)
+        batch, u, v = _newton_batch_twists(t, fd_step)
+        w = np.ascontiguousarray(eval_scaled(batch), dtype=float)
+        if _newton_update(t, u, v, w, d, fd_step, rtol, best_t, best_r, best_step, bu, bv,
+                          lam, jac, s, conv):
+            break
+    return best_t, s, best_r, jac, conv, it
 
 
 def _tangent_jacobian(local: tuple, d: np.ndarray) -> np.ndarray:
@@ -356,7 +384,7 @@ class WarmDirect:
             # a second sheet or a jump gap near the root one of them can end on a nearer root
             # (or a gap point within gap_tol of the ray) that the warm seed never sees.
             seeds = self._cold_seeds(d, wg, a.patch[f_c], float(s_c))
-            ts, ss, res, jacs, convs, _ = newton_on_sphere(
+            ts, ss, res, jacs, convs, _ = newton_batch(
                 eval_scaled, d, np.concatenate([self.twist_[None, :], seeds]), rtol, fd,
                 max(self.max_iter, self.seed_iter))
             t0, s0, jac0, conv = ts[0], float(ss[0]), jacs[0], bool(convs[0])
@@ -718,8 +746,108 @@ def _ray_hits_loop(wg, patch, d, bary_tol=1e-9, dist_rtol=1e-9):
     return count, s_all[order[0]], face[order[0]]
 
 
+def _newton_batch_twists(t, h):
+    """The twists of one Newton iteration (newton_on_sphere's batch: the points, then their
+    forward differences along u, then along v) and the tangent bases (u, v)."""
+    k = t.shape[0]
+    u = np.empty((k, 3))
+    v = np.empty((k, 3))
+    batch = np.empty((3 * k, 3))
+    for i in range(k):
+        tx, ty, tz = t[i, 0], t[i, 1], t[i, 2]
+        m = 0   # first smallest |component|, as np.argmin
+        if abs(ty) < abs(tx):
+            m = 1
+        if abs(tz) < (abs(ty) if m == 1 else abs(tx)):
+            m = 2
+        hx, hy, hz = (1.0, 0.0, 0.0) if m == 0 else ((0.0, 1.0, 0.0) if m == 1
+                                                       else (0.0, 0.0, 1.0))
+        ux, uy, uz = ty * hz - tz * hy, tz * hx - tx * hz, tx * hy - ty * hx
+        n = math.sqrt(ux * ux + uy * uy + uz * uz)
+        ux, uy, uz = ux / n, uy / n, uz / n
+        vx, vy, vz = ty * uz - tz * uy, tz * ux - tx * uz, tx * uy - ty * ux
+        u[i, 0], u[i, 1], u[i, 2] = ux, uy, uz
+        v[i, 0], v[i, 1], v[i, 2] = vx, vy, vz
+        batch[i, 0], batch[i, 1], batch[i, 2] = tx, ty, tz
+        for j, (ex, ey, ez) in enumerate(((ux, uy, uz), (vx, vy, vz))):
+            px, py, pz = tx + h * ex, ty + h * ey, tz + h * ez
+            n = math.sqrt(px * px + py * py + pz * pz)
+            row = (j + 1) * k + i
+            batch[row, 0], batch[row, 1], batch[row, 2] = px / n, py / n, pz / n
+    return batch, u, v
+
+
+def _newton_update(t, u, v, w, d, h, rtol, best_t, best_r, best_step, bu, bv, lam, jac, s,
+                   conv):
+    """One newton_on_sphere iteration after its wrench call, in place; the next twists go
+    into t. True when every seed converged or gave up (the reference's two breaks)."""
+    k = t.shape[0]
+    e1x, e1y = -d[1], d[0]
+    r0 = np.empty(k)
+    r1 = np.empty(k)
+    improved = np.zeros(k, dtype=np.bool_)
+    all_conv = True
+    for i in range(k):
+        w0x, w0y, w0z = w[i, 0], w[i, 1], w[i, 2]
+        ra, rb = e1x * w0x + e1y * w0y, w0z
+        r0[i], r1[i] = ra, rb
+        rn = math.sqrt(ra * ra + rb * rb)
+        if rn < best_r[i]:
+            improved[i] = True
+            best_r[i] = rn
+            best_t[i, 0], best_t[i, 1], best_t[i, 2] = t[i, 0], t[i, 1], t[i, 2]
+            a1 = (w[k + i, 0] - w0x, w[k + i, 1] - w0y, w[k + i, 2] - w0z)
+            a2 = (w[2 * k + i, 0] - w0x, w[2 * k + i, 1] - w0y, w[2 * k + i, 2] - w0z)
+            jac[i, 0, 0] = (e1x * a1[0] + e1y * a1[1]) / h
+            jac[i, 1, 0] = a1[2] / h
+            jac[i, 0, 1] = (e1x * a2[0] + e1y * a2[1]) / h
+            jac[i, 1, 1] = a2[2] / h
+            s[i] = d[0] * w0x + d[1] * w0y + d[2] * w0z
+        conv[i] = best_r[i] <= rtol * max(abs(s[i]), 1e-3)
+        if not conv[i]:
+            all_conv = False
+    if all_conv:
+        return True
+    done = True
+    for i in range(k):
+        if conv[i]:
+            t[i, 0], t[i, 1], t[i, 2] = best_t[i, 0], best_t[i, 1], best_t[i, 2]
+            continue
+        if improved[i]:
+            j00, j01, j10, j11 = jac[i, 0, 0], jac[i, 0, 1], jac[i, 1, 0], jac[i, 1, 1]
+            det = j00 * j11 - j01 * j10
+            if det != 0.0:
+                sa = -(j11 * r0[i] - j01 * r1[i]) / det
+                sb = -(-j10 * r0[i] + j00 * r1[i]) / det
+            else:
+                # rank <= 1: the pseudo-inverse is J^T / |J|_F^2 (0 for J = 0)
+                f2 = j00 * j00 + j01 * j01 + j10 * j10 + j11 * j11
+                f2 = f2 if f2 > 0.0 else math.inf
+                sa = -(j00 * r0[i] + j10 * r1[i]) / f2
+                sb = -(j01 * r0[i] + j11 * r1[i]) / f2
+            nrm = math.sqrt(sa * sa + sb * sb)
+            sc = min(1.0, 0.3 / max(nrm, 1e-300))    # trust region, rad
+            best_step[i, 0], best_step[i, 1] = sa * sc, sb * sc
+            for c in range(3):
+                bu[i, c], bv[i, c] = u[i, c], v[i, c]
+            lam[i] = 1.0
+        else:
+            lam[i] *= 0.5
+        fa, fb = lam[i] * best_step[i, 0], lam[i] * best_step[i, 1]
+        px = best_t[i, 0] + fa * bu[i, 0] + fb * bv[i, 0]
+        py = best_t[i, 1] + fa * bu[i, 1] + fb * bv[i, 1]
+        pz = best_t[i, 2] + fa * bu[i, 2] + fb * bv[i, 2]
+        n = math.sqrt(px * px + py * py + pz * pz)
+        t[i, 0], t[i, 1], t[i, 2] = px / n, py / n, pz / n
+        if not lam[i] < 1e-6:
+            done = False
+    return done
+
+
 if numba is not None:
     _jit = numba.njit(cache=True, nogil=True)
     _point_triangle = _jit(_point_triangle)
     _guard_use_loop = _jit(_guard_use_loop)
     _ray_hits_loop = _jit(_ray_hits_loop)
+    _newton_batch_twists = _jit(_newton_batch_twists)
+    _newton_update = _jit(_newton_update)
