@@ -26,7 +26,11 @@ have changed:
 * no jump crossed or next to the root: the residual derivative within `max_jacobian_change` of
   the previous answer's, and the map linear to `ring_tol` on a ring of `ring_rad` around it;
 * the pull angle within `max_phi_change_rad` of the anchor's (its swing of the guarded ray
-  segment is added to the guards' motion).
+  segment is added to the guards' motion);
+* the cold solve's own four seeds (the crossed coarse triangle's barycentric and vertex
+  twists), run in the same batched Newton as the warm seed, all reach the warm root: the cold
+  answer is the nearest root any of them reaches, and near a jump gap or a second sheet one
+  of them can end on a nearer one that no local probe around the warm root sees.
 
 Anything else falls back to the cold solve, which becomes the next anchor when it is clean.
 """
