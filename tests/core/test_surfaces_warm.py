@@ -186,7 +186,7 @@ def unit_rows_of(x):
     return x / np.linalg.norm(x, axis=1, keepdims=True)
 
 
-@pytest.mark.parametrize('seed', [11])
+@pytest.mark.parametrize('seed', [11, 12])
 def test_random_streams_of_both_robots(seed):
     # Random pose, pull, angle, drift and noise: wherever the stream goes, warm == cold.
     rng = np.random.default_rng(seed)
@@ -197,3 +197,51 @@ def test_random_streams_of_both_robots(seed):
         pull = Pull.BACKWARD if rng.uniform() < 0.5 else Pull.FORWARD
         run_stream(robot, noisy(rng, base, 40, drift=drift),
                    math.radians(rng.uniform(-40.0, 40.0)), pull)
+
+
+@pytest.mark.parametrize('trial, n_states', [(14, 61), (33, 24), (40, 6)],
+                         ids=['gap-stall', 'second-sheet', 'thin-fold'])
+def test_random_streams_where_a_cold_seed_finds_a_nearer_root(trial, n_states):
+    # Found by `python tests/core/warm_streams.py --streams 60 --seed 11`: at the last state
+    # of each prefix one of the cold solve's four seeds ends on a nearer root than the warm
+    # root (a seed stalled in a jump gap and accepted within gap_tol, a second sheet
+    # 0.047 rad away, a thin fold found by the earlier-exit search); before the seed check the
+    # warm answer was 0.07 %, 0.09 % and 8 % larger than the cold one.
+    from warm_streams import compare, random_stream
+    rng = np.random.default_rng(11)
+    for k in range(trial + 1):
+        stream = random_stream(rng, k, 100)
+    stream.states = stream.states[:n_states]
+    r = compare(stream)
+    assert not r.mismatches, r.mismatches
+    assert any(why.startswith('seed_') for why in r.reasons), r.reasons
+    assert WarmDirect().seed_check
+
+
+def test_newton_batch_is_the_cold_solves_newton():
+    # The warm step runs the cold solve's seeds through newton_batch (scalar kernels); the
+    # cold solve runs them through newton.newton_on_sphere: same roots, residuals, Jacobians,
+    # convergence and iteration count, on a real MiniRQuad map from the cold solve's seeds
+    # and from random twists (some of which do not converge in a few iterations).
+    from rftgls_core.surfaces.newton import newton_on_sphere
+    from rftgls_core.surfaces.warm import newton_batch
+    m = AnchorModel(get_robot('minirquad'), get_medium('m90_sand'), method='direct')
+    problem = m.pose(AnchorState(*DH), Pull.BACKWARD).problem
+    sc = problem.scaling
+
+    def ev(t):
+        return sc.wrench_to_scaled(problem.wrenches(sc.twist_from_scaled(t)))
+
+    d = problem.load_direction_scaled(math.radians(-20.0))
+    seeds = unit_rows_of(np.random.default_rng(7).normal(size=(6, 3)))
+    # Rounding differs (numpy's cross and norm against scalar arithmetic); forward differences
+    # of 1e-7 rad turn 1e-16 into about 1e-9 along an unconverged path, none at a root.
+    for max_iter, tol in ((3, 1e-6), (40, 1e-9)):
+        ref = newton_on_sphere(ev, d, seeds, 1e-12, 1e-7, max_iter)
+        got = newton_batch(ev, d, seeds, 1e-12, 1e-7, max_iter)
+        assert got[5] == ref[5] and np.array_equal(got[4], ref[4])
+        for a, b in zip(got[:3], ref[:3]):
+            np.testing.assert_allclose(a, b, rtol=tol, atol=tol)
+        np.testing.assert_allclose(got[3], ref[3], rtol=1e-6, atol=1e-6)   # a difference / 1e-7
+    assert ref[4].any()
+    np.testing.assert_allclose(got[1][ref[4]], ref[1][ref[4]], rtol=1e-12)

@@ -26,7 +26,11 @@ have changed:
 * no jump crossed or next to the root: the residual derivative within `max_jacobian_change` of
   the previous answer's, and the map linear to `ring_tol` on a ring of `ring_rad` around it;
 * the pull angle within `max_phi_change_rad` of the anchor's (its swing of the guarded ray
-  segment is added to the guards' motion).
+  segment is added to the guards' motion);
+* the cold solve's own four seeds (the crossed coarse triangle's barycentric and vertex
+  twists), run in the same batched Newton as the warm seed, all reach the warm root: the cold
+  answer is the nearest root any of them reaches, and near a jump gap or a second sheet one
+  of them can end on a nearer one that no local probe around the warm root sees.
 
 Anything else falls back to the cold solve, which becomes the next anchor when it is clean.
 """
@@ -178,6 +182,34 @@ def newton_one(eval_scaled, d: np.ndarray, seed: np.ndarray, rtol: float = 1e-12
     return best_t, best_s, best_r, jac, False, local
 
 
+def newton_batch(eval_scaled, d: np.ndarray, seeds: np.ndarray, rtol: float = 1e-12,
+                 fd_step: float = 1e-7, max_iter: int = 40):
+    """`newton.newton_on_sphere` (same steps, tolerance, trust region, backtracking and
+    returns) for a handful of seeds, each iteration's arithmetic in two scalar kernels
+    (_newton_batch_twists, _newton_update): numpy's per-call overhead on five seeds cost
+    more than the wrench calls themselves. The cold solve keeps the reference version; a
+    test holds the two equal."""
+    d = np.ascontiguousarray(d, dtype=float)
+    t = np.ascontiguousarray(unit_rows(np.asarray(seeds, dtype=float)))
+    k = len(t)
+    best_t = t.copy()
+    best_r = np.full(k, np.inf)
+    best_step = np.zeros((k, 2))
+    bu, bv = np.zeros((k, 3)), np.zeros((k, 3))
+    lam = np.ones(k)
+    jac = np.zeros((k, 2, 2))
+    s = np.zeros(k)
+    conv = np.zeros(k, dtype=np.bool_)
+    it = 0
+    for it in range(1, max_iter + 1):  # noqa: B007 (the count is returned)
+        batch, u, v = _newton_batch_twists(t, fd_step)
+        w = np.ascontiguousarray(eval_scaled(batch), dtype=float)
+        if _newton_update(t, u, v, w, d, fd_step, rtol, best_t, best_r, best_step, bu, bv,
+                          lam, jac, s, conv):
+            break
+    return best_t, s, best_r, jac, conv, it
+
+
 def _tangent_jacobian(local: tuple, d: np.ndarray) -> np.ndarray:
     """The residual's derivative on the sphere's tangent plane as a (2, 3) map of twist
     increments: independent of the (u, v) basis, which Newton picks per twist and which
@@ -231,6 +263,10 @@ class WarmDirect:
         the linear model that does not shrink like r^2 (Richardson, beyond ring_tol of the
         distance) is a facet switching next to the root, which falls back.
     max_iter: Newton iterations of a warm step.
+    seed_check: run the cold solve's own four seeds (the crossed coarse triangle's
+        barycentric and vertex twists) with the warm seed in one batched Newton; each must
+        reach the warm root (False: the faster warm step that can miss a nearer root).
+    seed_iter: Newton iterations of that batch (at least max_iter).
     direct_options: passed to DirectSurface (rtol, fd_step, max_iter, gap_tol).
 
     Learned state: anchor_ (None until a clean cold solve), twist_ and jac_ (last exit twist,
@@ -246,7 +282,7 @@ class WarmDirect:
                  max_capacity_change: float = 0.2, max_jacobian_change: float = 0.25,
                  max_phi_change_rad: float = 0.02, exit_exclusion_rad: float = 0.35,
                  ring_rad: float = 3e-3, ring_tol: float = 2e-4, max_iter: int = 10,
-                 **direct_options) -> None:
+                 seed_check: bool = True, seed_iter: int = 10, **direct_options) -> None:
         self.n_twists = int(n_twists)
         self.guard_triangles = int(guard_triangles)
         self.clearance_fraction = float(clearance_fraction)
@@ -257,6 +293,8 @@ class WarmDirect:
         self.exit_exclusion_rad = float(exit_exclusion_rad)
         self.ring_rad, self.ring_tol = float(ring_rad), float(ring_tol)
         self.max_iter = int(max_iter)
+        self.seed_check = bool(seed_check)
+        self.seed_iter = int(seed_iter)
         self.direct_options = dict(direct_options)
         self.reset()
 
@@ -334,21 +372,39 @@ class WarmDirect:
             return None, 'guard_moved'
         d = problem.load_direction_scaled(phi)
         opts = self.direct_options
-        t0, s0, _, jac0, conv, local = newton_one(
-            eval_scaled, d, self.twist_, float(opts.get('rtol', 1e-12)),
-            float(opts.get('fd_step', 1e-7)), self.max_iter, first=w_all[n_g:])
+        rtol, fd = float(opts.get('rtol', 1e-12)), float(opts.get('fd_step', 1e-7))
+        # The cold solve's view around the exit: one crossing of the coarse patch (below: no
+        # thin fold in front of the root where its chord is far, no jump triangle longer than
+        # the anchor's in front of the root).
+        n_c, s_c, f_c = _ray_hits_loop(wg, a.patch, d)
+        if n_c != 1:
+            return None, 'second_exit'
+        local: tuple | None = None
+        seeds_why = ''
+        if self.seed_check:
+            # The cold solve's own seeds (the crossed coarse triangle's barycentric twist and
+            # its three vertex twists) ride in the same batched Newton calls as the warm seed:
+            # the cold answer is the smallest root any of them reaches, and where the map has
+            # a second sheet or a jump gap near the root one of them can end on a nearer root
+            # (or a gap point within gap_tol of the ray) that the warm seed never sees.
+            seeds = self._cold_seeds(d, wg, a.patch[f_c], float(s_c))
+            ts, ss, res, jacs, convs, _ = newton_batch(
+                eval_scaled, d, np.concatenate([self.twist_[None, :], seeds]), rtol, fd,
+                max(self.max_iter, self.seed_iter))
+            t0, s0, jac0, conv = ts[0], float(ss[0]), jacs[0], bool(convs[0])
+            if conv:
+                seeds_why = self._seeds_agree(ts[1:], ss[1:], res[1:], convs[1:], t0, s0)
+        else:
+            t0, s0, _, jac0, conv, local = newton_one(eval_scaled, d, self.twist_, rtol, fd,
+                                                      self.max_iter, first=w_all[n_g:])
         if not (conv and s0 > 0.0 and math.isfinite(s0)):
             return None, 'no_convergence'
         if float(np.arccos(np.clip(t0 @ a.twist, -1.0, 1.0))) > self.max_twist_drift_rad:
             return None, 'twist_moved'
         if abs(s0 / a.s - 1.0) > self.max_capacity_change:
             return None, 'capacity_moved'
-        # The cold solve's view around the exit: one crossing of the coarse patch, no thin
-        # fold in front of the root where its chord is far, and no jump triangle (longer than
-        # the anchor's) in front of the root.
-        n_c, s_c, f_c = _ray_hits_loop(wg, a.patch, d)
-        if n_c != 1:
-            return None, 'second_exit'
+        if seeds_why:
+            return None, seeds_why
         if abs(s0 - float(s_c)) > 0.04 * s0:
             # The cold solve looks for a fold sheet thinner than the coarse mesh here (from
             # 5 %): the same search from the same root; no sheet means the same answer.
@@ -357,6 +413,20 @@ class WarmDirect:
         wf = wg[a.patch[f_c]]
         if float(np.linalg.norm(wf - np.roll(wf, 1, axis=0), axis=1).max()) > 1.5 * a.patch_edge:
             return None, 'jump_in_front'
+        # Rings around the root (below); with the seed check the root's local linear model
+        # (its forward differences) is evaluated in the same call.
+        r1, r2 = self.ring_rad, 0.5 * self.ring_rad
+        dirs = np.concatenate([r1 * _RING, r2 * _RING])
+        if local is None:
+            bt, u, v = _fd_batch(t0, fd)
+            ring = unit_rows(t0 + dirs[:, :1] * u + dirs[:, 1:] * v)
+            wr = eval_scaled(np.concatenate([bt, ring]))
+            local = (wr[0], u, v, (wr[1] - wr[0]) / fd, (wr[2] - wr[0]) / fd)
+            w_ring = wr[3:]
+        else:
+            _, u, v, _, _ = local
+            ring = unit_rows(t0 + dirs[:, :1] * u + dirs[:, 1:] * v)
+            w_ring = None
         # against the previous answer's Jacobian: a facet switching between two messages
         # changes it at once (slow drift over many messages is the twist and capacity checks')
         assert self.jac_ is not None
@@ -372,11 +442,9 @@ class WarmDirect:
         # In front of the root its root can be the first exit (the cold solve's seeds may
         # land there, the warm seed does not); behind it, the root stays the first exit.
         w0, u, v, du, dv = local
-        r1, r2 = self.ring_rad, 0.5 * self.ring_rad
-        dirs = np.concatenate([r1 * _RING, r2 * _RING])
-        ring = t0 + dirs[:, :1] * u + dirs[:, 1:] * v
-        ring /= np.linalg.norm(ring, axis=1, keepdims=True)
-        off = eval_scaled(ring) - (w0 + dirs[:, :1] * du + dirs[:, 1:] * dv)
+        if w_ring is None:
+            w_ring = eval_scaled(ring)
+        off = w_ring - (w0 + dirs[:, :1] * du + dirs[:, 1:] * dv)
         # Richardson: the smooth part of the misfit grows like r^2, a jump does not; with the
         # r^2 term removed, what is left is a jump between the root and the ring.
         k = len(_RING)
@@ -391,6 +459,38 @@ class WarmDirect:
                   f'allowance; Jacobian singular values {sv[0]:.3g}, {sv[1]:.3g}')
         return CapacityResult.make(phi, Status.OK, self.method, s0 * sc.force_N, t0, sc,
                                    n_hits=1, detail=detail), ''
+
+    def _cold_seeds(self, d: np.ndarray, wg: np.ndarray, face: np.ndarray, s_c: float
+                    ) -> np.ndarray:
+        """The cold solve's seeds (4, 3) at the crossing s_c d of the coarse triangle `face`
+        (indices into the guard twists, vertex wrenches in `wg`): its barycentric twist (as
+        raycast.all_hits) and its three vertex twists."""
+        a = self.anchor_
+        assert a is not None
+        tv, wv = a.guard_twists[face], wg[face]
+        e = np.column_stack([wv[1] - wv[0], wv[2] - wv[0]])
+        uv = np.linalg.lstsq(e, s_c * d - wv[0], rcond=None)[0]
+        bary = np.clip(np.array([1.0 - uv[0] - uv[1], uv[0], uv[1]]), 0.0, 1.0)
+        bary /= max(float(bary.sum()), np.finfo(float).tiny)
+        return np.concatenate([unit_rows((bary @ tv)[None, :]), tv])
+
+    def _seeds_agree(self, t: np.ndarray, s: np.ndarray, res: np.ndarray, conv: np.ndarray,
+                     t0: np.ndarray, s0: float) -> str:
+        """'' when every cold seed's Newton run (twists t, distances s, residuals res,
+        converged) ended on the warm root (t0, s0), else the fallback reason."""
+        gap_tol = float(self.direct_options.get('gap_tol', 2e-3))
+        if not np.all(conv):
+            # a seed still off the ray: the cold solve's longer run may stall in a jump gap
+            # (accepted within gap_tol) or reach another root; only it can say where
+            if np.any((res <= gap_tol * np.maximum(np.abs(s), 1e-3)) & (s > 0.0)
+                      & (s < s0 * (1.0 - 1e-7))):
+                return 'seed_nearer'
+            return 'seed_unsettled'
+        ang = np.arccos(np.clip(t @ t0, -1.0, 1.0))
+        # the cold solve's own tolerances: distinct roots 1e-7 apart, twist spread 1e-4 rad
+        if np.any(np.abs(s - s0) > 1e-7 * s0) or np.any(ang > 1e-4):
+            return 'seed_other_root'
+        return ''
 
     def _cold(self, problem: GLSProblem, phi: float) -> CapacityResult:
         surface = DirectSurface(self.n_twists, **self.direct_options).fit(problem)
@@ -650,8 +750,108 @@ def _ray_hits_loop(wg, patch, d, bary_tol=1e-9, dist_rtol=1e-9):
     return count, s_all[order[0]], face[order[0]]
 
 
+def _newton_batch_twists(t, h):
+    """The twists of one Newton iteration (newton_on_sphere's batch: the points, then their
+    forward differences along u, then along v) and the tangent bases (u, v)."""
+    k = t.shape[0]
+    u = np.empty((k, 3))
+    v = np.empty((k, 3))
+    batch = np.empty((3 * k, 3))
+    for i in range(k):
+        tx, ty, tz = t[i, 0], t[i, 1], t[i, 2]
+        m = 0   # first smallest |component|, as np.argmin
+        if abs(ty) < abs(tx):
+            m = 1
+        if abs(tz) < (abs(ty) if m == 1 else abs(tx)):
+            m = 2
+        hx, hy, hz = (1.0, 0.0, 0.0) if m == 0 else ((0.0, 1.0, 0.0) if m == 1
+                                                       else (0.0, 0.0, 1.0))
+        ux, uy, uz = ty * hz - tz * hy, tz * hx - tx * hz, tx * hy - ty * hx
+        n = math.sqrt(ux * ux + uy * uy + uz * uz)
+        ux, uy, uz = ux / n, uy / n, uz / n
+        vx, vy, vz = ty * uz - tz * uy, tz * ux - tx * uz, tx * uy - ty * ux
+        u[i, 0], u[i, 1], u[i, 2] = ux, uy, uz
+        v[i, 0], v[i, 1], v[i, 2] = vx, vy, vz
+        batch[i, 0], batch[i, 1], batch[i, 2] = tx, ty, tz
+        for j, (ex, ey, ez) in enumerate(((ux, uy, uz), (vx, vy, vz))):
+            px, py, pz = tx + h * ex, ty + h * ey, tz + h * ez
+            n = math.sqrt(px * px + py * py + pz * pz)
+            row = (j + 1) * k + i
+            batch[row, 0], batch[row, 1], batch[row, 2] = px / n, py / n, pz / n
+    return batch, u, v
+
+
+def _newton_update(t, u, v, w, d, h, rtol, best_t, best_r, best_step, bu, bv, lam, jac, s,
+                   conv):
+    """One newton_on_sphere iteration after its wrench call, in place; the next twists go
+    into t. True when every seed converged or gave up (the reference's two breaks)."""
+    k = t.shape[0]
+    e1x, e1y = -d[1], d[0]
+    r0 = np.empty(k)
+    r1 = np.empty(k)
+    improved = np.zeros(k, dtype=np.bool_)
+    all_conv = True
+    for i in range(k):
+        w0x, w0y, w0z = w[i, 0], w[i, 1], w[i, 2]
+        ra, rb = e1x * w0x + e1y * w0y, w0z
+        r0[i], r1[i] = ra, rb
+        rn = math.sqrt(ra * ra + rb * rb)
+        if rn < best_r[i]:
+            improved[i] = True
+            best_r[i] = rn
+            best_t[i, 0], best_t[i, 1], best_t[i, 2] = t[i, 0], t[i, 1], t[i, 2]
+            a1 = (w[k + i, 0] - w0x, w[k + i, 1] - w0y, w[k + i, 2] - w0z)
+            a2 = (w[2 * k + i, 0] - w0x, w[2 * k + i, 1] - w0y, w[2 * k + i, 2] - w0z)
+            jac[i, 0, 0] = (e1x * a1[0] + e1y * a1[1]) / h
+            jac[i, 1, 0] = a1[2] / h
+            jac[i, 0, 1] = (e1x * a2[0] + e1y * a2[1]) / h
+            jac[i, 1, 1] = a2[2] / h
+            s[i] = d[0] * w0x + d[1] * w0y + d[2] * w0z
+        conv[i] = best_r[i] <= rtol * max(abs(s[i]), 1e-3)
+        if not conv[i]:
+            all_conv = False
+    if all_conv:
+        return True
+    done = True
+    for i in range(k):
+        if conv[i]:
+            t[i, 0], t[i, 1], t[i, 2] = best_t[i, 0], best_t[i, 1], best_t[i, 2]
+            continue
+        if improved[i]:
+            j00, j01, j10, j11 = jac[i, 0, 0], jac[i, 0, 1], jac[i, 1, 0], jac[i, 1, 1]
+            det = j00 * j11 - j01 * j10
+            if det != 0.0:
+                sa = -(j11 * r0[i] - j01 * r1[i]) / det
+                sb = -(-j10 * r0[i] + j00 * r1[i]) / det
+            else:
+                # rank <= 1: the pseudo-inverse is J^T / |J|_F^2 (0 for J = 0)
+                f2 = j00 * j00 + j01 * j01 + j10 * j10 + j11 * j11
+                f2 = f2 if f2 > 0.0 else math.inf
+                sa = -(j00 * r0[i] + j10 * r1[i]) / f2
+                sb = -(j01 * r0[i] + j11 * r1[i]) / f2
+            nrm = math.sqrt(sa * sa + sb * sb)
+            sc = min(1.0, 0.3 / max(nrm, 1e-300))    # trust region, rad
+            best_step[i, 0], best_step[i, 1] = sa * sc, sb * sc
+            for c in range(3):
+                bu[i, c], bv[i, c] = u[i, c], v[i, c]
+            lam[i] = 1.0
+        else:
+            lam[i] *= 0.5
+        fa, fb = lam[i] * best_step[i, 0], lam[i] * best_step[i, 1]
+        px = best_t[i, 0] + fa * bu[i, 0] + fb * bv[i, 0]
+        py = best_t[i, 1] + fa * bu[i, 1] + fb * bv[i, 1]
+        pz = best_t[i, 2] + fa * bu[i, 2] + fb * bv[i, 2]
+        n = math.sqrt(px * px + py * py + pz * pz)
+        t[i, 0], t[i, 1], t[i, 2] = px / n, py / n, pz / n
+        if not lam[i] < 1e-6:
+            done = False
+    return done
+
+
 if numba is not None:
     _jit = numba.njit(cache=True, nogil=True)
     _point_triangle = _jit(_point_triangle)
     _guard_use_loop = _jit(_guard_use_loop)
     _ray_hits_loop = _jit(_ray_hits_loop)
+    _newton_batch_twists = _jit(_newton_batch_twists)
+    _newton_update = _jit(_newton_update)
