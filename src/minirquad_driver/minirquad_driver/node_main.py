@@ -24,6 +24,11 @@ UNIT_SUFFIXES = (('_m_s', 'm/s'), ('_rad2', 'rad^2'), ('_rad', 'rad'), ('_hz', '
 START_UP_ONLY = 'read at start-up only: restart the node to change it'
 
 
+class ConfigError(ValueError):
+    """A bad node parameter, map or description file: `run_node` reports it in one line and
+    the executable exits with status 2."""
+
+
 def unit_of(name: str) -> str:
     """The unit a parameter name ends in ('' when it has none: counts, ratios, names)."""
     return next((u for suffix, u in UNIT_SUFFIXES if name.endswith(suffix)), '')

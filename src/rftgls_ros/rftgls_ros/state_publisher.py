@@ -22,7 +22,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64
 
-from minirquad_driver.node_main import declare, run_node, usage, wants_help
+from minirquad_driver.node_main import ConfigError, declare, run_node, usage, wants_help
 from rftgls_core.conventions import quat_xyzw_to_pitch
 from rftgls_core.description import DATA
 from tf2_msgs.msg import TFMessage
@@ -50,10 +50,6 @@ PARAMETERS = {
     'height_topic': ('winch/height', "std_msgs/Float64 height of p in m; '' = height_m only"),
     'height_m': (0.03, 'height of p above the free surface until a height sample'),
 }
-
-
-class ConfigError(ValueError):
-    """A parameter that cannot be used (one line)."""
 
 
 class StatePublisher(Node):

@@ -13,6 +13,7 @@ import dataclasses
 import os
 from pathlib import Path
 
+from minirquad_driver.node_main import ConfigError
 from rftgls_core.predictor import Predictor
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull, Status
@@ -20,10 +21,6 @@ from rftgls_core.types import AnchorState, Pull, Status
 # The installed (shipped) map; rftgls_core.maps.resolve_map maps this name to maps_dir().
 DEFAULT_MAP = 'maps/minirquad_m90_sand.h5'
 LIVE_METHODS = ('direct-warm', 'direct', 'twist-mesh', 'alpha', 'ellipsoid')
-
-
-class ConfigError(ValueError):
-    """A bad node parameter or map file; the node reports it in one line and exits."""
 
 
 def predictor_name(predictor: Predictor) -> str:
