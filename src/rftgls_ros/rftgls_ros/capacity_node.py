@@ -64,7 +64,6 @@ class CapacityNode(Node):
         self.use_stamps = self.config.freshness_source == 'header_stamp'
         self.triggers = self.config.triggers
         rate = self.config.publish_rate_hz
-        self.add_on_set_parameters_callback(self.on_set_parameters)
         self.joint_keys = {p[f'joint_{k}']: k for k in JOINTS}
 
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -77,6 +76,8 @@ class CapacityNode(Node):
         # /diagnostics is global (every node reports there; REP-107), the rest is relative.
         self.pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self.extras = CapacityExtras(self)  # ~/estimate, ~/query_capacity, ~/markers
+        # After every declare (the extras' too): rclpy runs the callback on declarations.
+        self.add_on_set_parameters_callback(self.on_set_parameters)
 
         sensor = qos_profile_sensor_data
         self.create_subscription(JointState, p['joint_states_topic'], self.on_joint_states,
@@ -123,10 +124,6 @@ class CapacityNode(Node):
         """A run-time change of RUNTIME parameters: validated as a whole, then applied to the
         estimator and the node (the next estimate uses it), or rejected with the reason.
         Read-only (start-up) parameters never get here: rclpy rejects them first."""
-        mine = [x for x in params if x.name in PARAMETERS]
-        if not mine:   # parameters other modules declare (start-up only, read-only)
-            return SetParametersResult(successful=True)
-        params = mine
         proposed = {**self.params, **{x.name: x.value for x in params}}
         try:
             est_cfg, node_cfg = configs(proposed)
