@@ -45,26 +45,34 @@ def test_edge_rule_answers_more_and_never_above_the_documented_error(robot):
         assert no_margin.coverage_pct < MIN_COVERAGE_PCT[robot] <= rep.coverage_pct
 
 
-def test_edge_rule_single_and_batch_agree_and_flag():
-    cmap = CapacityMap.load(shipped_map_path('minirquad'))
+def single_and_batch_agree(cmap, n: int, seed: int, flag: str) -> list:
+    """Query `n` random in-range states one by one and as a batch: same value, same `flag`.
+    Returns the single answers that carry `flag`."""
     ax = cmap.axes
-    rng = np.random.default_rng(5)
-    states = np.column_stack([rng.uniform(ax[n][0], ax[n][-1], 400)
-                              for n in ('h', 'theta_b', 'theta_l1', 'theta_l2')])
-    phis = rng.uniform(cmap.phis[0], cmap.phis[-1], 400)
+    rng = np.random.default_rng(seed)
+    states = np.column_stack([rng.uniform(ax[name][0], ax[name][-1], n)
+                              for name in ('h', 'theta_b', 'theta_l1', 'theta_l2')])
+    phis = rng.uniform(cmap.phis[0], cmap.phis[-1], n)
     b = cmap.query_batch(states, phis, 'backward')
-    seen = 0
+    flagged = []
     for k, (s, phi) in enumerate(zip(states, phis)):
         r = cmap.query(AnchorState(*s), float(phi), 'backward')
-        assert ('edge_valued' in r.flags) == bool(b.edge_valued[k])
+        assert (flag in r.flags) == bool(getattr(b, flag)[k])
         if r.capacity_N is None:
             assert np.isnan(b.capacity_N[k])
             continue
         assert b.capacity_N[k] == pytest.approx(r.capacity_N, rel=1e-9, abs=1e-12)
-        if 'edge_valued' in r.flags:
-            seen += 1
-            assert 'blend of the valued corners' in r.detail
-    assert seen >= 10
+        if flag in r.flags:
+            flagged.append(r)
+    return flagged
+
+
+def test_edge_rule_single_and_batch_agree_and_flag():
+    cmap = CapacityMap.load(shipped_map_path('minirquad'))
+    flagged = single_and_batch_agree(cmap, 400, 5, 'edge_valued')
+    for r in flagged:
+        assert 'blend of the valued corners' in r.detail
+    assert len(flagged) >= 10
     with pytest.raises(ValueError, match='edge_min_weight'):
         CapacityMap(cmap.data, edge_min_weight=float('nan'))
 
@@ -141,22 +149,7 @@ def test_edge_margin_rule_places_the_edge_inside_the_cell():
 
 def test_edge_margin_single_and_batch_agree():
     cmap, _ = _margin_map(tau=0.05)
-    ax = cmap.axes
-    rng = np.random.default_rng(3)
-    states = np.column_stack([rng.uniform(ax[n][0], ax[n][-1], 300)
-                              for n in ('h', 'theta_b', 'theta_l1', 'theta_l2')])
-    phis = rng.uniform(cmap.phis[0], cmap.phis[-1], 300)
-    b = cmap.query_batch(states, phis, 'backward')
-    seen = 0
-    for k, (s, phi) in enumerate(zip(states, phis)):
-        r = cmap.query(AnchorState(*s), float(phi), 'backward')
-        assert ('edge_margin' in r.flags) == bool(b.edge_margin[k])
-        if r.capacity_N is None:
-            assert np.isnan(b.capacity_N[k])
-            continue
-        assert b.capacity_N[k] == pytest.approx(r.capacity_N, rel=1e-9, abs=1e-12)
-        seen += 'edge_margin' in r.flags
-    assert seen >= 10
+    assert len(single_and_batch_agree(cmap, 300, 3, 'edge_margin')) >= 10
 
 
 def test_schema_2_roundtrip_hash_and_validation(tmp_path):
