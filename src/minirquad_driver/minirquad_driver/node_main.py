@@ -15,6 +15,8 @@ import threading
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
+from rftgls_core.cli.main import one_line
+
 HELP_FLAGS = ('-h', '--help')
 # Unit suffixes of parameter names (longest first): the unit is in the name, and the
 # descriptor repeats it for `ros2 param describe`.
@@ -115,7 +117,7 @@ def run_node(make_node: Callable[[], Any], executable: str, *,
     try:
         node = make_node()
     except (ParameterException, *config_errors) as exc:
-        print(f'{executable}: error: {" ".join(str(exc).split())}', file=sys.stderr)
+        print(f'{executable}: error: {one_line(exc)}', file=sys.stderr)
         rclpy.try_shutdown()
         return 2
     executor = SingleThreadedExecutor()

@@ -29,6 +29,7 @@ from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, String
 
 from minirquad_driver.node_main import declare, run_node, usage, wants_help
+from rftgls_core.cli.main import one_line
 from rftgls_core.types import pull_direction
 
 from .capacity.estimator import JOINTS, CapacityEstimator, Estimate
@@ -128,7 +129,7 @@ class CapacityNode(Node):
         try:
             est_cfg, node_cfg = configs(proposed)
         except ConfigError as exc:
-            return SetParametersResult(successful=False, reason=' '.join(str(exc).split()))
+            return SetParametersResult(successful=False, reason=one_line(exc))
         self.estimator.reconfigure(est_cfg)
         self.params, self.config = proposed, node_cfg
         self.get_logger().info('parameters changed: ' + ', '.join(

@@ -27,8 +27,12 @@ _NEGATIVE_NUMBER = re.compile(r'^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$')
 
 
 def one_line(text: object) -> str:
-    """Collapse whitespace (h5py, numpy and rosbags messages span lines)."""
-    return ' '.join(str(text).split())
+    """Collapse whitespace (h5py, numpy and rosbags messages span lines); an exception with
+    no message gives its type name."""
+    line = ' '.join(str(text).split())
+    if not line and isinstance(text, BaseException):
+        return type(text).__name__
+    return line
 
 
 _SEEN = '_rftgls_options_seen'
@@ -124,7 +128,7 @@ def main(argv: list[str] | None = None) -> int:
             # The project's own errors (all ValueError subclasses) and unreadable files.
             if debug:
                 raise
-            print(f'{prefix}: error: {one_line(exc) or type(exc).__name__}', file=sys.stderr)
+            print(f'{prefix}: error: {one_line(exc)}', file=sys.stderr)
             return EXIT_USAGE
         except Exception as exc:  # noqa: BLE001 -- a bug, still no traceback by default
             if debug:

@@ -14,6 +14,7 @@ import os
 from pathlib import Path
 
 from minirquad_driver.node_main import ConfigError
+from rftgls_core.cli.main import one_line
 from rftgls_core.predictor import Predictor
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull, Status
@@ -74,7 +75,7 @@ class DescriptionPredictor:
                                           method=method, n_twists=n_twists or DEFAULT_TWISTS)
         except DescriptionError as exc:
             raise ConfigError(f'anchor_description_file: capacity_node estimates h, theta_b, '
-                              f'theta_l1, theta_l2: {_one_line(exc)}') from exc
+                              f'theta_l1, theta_l2: {one_line(exc)}') from exc
         self.description = desc
         self.name = f'live:{method}:{desc.name}'
 
@@ -88,7 +89,7 @@ def _description(path: str):
     try:
         return load_description(path)
     except DescriptionError as exc:
-        raise ConfigError(f'anchor_description_file: {_one_line(exc)}') from exc
+        raise ConfigError(f'anchor_description_file: {one_line(exc)}') from exc
 
 
 def resolve_map_path(path: str) -> Path:
@@ -117,11 +118,11 @@ class MapPredictor:
         try:
             self.map = CapacityMap.load(self.path)
         except MapFileError as exc:  # wrong schema, truncated file, failed integrity check
-            raise ConfigError(f'bad map file {self.path}: {_one_line(exc)}') from exc
+            raise ConfigError(f'bad map file {self.path}: {one_line(exc)}') from exc
         except OSError as exc:  # not HDF5 at all
-            raise ConfigError(f'cannot read map file {self.path}: {_one_line(exc)}') from exc
+            raise ConfigError(f'cannot read map file {self.path}: {one_line(exc)}') from exc
         except (ValueError, KeyError, TypeError) as exc:  # anything else the loader refuses
-            raise ConfigError(f'bad map file {self.path}: {_one_line(exc)}') from exc
+            raise ConfigError(f'bad map file {self.path}: {one_line(exc)}') from exc
         # 'shipped' / 'verified': the loader checked the content hash; 'unverified': a map
         # with no hash, whose integrity nobody can check (the node logs it loudly).
         self.integrity = self.map.data.integrity
@@ -135,7 +136,7 @@ class MapPredictor:
                 self.map.check_description(description_sha256)
             except ValueError as exc:
                 raise ConfigError(f'map file {self.path} does not answer for '
-                                  f'anchor_description_file: {_one_line(exc)}') from exc
+                                  f'anchor_description_file: {one_line(exc)}') from exc
         if pull is not None and str(pull) not in self.map.pulls:
             raise ConfigError(f'map file {self.path} holds pulls {list(self.map.pulls)}, '
                               f'not {str(pull)!r}')
@@ -143,10 +144,6 @@ class MapPredictor:
 
     def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
         return self.map.query(state, phi, pull)
-
-
-def _one_line(exc: BaseException) -> str:
-    return ' '.join(str(exc).split()) or type(exc).__name__
 
 
 class LiveFallback:
