@@ -36,6 +36,8 @@ from typing import Any
 
 import yaml
 
+from rftgls_core.cli.main import one_line
+
 STUB_MODULES = ('launch', 'launch.actions', 'launch.substitutions',
                 'launch.launch_description_sources', 'launch_ros', 'launch_ros.actions',
                 'launch_ros.substitutions')
@@ -353,7 +355,7 @@ def check_node(entry: NodeEntry) -> list[str]:
             node = cls(**kwargs)
         except Exception as exc:  # noqa: BLE001 - the node refused these values
             return problems + [f'{what}: refuses its launch parameters: '
-                               f'{type(exc).__name__}: {" ".join(str(exc).split())}']
+                               f'{type(exc).__name__}: {one_line(exc)}']
         declared = set(node.list_parameters([], 0).names)
         for k in sorted(set(values) - declared):
             problems.append(f'{what}: parameter {k!r} is not declared by the node')

@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rftgls_core.cli.main import one_line
 from rftgls_core.conventions import (
     LEG_JOINT_NAMES,
     LEG_KEYS,
@@ -139,9 +140,8 @@ def guard_bag_read(path, read):
     except BagError:
         raise
     except Exception as exc:  # noqa: BLE001 -- see docstring
-        msg = ' '.join(str(exc).split()) or type(exc).__name__
         raise BagError(f'{path}: not a readable rosbag2 pull-test bag '
-                       f'({type(exc).__name__}: {msg})') from None
+                       f'({type(exc).__name__}: {one_line(exc)})') from None
 
 
 @dataclass(frozen=True)
