@@ -122,6 +122,45 @@ def test_winch_stops_and_cycle_aborts_when_evidence_goes(predictor, name):
     assert stops and stops[0]['reason'] == reason and stops[0]['reel_m'] <= MAX_REEL_M
 
 
+class _Unreachable:
+    """capacity_node's query service as behavior_node sees it once the node is gone: every
+    question comes back `stale` with no value (capacity_query.ServicePredictor)."""
+
+    def __init__(self, predictor):
+        self.predictor, self.down = predictor, False
+
+    def predict(self, state, phi, pull):
+        if not self.down:
+            return self.predictor.predict(state, phi, pull)
+        from rftgls_core.surfaces.base import CapacityResult
+        from rftgls_core.types import Status
+        return CapacityResult(phi=phi, status=Status.STALE, method='capacity_query',
+                              reason='capacity_query_failed')
+
+
+def test_check_without_an_answer_is_missing_evidence_not_an_insufficient_anchor(predictor):
+    """capacity_node dies while the robot checks its burrowed anchor: the pose check's
+    questions go unanswered. That is lost evidence (abort, retry policy, give up), never
+    "no mode suffices" (a verdict on the anchor that nobody made)."""
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1, evidence_wait_s=1.0)
+    service = _Unreachable(predictor)
+    m = BehaviorMachine(cfg, ModeChooser(service, cfg.safety_factor, cfg.phis_rad))
+    plant = Plant(0.4, predictor)
+
+    def kill_at_check(p, mach):
+        if mach.state == State.CHECK and not service.down:
+            service.down, p.dead = True, True
+
+    run_loop(m, plant, t_max=40.0, on_step=kill_at_check)
+    assert service.down
+    assert [r.outcome for r in m.records][:1] == ['aborted'], m.records
+    assert m.records[0].reason in (evidence.TIMEOUT, evidence.NO_ESTIMATE), m.records[0]
+    assert m.state == State.FINISHED and 'giving up' in m.reason, m.reason
+    assert not any('no mode suffices' in e['text'] or 'insufficient' in e['text']
+                   for e in m.events), [e['text'] for e in m.events]
+    assert plant.winch_cmd == 0.0
+
+
 def test_fallback_never_overrides_an_explicit_no_value(predictor):
     m, _plant, seen = _fault_mid_tug(predictor, FAULTS['unsupported'],
                                      own_capacity_fallback=True)

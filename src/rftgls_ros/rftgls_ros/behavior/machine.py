@@ -27,7 +27,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from rftgls_core.types import AnchorState
+from rftgls_core.types import AnchorState, Status
 
 from . import evidence
 from .model import ANCHOR_MODES, Decision, EnergyModel, ForceNeed, ModeChooser, TetherTracker
@@ -284,6 +284,7 @@ class BehaviorMachine:
         self._idle_e0: tuple[float, float] | None = None
         self._checked = False
         self._check_why = ''
+        self._check_unanswered = False   # the pose check's questions went unanswered
         self._next_mode: str | None = None
         self._next_reason = ''
         self._tug_tensions: list[float] = []
@@ -529,6 +530,7 @@ class BehaviorMachine:
     def _enter_check(self) -> None:
         self._winch = 0.0
         self._checked = False
+        self._check_unanswered = False
 
     def _do_check(self) -> None:
         if not self._checked:
@@ -557,6 +559,9 @@ class BehaviorMachine:
         c = self.chooser.evaluate(self.mode, state, self.need.value,
                                   self.energy.estimate(self.mode))
         self._weakest = c.weakest
+        if not c.sufficient and all(s == str(Status.STALE) for s in c.statuses):
+            self._check_missing_evidence()
+            return
         pose = (f'measured pose thetaL1 {math.degrees(state.theta_l1):.1f}, thetaL2 '
                 f'{math.degrees(state.theta_l2):.1f}, thetaB {math.degrees(state.theta_b):.1f} '
                 f'deg, h {1e3 * state.h:.0f} mm (Table II mean, not measured)')
@@ -570,6 +575,19 @@ class BehaviorMachine:
             self._do_check()
             return
         self._reselect(f'{self.mode} insufficient at the measured pose', c.weakest)
+
+    def _check_missing_evidence(self) -> None:
+        """The pose check's questions came back `stale` (capacity_node's query service
+        unanswered): evidence is missing, the anchor is not shown insufficient. The evidence
+        rule decides, as in the live check: wait, then abort and retry by the policy."""
+        if not self._check_unanswered:
+            self._check_unanswered = True
+            self._event('warn', f'check {self.mode}: the capacity query is unanswered (stale); '
+                                'waiting for evidence, not re-burrowing', mode=self.mode)
+        if self._elapsed() >= self.cfg.capacity_wait_s:
+            v = self.evidence()
+            self._abort(v if not v.usable else evidence.Verdict(
+                False, evidence.NO_VALUE, True, 'capacity query unanswered'), in_tug=False)
 
     def _reselect(self, why: str, weakest: float | None) -> None:
         if self._burrows >= self.cfg.max_burrows_per_cycle:
