@@ -155,6 +155,14 @@ class AnchorDescription:
     pull_links: tuple[str, ...]
     symmetry: str = ''             # '' or 'sagittal': a claim, checked per pose, never trusted
     sha256: str = ''               # identity: description_sha256 of the files it was read from
+    # Points of base_link (m, (K, 3)) whose reaching the free surface ends a slip simulation
+    # (the robots' body plate ends); empty: the tether point (a buried body's own rule).
+    surface_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    urdf_path: Path | None = None  # the URDF file it was read from
+
+    def urdf_text(self) -> str:
+        """The URDF as read (what a ROS `robot_description` carries); '' when unknown."""
+        return self.urdf_path.read_text() if self.urdf_path is not None else ''
 
     @property
     def state_names(self) -> tuple[str, ...]:
@@ -170,6 +178,22 @@ class AnchorDescription:
                            f'{lo * f:.6g}..{hi * f:.6g} {v.unit}')
         return out
 
+    def base_pose(self, values: dict[str, float]) -> np.ndarray:
+        """(4, 4) pose of base_link in the world for state values (SI, by name)."""
+        base = np.eye(4)
+        base[:3, :3] = rot_y(-values[self.pitch_var]) if self.pitch_var else np.eye(3)
+        base[2, 3] = values[self.height_var] if self.height_var else 0.0
+        return base
+
+    def surface_min_z(self, values: dict[str, float]) -> float:
+        """Height (m, world z; the free surface is 0) of the lowest `surface_points` point
+        at state values, or of the tether point when the YAML names none: a slip
+        simulation stops when it reaches 0, as the robots' `plate_min_z` does."""
+        if len(self.surface_points):
+            base = self.base_pose(values)
+            return float(np.min(self.surface_points @ base[:3, :3].T[:, 2] + base[2, 3]))
+        return float(self.scene(values).ref[2])
+
     def scene(self, values: dict[str, float], pull: Pull | str = Pull.BACKWARD) -> Scene:
         """The posed description for state values (SI, by name) and a pull orientation."""
         missing = [n for n in self.state_names if n not in values]
@@ -181,10 +205,7 @@ class AnchorDescription:
         for v in self.state:
             for j in v.joints:
                 q[j] = values[v.name]
-        base = np.eye(4)
-        base[:3, :3] = rot_y(-values[self.pitch_var]) if self.pitch_var else np.eye(3)
-        base[2, 3] = values[self.height_var] if self.height_var else 0.0
-        world = {'base_link': base}
+        world = {'base_link': self.base_pose(values)}
         pending = list(self.joints)
         while pending:
             progressed = False
@@ -236,7 +257,8 @@ def load_description(path: str | Path) -> AnchorDescription:
         raise DescriptionError(f'{path}: not YAML ({" ".join(str(exc).split())})') from None
     if not isinstance(doc, dict) or 'urdf' not in doc:
         raise DescriptionError(f'{path}: a description needs at least `urdf:` and `state:`')
-    links, joints = read_urdf(path.parent / str(doc['urdf']))
+    urdf_path = path.parent / str(doc['urdf'])
+    links, joints = read_urdf(urdf_path)
     tether = str(doc.get('tether_link', 'winch_link'))
     if tether not in links or 'base_link' not in links:
         raise DescriptionError(f'{path}: the URDF needs base_link and the tether link '
@@ -274,6 +296,14 @@ def load_description(path: str | Path) -> AnchorDescription:
         if bp.get(key) is not None and bp[key] not in names:
             raise DescriptionError(f'{path}: base_pose.{key} names no state variable')
     ps = doc.get('pull_scale') or {}
+    sp = doc.get('surface_points') or []
+    try:
+        surface = np.asarray(sp, dtype=float).reshape(-1, 3)
+    except (TypeError, ValueError):
+        surface = np.full((1, 3), np.nan)
+    if not np.all(np.isfinite(surface)):
+        raise DescriptionError(f'{path}: surface_points must be a list of [x, y, z] points of '
+                               'base_link, m')
     return AnchorDescription(
         name=str(doc.get('name', path.stem)), source=path, links=links, joints=joints,
         tether_link=tether, char_length=float(doc.get('char_length_m', 0.1)),
@@ -281,7 +311,7 @@ def load_description(path: str | Path) -> AnchorDescription:
         pitch_var=str(bp.get('pitch') or ''), state=tuple(state),
         pull_scale={k: np.asarray(v, dtype=float) for k, v in ps.items() if k != 'links'},
         pull_links=tuple(ps.get('links') or ()), symmetry=_symmetry(path, doc),
-        sha256=description_sha256(path))
+        sha256=description_sha256(path), surface_points=surface, urdf_path=urdf_path)
 
 
 def description_sha256(path: str | Path) -> str:
@@ -523,6 +553,9 @@ symmetry: sagittal    # claimed mirror symmetry about x-z of base_link: checked 
 base_pose:            # base_link origin at height h, turned by rot_y(-theta_b)
   height: h
   pitch: theta_b
+surface_points:       # the body plate's ends in base_link, m: a slip stops when one reaches z = 0
+  - [0.0, 0.0, 0.0]
+  - [{r(robot.plate_length)}, 0.0, 0.0]
 pull_scale:           # the paper's C-leg orientation (types.Pull), in the leg frames
   forward: [1.0, 1.0, 1.0]
   backward: [-1.0, 1.0, 1.0]

@@ -4,6 +4,13 @@ Predictors: the four AnchorModel surfaces ('ellipsoid', 'alpha', 'twist-mesh', '
 'map' (CapacityMap.query on a precomputed HDF5 map). Trajectories use rftgls_core.sim
 (quasi-static slip integration, paper section IV) from the measured initial state.
 
+Robot: the bag's (metadata `robot`, a preset name) unless an anchor description is given
+(`--anchor FILE.yaml` of evaluate and calibrate; rftgls_core.description): then the
+description is posed from the measured (h, thetaB, thetaL1, thetaL2), so it must declare those
+four state variables (load_anchor checks; ValueError, one line), and a slip simulation stops
+where the description's `surface_points` reach the surface. For the shipped description of
+the bag's robot this gives the preset's numbers (tests/lab/test_lab_anchor.py).
+
 Medium files (JSON, written by calibrate): {"name", "xi_n", "mu_surf", "zeta", ...} with the
 fields of rftgls_core.rft.media.Medium; extra keys (covariance, confidence intervals, fit
 report) are ignored here.
@@ -16,6 +23,13 @@ from pathlib import Path
 
 import numpy as np
 
+from rftgls_core.description import (
+    ROBOT_STATE,
+    AnchorDescription,
+    DescriptionError,
+    load_description,
+    state_values,
+)
 from rftgls_core.predictor import Predictor
 from rftgls_core.rft.media import Medium, medium_from_dict
 from rftgls_core.rft.media import load_medium as core_load_medium
@@ -34,21 +48,55 @@ def load_medium(spec: str | Path | dict) -> Medium:
     return core_load_medium(str(spec))
 
 
+def load_anchor(path: str | Path | None) -> AnchorDescription | None:
+    """The description of `--anchor` (None: the bags' own robot). ValueError (one line)
+    when it cannot be read or does not declare the lab's four state variables: a bag
+    measures h, thetaB and the two leg angles, nothing else."""
+    if path is None or not str(path).strip():
+        return None
+    try:
+        desc = load_description(path)
+    except DescriptionError as exc:
+        raise ValueError(f'--anchor: {" ".join(str(exc).split())}') from None
+    if sorted(desc.state_names) != sorted(ROBOT_STATE):
+        raise ValueError(f'--anchor: {desc.source}: a pull-test bag measures the state '
+                         f'variables {", ".join(ROBOT_STATE)}; the description declares '
+                         f'{", ".join(desc.state_names)}')
+    return desc
+
+
 def make_predictor(method: str, robot: str, medium: Medium, map_path: str | Path | None = None,
-                   n_twists: int | None = None) -> Predictor:
+                   n_twists: int | None = None,
+                   anchor: AnchorDescription | None = None) -> Predictor:
     """The core Predictor of `method` (one of METHODS) for `robot` in `medium`: the live
-    AnchorModel, or for 'map' the CapacityMap at map_path (checked to be of `robot`)."""
+    AnchorModel, or for 'map' the CapacityMap at map_path (checked to be of `robot`).
+    anchor: a description to pose instead of the preset `robot` (DescriptionModel; a map
+    must then answer for that description, CapacityMap.check_description)."""
     if method == 'map':
         if map_path is None:
             raise ValueError("method 'map' needs a map file")
         from rftgls_core.maps import CapacityMap, resolve_map
         cmap = CapacityMap.load(resolve_map(map_path))   # predict() like AnchorModel
-        if cmap.robot_name != robot:
+        if anchor is not None:
+            cmap.check_description(anchor.sha256)
+        elif cmap.robot_name != robot:
             raise ValueError(f'{cmap.source}: map is for robot {cmap.robot_name!r}, the test '
                              f'is of {robot!r}')
         return cmap
+    if anchor is not None:
+        from rftgls_core.description import DescriptionModel
+        return DescriptionModel(anchor, medium, method=method, n_twists=n_twists)
     from rftgls_core.anchor import AnchorModel
     return AnchorModel(get_robot(robot), medium, method=method, n_twists=n_twists)
+
+
+def surface_min_z(robot: str, pull: str, anchor: AnchorDescription | None = None):
+    """plate_min_z(state) for rftgls_core.sim.simulate_pull: the preset's body plate, or the
+    description's surface_points (m; the run stops when it reaches 0)."""
+    if anchor is not None:
+        return lambda st: anchor.surface_min_z(state_values(st))
+    rb = get_robot(robot)
+    return lambda st: rb.pose(st, pull).plate_min_z
 
 
 def initial_pose(test: PullTest) -> np.ndarray | None:
@@ -96,16 +144,17 @@ class PredictedPull:
 
 def predict_pull(predictor: Predictor, test: PullTest, method: str, step: float = 1e-3,
                  max_travel: float = 0.04, integrator: str = 'heun',
-                 state: AnchorState | None = None) -> PredictedPull:
-    """Capacity and slip trajectory of `test` (initial state measured unless given)."""
+                 state: AnchorState | None = None,
+                 anchor: AnchorDescription | None = None) -> PredictedPull:
+    """Capacity and slip trajectory of `test` (initial state measured unless given); anchor:
+    the description posed instead of the bag's robot (its surface_points end the slip)."""
     from rftgls_core.sim.trajectory import simulate_pull
 
     state = state or measured_initial_state(test)
     meta = test.meta
-    robot = get_robot(meta.robot)
     res = predictor.predict(state, meta.phi_rad, meta.pull)
     traj = simulate_pull(predictor, state, meta.phi_rad, meta.pull,
-                         lambda st: robot.pose(st, meta.pull).plate_min_z, step=step,
+                         surface_min_z(meta.robot, meta.pull, anchor), step=step,
                          integrator=integrator, max_travel=max_travel)
     arr = traj.as_array()
     p0 = initial_pose(test)
