@@ -240,7 +240,7 @@ def test_cli_accuracy_refine_and_plot_take_a_described_map(box_map, box_anchor, 
 @pytest.mark.parametrize('argv, must', [
     (['map', 'accuracy', 'BOX'], '--anchor FILE.yaml'),
     (['map', 'accuracy', 'BOX', '--anchor', 'MINI'], 'was built for description box_anchor'),
-    (['map', 'accuracy', 'BOX', '--anchor', 'YAML', '--random', '5'], '--random'),
+    (['map', 'accuracy', 'BOX', '--anchor', 'YAML', '--random', '5'], '--samples'),
     (['map', 'refine', 'BOX', '--out', 'OUT'], '--anchor FILE.yaml'),
     (['map', 'accuracy', 'minirquad', '--anchor', 'YAML'], 'for described maps'),
     (['map', 'plot', 'BOX', '--x', 'depth', '--y', 'depth', '--out', 'OUT'], 'two different'),
@@ -277,3 +277,41 @@ def test_accuracy_is_honest_next_to_nodes_without_a_value(box_anchor, tmp_path):
     rep = described_accuracy(cmap, desc, samples=6, reference='twist-mesh')
     assert rep.map_conservative > 0                      # the reference answered, the map not
     assert rep.status_mismatch == rep.map_conservative   # never a value the reference lacks
+
+
+def test_support_edge_rules_of_the_robot_maps(box_map):
+    """One node made `unsupported`: next to the valued corners (their weight >= 0.9) the cell
+    answers their renormalised blend ('edge_valued'); mid-cell it withholds the value as
+    `unsupported`, unless the opt-in zeros rule counts the node as 0 N ('support_edge').
+    Reference values: the blends computed here by hand from the node values."""
+    import copy
+
+    from rftgls_core.maps.hdf5 import STATUS_NAMES
+    path, desc = box_map
+    data = copy.deepcopy(DescribedMap.load(path).data)
+    # depth nodes -0.05, -0.04, -0.03; tilt 0, 10 deg; phi 0, 45, 90 deg
+    data.status[0, 0, 1, :] = STATUS_NAMES.index('unsupported')   # (-0.05 m, 10 deg)
+    cap = data.capacity_N[0].astype(float)
+    phi = 0.0
+    for support_edge in (False, True):
+        cmap = DescribedMap(data, support_edge=support_edge)
+        # 95 % of the way to the valued corner (-0.05, 0), 5 % toward (-0.04, ...)
+        t = math.radians(10.0) * 0.02
+        q = cmap.query({'depth': -0.0495, 'tilt': t}, phi, 'backward', desc.sha256)
+        wd, wt = 0.05, 0.02
+        w = {(0, 0): (1 - wd) * (1 - wt), (1, 0): wd * (1 - wt), (1, 1): wd * wt}
+        want = sum(v * cap[i, j, 0] for (i, j), v in w.items()) / sum(w.values())
+        assert q.status is Status.OK and q.flags == ('edge_valued',)
+        assert q.capacity_N == pytest.approx(want, rel=1e-9)
+        mid = cmap.query({'depth': -0.045, 'tilt': math.radians(5.0)}, phi, 'backward',
+                         desc.sha256)
+        if support_edge:
+            zeros = 0.25 * (cap[0, 0, 0] + cap[1, 0, 0] + cap[1, 1, 0])
+            assert mid.status is Status.OK and mid.flags == ('support_edge',)
+            assert mid.capacity_N == pytest.approx(zeros, rel=1e-9)
+        else:
+            assert mid.status is Status.UNSUPPORTED and mid.capacity_N is None
+        pts = np.array([[-0.0495, t], [-0.045, math.radians(5.0)]])
+        c, code = cmap.query_batch(pts, phi, 'backward', desc.sha256)
+        assert c[0] == pytest.approx(want, rel=1e-9)
+        assert STATUS_NAMES[code[1]] == mid.status.value

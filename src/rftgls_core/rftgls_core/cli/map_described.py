@@ -8,7 +8,8 @@
 accuracy and refine solve the description live, so they need it (`--anchor`, checked to be
 the map's own by its identity); plot reads the map alone. Values are in the description's
 units (m or deg, as its YAML declares them). The robot maps' options that a described map
-has no data for (--random, --support-edge) are refused with one line.
+has no data for (--random) are refused with one line; --support-edge is the same opt-in
+zeros rule as for the robot maps (DescribedMap).
 """
 from __future__ import annotations
 
@@ -18,14 +19,14 @@ from pathlib import Path
 import numpy as np
 
 
-def _load(args):
+def _load(args, support_edge: bool = False):
     """(DescribedMap, AnchorDescription) of FILE and --anchor (ValueError, one line)."""
     from ..description import load_description
     from ..maps.described import DescribedMap, check_identity
     if not getattr(args, 'anchor', None):
         raise ValueError(f'{args.file} is a described map: give --anchor FILE.yaml, the '
                          'description it was built for (it is solved live for the check)')
-    cmap = DescribedMap.load(args.file)
+    cmap = DescribedMap.load(args.file, support_edge=support_edge)
     desc = load_description(args.anchor)
     check_identity(cmap, desc)
     return cmap, desc
@@ -34,10 +35,10 @@ def _load(args):
 def accuracy(args):
     """The AccuracyReport of `map accuracy` for a described map."""
     from ..maps.described import described_accuracy
-    if args.random or args.support_edge:
-        raise ValueError('--random and --support-edge check the robot maps\' edge rules; a '
-                         'described map has none (use --samples)')
-    cmap, desc = _load(args)
+    if args.random:
+        raise ValueError('--random samples a robot\'s ranges; for a described map use '
+                         '--samples')
+    cmap, desc = _load(args, support_edge=args.support_edge)
     return described_accuracy(cmap, desc, samples=args.samples, seed=args.seed,
                               reference=args.reference, progress=not args.quiet)
 

@@ -23,7 +23,8 @@ Answers come from scene.SceneModel at phi with yaw 0 (the sagittal reduction whe
 description claims the symmetry, which is checked at every node; else auto), so the twists are
 6D world twists at the tether point. Query (`DescribedMap.query`): multilinear over the state
 axes and phi, the conservative cell rule of query.py (any weighted corner without a value
-withholds the value, reported with the most conservative corner status), OUT_OF_RANGE off
+withholds the value, reported with the most conservative corner status) with its support-edge
+rules that need no stored margin (valued-corner, opt-in zeros; DescribedMap), OUT_OF_RANGE off
 the grid; and a query that names a different description identity is refused
 (INVALID_INPUT, 'description_mismatch'): a map answers only for the anchor it was built for.
 """
@@ -354,17 +355,40 @@ def load_described_map(path: str | Path) -> DescribedMapData:
 
 class DescribedMap:
     """Queries of a described map. `query` needs the identity of the description the caller
-    poses (AnchorDescription.sha256) and refuses another one."""
+    poses (AnchorDescription.sha256) and refuses another one.
 
-    def __init__(self, data: DescribedMapData, source: str = '') -> None:
+    Support-edge rules, those of the robot maps (query.py) that need no stored margin: a cell
+    whose valueless weighted corners are all `unsupported` answers the blend of its valued
+    corners, renormalised, when they carry >= edge_min_weight of the weight (flag
+    'edge_valued'; the robot maps' measured threshold, query.EDGE_MIN_WEIGHT); with
+    support_edge=True (opt-in) such a cell counts its unsupported corners as 0 N (flag
+    'support_edge'). The robot maps' edge-margin rule needs per-node support margins, which
+    a described map does not store: such cells withhold the value."""
+
+    def __init__(self, data: DescribedMapData, source: str = '', support_edge: bool = False,
+                 edge_min_weight: float | None = None) -> None:
+        from .query import EDGE_MIN_WEIGHT
         self.data = data
         self.source = source
         self._axes = [list(map(float, a)) for a in data.grid.axes] + \
             [list(map(float, data.grid.phi))]
+        self.support_edge = bool(support_edge)
+        w = EDGE_MIN_WEIGHT if edge_min_weight is None else float(edge_min_weight)
+        if not (math.isfinite(w) and w > 0.0):
+            raise ValueError(f'edge_min_weight must be a positive share, got {w}')
+        self.edge_min_weight = w
 
     @classmethod
-    def load(cls, path: str | Path) -> 'DescribedMap':
-        return cls(load_described_map(path), source=str(path))
+    def load(cls, path: str | Path, support_edge: bool = False) -> 'DescribedMap':
+        return cls(load_described_map(path), source=str(path), support_edge=support_edge)
+
+    def _edge(self, only_unsupported: bool, w_valued: float) -> str:
+        """The support-edge rule that answers a cell with valueless corners ('' = none)."""
+        if not (only_unsupported and w_valued > 0.0):
+            return ''
+        if w_valued >= self.edge_min_weight - 1e-12:
+            return 'edge_valued'
+        return 'support_edge' if self.support_edge else ''
 
     @property
     def grid(self) -> DescribedGrid:
@@ -409,7 +433,7 @@ class DescribedMap:
             return self._fail(Status.OUT_OF_RANGE, 'out_of_grid',
                               f'{", ".join(out)} outside the grid')
         p = g.pulls.index(pull)
-        c, tw, worst = 0.0, np.zeros(6), None
+        c, tw, worst, w_valued, n_bad, only_unsupported = 0.0, np.zeros(6), None, 0.0, 0, True
         for bits in itertools.product((0, 1), repeat=len(cells)):
             w = 1.0
             for (_, t, _), b in zip(cells, bits):
@@ -421,13 +445,29 @@ class DescribedMap:
             if not st.has_value:
                 rank = _BAD_PRIORITY.index(st) if st in _BAD_PRIORITY else len(_BAD_PRIORITY)
                 worst = rank if worst is None else min(worst, rank)
+                only_unsupported &= st is Status.UNSUPPORTED
+                n_bad += 1
                 continue
+            w_valued += w
             c += w * float(self.data.capacity_N[idx])
             tw += w * self.data.slip_twist_scaled[idx].astype(float)
+        flags: tuple[str, ...] = ()
+        edge_detail = ''
         if worst is not None:
-            st = _BAD_PRIORITY[worst] if worst < len(_BAD_PRIORITY) else Status.INVALID_INPUT
-            return self._fail(st, f'cell_{st.value}',
-                              'a weighted cell corner has no value')
+            rule = self._edge(only_unsupported, w_valued)
+            if not rule:
+                st = _BAD_PRIORITY[worst] if worst < len(_BAD_PRIORITY) else Status.INVALID_INPUT
+                return self._fail(st, f'cell_{st.value}',
+                                  'a weighted cell corner has no value')
+            flags = (rule,)
+            if rule == 'edge_valued':
+                c, tw = c / w_valued, tw / w_valued
+                edge_detail = (f'; support edge: blend of the valued corners (weight '
+                               f'{w_valued:.3f} >= {self.edge_min_weight:g}), {n_bad} '
+                               'unsupported corners left out')
+            else:
+                edge_detail = (f'; support edge: {n_bad} unsupported corners counted as 0 N '
+                               f'(valued weight {w_valued:.3f})')
         norm = float(np.linalg.norm(tw))
         if norm < 1e-9:
             return self._fail(Status.DEGENERATE, 'twist_cancels',
@@ -440,7 +480,7 @@ class DescribedMap:
                            capacity_N=max(c, 0.0),
                            slip_twist=tuple(float(x) for x in raw),
                            slip_twist_scaled=tuple(float(x) for x in ts),
-                           detail=f'twist_confidence={norm:.3f}')
+                           detail=f'twist_confidence={norm:.3f}' + edge_detail, flags=flags)
 
     def query_batch(self, values: np.ndarray, phi: float, pull: str,
                     description_sha256: str) -> tuple[np.ndarray, np.ndarray]:
@@ -470,6 +510,9 @@ class DescribedMap:
                          else len(_BAD_PRIORITY) for n in STATUS_NAMES])
         c = np.zeros(M)
         worst = np.full(M, len(_BAD_PRIORITY) + 1)
+        w_valued = np.zeros(M)
+        only_unsupported = np.ones(M, dtype=bool)
+        unsupported_code = STATUS_NAMES.index(Status.UNSUPPORTED.value)
         for bits in itertools.product((0, 1), repeat=len(axes)):
             w = np.ones(M)
             idx = []
@@ -480,9 +523,16 @@ class DescribedMap:
             weighted = w > 0.0
             has = valued[st]
             c += np.where(weighted & has, w * np.nan_to_num(cap[tuple(idx)]), 0.0)
+            w_valued += np.where(weighted & has, w, 0.0)
             worst = np.where(weighted & ~has, np.minimum(worst, rank[st]), worst)
+            only_unsupported &= ~(weighted & ~has) | (st == unsupported_code)
         code = np.full(M, STATUS_NAMES.index(Status.OK.value), dtype=np.uint8)
         bad = worst <= len(_BAD_PRIORITY)
+        # the support-edge rules (see the class doc), as `query` applies them
+        edge = bad & only_unsupported & (w_valued > 0.0)
+        valued_rule = edge & (w_valued >= self.edge_min_weight - 1e-12)
+        c = np.where(valued_rule, c / np.where(valued_rule, w_valued, 1.0), c)
+        bad &= ~(valued_rule | (edge & self.support_edge))
         prio = [STATUS_NAMES.index(s.value) for s in _BAD_PRIORITY] + \
             [STATUS_NAMES.index(Status.INVALID_INPUT.value)]
         code[bad] = np.asarray(prio)[worst[bad]]
