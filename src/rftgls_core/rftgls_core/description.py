@@ -383,9 +383,36 @@ def state_values(state: AnchorState) -> dict[str, float]:
 ROBOT_STATE = ('h', 'theta_b', 'theta_l1', 'theta_l2')
 
 
+def robot_state_map(desc: AnchorDescription, mapping=None) -> dict[str, str]:
+    """Which AnchorState quantity (ROBOT_STATE) feeds each state variable of desc, for the
+    consumers that estimate a robot's AnchorState (capacity_node, the simulator ground, the
+    lab tools): `mapping` (description variable -> quantity), default the variables' own
+    names. Every variable needs one quantity, no quantity feeds two; unused quantities are
+    left out (their inputs are still measured). DescriptionError (one line) otherwise.
+    The user vouches for the meaning: h is the height of the tether point p above the
+    surface, theta_b the body pitch (rot_y(-theta_b)), theta_l1/l2 the leg angles."""
+    mapping = dict(mapping or {n: n for n in desc.state_names})
+    need = f'the AnchorState quantities are {", ".join(ROBOT_STATE)}'
+    unknown = sorted(set(mapping) - set(desc.state_names))
+    if unknown:
+        raise DescriptionError(f'{desc.source}: no state variable {", ".join(unknown)} (it '
+                               f'declares {", ".join(desc.state_names)})')
+    unfed = [n for n in desc.state_names if n not in mapping]
+    bad = sorted({q for q in mapping.values() if q not in ROBOT_STATE})
+    if unfed or bad:
+        what = (f'state variable(s) {", ".join(unfed)} have no quantity' if unfed else
+                f'{", ".join(bad)} is not one')
+        raise DescriptionError(f'{desc.source}: declares {", ".join(desc.state_names)}; {need} '
+                               f'and each variable needs one ({what})')
+    twice = sorted({q for q in mapping.values() if list(mapping.values()).count(q) > 1})
+    if twice:
+        raise DescriptionError(f'{desc.source}: {", ".join(twice)} feeds two state variables')
+    return mapping
+
+
 class DescriptionModel:
     """AnchorModel's interface (fit / predict_many / predict on an AnchorState, sagittal
-    (vx, vz, wy) answers) on a description with the robots' four state variables, for the
+    (vx, vz, wy) answers) on a description whose state variables the AnchorState feeds, for the
     consumers that speak AnchorState (capacity_node's live solver, the simulator ground).
     The sagittal reduction is used only where the posed facets pass the mirror check
     (scene.pull_plane_symmetry); elsewhere the answer is `invalid_input` `not_symmetric`
@@ -393,18 +420,17 @@ class DescriptionModel:
     robot it gives AnchorModel's numbers (tests/core/test_description.py).
 
     mass_scale multiplies the described mass (the simulator's heavier or lighter true robot).
+    state_map: description variable -> AnchorState quantity (robot_state_map; default: the
+    variables are named h, theta_b, theta_l1, theta_l2 or a subset of them).
     """
 
     def __init__(self, desc: AnchorDescription, medium, model: str = 'agarwal',
                  method: str | None = None, n_twists: int | None = None,
-                 backend: str = 'auto', mass_scale: float = 1.0):
+                 backend: str = 'auto', mass_scale: float = 1.0, state_map=None):
         from .anchor import DEFAULT_METHOD, DEFAULT_TWISTS, DEFAULT_TWISTS_BY_METHOD
         from .rft.models import make_model
         from .surfaces.registry import surface_class
-        if sorted(desc.state_names) != sorted(ROBOT_STATE):
-            raise DescriptionError(f'{desc.source}: needs the state variables '
-                                   f'{", ".join(ROBOT_STATE)}, declares '
-                                   f'{", ".join(desc.state_names)}')
+        self.state_map = robot_state_map(desc, state_map)
         self.description = desc
         self.medium = medium
         self.stress_model = make_model(model, medium)
@@ -432,7 +458,8 @@ class DescriptionModel:
         if not isinstance(state, AnchorState) or not state.is_finite():
             return None, self._fail(Status.INVALID_INPUT, 'invalid_state',
                                     f'anchor state must be finite, got {state!r}')
-        values = state_values(state)
+        robot = state_values(state)
+        values = {n: robot[q] for n, q in self.state_map.items()}
         outside = self.violations(values)
         if outside:
             return None, self._fail(Status.OUT_OF_RANGE, 'outside_physical_range',

@@ -6,8 +6,8 @@ Predictors: the four AnchorModel surfaces ('ellipsoid', 'alpha', 'twist-mesh', '
 
 Robot: the bag's (metadata `robot`, a preset name) unless an anchor description is given
 (`--anchor FILE.yaml` of evaluate and calibrate; rftgls_core.description): then the
-description is posed from the measured (h, thetaB, thetaL1, thetaL2), so it must declare those
-four state variables (load_anchor checks; ValueError, one line), and a slip simulation stops
+description is posed from the measured (h, thetaB, thetaL1, thetaL2), so its state variables
+must be those (or some of them; load_anchor checks; ValueError, one line), and a slip stops
 where the description's `surface_points` reach the surface. For the shipped description of
 the bag's robot this gives the preset's numbers (tests/lab/test_lab_anchor.py).
 
@@ -24,10 +24,10 @@ from pathlib import Path
 import numpy as np
 
 from rftgls_core.description import (
-    ROBOT_STATE,
     AnchorDescription,
     DescriptionError,
     load_description,
+    robot_state_map,
     state_values,
 )
 from rftgls_core.predictor import Predictor
@@ -50,18 +50,16 @@ def load_medium(spec: str | Path | dict) -> Medium:
 
 def load_anchor(path: str | Path | None) -> AnchorDescription | None:
     """The description of `--anchor` (None: the bags' own robot). ValueError (one line)
-    when it cannot be read or does not declare the lab's four state variables: a bag
-    measures h, thetaB and the two leg angles, nothing else."""
+    when it cannot be read or declares a state variable a bag does not measure (a bag
+    measures h, thetaB and the two leg angles, nothing else)."""
     if path is None or not str(path).strip():
         return None
     try:
         desc = load_description(path)
+        robot_state_map(desc)
     except DescriptionError as exc:
-        raise ValueError(f'--anchor: {" ".join(str(exc).split())}') from None
-    if sorted(desc.state_names) != sorted(ROBOT_STATE):
-        raise ValueError(f'--anchor: {desc.source}: a pull-test bag measures the state '
-                         f'variables {", ".join(ROBOT_STATE)}; the description declares '
-                         f'{", ".join(desc.state_names)}')
+        raise ValueError(f'--anchor: {" ".join(str(exc).split())} (what a pull-test bag '
+                         'measures)') from None
     return desc
 
 
@@ -94,7 +92,8 @@ def surface_min_z(robot: str, pull: str, anchor: AnchorDescription | None = None
     """plate_min_z(state) for rftgls_core.sim.simulate_pull: the preset's body plate, or the
     description's surface_points (m; the run stops when it reaches 0)."""
     if anchor is not None:
-        return lambda st: anchor.surface_min_z(state_values(st))
+        names = anchor.state_names
+        return lambda st: anchor.surface_min_z({n: state_values(st)[n] for n in names})
     rb = get_robot(robot)
     return lambda st: rb.pose(st, pull).plate_min_z
 
