@@ -139,3 +139,32 @@ def test_replay_publishes_the_description(ros_context, synthetic_bags):
         node.destroy_node()
         probe.destroy_node()
     assert got and got[0].data == (PROTOTYPE.parent / 'prototype.urdf').read_text()
+
+
+def test_method_map_takes_a_described_map_with_its_description(tmp_path):
+    """`--map` may be a described map (`rftgls map build --anchor`): it answers for --anchor
+    (at a node: the live description solver's capacity, float32 storage) and is refused
+    without it or for another description, in one line."""
+    from rftgls_core.description import load_description
+    from rftgls_core.maps.described import (
+        build_described_map,
+        description_grid,
+        save_described_map,
+    )
+    desc = load_description(PROTOTYPE)
+    med = get_medium('glass_beads')
+    grid = description_grid(desc, {'h': [0.01, 0.02], 'theta_b': [0.0, 10.0],
+                                   'theta_l1': [-40.0, -20.0], 'theta_l2': [0.0, 20.0]},
+                            [0.0, 20.0], ('backward',))
+    path = save_described_map(tmp_path / 'p.h5', build_described_map(desc, med, grid,
+                                                                     method='twist-mesh'))
+    m = make_predictor('map', 'prototype', med, path, anchor=load_anchor(PROTOTYPE))
+    live = make_predictor('twist-mesh', 'prototype', med)
+    st = AnchorState(0.02, math.radians(10.0), math.radians(-40.0), math.radians(20.0))
+    a, b = live.predict(st, 0.0, 'backward'), m.predict(st, 0.0, 'backward')
+    assert a.status == b.status and b.capacity_N == pytest.approx(a.capacity_N, rel=1e-6)
+    with pytest.raises(ValueError, match='give --anchor'):
+        make_predictor('map', 'prototype', med, path)
+    with pytest.raises(ValueError, match='was built for description prototype'):
+        make_predictor('map', 'prototype', med, path,
+                       anchor=load_anchor(shipped_description('minirquad')))

@@ -184,3 +184,55 @@ def test_a_two_variable_body_uses_h_and_theta_b_only(tmp_path):
     ref = SceneModel(get_medium('glass_beads'), method='twist-mesh', space='sagittal').predict(
         desc.scene({'depth': -0.04, 'tilt': math.radians(10)}), 0.5)
     assert a.capacity_N == pytest.approx(ref.capacity_N, rel=1e-9)
+
+
+@pytest.fixture(scope='module')
+def dh_described_map(tmp_path_factory):
+    """A small described map of the shipped MiniRQuad description around Table II's DH pose
+    (its nodes include DH), twist-mesh, backward pull."""
+    from rftgls_core.description import load_description
+    from rftgls_core.maps.described import (
+        build_described_map,
+        description_grid,
+        save_described_map,
+    )
+    from rftgls_core.rft.media import get_medium
+    desc = load_description(MINIRQUAD)
+    grid = description_grid(desc, {'h': [0.034, 0.036], 'theta_b': [5.0, 8.9],
+                                   'theta_l1': [-40.0, -20.0], 'theta_l2': [20.0, 30.0]},
+                            [-20.0, 0.0], ('backward',))
+    data = build_described_map(desc, get_medium('m90_sand'), grid, method='twist-mesh')
+    return save_described_map(tmp_path_factory.mktemp('dmap') / 'dh.h5', data)
+
+
+def test_capacity_node_serves_a_described_map_for_its_description(dh_described_map):
+    """map_file = a described map + anchor_description_file = its description: at a node the
+    answer is the live description solver's (float32 storage), twist in the sagittal form."""
+    from rftgls_ros.capacity.predictor import DescribedMapPredictor
+    p = predictor_from_params(str(dh_described_map), medium='m90_sand', pull='backward',
+                              anchor_description_file=MINIRQUAD)
+    assert isinstance(p, DescribedMapPredictor)
+    live = predictor_from_params('', 'twist-mesh', anchor_description_file=MINIRQUAD)
+    dh = ANCHOR_MODES['DH']
+    for phi in (0.0, math.radians(-20.0)):
+        a, b = live.predict(dh, phi, 'backward'), p.predict(dh, phi, 'backward')
+        assert a.status == b.status and b.capacity_N is not None
+        assert b.capacity_N == pytest.approx(a.capacity_N, rel=1e-6)
+        assert b.slip_twist_scaled == pytest.approx(a.slip_twist_scaled, abs=1e-5)
+        assert b.slip_twist == pytest.approx(a.slip_twist, abs=1e-5)
+    off = p.predict(ANCHOR_MODES['SH'], 0.0, 'backward')        # off the small grid
+    assert off.status.value == 'out_of_range' and off.capacity_N is None
+
+
+@pytest.mark.parametrize('kw, must', [
+    ({}, 'set anchor_description_file'),
+    ({'anchor_description_file': str(shipped_description('prototype'))},
+     'does not answer for anchor_description_file'),
+    ({'anchor_description_file': MINIRQUAD, 'medium': 'glass_beads'}, "for medium 'm90_sand'"),
+    ({'anchor_description_file': MINIRQUAD, 'pull': 'forward'}, "not 'forward'"),
+])
+def test_a_described_map_the_node_cannot_use_is_one_line(dh_described_map, kw, must):
+    args = {'medium': 'm90_sand', 'pull': 'backward', **kw}
+    with pytest.raises(ConfigError) as err:
+        predictor_from_params(str(dh_described_map), **args)
+    assert '\n' not in str(err.value) and must in str(err.value), str(err.value)

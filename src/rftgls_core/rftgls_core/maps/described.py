@@ -682,3 +682,59 @@ def refined_described_grid(grid: DescribedGrid, errors: list, tol_pct: float) ->
     return DescribedGrid(grid.names, grid.units,
                          tuple(np.unique(np.asarray(new[n], dtype=float)) for n in grid.names),
                          grid.phi, grid.pulls)
+
+
+class DescribedMapModel:
+    """A described map behind the robots' Predictor interface (predict(AnchorState, phi,
+    pull) -> CapacityResult with sagittal (vx, vz, wy) twists), for the consumers that
+    estimate an AnchorState (capacity_node's map_file, the lab tools' 'map'): the state
+    variables are fed from the AnchorState by description.robot_state_map (by name or
+    state_map), the answer is DescribedMap.query's. A 6D slip twist with an out-of-plane part
+    (> TWIST_PLANE_TOL of the unit scaled twist) cannot be carried: `invalid_input`
+    `not_symmetric`, as DescriptionModel answers there. desc must be the map's own."""
+
+    TWIST_PLANE_TOL = 1e-6
+
+    def __init__(self, cmap: DescribedMap, desc, state_map=None):
+        from ..description import robot_state_map
+        check_identity(cmap, desc)
+        self.map = cmap
+        self.description = desc
+        self.state_map = robot_state_map(desc, state_map)
+        self.method = METHOD
+
+    @property
+    def medium_name(self) -> str:
+        return self.map.medium_name
+
+    @property
+    def pulls(self) -> tuple[str, ...]:
+        return self.map.grid.pulls
+
+    def predict(self, state, phi: float, pull):
+        from ..description import state_values
+        from ..surfaces.base import CapacityResult
+        from ..types import Pull
+        robot = state_values(state)
+        values = {n: robot[q] for n, q in self.state_map.items()}
+        pull = pull.value if isinstance(pull, Pull) else str(pull)
+        r = self.map.query(values, phi, pull, self.description.sha256)
+        if not r.ok or r.slip_twist_scaled is None or r.slip_twist is None:
+            return CapacityResult(phi=float(phi), status=r.status, method=METHOD,
+                                  reason=r.reason, detail=r.detail)
+        ts, tr = np.asarray(r.slip_twist_scaled), np.asarray(r.slip_twist)
+        off = float(np.max(np.abs(ts[[1, 3, 5]])))
+        if off > self.TWIST_PLANE_TOL:
+            return CapacityResult(phi=float(phi), status=Status.INVALID_INPUT, method=METHOD,
+                                  reason='not_symmetric',
+                                  detail=f'the map\'s slip twist leaves the pull plane (out-of-'
+                                         f'plane part {off:.3g}); a sagittal answer cannot '
+                                         'carry it')
+        s3, r3 = ts[[0, 2, 4]], tr[[0, 2, 4]]
+        s3, r3 = s3 / np.linalg.norm(s3), r3 / np.linalg.norm(r3)
+        return CapacityResult(phi=float(phi), status=r.status, method=METHOD,
+                              capacity_N=r.capacity_N,
+                              slip_twist=(float(r3[0]), float(r3[1]), float(r3[2])),
+                              slip_twist_scaled=(float(s3[0]), float(s3[1]), float(s3[2])),
+                              unchecked_capacity_N=r.capacity_N, detail=r.detail,
+                              flags=r.flags)

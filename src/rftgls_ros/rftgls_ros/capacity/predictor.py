@@ -176,6 +176,61 @@ class MapPredictor:
         return self.map.query(state, phi, pull)
 
 
+class DescribedMapPredictor:
+    """A described map (`rftgls map build --anchor`, maps/described.py) for the description
+    of `anchor_description_file`: rftgls_core's DescribedMapModel (the node's estimates feed
+    the description's variables by name or anchor_state_variables). The map must answer for
+    that description (identity) and be built for the node's medium and pull."""
+
+    def __init__(self, path: Path, desc, medium: str | None = None, pull: str | None = None,
+                 state_map: dict[str, str] | None = None):
+        from rftgls_core.description import DescriptionError
+        from rftgls_core.maps import MapFileError
+        from rftgls_core.maps.described import DescribedMap, DescribedMapModel
+        try:
+            cmap = DescribedMap.load(path)
+        except MapFileError as exc:
+            raise ConfigError(f'bad map file {path}: {one_line(exc)}') from exc
+        try:
+            self.model = DescribedMapModel(cmap, desc, state_map)
+        except DescriptionError as exc:
+            feeds = '; '.join(f'{k} <- {v}' for k, v in ESTIMATE_SOURCES.items())
+            raise ConfigError(f'anchor_description_file: capacity_node estimates h, theta_b, '
+                              f'theta_l1, theta_l2 ({feeds}): {one_line(exc)}') from exc
+        except ValueError as exc:
+            raise ConfigError(f'map file {path} does not answer for anchor_description_file: '
+                              f'{one_line(exc)}') from exc
+        if medium is not None and medium.strip().lower() != cmap.medium_name.lower():
+            raise ConfigError(f'map file {path} is for medium {cmap.medium_name!r}, the node '
+                              f'is configured for {medium!r}')
+        if pull is not None and str(pull) not in cmap.grid.pulls:
+            raise ConfigError(f'map file {path} holds pulls {list(cmap.grid.pulls)}, '
+                              f'not {str(pull)!r}')
+        self.path = Path(path)
+        self.integrity = 'verified'   # load_described_map checked its content hash
+        self.name = f'map:{self.path.name}:{desc.name}'
+
+    def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
+        return self.model.predict(state, phi, pull)
+
+
+def _described_map(map_file: str, desc_path: str, medium: str, pull: str | None,
+                   state_map: dict[str, str] | None) -> DescribedMapPredictor | None:
+    """The described-map predictor when map_file names a described map, else None."""
+    from rftgls_core.maps import MapFileError
+    from rftgls_core.maps.described import is_described_map
+    try:
+        path = resolve_map_path(map_file)
+    except MapFileError:
+        return None                      # MapPredictor says so, in its words
+    if not is_described_map(path):
+        return None
+    if not desc_path:
+        raise ConfigError(f'map file {path} is a described map: set anchor_description_file '
+                          'to the description it was built for')
+    return DescribedMapPredictor(path, _description(desc_path), medium, pull, state_map)
+
+
 class LiveFallback:
     """A map, with the live solver answering where the map says `out_of_range` (outside its
     grid). Every other map answer stands; the live answer's reason says it came from the
@@ -211,8 +266,10 @@ def predictor_from_params(map_file: str, live_method: str = 'direct', robot: str
     if state_map is not None and not desc:
         raise ConfigError('anchor_state_variables needs anchor_description_file')
     if map_file.strip():
-        sha = _description(desc).sha256 if desc else None
-        cmap = MapPredictor(map_file.strip(), robot, medium, pull, description_sha256=sha)
+        cmap: Predictor | None = _described_map(map_file.strip(), desc, medium, pull, state_map)
+        if cmap is None:
+            sha = _description(desc).sha256 if desc else None
+            cmap = MapPredictor(map_file.strip(), robot, medium, pull, description_sha256=sha)
         if out_of_range_live_method.strip():
             return LiveFallback(cmap, _live(robot, medium, out_of_range_live_method.strip(),
                                             n_twists, 'out_of_range_live_method', desc,

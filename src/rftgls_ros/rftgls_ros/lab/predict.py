@@ -74,7 +74,14 @@ def make_predictor(method: str, robot: str, medium: Medium, map_path: str | Path
         if map_path is None:
             raise ValueError("method 'map' needs a map file")
         from rftgls_core.maps import CapacityMap, resolve_map
-        cmap = CapacityMap.load(resolve_map(map_path))   # predict() like AnchorModel
+        from rftgls_core.maps.described import DescribedMap, DescribedMapModel, is_described_map
+        path = resolve_map(map_path)
+        if is_described_map(path):   # built with `map build --anchor`: for that description
+            if anchor is None:
+                raise ValueError(f'{path} is a described map: give --anchor FILE.yaml, the '
+                                 'description it was built for')
+            return DescribedMapModel(DescribedMap.load(path), anchor)
+        cmap = CapacityMap.load(path)   # predict() like AnchorModel
         if anchor is not None:
             cmap.check_description(anchor.sha256)
         elif cmap.robot_name != robot:
