@@ -315,3 +315,19 @@ def test_support_edge_rules_of_the_robot_maps(box_map):
         c, code = cmap.query_batch(pts, phi, 'backward', desc.sha256)
         assert c[0] == pytest.approx(want, rel=1e-9)
         assert STATUS_NAMES[code[1]] == mid.status.value
+
+
+@pytest.mark.parametrize('space', ['sagittal', '6d'])
+def test_one_fit_per_node_gives_the_one_by_one_answers(box_anchor, space):
+    """SceneModel.predict_many (the map build's one fit per node and pull) equals predict at
+    each angle, on the sagittal and the 6D path, with a non-finite angle answered alone."""
+    desc = load_description(box_anchor / 'box.yaml')
+    scene = desc.scene({'depth': -0.04, 'tilt': math.radians(10.0)})
+    sm = SceneModel(get_medium('glass_beads'), method='twist-mesh', space=space)
+    phis = [math.radians(a) for a in (-30.0, 0.0, 45.0, 90.0)] + [math.nan]
+    many = sm.predict_many(scene, phis)
+    assert many[-1].status is Status.INVALID_INPUT and many[-1].reason == 'invalid_phi'
+    for phi, r in zip(phis[:-1], many):
+        one = sm.predict(scene, phi)
+        assert r.status is one.status is Status.OK and r.space == one.space
+        assert r.capacity_N == one.capacity_N and r.slip_twist == one.slip_twist

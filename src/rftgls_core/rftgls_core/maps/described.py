@@ -185,13 +185,13 @@ def solve_described_chunk(spec: DescribedSpec, grid: DescribedGrid, ks) -> tuple
         values = grid.values(k)
         outside = desc.violations(values)
         for p, pull in enumerate(grid.pulls):
-            scene = desc.scene(values, pull) if not outside else None
-            for j, phi in enumerate(grid.phi.tolist()):
-                if scene is None:   # a map range beyond the physical one: no answer
-                    status[a, p, j] = STATUS_NAMES.index(Status.INVALID_INPUT.value)
-                    reasons[a, p, j] = 'not_a_pose'
-                    continue
-                r = sm.predict(scene, phi, 0.0)
+            if outside:   # a map range beyond the physical one: no answer
+                status[a, p, :] = STATUS_NAMES.index(Status.INVALID_INPUT.value)
+                reasons[a, p, :] = 'not_a_pose'
+                continue
+            # one fit per node and pull, asked at every stored angle
+            answers = sm.predict_many(desc.scene(values, pull), grid.phi, 0.0)
+            for j, r in enumerate(answers):
                 status[a, p, j] = STATUS_NAMES.index(r.status.value)
                 reasons[a, p, j] = r.reason
                 if r.status.has_value and r.capacity_N is not None:
