@@ -168,3 +168,25 @@ def test_method_map_takes_a_described_map_with_its_description(tmp_path):
     with pytest.raises(ValueError, match='was built for description prototype'):
         make_predictor('map', 'prototype', med, path,
                        anchor=load_anchor(shipped_description('minirquad')))
+
+
+def test_synthetic_bags_of_the_shipped_description_are_the_robots():
+    """`synthetic --anchor prototype.yaml` simulates the preset's pull (same samples to 1e-9
+    relative: the same model, the same stop) and records the description in the notes."""
+    from rftgls_ros.lab.synthetic import synthesize
+    state = AnchorState.from_degrees(0.02, 0.0, -20.0, 20.0)
+    truth, nominal = get_medium('glass_beads'), get_medium('glass_beads')
+    kw = dict(step=2e-3, max_travel=0.012, integrator='euler', seed=3)
+    a = synthesize(state, 'backward', truth, nominal, **kw)
+    b = synthesize(state, 'backward', truth, nominal, anchor=load_anchor(PROTOTYPE), **kw)
+    assert b.meta.robot == a.meta.robot == 'prototype'
+    assert 'anchor description prototype' in b.meta.notes
+    assert np.allclose(b.tension_N, a.tension_N, rtol=1e-9, atol=1e-12)
+    assert np.allclose(b.pose, a.pose, rtol=1e-9, atol=1e-12)
+
+
+def test_synthetic_refuses_a_bad_description_in_one_line(renamed, tmp_path, capsys):
+    from rftgls_ros.lab.synthetic import main as synthetic_main
+    code = synthetic_main(['--out-dir', str(tmp_path / 's'), '--anchor', str(renamed)])
+    _one_line_exit_2(capsys, code, 'h, theta_b, theta_l1, theta_l2')
+    assert not (tmp_path / 's').exists()

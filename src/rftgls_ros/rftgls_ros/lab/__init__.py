@@ -13,6 +13,6 @@ the lab tools run on any machine with the venv and no ROS install:
     calibrate      least-squares (xi_n, mu_surf) with confidence intervals -> medium JSON
     replay         recorded bytes -> rclpy publishers (original timing, faster, lock-step)
 
-evaluate, calibrate and replay take `--anchor FILE.yaml` (an anchor description) instead of
-the bag's robot (docs/design/six-d.md, "Lab tools").
+synthetic, evaluate, calibrate and replay take `--anchor FILE.yaml` (an anchor description)
+instead of the bag's robot (docs/design/six-d.md, "Lab tools").
 """
