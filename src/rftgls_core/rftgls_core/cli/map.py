@@ -147,6 +147,7 @@ def run_build_anchor(args) -> int:
     from ..description import load_description
     from ..maps.described import build_described_map, description_grid, save_described_map
     from ..maps.grid import DEFAULT_PHI_DEG, parse_range
+    from .map_described import local_workers
     if args.scheduler:
         raise ValueError('--anchor maps are built by local workers: drop --scheduler')
     if any(getattr(args, d) is not None for a, d, _ in GRID_FLAGS if a != 'phi'):
@@ -174,20 +175,13 @@ def run_build_anchor(args) -> int:
     data = build_described_map(desc, medium, grid, method=args.method, model=args.model,
                                n_twists=args.n_twists, progress=not args.quiet,
                                command=_anchor_command(args, medium.name),
-                               workers=_workers(args.workers))
+                               workers=local_workers(args.workers))
     path = save_described_map(out, data)
     codes = np.bincount(data.status.reshape(-1))
     from ..maps.hdf5 import STATUS_NAMES
     counts = ', '.join(f'{STATUS_NAMES[i]} {int(c)}' for i, c in enumerate(codes) if c)
     print(f'{path}: {desc.name} ({desc.sha256[:12]}): {grid.describe()}; answers: {counts}')
     return 0
-
-
-def _workers(workers: int | None) -> int:
-    from ..maps.build import default_workers
-    if workers is not None and workers < 1:
-        raise ValueError(f'--workers must be >= 1, got {workers}')
-    return default_workers() if workers is None else workers
 
 
 def _anchor_command(args, medium_name: str) -> str:

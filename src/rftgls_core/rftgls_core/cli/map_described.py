@@ -19,6 +19,14 @@ from pathlib import Path
 import numpy as np
 
 
+def local_workers(workers: int | None) -> int:
+    """--workers of a described build: None = every usable core (maps/build.py's rule)."""
+    from ..maps.build import default_workers
+    if workers is not None and workers < 1:
+        raise ValueError(f'--workers must be >= 1, got {workers}')
+    return default_workers() if workers is None else workers
+
+
 def _load(args, support_edge: bool = False):
     """(DescribedMap, AnchorDescription) of FILE and --anchor (ValueError, one line)."""
     from ..description import load_description
@@ -55,7 +63,6 @@ def refine(args) -> int:
         refined_described_grid,
         save_described_map,
     )
-    from .map import _workers
     cmap, desc = _load(args)
     errors = described_interval_errors(cmap, desc, samples=args.samples, seed=args.seed,
                                        progress=not args.quiet)
@@ -83,7 +90,7 @@ def refine(args) -> int:
     data = build_described_map(desc, medium, grid, method=str(at['method']),
                                model=str(at['rft_model']), n_twists=int(at['n_twists']),
                                progress=not args.quiet, command=shlex.join(parts),
-                               workers=_workers(args.workers))
+                               workers=local_workers(args.workers))
     print(f'wrote {save_described_map(args.out, data)}')
     return 0
 
