@@ -42,7 +42,7 @@ def renamed(tmp_path_factory):
 def test_surface_points_end_the_slip_where_the_body_plate_does(robot):
     """The shipped descriptions' surface_points are the body plate's ends: the stop height
     equals RobotModel.pose(...).plate_min_z at any pose (pitch both ways)."""
-    desc = load_anchor(shipped_description(robot))
+    desc = load_anchor(shipped_description(robot)).description
     rb = get_robot(robot)
     for h, tb in ((0.03, 0.0), (0.01, math.radians(20)), (0.004, math.radians(-25)),
                   (-0.02, math.radians(5))):
@@ -190,3 +190,31 @@ def test_synthetic_refuses_a_bad_description_in_one_line(renamed, tmp_path, caps
     code = synthetic_main(['--out-dir', str(tmp_path / 's'), '--anchor', str(renamed)])
     _one_line_exit_2(capsys, code, 'h, theta_b, theta_l1, theta_l2')
     assert not (tmp_path / 's').exists()
+
+
+def test_a_rigid_anchor_is_fed_by_anchor_state(tmp_path, capsys):
+    """The example ellipsoid (state depth, tilt) is refused by name alone, and with
+    --anchor-state depth=h,tilt=theta_b a synthetic pull of it starts at the description's
+    capacity (reference: rftgls_core's DescriptionModel at that pose, fed the same way)."""
+    from pathlib import Path
+
+    from rftgls_core.description import DescriptionModel, load_description
+    from rftgls_ros.lab.synthetic import SensorModel, synthesize
+    ell = Path(__file__).resolve().parents[2] / 'examples' / 'anchors' / 'ellipsoid.yaml'
+    with pytest.raises(ValueError, match='--anchor-state'):
+        load_anchor(ell)
+    with pytest.raises(ValueError, match='needs --anchor'):
+        load_anchor(None, 'depth=h')
+    anchor = load_anchor(ell, 'depth=h,tilt=theta_b')
+    assert anchor.state_map == {'depth': 'h', 'tilt': 'theta_b'}
+    med = get_medium('glass_beads')
+    state = AnchorState(-0.055, math.radians(-30.0), 0.0, 0.0)
+    test = synthesize(state, 'backward', med, med, phi=math.radians(45.0), step=2e-3,
+                      max_travel=0.004, integrator='euler', anchor=anchor,
+                      sensors=SensorModel(tension_sigma_N=0.0))
+    ref = DescriptionModel(load_description(ell), med, method='twist-mesh',
+                           state_map={'depth': 'h', 'tilt': 'theta_b'})
+    want = ref.predict(state, math.radians(45.0), 'backward').capacity_N
+    assert test.meta.robot == 'ellipsoid_anchor'
+    assert float(test.tension_N[np.searchsorted(test.force_t, 1.0)]) == pytest.approx(
+        want, rel=1e-6)

@@ -401,13 +401,31 @@ def robot_state_map(desc: AnchorDescription, mapping=None) -> dict[str, str]:
     bad = sorted({q for q in mapping.values() if q not in ROBOT_STATE})
     if unfed or bad:
         what = (f'state variable(s) {", ".join(unfed)} have no quantity' if unfed else
-                f'{", ".join(bad)} is not one')
+                f'not a quantity: {", ".join(bad)}')
         raise DescriptionError(f'{desc.source}: declares {", ".join(desc.state_names)}; {need} '
                                f'and each variable needs one ({what})')
     twice = sorted({q for q in mapping.values() if list(mapping.values()).count(q) > 1})
     if twice:
         raise DescriptionError(f'{desc.source}: {", ".join(twice)} feeds two state variables')
     return mapping
+
+
+def parse_state_map(text: str) -> dict[str, str] | None:
+    """'NAME=QUANTITY,...' (capacity_node's anchor_state_variables, the lab tools'
+    --anchor-state) -> {NAME: QUANTITY}; '' -> None (the variables' own names).
+    DescriptionError (one line) on an entry that is not NAME=QUANTITY with QUANTITY in
+    ROBOT_STATE, or a NAME given twice."""
+    if not text.strip():
+        return None
+    out: dict[str, str] = {}
+    for item in text.split(','):
+        name, sep, q = (x.strip() for x in item.partition('='))
+        if not sep or not name or q not in ROBOT_STATE or name in out:
+            raise DescriptionError(f'want NAME=ESTIMATE,... with ESTIMATE one of '
+                                   f'{", ".join(ROBOT_STATE)} and each NAME once, got '
+                                   f'{item.strip()!r}')
+        out[name] = q
+    return out
 
 
 class DescriptionModel:

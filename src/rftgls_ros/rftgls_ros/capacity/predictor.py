@@ -64,17 +64,11 @@ ESTIMATE_SOURCES = {'h': 'height_topic (or height_m)', 'theta_b': 'imu_topic or 
 def parse_state_variables(text: str) -> dict[str, str] | None:
     """`anchor_state_variables` 'NAME=ESTIMATE,...' -> {NAME: ESTIMATE}; '' -> None (the
     description's own names). ConfigError (one line) on a malformed entry."""
-    if not text.strip():
-        return None
-    out: dict[str, str] = {}
-    for item in text.split(','):
-        name, sep, est = (x.strip() for x in item.partition('='))
-        if not sep or not name or est not in ESTIMATE_SOURCES or name in out:
-            raise ConfigError(f'anchor_state_variables: want NAME=ESTIMATE,... with ESTIMATE one '
-                              f'of {", ".join(ESTIMATE_SOURCES)} and each NAME once, got '
-                              f'{item.strip()!r}')
-        out[name] = est
-    return out
+    from rftgls_core.description import DescriptionError, parse_state_map
+    try:
+        return parse_state_map(text)
+    except DescriptionError as exc:
+        raise ConfigError(f'anchor_state_variables: {one_line(exc)}') from exc
 
 
 class DescriptionPredictor:

@@ -41,14 +41,20 @@ from pathlib import Path
 
 import numpy as np
 
-from rftgls_core.description import AnchorDescription
 from rftgls_core.predictor import Predictor
 from rftgls_core.rft.media import Medium
 from rftgls_core.types import AnchorState
 
 from .bag_layout import BagError, PullTest, read_pull_test
 from .evaluate import running_median
-from .predict import initial_pose, load_anchor, make_predictor, measured_initial_state
+from .predict import (
+    LabAnchor,
+    add_anchor_arguments,
+    initial_pose,
+    load_anchor,
+    make_predictor,
+    measured_initial_state,
+)
 
 BREAKAWAY_TRAVEL_M = 2e-3
 XI_SCALE = 1e5              # N/m^3 per unit of the fitted variable (conditioning)
@@ -241,7 +247,7 @@ def calibrate(pulls: list[PullObservation],
               penetration: PenetrationTrace | list[PenetrationTrace] | None = None,
               method: str = 'twist-mesh', x0: tuple[float, float] = (3.8e5, 0.4),
               sigma_pull_N: float = 0.05, sigma_penetration_N: float = 0.05,
-              progress: bool = False, anchor: AnchorDescription | None = None) -> Calibration:
+              progress: bool = False, anchor: LabAnchor | None = None) -> Calibration:
     """Least-squares fit of (xi_n, mu_surf) to pull tests and penetration tests.
 
     anchor: the description posed for every pull test (None: each test's own robot preset).
@@ -461,9 +467,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                          '--penetration in the same order')
     ap.add_argument('--method', default='twist-mesh',
                     choices=['twist-mesh', 'direct', 'alpha', 'ellipsoid'])
-    ap.add_argument('--anchor', default=None, metavar='FILE.yaml',
-                    help="anchor description (YAML with its URDF) to pose instead of the bags' "
-                         'robot; it must declare h, theta_b, theta_l1, theta_l2')
+    add_anchor_arguments(ap)
     ap.add_argument('--sigma-pull', type=float, default=0.05, help='N (relative weighting)')
     ap.add_argument('--sigma-penetration', type=float, default=0.05, help='N')
     ap.add_argument('--name', default='calibrated')
@@ -489,7 +493,7 @@ def run(args, command: str) -> int:
         v = getattr(args, name)
         if not (math.isfinite(v) and v > 0):
             raise ValueError(f'--{name.replace("_", "-")} must be a positive number, got {v}')
-    anchor = load_anchor(args.anchor)
+    anchor = load_anchor(args.anchor, args.anchor_state)
     pulls = []
     for bag in args.bags:
         try:

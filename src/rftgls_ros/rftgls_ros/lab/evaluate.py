@@ -26,13 +26,14 @@ from pathlib import Path
 import numpy as np
 
 from rftgls_core.charts.figure_io import save
-from rftgls_core.description import AnchorDescription
 from rftgls_core.predictor import Predictor
 
 from .bag_layout import PullTest, read_pull_test
 from .predict import (
     METHODS,
+    LabAnchor,
     PredictedPull,
+    add_anchor_arguments,
     initial_pose,
     load_anchor,
     load_medium,
@@ -183,7 +184,7 @@ def plot_fig8(tests: list[PullTest], preds: dict[str, list[PredictedPull]], path
 def evaluate(tests: list[PullTest], methods: list[str], map_path: str | Path | None = None,
              medium=None, step: float = 1e-3, max_travel: float = 0.04,
              integrator: str = 'heun', progress: bool = True,
-             anchor: AnchorDescription | None = None
+             anchor: LabAnchor | None = None
              ) -> tuple[list[Row], dict[str, list[PredictedPull]]]:
     """Predict every test with every method (medium: None = each bag's own medium; anchor:
     None = each bag's own robot, else this description for every bag)."""
@@ -230,16 +231,14 @@ def main(argv: list[str] | None = None) -> int:
                     "(default: the robot's shipped map, if built for the bags' medium)")
     ap.add_argument('--medium', default=None,
                     help='preset name or medium JSON (default: each bag\'s own medium)')
-    ap.add_argument('--anchor', default=None, metavar='FILE.yaml',
-                    help="anchor description (YAML with its URDF) to pose instead of the bags' "
-                         'robot; it must declare h, theta_b, theta_l1, theta_l2')
+    add_anchor_arguments(ap)
     ap.add_argument('--step', type=float, default=1e-3, help='simulation step, m of p')
     ap.add_argument('--max-travel', type=float, default=0.04, help='m')
     ap.add_argument('--integrator', choices=['euler', 'heun'], default='heun')
     ap.add_argument('--out-dir', default='lab_eval')
     args = ap.parse_args(argv)
     try:
-        anchor = load_anchor(args.anchor)
+        anchor = load_anchor(args.anchor, args.anchor_state)
         tests = [read_pull_test(b) for b in args.bags]
         methods = list(args.methods)
         map_path = args.map

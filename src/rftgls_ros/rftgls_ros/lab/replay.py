@@ -35,6 +35,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from .bag_layout import KNOWN_TYPES, BagError, guard_bag_read
+from .predict import add_anchor_arguments
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -42,7 +43,7 @@ LATCHED_TOPICS = ('/lab/metadata',)   # bags recorded without offered QoS profil
 DESCRIPTION_TOPIC = '/robot_description'
 
 
-def bag_description(bag: str | Path, anchor: str | Path | None = None):
+def bag_description(bag: str | Path, anchor: str | Path | None = None, state: str = ''):
     """The AnchorDescription a replay of `bag` stands for: `anchor` (lab.predict.load_anchor:
     ValueError, one line) or else the shipped description of the bag's robot; None when the
     bag's robot has no shipped description or the bag no readable metadata (nothing is
@@ -52,7 +53,8 @@ def bag_description(bag: str | Path, anchor: str | Path | None = None):
     from .bag_layout import BagError, read_metadata
     from .predict import load_anchor
     if anchor is not None:
-        return load_anchor(anchor)
+        lab = load_anchor(anchor, state)
+        return None if lab is None else lab.description
     try:
         robot = read_metadata(bag).robot
     except BagError:
@@ -175,12 +177,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument('--skip-images', action='store_true')
     ap.add_argument('--wait-subscribers', type=float, default=1.0,
                     help='s to wait for discovery before the first message')
-    ap.add_argument('--anchor', default=None, metavar='FILE.yaml',
-                    help="anchor description (YAML with its URDF) published on "
-                         "/robot_description instead of the bag's robot's shipped one")
+    add_anchor_arguments(ap)
     args = ap.parse_args(argv)
     try:   # before ROS starts: a bad description or bag is one line, exit 2
-        desc = bag_description(args.bag, args.anchor)
+        desc = bag_description(args.bag, args.anchor, args.anchor_state)
     except ValueError as exc:   # BagError is one
         print(f'replay: error: {" ".join(str(exc).split())}', file=sys.stderr)
         return 2

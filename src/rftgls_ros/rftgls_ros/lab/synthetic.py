@@ -30,7 +30,7 @@ from rftgls_core.rft.media import Medium, custom_medium, get_medium
 from rftgls_core.types import AnchorState
 
 from .bag_layout import PullTest, PullTestMeta, write_pull_test
-from .predict import load_anchor, make_predictor, surface_min_z
+from .predict import add_anchor_arguments, load_anchor, make_predictor, surface_min_z
 from .render import default_bench
 
 # (thetaL1 deg, thetaL2 deg, pull): leg pairs whose slip runs long enough to measure a slope
@@ -61,7 +61,8 @@ def synthesize(state: AnchorState, pull: str, truth: Medium, nominal: Medium,
                seed: int = 0, predictor: Predictor | None = None,
                anchor=None) -> PullTest:
     """One synthetic pull test (SI). speed: pull speed of p along its path, m/s. anchor: an
-    AnchorDescription simulated instead of the preset `robot` (recorded under its name)."""
+    LabAnchor (predict.load_anchor) simulated instead of the preset `robot` (recorded under
+    its name)."""
     from rftgls_core.sim.trajectory import simulate_pull
 
     rng = np.random.default_rng(seed)
@@ -137,11 +138,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument('--integrator', choices=['euler', 'heun'], default='heun')
     ap.add_argument('--seed', type=int, default=1)
     ap.add_argument('--storage', choices=['mcap', 'sqlite3'], default='mcap')
-    ap.add_argument('--anchor', default=None, metavar='FILE.yaml',
-                    help='anchor description simulated instead of --robot')
+    add_anchor_arguments(ap)
     args = ap.parse_args(argv)
     try:
-        anchor = load_anchor(args.anchor)
+        anchor = load_anchor(args.anchor, args.anchor_state)
     except ValueError as exc:
         print(f'synthetic: error: {exc}', file=sys.stderr)
         return 2
