@@ -8,7 +8,9 @@ values (default: the middle grid node; mm and degrees, like `rftgls map build`).
 the map's own answer (CapacityMap.query_batch): capacity in N where the status has a value;
 cells the map calls `unsupported` (the legs cannot hold the robot's weight) are hatched grey
 and the support edge, the border between a value and `unsupported`, is drawn in red; anything
-else without a value (degenerate, ...) is white. Grid nodes are the black dots.
+else without a value (degenerate, ...) is white. Grid nodes are the black dots. A described
+map (`map build --anchor`) is plotted over two of its own state variables, the others fixed
+by `--at NAME=VALUE` (cli/map_described.py).
 """
 from __future__ import annotations
 
