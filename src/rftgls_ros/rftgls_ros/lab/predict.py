@@ -83,6 +83,9 @@ def load_anchor(path: str | Path | None, state: str = '') -> LabAnchor | None:
         return None
     try:
         desc = load_description(path)
+    except DescriptionError as exc:
+        raise ValueError(f'--anchor: {" ".join(str(exc).split())}') from None
+    try:
         mapping = robot_state_map(desc, parse_state_map(state))
     except DescriptionError as exc:
         raise ValueError(f'--anchor: {" ".join(str(exc).split())} (what a pull-test bag '
