@@ -27,6 +27,8 @@ import rclpy
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
+from minirquad_driver.dds_loopback import during_init
+
 from .bag_layout import KNOWN_TYPES, BagError, guard_bag_read
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -138,7 +140,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument('--wait-subscribers', type=float, default=1.0,
                     help='s to wait for discovery before the first message')
     args = ap.parse_args(argv)
-    rclpy.init()
+    with during_init():
+        rclpy.init()
     node = Node('rftgls_lab_replay')   # the node is named as its executable
     try:
         rep = BagReplayer(node, args.bag, args.topics, args.skip_images)
