@@ -25,11 +25,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..conventions import G  # m/s^2
 from ..geometry.mesh import Facets, TriMesh
 from ..geometry.transforms import rot_y
 from ..types import AnchorState, Pull
-
-G = 9.81  # m/s^2
 
 
 @dataclass(frozen=True)
