@@ -179,9 +179,11 @@ def _check_twists(twists, width: int) -> np.ndarray:
     t = np.atleast_2d(np.asarray(twists, dtype=float))
     if t.ndim != 2 or t.shape[1] != width:
         raise ValueError(f'twists must have shape (M, {width}), got {np.shape(twists)}')
-    if not np.all(np.isfinite(t)):
+    fault = kernels.twist_fault(t) if kernels.AVAILABLE else (
+        1 if not np.all(np.isfinite(t)) else 2 if np.any(np.abs(t).max(axis=1) == 0.0) else 0)
+    if fault == 1:
         raise ValueError('twist contains NaN or inf')
-    if np.any(np.abs(t).max(axis=1) == 0.0):
+    if fault == 2:
         raise ValueError('zero twist: RFT needs a direction of motion')
     return t
 
