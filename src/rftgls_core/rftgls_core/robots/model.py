@@ -96,7 +96,7 @@ class RobotModel:
     def _leg_facets(self, pull: Pull) -> Facets:
         """The leg's facets in its own frame for this pull, computed once per leg mesh (a
         quarter of a pose's cost at the sensor rate); read-only, so the cache cannot drift."""
-        cache = self.__dict__.get('_leg_facets_cache')
+        cache: tuple[TriMesh, dict[Pull, Facets]] | None = self.__dict__.get('_leg_facets_cache')
         if cache is None or cache[0] is not self.leg_mesh:
             cache = (self.leg_mesh, {})
             object.__setattr__(self, '_leg_facets_cache', cache)
