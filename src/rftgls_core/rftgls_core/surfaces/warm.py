@@ -352,10 +352,14 @@ class WarmDirect:
         eval_scaled = _scaled_evaluator(problem)
 
         # Guards: how far the surface moved near the origin and the load ray since the anchor;
-        # evaluated in one call with Newton's first batch.
-        batch0, _, _ = _fd_batch(self.twist_, float(self.direct_options.get('fd_step', 1e-7)))
+        # evaluated in one call (without the seed check, with Newton's first batch).
         n_g = len(a.guard_twists)
-        w_all = eval_scaled(np.concatenate([a.guard_twists, batch0]))
+        if self.seed_check:   # the batched Newton below starts the warm seed itself
+            w_all = eval_scaled(a.guard_twists)
+        else:
+            batch0, _, _ = _fd_batch(self.twist_,
+                                     float(self.direct_options.get('fd_step', 1e-7)))
+            w_all = eval_scaled(np.concatenate([a.guard_twists, batch0]))
         if not np.all(np.isfinite(w_all)):
             return None, 'non_finite'
         wg = w_all[:n_g]
