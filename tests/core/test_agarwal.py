@@ -109,3 +109,24 @@ def test_fused_kernel_matches_numpy():
         assert np.allclose(w6a, w6b, rtol=1e-12, atol=1e-12 * np.abs(w6a).max())
         w3a, w3b = a.planar_wrench(t3), b.planar_wrench(t3)
         assert np.allclose(w3a, w3b, rtol=1e-12, atol=1e-12 * np.abs(w3a).max())
+
+
+def test_subset_of_a_prepared_body_is_the_prepared_subset():
+    # The engine binds a pose's mirrored half by indexing the full body's prepared constants;
+    # they must be bitwise what preparing those facets alone gives (vertical and flat facets
+    # included: the n_d tie-break and x2 = 0 or 1).
+    rng = np.random.default_rng(12)
+    n = rng.normal(size=(300, 3))
+    n[:20, 2] = 0.0
+    n[20:30] = (0.0, 0.0, -1.0)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    model = AgarwalRFT(6.8e5, 0.4)
+    keep = rng.random(300) < 0.5
+    a, b = model.prepare(n).subset(keep), model.prepare(n[keep])
+    for key in ('n', 'nd', 'poly'):
+        assert np.array_equal(a.fused_arrays()[key], b.fused_arrays()[key])
+    v = rng.normal(size=(7, 3))
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    va = [np.broadcast_to(v[:, i:i + 1], (7, int(keep.sum()))) for i in range(3)]
+    for x, y in zip(a.stress(*va), b.stress(*va)):
+        assert np.array_equal(x, y)

@@ -50,6 +50,24 @@ def test_blocks_agree_with_numpy(mu, m):
                  fused.planar_wrench(t3, use_symmetry=False), 1e-12)
 
 
+@pytest.mark.parametrize('precision', ['float64', 'float32'])
+def test_padded_lanes_change_no_twist(precision):
+    # A block's twist count is padded to a multiple of kernels.LANES with copies of its first
+    # twist: each twist's wrench must be bitwise what it is alone, in a full block or next to
+    # any count of others (13: one padded block; BLOCK + 3: a full and a padded one).
+    rng = np.random.default_rng(5)
+    f = random_facets(rng, 300)
+    body = BuriedBody(f, AgarwalRFT(6.8e5, 0.4), ref=(0.01, 0.0, 0.02), mirror_y=0.0,
+                      precision=precision)
+    for width, call in ((6, body.wrench), (3, body.planar_wrench)):
+        t = rng.normal(size=(kernels.BLOCK + 3, width))
+        together = call(t)
+        alone = np.array([call(row) for row in t])
+        assert np.array_equal(together, alone)
+        assert np.array_equal(call(t[:13]), together[:13])
+        assert np.array_equal(call(t[-3:]), together[-3:])
+
+
 def test_resting_facets_inside_a_block():
     # Rotation about an axis through facet centroids: those facets rest (no force), the
     # others move; twists of very different sizes share a block (per-twist rest tolerance).

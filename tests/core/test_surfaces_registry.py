@@ -49,6 +49,18 @@ def test_registry_names_match_classes():
         surface_class('no-such-method')
 
 
+def test_predictor_lists_come_from_the_registry():
+    """capacity_node's live methods and the lab tools' methods are the registry's, less the
+    reference-only brute force (seconds per state)."""
+    from rftgls_core.surfaces.registry import PREDICTOR_METHODS, REFERENCE_ONLY
+    assert REFERENCE_ONLY == ('brute-force',)
+    assert set(PREDICTOR_METHODS) == set(METHOD_NAMES) - {'brute-force'}
+    ros = pytest.importorskip('rftgls_ros.capacity.predictor')
+    lab = pytest.importorskip('rftgls_ros.lab.predict')
+    assert ros.LIVE_METHODS == ('direct-warm', *PREDICTOR_METHODS)
+    assert lab.METHODS == (*PREDICTOR_METHODS, 'map')
+
+
 @pytest.mark.parametrize('cls', ALL, ids=lambda c: c.method)
 def test_fit_takes_the_problem_only_and_keeps_hyper_parameters(cls):
     assert list(inspect.signature(cls.fit).parameters) == ['self', 'problem']

@@ -182,6 +182,24 @@ def test_scalar_kernels_agree_with_the_numpy_versions():
             assert s == pytest.approx(s_ref[0], rel=1e-12) and f == f_ref[0]
 
 
+def test_scaled_evaluator_is_the_problems_scaled_map_bitwise():
+    # The warm step evaluates the map through _scaled_evaluator (the scaling's diagonal once,
+    # the normalisation in a small kernel); it must give the very numbers of the scaling's own
+    # twist_from_scaled / wrench_to_scaled around problem.wrenches, or warm and cold would
+    # see different maps. Twists of very different sizes and a few single ones.
+    from rftgls_core.surfaces import warm as W
+    m = AnchorModel(get_robot('minirquad'), get_medium('m90_sand'), method='direct')
+    problem = m.pose(AnchorState(*DH), Pull.BACKWARD).problem
+    sc = problem.scaling
+    rng = np.random.default_rng(9)
+    ts = rng.normal(size=(70, 3)) * np.logspace(-6, 6, 70)[:, None]
+    ev = W._scaled_evaluator(problem)
+    ref = sc.wrench_to_scaled(problem.wrenches(sc.twist_from_scaled(ts)))
+    assert np.array_equal(ev(ts), ref)
+    for k in range(5):
+        assert np.array_equal(ev(ts[k:k + 1]), ref[k:k + 1])
+
+
 def unit_rows_of(x):
     return x / np.linalg.norm(x, axis=1, keepdims=True)
 

@@ -23,6 +23,7 @@ from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from sensor_msgs.msg import Imu, JointState  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
+from minirquad_driver.dds_loopback import during_init  # noqa: E402
 from rftgls_core.conventions import LEG_JOINT_NAMES, pitch_to_quat_xyzw  # noqa: E402
 from rftgls_core.types import AnchorState  # noqa: E402
 from rftgls_interfaces.msg import AnchorEstimate  # noqa: E402
@@ -137,8 +138,9 @@ def test_shipped_params_file_applies_under_a_namespace():
     path = REPO / 'ros2_ws' / 'params' / 'capacity_node.yaml'
     want = yaml.safe_load(path.read_text())['/**/capacity_node']['ros__parameters']['height_m']
     ctx = rclpy.Context()
-    rclpy.init(context=ctx, domain_id=int(os.environ['ROS_DOMAIN_ID']),
-               args=['--ros-args', '--params-file', str(path)])
+    with during_init():
+        rclpy.init(context=ctx, domain_id=int(os.environ['ROS_DOMAIN_ID']),
+                   args=['--ros-args', '--params-file', str(path)])
     try:
         got = {}
         for ns in ('', 'robot1'):

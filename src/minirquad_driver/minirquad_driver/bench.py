@@ -23,6 +23,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
 from .bridge_node import BridgeNode
+from .dds_loopback import during_init
 
 
 def run_one(rate: int, seconds: float, pace_baud: int) -> dict:
@@ -36,7 +37,8 @@ def run_one(rate: int, seconds: float, pace_baud: int) -> dict:
         while not link.exists():
             time.sleep(0.01)
         ctx = rclpy.Context()
-        rclpy.init(context=ctx)
+        with during_init():
+            rclpy.init(context=ctx)
         node = BridgeNode(context=ctx, parameter_overrides=[Parameter('port', value=str(link))])
         probe = rclpy.create_node('bench_probe', context=ctx)
         got = [0]

@@ -17,6 +17,8 @@ from typing import Any
 
 from rftgls_core.cli.main import one_line
 
+from .dds_loopback import during_init
+
 HELP_FLAGS = ('-h', '--help')
 # Unit suffixes of parameter names (longest first): the unit is in the name, and the
 # descriptor repeats it for `ros2 param describe`.
@@ -113,7 +115,8 @@ def run_node(make_node: Callable[[], Any], executable: str, *,
     from rclpy.exceptions import ParameterException
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
-    rclpy.init(args=args)
+    with during_init():            # DDS on loopback (dds_loopback.py)
+        rclpy.init(args=args)
     try:
         node = make_node()
     except (ParameterException, *config_errors) as exc:

@@ -28,6 +28,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 TWO_PI = 2.0 * math.pi
+# Gravitational acceleration (m/s^2) of every weight and sled force in the stack (the paper's
+# value; standard gravity 9.80665 differs by 0.03 %, far inside the model's error).
+G = 9.81
 
 # Leg joints in the MCU's order (protocol LEG_NAMES), as keys without the 'leg_' prefix.
 LEG_KEYS = ('proximal_left', 'proximal_right', 'distal_left', 'distal_right')

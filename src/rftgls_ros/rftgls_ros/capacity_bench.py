@@ -39,6 +39,7 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 
+from minirquad_driver.dds_loopback import during_init
 from rftgls_core.conventions import LEG_JOINT_NAMES, pitch_to_quat_xyzw
 
 from .capacity.predictor import DEFAULT_MAP, resolve_map_path
@@ -151,7 +152,8 @@ def spin_in_thread(executor, stop: threading.Event, period_s: float) -> threadin
 
 def run(map_file: str, n: int) -> dict:
     ctx = rclpy.Context()
-    rclpy.init(context=ctx, domain_id=int(os.environ.get('ROS_DOMAIN_ID', '0')))
+    with during_init():
+        rclpy.init(context=ctx, domain_id=int(os.environ.get('ROS_DOMAIN_ID', '0')))
     rig = Rig(ctx, map_file, live=not map_file)
     # The node spins in its own thread with its own executor, as it would in its own process;
     # the probe spins in this thread.

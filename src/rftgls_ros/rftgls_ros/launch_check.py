@@ -36,6 +36,7 @@ from typing import Any
 
 import yaml
 
+from minirquad_driver.dds_loopback import during_init
 from rftgls_core.cli.main import one_line
 
 STUB_MODULES = ('launch', 'launch.actions', 'launch.substitutions',
@@ -341,7 +342,8 @@ def check_node(entry: NodeEntry) -> list[str]:
     import rclpy
     from rclpy.parameter import Parameter
     ctx = rclpy.Context()
-    rclpy.init(context=ctx, domain_id=int(os.environ.get('ROS_DOMAIN_ID', '0')))
+    with during_init():
+        rclpy.init(context=ctx, domain_id=int(os.environ.get('ROS_DOMAIN_ID', '0')))
     node = None
     try:
         probe = cls(context=ctx)      # its own name and declared parameters

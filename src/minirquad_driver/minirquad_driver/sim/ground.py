@@ -20,6 +20,7 @@ import math
 from collections import OrderedDict
 from typing import NamedTuple, Protocol
 
+from rftgls_core.conventions import G
 from rftgls_core.types import AnchorState, Status
 
 from .burrow import TABLE_II
@@ -66,7 +67,7 @@ class TableGround:
         if not (state.is_finite() and math.isfinite(phi)):
             return AnchorPrediction(None, (0.0, 0.0, 0.0), Status.INVALID_INPUT)
         slip = _unit_slip(phi)
-        friction = self.mu_body * self.mass_kg * 9.81
+        friction = self.mu_body * self.mass_kg * G
         best, dist = None, float('inf')
         for name, seq in TABLE_II.items():
             d = math.hypot(state.theta_l1 - seq.final[0], state.theta_l2 - seq.final[1])

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from rftgls_core.conventions import tether_direction_xz
+from rftgls_core.conventions import G, tether_direction_xz
 from rftgls_core.types import AnchorState, Status
 
 from ..protocol.messages import BurrowMode, Flag, GaitKind, Mode
@@ -252,7 +252,7 @@ class SimRobot:
             # A slack rope loads nothing: no need to ask the (live, costly) ground.
             w.tension = 0.0
             return
-        friction = 0.4 * self.mass * 9.81
+        friction = 0.4 * self.mass * G
         if self.mode in (Mode.WALKING, Mode.BURROW_RETRACT, Mode.BURROW_FINAL) \
                 or self._unburrowing:
             # Legs in motion: no settled anchor, the body drags on its friction. (This also

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-G = 9.81
+from rftgls_core.conventions import G, tether_phi_from_xz
 
 
 @dataclass
@@ -48,7 +48,7 @@ class WinchSled:
         """(distance p -> sled attachment, tether angle phi) with d(phi) = (-cos, sin)."""
         dx, dz = self.sled_x - px, self.sled_z - pz
         dist = math.hypot(dx, dz)
-        phi = math.atan2(dz, -dx) if dist > 0 else 0.0
+        phi = tether_phi_from_xz(dx, dz) if dist > 0 else 0.0
         return dist, phi
 
     def reel(self, dt: float) -> None:

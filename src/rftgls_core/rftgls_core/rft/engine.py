@@ -56,14 +56,19 @@ class BuriedBody:
         self.ref = np.asarray(ref, dtype=float).reshape(3)
         self.facets_total = len(facets)
         buried = facets.centroids[:, 2] < surface_z
-        self._full = self._bind(facets.subset(buried), surface_z, np.ones(int(buried.sum())))
+        under = facets.subset(buried)
+        self._full = self._bind(under, surface_z, np.ones(int(buried.sum())))
         self._half = None
         if mirror_y is not None:
-            y = facets.centroids[buried, 1] - mirror_y
+            y = under.centroids[:, 1] - mirror_y
             tol = 1e-9 * max(1.0, float(np.abs(facets.centroids).max(initial=0.0)))
             keep = y > -tol
             weight = np.where(y > tol, 2.0, 1.0)[keep]
-            self._half = self._bind(facets.subset(buried).subset(keep), surface_z, weight)
+            # The half's per-facet constants are the full body's, indexed (a model that can
+            # subset its prepared form saves preparing the same facets twice per pose).
+            stress = self._full['stress']
+            self._half = self._bind(under.subset(keep), surface_z, weight,
+                                    stress.subset(keep) if hasattr(stress, 'subset') else None)
         if precision != 'float64' and self._full['fused'] is None and self.facets_active:
             raise ValueError(f'precision {precision} needs the fused numba kernel '
                              f'(backend {backend!r}, model {getattr(model, "name", model)!r})')
@@ -73,10 +78,12 @@ class BuriedBody:
         """Buried facets (the ones that can carry force)."""
         return int(self._full['w'].shape[0])
 
-    def _bind(self, f: Facets, surface_z: float, multiplicity: np.ndarray) -> dict:
+    def _bind(self, f: Facets, surface_z: float, multiplicity: np.ndarray,
+              stress=None) -> dict:
         r = f.centroids - self.ref
         w = f.areas * (surface_z - f.centroids[:, 2]) * multiplicity  # area x depth, m^3
-        stress = self.model.prepare(f.normals)
+        if stress is None:
+            stress = self.model.prepare(f.normals)
         fused = None
         if self.backend != 'numpy' and kernels.AVAILABLE and hasattr(stress, 'fused_arrays'):
             fused = _kernel_arrays(stress.fused_arrays(), r, w, _PRECISIONS[self.precision])
@@ -172,9 +179,11 @@ def _check_twists(twists, width: int) -> np.ndarray:
     t = np.atleast_2d(np.asarray(twists, dtype=float))
     if t.ndim != 2 or t.shape[1] != width:
         raise ValueError(f'twists must have shape (M, {width}), got {np.shape(twists)}')
-    if not np.all(np.isfinite(t)):
+    fault = kernels.twist_fault(t) if kernels.AVAILABLE else (
+        1 if not np.all(np.isfinite(t)) else 2 if np.any(np.abs(t).max(axis=1) == 0.0) else 0)
+    if fault == 1:
         raise ValueError('twist contains NaN or inf')
-    if np.any(np.abs(t).max(axis=1) == 0.0):
+    if fault == 2:
         raise ValueError('zero twist: RFT needs a direction of motion')
     return t
 

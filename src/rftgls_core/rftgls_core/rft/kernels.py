@@ -8,7 +8,10 @@ Layout, chosen for the SIMD lanes: twists are processed in blocks of `BLOCK`, th
 is outside and the twist loop inside. Each twist of a block owns its accumulators, so the
 inner loop carries no reduction and LLVM vectorises it without reassociating any sum: every
 twist's wrench is summed over facets in facet order, whatever the lanes, the block size or
-the thread count (results are bitwise independent of the number of threads). Branches are
+the thread count (results are bitwise independent of the number of threads). A block's
+twists are first copied into an array of its own, padded to a multiple of `LANES` (`_load`):
+read in place, the loop's speed depended on where the caller's arrays lay (2-3x from one
+process to the next), and small counts ran scalar. Branches are
 selects (a trailing or resting pair gets weight 0), `error_model='numpy'` keeps division free
 of Python's zero check, and `fastmath` allows only contraction into FMA (a rounding
 difference of one ulp per operation, far inside the 1e-12 agreement).
@@ -51,6 +54,10 @@ REST_TOL = 1e-12
 # Twists per block: a multiple of the widest SIMD width (8 float64 / 16 float32 lanes on
 # AVX-512); the block's accumulators (6 x BLOCK) stay in L1.
 BLOCK = 64
+# A block's twist count is padded to a multiple of this (copies of its first twist, results
+# dropped): the vectorised twist loop then has no scalar remainder, which for the few-twist
+# calls of a warm step (3-60 twists) was most of the loop (15 twists: 31 -> 10 us).
+LANES = 8
 # Below this many facet-twist pairs a thread start costs more than it saves.
 PARALLEL_MIN_PAIRS = 50_000
 _FASTMATH = {'contract'}
@@ -129,17 +136,38 @@ def _rest_tolerances(s2max, rest_tol):
 
 
 @_jit(inline=True)
-def _store(acc, m0, out):
-    """Block accumulators acc (width, nb) into out[m0:m0 + nb, :width] (twist-major)."""
-    for i in range(acc.shape[1]):
+def _store(acc, m0, nb, out):
+    """The first nb columns of the block accumulators acc (width, >= nb) into
+    out[m0:m0 + nb, :width] (twist-major)."""
+    for i in range(nb):
         for j in range(acc.shape[0]):
             out[m0 + i, j] = acc[j, i]
+
+
+@_jit(inline=True)
+def _load(tw, m0, m1):
+    """Twists m0..m1 of tw (width, M) copied into a block of their own, (width, np) with np
+    the count padded to a multiple of LANES by copies of the first twist; returns (block, np).
+
+    The copy is what lets the twist loop run on the SIMD lanes at every call: reading tw in
+    place, the loop's speed depended on where the caller's arrays happened to lie relative to
+    the accumulators (the same 60-twist call took 60 or 200 us from one process to the next,
+    bitwise the same results), and a count below the vector loop's width ran all scalar.
+    """
+    nb = m1 - m0
+    npad = min(BLOCK, (nb + LANES - 1) // LANES * LANES)
+    loc = np.empty((tw.shape[0], npad), dtype=tw.dtype)
+    for j in range(tw.shape[0]):
+        for i in range(npad):
+            loc[j, i] = tw[j, m0 + i] if i < nb else tw[j, m0]
+    return loc, npad
 
 
 @_jit()
 def _spatial_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
     """Wrenches of twists m0..m1 (tw (6, M), SoA) into out[m0:m1]; c = (0, 1, lead, rest)."""
-    nb = m1 - m0
+    nout = m1 - m0
+    tw, nb = _load(tw, m0, m1)
     nf = r.shape[0]
     zero, one, lead_tol, rest_tol = c[0], c[1], c[2], c[3]
     capped = mu < np.inf
@@ -147,7 +175,7 @@ def _spatial_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
     for f in range(nf):
         rx, ry, rz = r[f, 0], r[f, 1], r[f, 2]
         for i in range(nb):
-            m = m0 + i
+            m = i
             vx = tw[0, m] + tw[4, m] * rz - tw[5, m] * ry
             vy = tw[1, m] + tw[5, m] * rx - tw[3, m] * rz
             vz = tw[2, m] + tw[3, m] * ry - tw[4, m] * rx
@@ -161,7 +189,7 @@ def _spatial_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
         wf = w[f]
         p = _coefficients(poly, f)
         for i in range(nb):
-            m = m0 + i
+            m = i
             vx = tw[0, m] + tw[4, m] * rz - tw[5, m] * ry
             vy = tw[1, m] + tw[5, m] * rx - tw[3, m] * rz
             vz = tw[2, m] + tw[3, m] * ry - tw[4, m] * rx
@@ -183,13 +211,14 @@ def _spatial_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
             acc[3, i] += ry * fz - rz * fy
             acc[4, i] += rz * fx - rx * fz
             acc[5, i] += rx * fy - ry * fx
-    _store(acc, m0, out)
+    _store(acc, m0, nout, out)
 
 
 @_jit()
 def _planar_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
     """Planar (Fx, Fz, My) of twists m0..m1 (tw (3, M) = vx, vz, wy) into out[m0:m1]."""
-    nb = m1 - m0
+    nout = m1 - m0
+    tw, nb = _load(tw, m0, m1)
     nf = r.shape[0]
     zero, one, lead_tol, rest_tol = c[0], c[1], c[2], c[3]
     capped = mu < np.inf
@@ -197,7 +226,7 @@ def _planar_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
     for f in range(nf):
         rx, rz = r[f, 0], r[f, 2]
         for i in range(nb):
-            m = m0 + i
+            m = i
             vx = tw[0, m] + tw[2, m] * rz
             vz = tw[1, m] - tw[2, m] * rx
             s2max[i] = max(s2max[i], vx * vx + vz * vz)
@@ -210,7 +239,7 @@ def _planar_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
         wf = w[f]
         p = _coefficients(poly, f)
         for i in range(nb):
-            m = m0 + i
+            m = i
             vx = tw[0, m] + tw[2, m] * rz
             vz = tw[1, m] - tw[2, m] * rx
             s = math.sqrt(vx * vx + vz * vz)
@@ -226,7 +255,7 @@ def _planar_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
             acc[0, i] += fx
             acc[1, i] += fz
             acc[2, i] += rz * fx - rx * fz
-    _store(acc, m0, out)
+    _store(acc, m0, nout, out)
 
 
 @_jit(inline=True)
@@ -251,6 +280,25 @@ def blocks_parallel(planar, tw, r, n, nd, poly, w, mu, c, out):
     """As blocks_serial, the blocks spread over numba's threads."""
     for b in _prange((tw.shape[1] + BLOCK - 1) // BLOCK):
         _block(planar, b, tw, r, n, nd, poly, w, mu, c, out)
+
+
+@_jit()
+def twist_fault(t):
+    """0 when every row of t (M, width) is finite and nonzero, 1 when some entry is NaN or inf,
+    2 when some row is all zero (engine._check_twists in one pass: its numpy form cost about
+    6 us per call, a third of a few-twist wrench call)."""
+    zero = False
+    for i in range(t.shape[0]):
+        nonzero = False
+        for j in range(t.shape[1]):
+            x = t[i, j]
+            if not math.isfinite(x):
+                return 1
+            if x != 0.0:
+                nonzero = True
+        if not nonzero:
+            zero = True
+    return 2 if zero else 0
 
 
 # The engine's four entry points, args (tw, r, n, nd, poly, w, mu, c, out):

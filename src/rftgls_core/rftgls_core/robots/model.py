@@ -25,11 +25,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..conventions import G  # m/s^2
 from ..geometry.mesh import Facets, TriMesh
 from ..geometry.transforms import rot_y
 from ..types import AnchorState, Pull
-
-G = 9.81  # m/s^2
 
 
 @dataclass(frozen=True)
@@ -93,16 +92,30 @@ class RobotModel:
                 'leg_facets': int(len(self.leg_mesh.faces)), 'plate_length_m': self.plate_length,
                 'char_length_m': self.char_length, 'assumptions': dict(self.notes)}
 
+    def _leg_facets(self, pull: Pull) -> Facets:
+        """The leg's facets in its own frame for this pull, computed once per leg mesh (a
+        quarter of a pose's cost at the sensor rate); read-only, so the cache cannot drift."""
+        cache: tuple[TriMesh, dict[Pull, Facets]] | None = self.__dict__.get('_leg_facets_cache')
+        if cache is None or cache[0] is not self.leg_mesh:
+            cache = (self.leg_mesh, {})
+            object.__setattr__(self, '_leg_facets_cache', cache)
+        if pull not in cache[1]:
+            base = self.leg_mesh.facets()
+            # The leg mesh bulges toward +x (forward pulls); mirror it for backward pulls.
+            if pull is Pull.BACKWARD:  # reflected facets: normals reflect too, stay outward
+                leg_flip = np.diag([-1.0, 1.0, 1.0])
+                base = Facets(base.centroids @ leg_flip, base.normals @ leg_flip, base.areas)
+            for a in (base.centroids, base.normals, base.areas):
+                a.flags.writeable = False
+            cache[1][pull] = base
+        return cache[1][pull]
+
     def pose(self, state: AnchorState, pull: Pull | str = Pull.BACKWARD) -> 'PosedRobot':
         """World-frame facets of all four legs and the gravity wrench about p."""
         pull = Pull(pull)
         body_rot = rot_y(-state.theta_b)          # x_B tilts up for positive thetaB
         p = np.array([0.0, 0.0, state.h])
-        # The leg mesh bulges toward +x (forward pulls); mirror it for backward pulls.
-        leg_flip = np.diag([-1.0, 1.0, 1.0])
-        base = self.leg_mesh.facets()
-        if pull is Pull.BACKWARD:  # reflected facets: normals reflect too and stay outward
-            base = Facets(base.centroids @ leg_flip, base.normals @ leg_flip, base.areas)
+        base = self._leg_facets(pull)
         left = []
         for ax, ly, angle in zip(self.axle_x, self.leg_y, (state.theta_l1, state.theta_l2)):
             rot = body_rot @ rot_y(-angle)

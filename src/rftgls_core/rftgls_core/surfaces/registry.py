@@ -21,6 +21,10 @@ _METHODS = {
     'brute-force': 'brute_force:BruteForceSurface',
 }
 METHOD_NAMES: tuple[str, ...] = tuple(_METHODS)
+# Methods that serve as references only: seconds per state, for tests and accuracy charts,
+# never as a live or lab predictor.
+REFERENCE_ONLY: tuple[str, ...] = ('brute-force',)
+PREDICTOR_METHODS: tuple[str, ...] = tuple(m for m in METHOD_NAMES if m not in REFERENCE_ONLY)
 
 
 def surface_class(method: str) -> type[LimitSurface]:

@@ -17,11 +17,14 @@ from minirquad_driver.node_main import ConfigError
 from rftgls_core.cli.main import one_line
 from rftgls_core.predictor import Predictor
 from rftgls_core.surfaces.base import CapacityResult
+from rftgls_core.surfaces.registry import PREDICTOR_METHODS
 from rftgls_core.types import AnchorState, Pull, Status
 
 # The installed (shipped) map; rftgls_core.maps.resolve_map maps this name to maps_dir().
 DEFAULT_MAP = 'maps/minirquad_m90_sand.h5'
-LIVE_METHODS = ('direct-warm', 'direct', 'twist-mesh', 'alpha', 'ellipsoid')
+# The warm-started direct solver (surfaces/warm.py) first, then every registered method that
+# is not a reference only.
+LIVE_METHODS = ('direct-warm',) + PREDICTOR_METHODS
 
 
 def predictor_name(predictor: Predictor) -> str:

@@ -36,11 +36,13 @@ from rftgls_core.predictor import Predictor
 from rftgls_core.rft.media import Medium, medium_from_dict
 from rftgls_core.rft.media import load_medium as core_load_medium
 from rftgls_core.robots.presets import get_robot
+from rftgls_core.surfaces.registry import PREDICTOR_METHODS
 from rftgls_core.types import AnchorState
 
 from .bag_layout import PullTest
 
-METHODS = ('ellipsoid', 'alpha', 'twist-mesh', 'direct', 'map')
+# Every registered method that is not a reference only, and the shipped map.
+METHODS = PREDICTOR_METHODS + ('map',)
 
 
 def load_medium(spec: str | Path | dict) -> Medium:

@@ -34,6 +34,8 @@ import rclpy
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
+from minirquad_driver.dds_loopback import during_init
+
 from .bag_layout import KNOWN_TYPES, BagError, guard_bag_read
 from .predict import add_anchor_arguments
 
@@ -187,7 +189,8 @@ def main(argv: list[str] | None = None) -> int:
     if desc is not None:
         print(f'robot_description: {desc.name} from {desc.source}; capacity_node: '
               f'-p anchor_description_file:={desc.source}')
-    rclpy.init()
+    with during_init():
+        rclpy.init()
     node = Node('rftgls_lab_replay')   # the node is named as its executable
     try:
         rep = BagReplayer(node, args.bag, args.topics, args.skip_images)
