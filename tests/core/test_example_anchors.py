@@ -65,3 +65,19 @@ def test_the_stake_gives_the_same_answer_on_both_paths(capsys, monkeypatch):
     full = stake(capsys, monkeypatch, '--space', '6d')
     assert full['method'] == 'direct-6d'
     assert full['capacity_N'] == pytest.approx(sag['capacity_N'], rel=1e-6)
+
+
+def test_the_ellipsoid_description_is_the_mesh_command(capsys, monkeypatch):
+    """ellipsoid.yaml at depth -55 mm, tilt -30 deg is the `--mesh` pose of the README table
+    (its char_length_m is the --mesh L_c): the same capacity and slip twist."""
+    monkeypatch.chdir(FOLDER)
+    assert main(['capacity', '--anchor', 'ellipsoid.yaml', '--state', 'depth=-0.055',
+                 '--state', 'tilt=-30', '--phi', '45', '--json']) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert main(['capacity', '--mesh', 'ellipsoid.stl', '--position', '0', '0', '-0.055',
+                 '--rpy', '0', '30', '0', '--tether', '0', '0', '-0.055', '--mass', '0.040',
+                 '--phi', '45', '--json']) == 0
+    m = json.loads(capsys.readouterr().out)
+    assert d['status'] == m['status'] == 'ok'
+    assert d['capacity_N'] == pytest.approx(m['capacity_N'], rel=1e-9)
+    assert d['slip_twist'] == pytest.approx(m['slip_twist'], abs=1e-9)

@@ -94,3 +94,145 @@ def test_the_warm_live_method_name_gives_the_cold_direct_on_a_description():
     dh = ANCHOR_MODES['DH']
     assert q.model.method == 'direct'
     assert q.predict(dh, 0.0, 'backward').capacity_N == p.predict(dh, 0.0, 'backward').capacity_N
+
+
+def test_other_variable_names_are_fed_by_anchor_state_variables(tmp_path):
+    """The MiniRQuad description with its variables renamed (height, pitch, hip_a, hip_b) is
+    refused by name alone, in one line naming the estimates and their topics; mapped with
+    anchor_state_variables it answers the shipped description's numbers exactly."""
+    write_robot_description('minirquad', tmp_path)
+    yml = (tmp_path / 'minirquad.yaml').read_text()
+    for old, new in (('h', 'height'), ('theta_b', 'pitch'), ('theta_l1', 'hip_a'),
+                     ('theta_l2', 'hip_b')):
+        yml = yml.replace(f'{{name: {old},', f'{{name: {new},')
+    yml = yml.replace('height: h', 'height: height').replace('pitch: theta_b', 'pitch: pitch')
+    (tmp_path / 'renamed.yaml').write_text(yml)
+    path = str(tmp_path / 'renamed.yaml')
+    with pytest.raises(ConfigError) as err:
+        predictor_from_params('', 'twist-mesh', anchor_description_file=path)
+    msg = str(err.value)
+    assert '\n' not in msg and 'h <- height_topic' in msg and 'theta_l1 <- joint_states' in msg
+    assert 'height, pitch, hip_a, hip_b' in msg
+    mapped = predictor_from_params(
+        '', 'twist-mesh', anchor_description_file=path,
+        anchor_state_variables='height=h, pitch=theta_b, hip_a=theta_l1, hip_b=theta_l2')
+    ref = predictor_from_params('', 'twist-mesh', anchor_description_file=MINIRQUAD)
+    for state in ANCHOR_MODES.values():
+        a, b = ref.predict(state, 0.0, 'backward'), mapped.predict(state, 0.0, 'backward')
+        assert a.status == b.status and a.capacity_N == b.capacity_N
+    # swapping the legs is a different robot: the answers must change (the map is used)
+    swapped = predictor_from_params(
+        '', 'twist-mesh', anchor_description_file=path,
+        anchor_state_variables='height=h, pitch=theta_b, hip_a=theta_l2, hip_b=theta_l1')
+    dh = ANCHOR_MODES['DH']
+    assert swapped.predict(dh, 0.0, 'backward').capacity_N != \
+        ref.predict(dh, 0.0, 'backward').capacity_N
+
+
+@pytest.mark.parametrize('text, must', [
+    ('height=h,pitch=theta_b,hip_a=theta_l1', 'hip_b have no quantity'),
+    ('height=h,pitch=h,hip_a=theta_l1,hip_b=theta_l2', 'h feeds two state variables'),
+    ('height=z,pitch=theta_b', 'ESTIMATE one of h, theta_b'),
+    ('height', 'want NAME=ESTIMATE'),
+    ('depth=h,height=h', 'no state variable depth'),
+])
+def test_a_bad_state_variable_map_is_one_line(text, must, tmp_path):
+    write_robot_description('minirquad', tmp_path)
+    yml = (tmp_path / 'minirquad.yaml').read_text()
+    for old, new in (('h', 'height'), ('theta_b', 'pitch'), ('theta_l1', 'hip_a'),
+                     ('theta_l2', 'hip_b')):
+        yml = yml.replace(f'{{name: {old},', f'{{name: {new},')
+    yml = yml.replace('height: h', 'height: height').replace('pitch: theta_b', 'pitch: pitch')
+    (tmp_path / 'renamed.yaml').write_text(yml)
+    with pytest.raises(ConfigError) as err:
+        predictor_from_params('', 'twist-mesh', anchor_description_file=str(
+            tmp_path / 'renamed.yaml'), anchor_state_variables=text)
+    assert '\n' not in str(err.value) and must in str(err.value), str(err.value)
+    with pytest.raises(ConfigError, match='needs anchor_description_file'):
+        predictor_from_params('', 'twist-mesh', anchor_state_variables='h=h')
+
+
+def test_a_two_variable_body_uses_h_and_theta_b_only(tmp_path):
+    """An ellipsoid anchor with state (depth, tilt), mapped depth=h, tilt=theta_b: the node's
+    leg estimates are left out (any leg angles, the same answer), and the answer is the one of
+    rftgls_core's SceneModel on the posed description (the reference path of `rftgls
+    capacity --anchor`)."""
+    from rftgls_core.description import load_description
+    from rftgls_core.geometry.shapes import ellipsoid
+    from rftgls_core.geometry.stl import write_stl
+    from rftgls_core.rft.media import get_medium
+    from rftgls_core.scene import SceneModel
+    from rftgls_core.types import AnchorState
+    write_stl(tmp_path / 'egg.stl', ellipsoid(0.02, 0.015, 0.01, subdivisions=2), units='m')
+    (tmp_path / 'egg.urdf').write_text(
+        '<robot name="egg"><link name="base_link"><inertial><mass value="0.2"/></inertial>'
+        '<collision><geometry><mesh filename="egg.stl"/></geometry></collision></link>'
+        '<link name="winch_link"/><joint name="w" type="fixed"><parent link="base_link"/>'
+        '<child link="winch_link"/></joint></robot>')
+    (tmp_path / 'egg.yaml').write_text(
+        'name: egg\nurdf: egg.urdf\nmedium: glass_beads\nsymmetry: sagittal\n'
+        'base_pose: {height: depth, pitch: tilt}\nstate:\n'
+        '  - {name: depth, unit: m, physical: [-0.2, 0.0]}\n'
+        '  - {name: tilt, unit: deg, physical: [-45, 45]}\n')
+    p = predictor_from_params('', 'twist-mesh', medium='glass_beads',
+                              anchor_description_file=str(tmp_path / 'egg.yaml'),
+                              anchor_state_variables='depth=h,tilt=theta_b')
+    a = p.predict(AnchorState(-0.04, math.radians(10), 0.3, -0.2), 0.5, 'backward')
+    b = p.predict(AnchorState(-0.04, math.radians(10), -1.0, 1.0), 0.5, 'backward')
+    assert a.status.has_value and a.capacity_N == b.capacity_N
+    desc = load_description(tmp_path / 'egg.yaml')
+    ref = SceneModel(get_medium('glass_beads'), method='twist-mesh', space='sagittal').predict(
+        desc.scene({'depth': -0.04, 'tilt': math.radians(10)}), 0.5)
+    assert a.capacity_N == pytest.approx(ref.capacity_N, rel=1e-9)
+
+
+@pytest.fixture(scope='module')
+def dh_described_map(tmp_path_factory):
+    """A small described map of the shipped MiniRQuad description around Table II's DH pose
+    (its nodes include DH), twist-mesh, backward pull."""
+    from rftgls_core.description import load_description
+    from rftgls_core.maps.described import (
+        build_described_map,
+        description_grid,
+        save_described_map,
+    )
+    from rftgls_core.rft.media import get_medium
+    desc = load_description(MINIRQUAD)
+    grid = description_grid(desc, {'h': [0.034, 0.036], 'theta_b': [5.0, 8.9],
+                                   'theta_l1': [-40.0, -20.0], 'theta_l2': [20.0, 30.0]},
+                            [-20.0, 0.0], ('backward',))
+    data = build_described_map(desc, get_medium('m90_sand'), grid, method='twist-mesh')
+    return save_described_map(tmp_path_factory.mktemp('dmap') / 'dh.h5', data)
+
+
+def test_capacity_node_serves_a_described_map_for_its_description(dh_described_map):
+    """map_file = a described map + anchor_description_file = its description: at a node the
+    answer is the live description solver's (float32 storage), twist in the sagittal form."""
+    from rftgls_ros.capacity.predictor import DescribedMapPredictor
+    p = predictor_from_params(str(dh_described_map), medium='m90_sand', pull='backward',
+                              anchor_description_file=MINIRQUAD)
+    assert isinstance(p, DescribedMapPredictor)
+    live = predictor_from_params('', 'twist-mesh', anchor_description_file=MINIRQUAD)
+    dh = ANCHOR_MODES['DH']
+    for phi in (0.0, math.radians(-20.0)):
+        a, b = live.predict(dh, phi, 'backward'), p.predict(dh, phi, 'backward')
+        assert a.status == b.status and b.capacity_N is not None
+        assert b.capacity_N == pytest.approx(a.capacity_N, rel=1e-6)
+        assert b.slip_twist_scaled == pytest.approx(a.slip_twist_scaled, abs=1e-5)
+        assert b.slip_twist == pytest.approx(a.slip_twist, abs=1e-5)
+    off = p.predict(ANCHOR_MODES['SH'], 0.0, 'backward')        # off the small grid
+    assert off.status.value == 'out_of_range' and off.capacity_N is None
+
+
+@pytest.mark.parametrize('kw, must', [
+    ({}, 'set anchor_description_file'),
+    ({'anchor_description_file': str(shipped_description('prototype'))},
+     'does not answer for anchor_description_file'),
+    ({'anchor_description_file': MINIRQUAD, 'medium': 'glass_beads'}, "for medium 'm90_sand'"),
+    ({'anchor_description_file': MINIRQUAD, 'pull': 'forward'}, "not 'forward'"),
+])
+def test_a_described_map_the_node_cannot_use_is_one_line(dh_described_map, kw, must):
+    args = {'medium': 'm90_sand', 'pull': 'backward', **kw}
+    with pytest.raises(ConfigError) as err:
+        predictor_from_params(str(dh_described_map), **args)
+    assert '\n' not in str(err.value) and must in str(err.value), str(err.value)

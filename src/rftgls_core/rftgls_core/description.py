@@ -155,6 +155,14 @@ class AnchorDescription:
     pull_links: tuple[str, ...]
     symmetry: str = ''             # '' or 'sagittal': a claim, checked per pose, never trusted
     sha256: str = ''               # identity: description_sha256 of the files it was read from
+    # Points of base_link (m, (K, 3)) whose reaching the free surface ends a slip simulation
+    # (the robots' body plate ends); empty: the tether point (a buried body's own rule).
+    surface_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    urdf_path: Path | None = None  # the URDF file it was read from
+
+    def urdf_text(self) -> str:
+        """The URDF as read (what a ROS `robot_description` carries); '' when unknown."""
+        return self.urdf_path.read_text() if self.urdf_path is not None else ''
 
     @property
     def state_names(self) -> tuple[str, ...]:
@@ -170,6 +178,22 @@ class AnchorDescription:
                            f'{lo * f:.6g}..{hi * f:.6g} {v.unit}')
         return out
 
+    def base_pose(self, values: dict[str, float]) -> np.ndarray:
+        """(4, 4) pose of base_link in the world for state values (SI, by name)."""
+        base = np.eye(4)
+        base[:3, :3] = rot_y(-values[self.pitch_var]) if self.pitch_var else np.eye(3)
+        base[2, 3] = values[self.height_var] if self.height_var else 0.0
+        return base
+
+    def surface_min_z(self, values: dict[str, float]) -> float:
+        """Height (m, world z; the free surface is 0) of the lowest `surface_points` point
+        at state values, or of the tether point when the YAML names none: a slip
+        simulation stops when it reaches 0, as the robots' `plate_min_z` does."""
+        if len(self.surface_points):
+            base = self.base_pose(values)
+            return float(np.min(self.surface_points @ base[:3, :3].T[:, 2] + base[2, 3]))
+        return float(self.scene(values).ref[2])
+
     def scene(self, values: dict[str, float], pull: Pull | str = Pull.BACKWARD) -> Scene:
         """The posed description for state values (SI, by name) and a pull orientation."""
         missing = [n for n in self.state_names if n not in values]
@@ -181,10 +205,7 @@ class AnchorDescription:
         for v in self.state:
             for j in v.joints:
                 q[j] = values[v.name]
-        base = np.eye(4)
-        base[:3, :3] = rot_y(-values[self.pitch_var]) if self.pitch_var else np.eye(3)
-        base[2, 3] = values[self.height_var] if self.height_var else 0.0
-        world = {'base_link': base}
+        world = {'base_link': self.base_pose(values)}
         pending = list(self.joints)
         while pending:
             progressed = False
@@ -236,7 +257,8 @@ def load_description(path: str | Path) -> AnchorDescription:
         raise DescriptionError(f'{path}: not YAML ({" ".join(str(exc).split())})') from None
     if not isinstance(doc, dict) or 'urdf' not in doc:
         raise DescriptionError(f'{path}: a description needs at least `urdf:` and `state:`')
-    links, joints = read_urdf(path.parent / str(doc['urdf']))
+    urdf_path = path.parent / str(doc['urdf'])
+    links, joints = read_urdf(urdf_path)
     tether = str(doc.get('tether_link', 'winch_link'))
     if tether not in links or 'base_link' not in links:
         raise DescriptionError(f'{path}: the URDF needs base_link and the tether link '
@@ -274,6 +296,14 @@ def load_description(path: str | Path) -> AnchorDescription:
         if bp.get(key) is not None and bp[key] not in names:
             raise DescriptionError(f'{path}: base_pose.{key} names no state variable')
     ps = doc.get('pull_scale') or {}
+    sp = doc.get('surface_points') or []
+    try:
+        surface = np.asarray(sp, dtype=float).reshape(-1, 3)
+    except (TypeError, ValueError):
+        surface = np.full((1, 3), np.nan)
+    if not np.all(np.isfinite(surface)):
+        raise DescriptionError(f'{path}: surface_points must be a list of [x, y, z] points of '
+                               'base_link, m')
     return AnchorDescription(
         name=str(doc.get('name', path.stem)), source=path, links=links, joints=joints,
         tether_link=tether, char_length=float(doc.get('char_length_m', 0.1)),
@@ -281,7 +311,7 @@ def load_description(path: str | Path) -> AnchorDescription:
         pitch_var=str(bp.get('pitch') or ''), state=tuple(state),
         pull_scale={k: np.asarray(v, dtype=float) for k, v in ps.items() if k != 'links'},
         pull_links=tuple(ps.get('links') or ()), symmetry=_symmetry(path, doc),
-        sha256=description_sha256(path))
+        sha256=description_sha256(path), surface_points=surface, urdf_path=urdf_path)
 
 
 def description_sha256(path: str | Path) -> str:
@@ -353,9 +383,54 @@ def state_values(state: AnchorState) -> dict[str, float]:
 ROBOT_STATE = ('h', 'theta_b', 'theta_l1', 'theta_l2')
 
 
+def robot_state_map(desc: AnchorDescription, mapping=None) -> dict[str, str]:
+    """Which AnchorState quantity (ROBOT_STATE) feeds each state variable of desc, for the
+    consumers that estimate a robot's AnchorState (capacity_node, the simulator ground, the
+    lab tools): `mapping` (description variable -> quantity), default the variables' own
+    names. Every variable needs one quantity, no quantity feeds two; unused quantities are
+    left out (their inputs are still measured). DescriptionError (one line) otherwise.
+    The user vouches for the meaning: h is the height of the tether point p above the
+    surface, theta_b the body pitch (rot_y(-theta_b)), theta_l1/l2 the leg angles."""
+    mapping = dict(mapping or {n: n for n in desc.state_names})
+    need = f'the AnchorState quantities are {", ".join(ROBOT_STATE)}'
+    unknown = sorted(set(mapping) - set(desc.state_names))
+    if unknown:
+        raise DescriptionError(f'{desc.source}: no state variable {", ".join(unknown)} (it '
+                               f'declares {", ".join(desc.state_names)})')
+    unfed = [n for n in desc.state_names if n not in mapping]
+    bad = sorted({q for q in mapping.values() if q not in ROBOT_STATE})
+    if unfed or bad:
+        what = (f'state variable(s) {", ".join(unfed)} have no quantity' if unfed else
+                f'not a quantity: {", ".join(bad)}')
+        raise DescriptionError(f'{desc.source}: declares {", ".join(desc.state_names)}; {need} '
+                               f'and each variable needs one ({what})')
+    twice = sorted({q for q in mapping.values() if list(mapping.values()).count(q) > 1})
+    if twice:
+        raise DescriptionError(f'{desc.source}: {", ".join(twice)} feeds two state variables')
+    return mapping
+
+
+def parse_state_map(text: str) -> dict[str, str] | None:
+    """'NAME=QUANTITY,...' (capacity_node's anchor_state_variables, the lab tools'
+    --anchor-state) -> {NAME: QUANTITY}; '' -> None (the variables' own names).
+    DescriptionError (one line) on an entry that is not NAME=QUANTITY with QUANTITY in
+    ROBOT_STATE, or a NAME given twice."""
+    if not text.strip():
+        return None
+    out: dict[str, str] = {}
+    for item in text.split(','):
+        name, sep, q = (x.strip() for x in item.partition('='))
+        if not sep or not name or q not in ROBOT_STATE or name in out:
+            raise DescriptionError(f'want NAME=ESTIMATE,... with ESTIMATE one of '
+                                   f'{", ".join(ROBOT_STATE)} and each NAME once, got '
+                                   f'{item.strip()!r}')
+        out[name] = q
+    return out
+
+
 class DescriptionModel:
     """AnchorModel's interface (fit / predict_many / predict on an AnchorState, sagittal
-    (vx, vz, wy) answers) on a description with the robots' four state variables, for the
+    (vx, vz, wy) answers) on a description whose state variables the AnchorState feeds, for the
     consumers that speak AnchorState (capacity_node's live solver, the simulator ground).
     The sagittal reduction is used only where the posed facets pass the mirror check
     (scene.pull_plane_symmetry); elsewhere the answer is `invalid_input` `not_symmetric`
@@ -363,18 +438,17 @@ class DescriptionModel:
     robot it gives AnchorModel's numbers (tests/core/test_description.py).
 
     mass_scale multiplies the described mass (the simulator's heavier or lighter true robot).
+    state_map: description variable -> AnchorState quantity (robot_state_map; default: the
+    variables are named h, theta_b, theta_l1, theta_l2 or a subset of them).
     """
 
     def __init__(self, desc: AnchorDescription, medium, model: str = 'agarwal',
                  method: str | None = None, n_twists: int | None = None,
-                 backend: str = 'auto', mass_scale: float = 1.0):
+                 backend: str = 'auto', mass_scale: float = 1.0, state_map=None):
         from .anchor import DEFAULT_METHOD, DEFAULT_TWISTS, DEFAULT_TWISTS_BY_METHOD
         from .rft.models import make_model
         from .surfaces.registry import surface_class
-        if sorted(desc.state_names) != sorted(ROBOT_STATE):
-            raise DescriptionError(f'{desc.source}: needs the state variables '
-                                   f'{", ".join(ROBOT_STATE)}, declares '
-                                   f'{", ".join(desc.state_names)}')
+        self.state_map = robot_state_map(desc, state_map)
         self.description = desc
         self.medium = medium
         self.stress_model = make_model(model, medium)
@@ -402,7 +476,8 @@ class DescriptionModel:
         if not isinstance(state, AnchorState) or not state.is_finite():
             return None, self._fail(Status.INVALID_INPUT, 'invalid_state',
                                     f'anchor state must be finite, got {state!r}')
-        values = state_values(state)
+        robot = state_values(state)
+        values = {n: robot[q] for n, q in self.state_map.items()}
         outside = self.violations(values)
         if outside:
             return None, self._fail(Status.OUT_OF_RANGE, 'outside_physical_range',
@@ -523,6 +598,9 @@ symmetry: sagittal    # claimed mirror symmetry about x-z of base_link: checked 
 base_pose:            # base_link origin at height h, turned by rot_y(-theta_b)
   height: h
   pitch: theta_b
+surface_points:       # the body plate's ends in base_link, m: a slip stops when one reaches z = 0
+  - [0.0, 0.0, 0.0]
+  - [{r(robot.plate_length)}, 0.0, 0.0]
 pull_scale:           # the paper's C-leg orientation (types.Pull), in the leg frames
   forward: [1.0, 1.0, 1.0]
   backward: [-1.0, 1.0, 1.0]

@@ -173,26 +173,41 @@ class SceneModel:
         return (scene.weight if scene.weight > 0.0 else 1.0), scene.char_length
 
     def predict(self, scene: Scene, phi: float, yaw: float = 0.0) -> SceneResult:
-        if not (math.isfinite(phi) and math.isfinite(yaw)):
-            return SceneResult(Status.INVALID_INPUT, self.method, self.space,
-                               reason='invalid_phi', detail=f'phi {phi!r}, yaw {yaw!r}')
+        return self.predict_many(scene, [phi], yaw)[0]
+
+    def predict_many(self, scene: Scene, phis, yaw: float = 0.0) -> list[SceneResult]:
+        """`predict` at several tether angles (rad) of one scene and yaw: the limit surface is
+        fitted once and asked along every u(phi, yaw) (a map node's angles), with the answers
+        `predict` gives one by one (the fit does not depend on phi)."""
+        phis = [float(x) for x in np.atleast_1d(np.asarray(phis, dtype=float))]
+        bad = [p for p in phis if not math.isfinite(p)]
+        if bad or not math.isfinite(yaw):
+            def invalid(phi: float) -> SceneResult:
+                return SceneResult(Status.INVALID_INPUT, self.method, self.space,
+                                   reason='invalid_phi', detail=f'phi {phi!r}, yaw {yaw!r}')
+            if not math.isfinite(yaw):
+                return [invalid(p) for p in phis]
+            good = [p for p in phis if math.isfinite(p)]
+            answers = iter(self.predict_many(scene, good, yaw) if good else [])
+            return [next(answers) if math.isfinite(p) else invalid(p) for p in phis]
         if len(scene.buried()) == 0:
-            return SceneResult(Status.UNSUPPORTED, self.method, self.space,
-                               reason='no_buried_facet',
-                               detail='no facet of the body is below the free surface z = 0')
+            return [SceneResult(Status.UNSUPPORTED, self.method, self.space,
+                                reason='no_buried_facet',
+                                detail='no facet of the body is below the free surface z = 0')
+                    for _ in phis]
         sym = pull_plane_symmetry(scene, yaw)
         if self.space == 'sagittal' and not sym.symmetric:
-            return SceneResult(Status.INVALID_INPUT, self.method, 'sagittal',
-                               reason='not_symmetric',
-                               detail='the sagittal reduction needs mirror symmetry about the '
-                                      'pull plane: ' + sym.detail)
+            return [SceneResult(Status.INVALID_INPUT, self.method, 'sagittal',
+                                reason='not_symmetric',
+                                detail='the sagittal reduction needs mirror symmetry about the '
+                                       'pull plane: ' + sym.detail) for _ in phis]
         if self.space == '6d' or not sym.symmetric:
-            return self._predict_6d(scene, phi, yaw, sym)
-        return self._predict_sagittal(scene, phi, yaw, sym)
+            return self._predict_6d(scene, phis, yaw, sym)
+        return self._predict_sagittal(scene, phis, yaw, sym)
 
     # -- the sagittal reduction ------------------------------------------------------------
-    def _predict_sagittal(self, scene: Scene, phi: float, yaw: float,
-                          sym: Symmetry) -> SceneResult:
+    def _predict_sagittal(self, scene: Scene, phis: list[float], yaw: float,
+                          sym: Symmetry) -> list[SceneResult]:
         p = np.asarray(scene.ref, dtype=float)
         facets = scene.facets
         com = np.asarray(scene.com, dtype=float)
@@ -212,19 +227,23 @@ class SceneModel:
         sf, lc = self.scaling_for(scene)
         surface = self.surface_cls(n_twists=self.n_twists).fit(
             GLSProblem(wrench_fn, Scaling(sf, lc)))
-        res = surface.capacity(phi)
-        twist = scaled = None
-        if res.slip_twist_scaled is not None and res.slip_twist is not None:
-            rz = rot_z(yaw)
+        rz = rot_z(yaw)
 
-            def lift(t3) -> tuple[float, ...]:
-                v = rz @ np.array([t3[0], 0.0, t3[1]])
-                om = rz @ np.array([0.0, t3[2], 0.0])
-                return tuple(float(x) for x in np.r_[v, om])
-            twist, scaled = lift(res.slip_twist), lift(res.slip_twist_scaled)
-        return SceneResult(res.status, res.method, 'sagittal', res.capacity_N, twist, scaled,
-                           res.reason, 'sagittal reduction: ' + sym.detail + '; ' + res.detail,
-                           res.flags, res.twist_spread_rad)
+        def lift(t3) -> tuple[float, ...]:
+            v = rz @ np.array([t3[0], 0.0, t3[1]])
+            om = rz @ np.array([0.0, t3[2], 0.0])
+            return tuple(float(x) for x in np.r_[v, om])
+        out = []
+        for phi in phis:
+            res = surface.capacity(phi)
+            twist = scaled = None
+            if res.slip_twist_scaled is not None and res.slip_twist is not None:
+                twist, scaled = lift(res.slip_twist), lift(res.slip_twist_scaled)
+            out.append(SceneResult(res.status, res.method, 'sagittal', res.capacity_N, twist,
+                                   scaled, res.reason,
+                                   'sagittal reduction: ' + sym.detail + '; ' + res.detail,
+                                   res.flags, res.twist_spread_rad))
+        return out
 
     # -- the full 6D path --------------------------------------------------------------------
     def surface_6d(self, scene: Scene) -> Surface6:
@@ -240,8 +259,14 @@ class SceneModel:
         return Surface6(n_twists=self.n_twists_6d).fit(
             Problem6(wrench_fn, g, Scaling6(sf, lc), switch_forms=forms))
 
-    def _predict_6d(self, scene: Scene, phi: float, yaw: float, sym: Symmetry) -> SceneResult:
-        r: Result6 = self.surface_6d(scene).capacity(pull_vector(phi, yaw))
+    def _predict_6d(self, scene: Scene, phis: list[float], yaw: float,
+                    sym: Symmetry) -> list[SceneResult]:
+        surface = self.surface_6d(scene)
         why = ('6D forced (--space 6d)' if sym.symmetric else 'full 6D: ' + sym.detail)
-        return SceneResult(r.status, r.method, '6d', r.capacity_N, r.slip_twist,
-                           r.slip_twist_scaled, r.reason, why + '; ' + r.detail, r.flags)
+        out = []
+        for phi in phis:
+            r: Result6 = surface.capacity(pull_vector(phi, yaw))
+            out.append(SceneResult(r.status, r.method, '6d', r.capacity_N, r.slip_twist,
+                                   r.slip_twist_scaled, r.reason, why + '; ' + r.detail,
+                                   r.flags))
+        return out

@@ -58,7 +58,8 @@ class CapacityNode(Node):
         predictor = predictor_from_params(p['map_file'], p['live_method'], p['robot'],
                                           p['medium'], p['live_n_twists'], p['pull'],
                                           p['out_of_range_live_method'],
-                                          anchor_description_file=p['anchor_description_file'])
+                                          anchor_description_file=p['anchor_description_file'],
+                                          anchor_state_variables=p['anchor_state_variables'])
         self.estimator = CapacityEstimator(predictor, est_cfg)
         self.frame_id = p['frame_id']
         self.tension_component = self.config.tension_component

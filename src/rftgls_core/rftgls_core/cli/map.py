@@ -6,6 +6,8 @@
     rftgls map accuracy FILE [--samples N] [--reference direct] [--json]
     rftgls map refine FILE --out NEW.h5 [--tol PCT] [--samples N]
     rftgls map plot FILE --x AXIS --y AXIS --out SLICE.png  (see cli/map_plot.py)
+A described map (`map build --anchor`) takes the same actions; accuracy and refine need
+--anchor FILE.yaml (cli/map_described.py).
 
 Grid options take mm (h) and degrees (angles) as 'start:step:stop' (inclusive) or 'a,b,c';
 write negative values with '=' (--theta-l1=-40:20:40). Missing axes come from the robot's
@@ -87,6 +89,7 @@ def add_parser(sub) -> None:
                         'random states of the robot (both pulls, phi -30..10 deg)')
     a.add_argument('--json', action='store_true', help='print JSON')
     a.add_argument('--quiet', action='store_true', help='no progress bar')
+    a.add_argument('--anchor', metavar='FILE.yaml', help='a described map\'s description')
     a.set_defaults(run=run_accuracy)
 
 
@@ -100,6 +103,7 @@ def add_parser(sub) -> None:
     f.add_argument('--workers', type=int, default=None)
     f.add_argument('--dry-run', action='store_true', help='report intervals, build nothing')
     f.add_argument('--quiet', action='store_true', help='no progress bar')
+    f.add_argument('--anchor', metavar='FILE.yaml', help='a described map\'s description')
     f.set_defaults(run=run_refine)
 
     from .map_plot import add_plot_parser  # `rftgls map plot` (heatmap slices), cli/map_plot.py
@@ -143,8 +147,9 @@ def run_build_anchor(args) -> int:
     from ..description import load_description
     from ..maps.described import build_described_map, description_grid, save_described_map
     from ..maps.grid import DEFAULT_PHI_DEG, parse_range
-    if args.workers not in (None, 1) or args.scheduler:
-        raise ValueError('--anchor maps are built in this process: drop --workers/--scheduler')
+    from .map_described import local_workers
+    if args.scheduler:
+        raise ValueError('--anchor maps are built by local workers: drop --scheduler')
     if any(getattr(args, d) is not None for a, d, _ in GRID_FLAGS if a != 'phi'):
         raise ValueError('--anchor takes its state axes by --axis NAME=RANGE (the robot axes '
                          '--h/--theta-* belong to --robot)')
@@ -169,7 +174,8 @@ def run_build_anchor(args) -> int:
     # As for robot maps: --n-twists (default DEFAULT_TWISTS) for every method.
     data = build_described_map(desc, medium, grid, method=args.method, model=args.model,
                                n_twists=args.n_twists, progress=not args.quiet,
-                               command=_anchor_command(args, medium.name))
+                               command=_anchor_command(args, medium.name),
+                               workers=local_workers(args.workers))
     path = save_described_map(out, data)
     codes = np.bincount(data.status.reshape(-1))
     from ..maps.hdf5 import STATUS_NAMES
@@ -334,7 +340,14 @@ def run_accuracy(args) -> int:
         raise ValueError(f'--samples must be >= 1, got {args.samples}')
     if args.random < 0:
         raise ValueError(f'--random must be >= 0, got {args.random}')
-    if args.random:
+    from ..maps.described import is_described_map
+    described = None
+    if is_described_map(args.file):
+        from .map_described import accuracy as described_accuracy
+        described = described_accuracy(args)
+    elif args.anchor:
+        raise ValueError('--anchor is for described maps (`map build --anchor`)')
+    if args.random and described is None:
         from ..maps.accuracy import coverage_report
         cov = coverage_report(CapacityMap.load(resolve_map(args.file),
                                                support_edge=args.support_edge),
@@ -353,10 +366,10 @@ def run_accuracy(args) -> int:
               f'{cov.err_N_p95:.3f} N; map answers by rule: '
               + ', '.join(f'{k or "interior"} {v}' for k, v in sorted(cov.by_flag.items())))
         return 0
-    rep = accuracy_report(CapacityMap.load(resolve_map(args.file),
-                                           support_edge=args.support_edge),
-                          samples=args.samples,
-                          seed=args.seed, reference=args.reference, progress=not args.quiet)
+    rep = described or accuracy_report(CapacityMap.load(resolve_map(args.file),
+                                                        support_edge=args.support_edge),
+                                       samples=args.samples, seed=args.seed,
+                                       reference=args.reference, progress=not args.quiet)
     if args.json:
         d = rep.to_dict()
         if not math.isfinite(d['capacity_over_N_worst']):
@@ -381,11 +394,17 @@ def run_accuracy(args) -> int:
 
 def run_refine(args) -> int:
     from ..maps.build import build_map, spec_from_map
+    from ..maps.described import is_described_map
     from ..maps.grid import AXIS_HUMAN
     from ..maps.hdf5 import save_map
     from ..maps.query import CapacityMap
     from ..maps.refine import interval_errors, refined_grid
     from ..maps.shipped import resolve_map
+    if is_described_map(args.file):
+        from .map_described import refine as described_refine
+        return described_refine(args)
+    if args.anchor:
+        raise ValueError('--anchor is for described maps (`map build --anchor`)')
     cmap = CapacityMap.load(resolve_map(args.file))
     errors = interval_errors(cmap, samples=args.samples, seed=args.seed,
                              progress=not args.quiet)

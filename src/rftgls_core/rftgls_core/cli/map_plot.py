@@ -8,7 +8,9 @@ values (default: the middle grid node; mm and degrees, like `rftgls map build`).
 the map's own answer (CapacityMap.query_batch): capacity in N where the status has a value;
 cells the map calls `unsupported` (the legs cannot hold the robot's weight) are hatched grey
 and the support edge, the border between a value and `unsupported`, is drawn in red; anything
-else without a value (degenerate, ...) is white. Grid nodes are the black dots.
+else without a value (degenerate, ...) is white. Grid nodes are the black dots. A described
+map (`map build --anchor`) is plotted over two of its own state variables, the others fixed
+by `--at NAME=VALUE` (cli/map_described.py).
 """
 from __future__ import annotations
 
@@ -27,8 +29,11 @@ LABEL = {'h': 'h [mm]', 'theta_b': 'thetaB [deg]', 'theta_l1': 'thetaL1 [deg]',
 def add_plot_parser(msub) -> None:
     p = msub.add_parser('plot', help='capacity heatmap over two state axes, support edge marked')
     p.add_argument('file', help='map (.h5), a shipped map name or a robot name')
-    p.add_argument('--x', default='theta_l1', choices=AXES, help='horizontal axis')
-    p.add_argument('--y', default='theta_l2', choices=AXES, help='vertical axis')
+    p.add_argument('--x', default='theta_l1', help=f'horizontal axis ({", ".join(AXES)}; '
+                   'of a described map: one of its state variables)')
+    p.add_argument('--y', default='theta_l2', help='vertical axis')
+    p.add_argument('--at', action='append', metavar='NAME=VALUE',
+                   help="a described map's fixed state variable, in its unit (may repeat)")
     p.add_argument('--h', dest='h_mm', type=float, help='fixed h, mm')
     p.add_argument('--theta-b', dest='theta_b_deg', type=float, help='fixed thetaB, deg')
     p.add_argument('--theta-l1', dest='theta_l1_deg', type=float, help='fixed thetaL1, deg')
@@ -67,6 +72,15 @@ def map_slice(cmap, x: str, y: str, fixed: dict[str, float], phi: float, pull: s
 def run_plot(args) -> int:
     from ..charts.figure_io import pyplot, save
     from ..maps import CapacityMap, resolve_map
+    from ..maps.described import is_described_map
+    if is_described_map(args.file):   # a map over a description's variables
+        from .map_described import plot as described_plot
+        return described_plot(args)
+    for flag, a in (('--x', args.x), ('--y', args.y)):
+        if a not in AXES:
+            raise ValueError(f'{flag} must be one of {", ".join(AXES)}, got {a!r}')
+    if args.at:
+        raise ValueError('--at fixes a described map\'s variables; use --h/--theta-* here')
     if args.x == args.y:
         raise ValueError(f'--x and --y must differ, both are {args.x!r}')
     if not 8 <= args.n <= 1000:

@@ -23,7 +23,8 @@ Answers come from scene.SceneModel at phi with yaw 0 (the sagittal reduction whe
 description claims the symmetry, which is checked at every node; else auto), so the twists are
 6D world twists at the tether point. Query (`DescribedMap.query`): multilinear over the state
 axes and phi, the conservative cell rule of query.py (any weighted corner without a value
-withholds the value, reported with the most conservative corner status), OUT_OF_RANGE off
+withholds the value, reported with the most conservative corner status) with its support-edge
+rules that need no stored margin (valued-corner, opt-in zeros; DescribedMap), OUT_OF_RANGE off
 the grid; and a query that names a different description identity is refused
 (INVALID_INPUT, 'description_mismatch'): a map answers only for the anchor it was built for.
 """
@@ -33,6 +34,8 @@ import dataclasses
 import itertools
 import json
 import math
+import sys
+import threading
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -42,6 +45,7 @@ import h5py
 import numpy as np
 
 from .. import __version__
+from ..rft.media import Medium
 from ..scene import SceneResult
 from ..types import Status
 from .errors import MapFileError
@@ -136,41 +140,109 @@ class DescribedMapData:
     attrs: dict = field(default_factory=dict)
 
 
+@dataclass(frozen=True)
+class DescribedSpec:
+    """What a worker needs to pose and solve a description (picklable: the description is
+    named by its YAML path and identity, re-read once per worker and checked)."""
+
+    path: str
+    sha256: str
+    medium: Medium
+    model: str = 'agarwal'
+    method: str = 'direct'
+    n_twists: int | None = None
+    space: str = 'auto'
+
+
+_local = threading.local()   # per thread and process: (description, SceneModel) by spec
+
+
+def _solver(spec: DescribedSpec):
+    from ..description import DescriptionError, load_description
+    from ..scene import SceneModel
+    cache = getattr(_local, 'models', None)
+    if cache is None:
+        cache = _local.models = {}
+    if spec not in cache:
+        desc = load_description(spec.path)
+        if desc.sha256 != spec.sha256:
+            raise DescriptionError(f'{spec.path}: changed during the build (identity '
+                                   f'{desc.sha256[:12]}, the build started with '
+                                   f'{spec.sha256[:12]})')
+        cache[spec] = (desc, SceneModel(spec.medium, model=spec.model, method=spec.method,
+                                        n_twists=spec.n_twists, space=spec.space))
+    return cache[spec]
+
+
+def solve_described_chunk(spec: DescribedSpec, grid: DescribedGrid, ks) -> tuple:
+    """Answers at the flat state indices ks: (ks, capacity (n, P, K), scaled twists
+    (n, P, K, 6), raw twists, status codes, reasons (n, P, K) object)."""
+    desc, sm = _solver(spec)
+    idx = np.asarray(ks, dtype=np.intp)
+    P, K = len(grid.pulls), len(grid.phi)
+    cap, ts, tr, status, reasons = empty_answers((len(idx), P, K), 6)
+    for a, k in enumerate(idx.tolist()):
+        values = grid.values(k)
+        outside = desc.violations(values)
+        for p, pull in enumerate(grid.pulls):
+            if outside:   # a map range beyond the physical one: no answer
+                status[a, p, :] = STATUS_NAMES.index(Status.INVALID_INPUT.value)
+                reasons[a, p, :] = 'not_a_pose'
+                continue
+            # one fit per node and pull, asked at every stored angle
+            answers = sm.predict_many(desc.scene(values, pull), grid.phi, 0.0)
+            for j, r in enumerate(answers):
+                status[a, p, j] = STATUS_NAMES.index(r.status.value)
+                reasons[a, p, j] = r.reason
+                if r.status.has_value and r.capacity_N is not None:
+                    cap[a, p, j] = r.capacity_N
+                    ts[a, p, j] = r.slip_twist_scaled
+                    tr[a, p, j] = r.slip_twist
+    return idx, cap, ts, tr, status, reasons
+
+
 def build_described_map(desc, medium, grid: DescribedGrid | None = None, *,
                         method: str = 'direct', model: str = 'agarwal',
                         n_twists: int | None = None, command: str = '',
-                        progress: bool = False) -> DescribedMapData:
+                        progress: bool = False, workers: int = 1) -> DescribedMapData:
     """Answers of scene.SceneModel at every node of `grid` (default: the description's map
-    ranges), in this process (state order; deterministic). desc: an AnchorDescription;
-    medium: a Medium."""
+    ranges). desc: an AnchorDescription; medium: a Medium. workers: local processes (1 = in
+    this process), as maps/build.py does for the robot maps (fixed chunks placed by state
+    index, serial kernels: the same arrays on any number of workers); progress: a tqdm bar
+    on stderr over the states."""
     from tqdm import tqdm
 
     from ..scene import SceneModel
+    from .build import _run_inline, _run_pool, chunk_indices
     grid = description_grid(desc) if grid is None else grid
     if grid.names != desc.state_names:
         raise ValueError(f'grid axes {grid.names} are not the state of {desc.name} '
                          f'{desc.state_names}')
+    workers = int(workers)
+    if workers < 1:
+        raise ValueError(f'workers must be >= 1, got {workers}')
     space = 'sagittal' if desc.symmetry == 'sagittal' else 'auto'
+    spec = DescribedSpec(str(Path(desc.source).resolve()), desc.sha256, medium, model, method,
+                         n_twists, space)
     sm = SceneModel(medium, model=model, method=method, n_twists=n_twists, space=space)
+    cache = getattr(_local, 'models', None)
+    if cache is None:
+        cache = _local.models = {}
+    cache[spec] = (desc, sm)   # this process answers with the description it was given
     P, K, S = len(grid.pulls), len(grid.phi), grid.n_states
+    chunks = chunk_indices(S, workers)
+    results = (_run_inline(spec, grid, chunks, solve_described_chunk)
+               if workers == 1 or len(chunks) == 1 else
+               _run_pool(spec, grid, chunks, min(workers, len(chunks)), solve_described_chunk))
     cap, ts, tr, status, reasons = empty_answers((P, S, K), 6)
-    for k in tqdm(range(S), unit='state', disable=not progress, desc=f'map {desc.name}'):
-        values = grid.values(k)
-        outside = desc.violations(values)
-        for p, pull in enumerate(grid.pulls):
-            scene = desc.scene(values, pull) if not outside else None
-            for j, phi in enumerate(grid.phi.tolist()):
-                if scene is None:   # a map range beyond the physical one: no answer
-                    status[p, k, j] = STATUS_NAMES.index(Status.INVALID_INPUT.value)
-                    reasons[p, k, j] = 'not_a_pose'
-                    continue
-                r = sm.predict(scene, phi, 0.0)
-                status[p, k, j] = STATUS_NAMES.index(r.status.value)
-                reasons[p, k, j] = r.reason
-                if r.status.has_value and r.capacity_N is not None:
-                    cap[p, k, j] = r.capacity_N
-                    ts[p, k, j] = r.slip_twist_scaled
-                    tr[p, k, j] = r.slip_twist
+    with tqdm(total=S, unit='state', file=sys.stderr, disable=not progress,
+              desc=f'map {desc.name}/{medium.name}', dynamic_ncols=True) as bar:
+        for ks, c, t, r, st, rs in results:
+            # (n, P, K) -> (P, n, K): placed by state index, never by completion order
+            cap[:, ks], ts[:, ks], tr[:, ks] = (np.swapaxes(c, 0, 1), np.swapaxes(t, 0, 1),
+                                                np.swapaxes(r, 0, 1))
+            status[:, ks], reasons[:, ks] = np.swapaxes(st, 0, 1), np.swapaxes(rs, 0, 1)
+            bar.update(len(ks))
     names = tuple(sorted(set(reasons.reshape(-1).tolist()) | {''}))
     code_of = {n: i for i, n in enumerate(names)}
     reason = np.vectorize(code_of.__getitem__, otypes=[np.uint8])(reasons)
@@ -283,17 +355,40 @@ def load_described_map(path: str | Path) -> DescribedMapData:
 
 class DescribedMap:
     """Queries of a described map. `query` needs the identity of the description the caller
-    poses (AnchorDescription.sha256) and refuses another one."""
+    poses (AnchorDescription.sha256) and refuses another one.
 
-    def __init__(self, data: DescribedMapData, source: str = '') -> None:
+    Support-edge rules, those of the robot maps (query.py) that need no stored margin: a cell
+    whose valueless weighted corners are all `unsupported` answers the blend of its valued
+    corners, renormalised, when they carry >= edge_min_weight of the weight (flag
+    'edge_valued'; the robot maps' measured threshold, query.EDGE_MIN_WEIGHT); with
+    support_edge=True (opt-in) such a cell counts its unsupported corners as 0 N (flag
+    'support_edge'). The robot maps' edge-margin rule needs per-node support margins, which
+    a described map does not store: such cells withhold the value."""
+
+    def __init__(self, data: DescribedMapData, source: str = '', support_edge: bool = False,
+                 edge_min_weight: float | None = None) -> None:
+        from .query import EDGE_MIN_WEIGHT
         self.data = data
         self.source = source
         self._axes = [list(map(float, a)) for a in data.grid.axes] + \
             [list(map(float, data.grid.phi))]
+        self.support_edge = bool(support_edge)
+        w = EDGE_MIN_WEIGHT if edge_min_weight is None else float(edge_min_weight)
+        if not (math.isfinite(w) and w > 0.0):
+            raise ValueError(f'edge_min_weight must be a positive share, got {w}')
+        self.edge_min_weight = w
 
     @classmethod
-    def load(cls, path: str | Path) -> 'DescribedMap':
-        return cls(load_described_map(path), source=str(path))
+    def load(cls, path: str | Path, support_edge: bool = False) -> 'DescribedMap':
+        return cls(load_described_map(path), source=str(path), support_edge=support_edge)
+
+    def _edge(self, only_unsupported: bool, w_valued: float) -> str:
+        """The support-edge rule that answers a cell with valueless corners ('' = none)."""
+        if not (only_unsupported and w_valued > 0.0):
+            return ''
+        if w_valued >= self.edge_min_weight - 1e-12:
+            return 'edge_valued'
+        return 'support_edge' if self.support_edge else ''
 
     @property
     def grid(self) -> DescribedGrid:
@@ -338,7 +433,7 @@ class DescribedMap:
             return self._fail(Status.OUT_OF_RANGE, 'out_of_grid',
                               f'{", ".join(out)} outside the grid')
         p = g.pulls.index(pull)
-        c, tw, worst = 0.0, np.zeros(6), None
+        c, tw, worst, w_valued, n_bad, only_unsupported = 0.0, np.zeros(6), None, 0.0, 0, True
         for bits in itertools.product((0, 1), repeat=len(cells)):
             w = 1.0
             for (_, t, _), b in zip(cells, bits):
@@ -350,13 +445,29 @@ class DescribedMap:
             if not st.has_value:
                 rank = _BAD_PRIORITY.index(st) if st in _BAD_PRIORITY else len(_BAD_PRIORITY)
                 worst = rank if worst is None else min(worst, rank)
+                only_unsupported &= st is Status.UNSUPPORTED
+                n_bad += 1
                 continue
+            w_valued += w
             c += w * float(self.data.capacity_N[idx])
             tw += w * self.data.slip_twist_scaled[idx].astype(float)
+        flags: tuple[str, ...] = ()
+        edge_detail = ''
         if worst is not None:
-            st = _BAD_PRIORITY[worst] if worst < len(_BAD_PRIORITY) else Status.INVALID_INPUT
-            return self._fail(st, f'cell_{st.value}',
-                              'a weighted cell corner has no value')
+            rule = self._edge(only_unsupported, w_valued)
+            if not rule:
+                st = _BAD_PRIORITY[worst] if worst < len(_BAD_PRIORITY) else Status.INVALID_INPUT
+                return self._fail(st, f'cell_{st.value}',
+                                  'a weighted cell corner has no value')
+            flags = (rule,)
+            if rule == 'edge_valued':
+                c, tw = c / w_valued, tw / w_valued
+                edge_detail = (f'; support edge: blend of the valued corners (weight '
+                               f'{w_valued:.3f} >= {self.edge_min_weight:g}), {n_bad} '
+                               'unsupported corners left out')
+            else:
+                edge_detail = (f'; support edge: {n_bad} unsupported corners counted as 0 N '
+                               f'(valued weight {w_valued:.3f})')
         norm = float(np.linalg.norm(tw))
         if norm < 1e-9:
             return self._fail(Status.DEGENERATE, 'twist_cancels',
@@ -369,4 +480,261 @@ class DescribedMap:
                            capacity_N=max(c, 0.0),
                            slip_twist=tuple(float(x) for x in raw),
                            slip_twist_scaled=tuple(float(x) for x in ts),
-                           detail=f'twist_confidence={norm:.3f}')
+                           detail=f'twist_confidence={norm:.3f}' + edge_detail, flags=flags)
+
+    def query_batch(self, values: np.ndarray, phi: float, pull: str,
+                    description_sha256: str) -> tuple[np.ndarray, np.ndarray]:
+        """Vectorised `query` for slices and plots: values (M, n) SI in the grid's state
+        order -> (capacity_N (M,) with NaN where no value, status codes (M,) uint8 of
+        STATUS_NAMES). The same cell rule as `query` (a weighted corner without a value
+        withholds the value, with the most conservative corner status; OUT_OF_RANGE off the
+        grid); twists are not interpolated here (use `query` for them)."""
+        from .interpolate import locate_many
+        g = self.grid
+        values = np.atleast_2d(np.asarray(values, dtype=float))
+        M = len(values)
+        if description_sha256 != self.description_sha256:
+            raise ValueError(f'{self.source or "map"}: built for description '
+                             f'{self.description_sha256[:12]}, not {description_sha256[:12]}')
+        if pull not in g.pulls:
+            raise ValueError(f'pull {pull!r} not in this map (has {", ".join(g.pulls)})')
+        if values.shape[1] != len(g.names):
+            raise ValueError(f'values need {len(g.names)} columns ({", ".join(g.names)})')
+        cols = [values[:, d] for d in range(len(g.names))] + [np.full(M, float(phi))]
+        axes = list(g.axes) + [g.phi]
+        located = [locate_many(ax, x) for ax, x in zip(axes, cols)]
+        p = g.pulls.index(pull)
+        status, cap = self.data.status[p], self.data.capacity_N[p].astype(float)
+        valued = np.array([Status(n).has_value for n in STATUS_NAMES])
+        rank = np.array([_BAD_PRIORITY.index(Status(n)) if Status(n) in _BAD_PRIORITY
+                         else len(_BAD_PRIORITY) for n in STATUS_NAMES])
+        c = np.zeros(M)
+        worst = np.full(M, len(_BAD_PRIORITY) + 1)
+        w_valued = np.zeros(M)
+        only_unsupported = np.ones(M, dtype=bool)
+        unsupported_code = STATUS_NAMES.index(Status.UNSUPPORTED.value)
+        for bits in itertools.product((0, 1), repeat=len(axes)):
+            w = np.ones(M)
+            idx = []
+            for (i, t, _), b in zip(located, bits):
+                w = w * (t if b else 1.0 - t)
+                idx.append(i + b)
+            st = status[tuple(idx)]
+            weighted = w > 0.0
+            has = valued[st]
+            c += np.where(weighted & has, w * np.nan_to_num(cap[tuple(idx)]), 0.0)
+            w_valued += np.where(weighted & has, w, 0.0)
+            worst = np.where(weighted & ~has, np.minimum(worst, rank[st]), worst)
+            only_unsupported &= ~(weighted & ~has) | (st == unsupported_code)
+        code = np.full(M, STATUS_NAMES.index(Status.OK.value), dtype=np.uint8)
+        bad = worst <= len(_BAD_PRIORITY)
+        # the support-edge rules (see the class doc), as `query` applies them
+        edge = bad & only_unsupported & (w_valued > 0.0)
+        valued_rule = edge & (w_valued >= self.edge_min_weight - 1e-12)
+        c = np.where(valued_rule, c / np.where(valued_rule, w_valued, 1.0), c)
+        bad &= ~(valued_rule | (edge & self.support_edge))
+        prio = [STATUS_NAMES.index(s.value) for s in _BAD_PRIORITY] + \
+            [STATUS_NAMES.index(Status.INVALID_INPUT.value)]
+        code[bad] = np.asarray(prio)[worst[bad]]
+        off = np.zeros(M, dtype=bool)
+        for _, _, side in located:
+            off |= side != 0
+        code[off] = STATUS_NAMES.index(Status.OUT_OF_RANGE.value)
+        ok = code == STATUS_NAMES.index(Status.OK.value)
+        return np.where(ok, np.maximum(c, 0.0), np.nan), code
+
+
+# ------------------------------------------------------- accuracy and refinement (issue 12)
+def map_medium(data: DescribedMapData) -> Medium:
+    """The medium a described map was built with (its provenance)."""
+    return Medium(**json.loads(str(data.attrs['provenance_json']))['medium'])
+
+
+def check_identity(cmap: DescribedMap, desc) -> None:
+    """ValueError (one line) unless desc is the description the map was built for."""
+    if desc.sha256 != cmap.description_sha256:
+        raise ValueError(f'{cmap.source or "map"} was built for description '
+                         f'{cmap.data.attrs.get("description_name", "")} '
+                         f'({cmap.description_sha256[:12]}); {desc.source} is '
+                         f'{desc.sha256[:12]}')
+
+
+def reference_solver(cmap: DescribedMap, desc, reference: str = 'direct'):
+    """The live SceneModel a described map is checked against: `reference` method, the map's
+    medium, RFT model, twist count and space (the description must be the map's own)."""
+    from ..scene import SceneModel
+    check_identity(cmap, desc)
+    at = cmap.data.attrs
+    return SceneModel(map_medium(cmap.data), model=str(at['rft_model']), method=reference,
+                      n_twists=int(at['n_twists']), space=str(at['space']))
+
+
+def _live(sm, desc, values: dict[str, float], phi: float, pull: str) -> SceneResult:
+    """The reference answer at a state, with the build's rule off the physical range."""
+    if desc.violations(values):
+        return SceneResult(Status.INVALID_INPUT, sm.method, sm.space, reason='not_a_pose')
+    return sm.predict(desc.scene(values, pull), phi, 0.0)
+
+
+def sample_values(grid: DescribedGrid, samples: int, seed: int = 0) -> np.ndarray:
+    """(M, n) states (SI, grid order): up to `samples` random cell centres, then `samples`
+    uniformly random states inside the grid (maps/accuracy.py's rule, over n axes)."""
+    rng = np.random.default_rng(seed)
+    axes = grid.axes
+    n_cells = [len(a) - 1 for a in axes]
+    total = int(np.prod(n_cells))
+    pick = rng.choice(total, size=min(samples, total), replace=False)
+    idx = np.stack(np.unravel_index(np.sort(pick), n_cells), axis=1)
+    centres = np.column_stack([0.5 * (a[idx[:, d]] + a[idx[:, d] + 1])
+                               for d, a in enumerate(axes)])
+    lo = np.array([a[0] for a in axes])
+    hi = np.array([a[-1] for a in axes])
+    return np.vstack([centres, lo + (hi - lo) * rng.random((samples, len(axes)))])
+
+
+def described_accuracy(cmap: DescribedMap, desc, samples: int = 20, seed: int = 0,
+                       reference: str = 'direct', progress: bool = False):
+    """maps/accuracy.py's AccuracyReport for a described map: its answers against the live
+    `reference` on the description at sample_values states and the midpoints between the
+    stored pull angles, every pull. Errors where both have a value; `status_mismatch` where
+    one has (map_conservative: the map is the one without)."""
+    from tqdm import tqdm
+
+    from .accuracy import AccuracyReport, ErrorStats
+    sm = reference_solver(cmap, desc, reference)
+    g = cmap.grid
+    if len(g.phi) < 2:
+        raise ValueError('the map has one pull angle: no midpoints to check')
+    phis = 0.5 * (g.phi[:-1] + g.phi[1:])
+    states = sample_values(g, samples, seed)
+    cap_err, pct_err, ang_err, over = [], [], [], []
+    mismatch = conservative = 0
+    for s in tqdm(states, unit='state', file=sys.stderr, desc='accuracy', disable=not progress):
+        values = dict(zip(g.names, map(float, s)))
+        for pull in g.pulls:
+            for phi in phis.tolist():
+                r = _live(sm, desc, values, phi, pull)
+                m = cmap.query(values, phi, pull, desc.sha256)
+                if m.ok != r.ok:
+                    mismatch += 1
+                    conservative += int(r.ok and not m.ok)
+                    continue
+                if (m.capacity_N is None or r.capacity_N is None or m.slip_twist_scaled is None
+                        or r.slip_twist_scaled is None):
+                    continue
+                d = abs(m.capacity_N - r.capacity_N)
+                over.append(m.capacity_N - r.capacity_N)
+                cap_err.append(d)
+                if r.capacity_N > 1e-9:
+                    pct_err.append(100.0 * d / r.capacity_N)
+                cosang = float(np.clip(np.dot(m.slip_twist_scaled, r.slip_twist_scaled), -1, 1))
+                ang_err.append(float(np.degrees(np.arccos(cosang))))
+    return AccuracyReport(reference=reference, n_states=len(states), n_compared=len(cap_err),
+                          status_mismatch=mismatch, map_conservative=conservative,
+                          capacity_N=ErrorStats.of(np.asarray(cap_err)),
+                          capacity_pct=ErrorStats.of(np.asarray(pct_err)),
+                          twist_deg=ErrorStats.of(np.asarray(ang_err)),
+                          capacity_over_N_worst=float(max(over)) if over else float('nan'))
+
+
+def described_interval_errors(cmap: DescribedMap, desc, samples: int = 6, seed: int = 0,
+                              reference: str = 'direct', progress: bool = False) -> list:
+    """maps/refine.py's IntervalError per interval of every state axis of a described map:
+    `samples` states with that coordinate at the interval's midpoint, the others random in
+    the grid, a random stored pull and pull angle; p95 of |map - reference| in %."""
+    from tqdm import tqdm
+
+    from .refine import IntervalError
+    sm = reference_solver(cmap, desc, reference)
+    g = cmap.grid
+    rng = np.random.default_rng(seed)
+    lo = np.array([a[0] for a in g.axes])
+    hi = np.array([a[-1] for a in g.axes])
+    jobs = [(k, j) for k, a in enumerate(g.axes) for j in range(len(a) - 1)]
+    out = []
+    for k, j in tqdm(jobs, desc='intervals', unit='interval', file=sys.stderr,
+                     disable=not progress):
+        errs, mismatched = [], 0
+        for _ in range(samples):
+            s = lo + (hi - lo) * rng.random(len(g.axes))
+            s[k] = 0.5 * (g.axes[k][j] + g.axes[k][j + 1])
+            values = dict(zip(g.names, map(float, s)))
+            pull = g.pulls[int(rng.integers(len(g.pulls)))]
+            phi = float(g.phi[int(rng.integers(len(g.phi)))])
+            r = _live(sm, desc, values, phi, pull)
+            m = cmap.query(values, phi, pull, desc.sha256)
+            if r.ok != m.ok:
+                mismatched += 1
+            elif r.capacity_N is not None and m.capacity_N is not None and r.capacity_N > 1e-9:
+                errs.append(100.0 * abs(m.capacity_N - r.capacity_N) / r.capacity_N)
+        p95 = float(np.percentile(errs, 95)) if errs else float('nan')
+        out.append(IntervalError(g.names[k], float(g.axes[k][j]), float(g.axes[k][j + 1]), p95,
+                                 len(errs), mismatched))
+    return out
+
+
+def refined_described_grid(grid: DescribedGrid, errors: list, tol_pct: float) -> DescribedGrid:
+    """The grid with the midpoint of every interval whose p95 error exceeds tol_pct."""
+    new = {n: list(a) for n, a in zip(grid.names, grid.axes)}
+    for e in errors:
+        if np.isfinite(e.p95_pct) and e.p95_pct > tol_pct:
+            new[e.axis].append(0.5 * (e.lo + e.hi))
+    return DescribedGrid(grid.names, grid.units,
+                         tuple(np.unique(np.asarray(new[n], dtype=float)) for n in grid.names),
+                         grid.phi, grid.pulls)
+
+
+class DescribedMapModel:
+    """A described map behind the robots' Predictor interface (predict(AnchorState, phi,
+    pull) -> CapacityResult with sagittal (vx, vz, wy) twists), for the consumers that
+    estimate an AnchorState (capacity_node's map_file, the lab tools' 'map'): the state
+    variables are fed from the AnchorState by description.robot_state_map (by name or
+    state_map), the answer is DescribedMap.query's. A 6D slip twist with an out-of-plane part
+    (> TWIST_PLANE_TOL of the unit scaled twist) cannot be carried: `invalid_input`
+    `not_symmetric`, as DescriptionModel answers there. desc must be the map's own."""
+
+    TWIST_PLANE_TOL = 1e-6
+
+    def __init__(self, cmap: DescribedMap, desc, state_map=None):
+        from ..description import robot_state_map
+        check_identity(cmap, desc)
+        self.map = cmap
+        self.description = desc
+        self.state_map = robot_state_map(desc, state_map)
+        self.method = METHOD
+
+    @property
+    def medium_name(self) -> str:
+        return self.map.medium_name
+
+    @property
+    def pulls(self) -> tuple[str, ...]:
+        return self.map.grid.pulls
+
+    def predict(self, state, phi: float, pull):
+        from ..description import state_values
+        from ..surfaces.base import CapacityResult
+        from ..types import Pull
+        robot = state_values(state)
+        values = {n: robot[q] for n, q in self.state_map.items()}
+        pull = pull.value if isinstance(pull, Pull) else str(pull)
+        r = self.map.query(values, phi, pull, self.description.sha256)
+        if not r.ok or r.slip_twist_scaled is None or r.slip_twist is None:
+            return CapacityResult(phi=float(phi), status=r.status, method=METHOD,
+                                  reason=r.reason, detail=r.detail)
+        ts, tr = np.asarray(r.slip_twist_scaled), np.asarray(r.slip_twist)
+        off = float(np.max(np.abs(ts[[1, 3, 5]])))
+        if off > self.TWIST_PLANE_TOL:
+            return CapacityResult(phi=float(phi), status=Status.INVALID_INPUT, method=METHOD,
+                                  reason='not_symmetric',
+                                  detail=f'the map\'s slip twist leaves the pull plane (out-of-'
+                                         f'plane part {off:.3g}); a sagittal answer cannot '
+                                         'carry it')
+        s3, r3 = ts[[0, 2, 4]], tr[[0, 2, 4]]
+        s3, r3 = s3 / np.linalg.norm(s3), r3 / np.linalg.norm(r3)
+        return CapacityResult(phi=float(phi), status=r.status, method=METHOD,
+                              capacity_N=r.capacity_N,
+                              slip_twist=(float(r3[0]), float(r3[1]), float(r3[2])),
+                              slip_twist_scaled=(float(s3[0]), float(s3[1]), float(s3[2])),
+                              unchecked_capacity_N=r.capacity_N, detail=r.detail,
+                              flags=r.flags)

@@ -47,6 +47,9 @@ PARAMETERS: dict[str, Param] = {
     'robot': Param('minirquad', 'robot preset (must match the map)'),
     'anchor_description_file': Param('', "anchor description YAML for the live solver (a map must "
                                "answer for it); '' = the robot preset"),
+    'anchor_state_variables': Param('', "description variable -> estimate, 'NAME=ESTIMATE,...' "
+                                    "(estimates h, theta_b, theta_l1, theta_l2); '' = the "
+                                    "variables' own names"),
     'medium': Param('m90_sand', 'medium preset (must match the map)'),
     'pull': Param('backward', "C-leg orientation to the pull: 'forward' or 'backward'"),
     # input topics (relative names: namespaces and remapping apply)

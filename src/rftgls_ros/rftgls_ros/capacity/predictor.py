@@ -57,15 +57,35 @@ class LivePredictor:
         return self.model.predict(state, phi, pull)
 
 
+# What feeds each estimate of the node (docs/design/capacity-inputs.md): a description's state
+# variables can only be fed from these.
+ESTIMATE_SOURCES = {'h': 'height_topic (or height_m)', 'theta_b': 'imu_topic or pitch_topic',
+                    'theta_l1': 'joint_states (joint_proximal_*)',
+                    'theta_l2': 'joint_states (joint_distal_*)'}
+
+
+def parse_state_variables(text: str) -> dict[str, str] | None:
+    """`anchor_state_variables` 'NAME=ESTIMATE,...' -> {NAME: ESTIMATE}; '' -> None (the
+    description's own names). ConfigError (one line) on a malformed entry."""
+    from rftgls_core.description import DescriptionError, parse_state_map
+    try:
+        return parse_state_map(text)
+    except DescriptionError as exc:
+        raise ConfigError(f'anchor_state_variables: {one_line(exc)}') from exc
+
+
 class DescriptionPredictor:
     """The live solver on an anchor description (ROS parameter `anchor_description_file` = path of
     its YAML): rftgls_core.description.DescriptionModel, AnchorModel's interface on the posed
-    description. The node estimates (h, theta_b, theta_l1, theta_l2), so the description must
-    declare those state variables (as the shipped ones do); for a shipped robot it gives the
-    numbers of LivePredictor (tests/ros/test_description_predictor.py)."""
+    description. The node estimates (h, theta_b, theta_l1, theta_l2) from its inputs
+    (ESTIMATE_SOURCES), so every state variable of the description must be fed by one of
+    them: by its name, or by `anchor_state_variables` (state_map here, NAME -> estimate); a
+    description using only some (a two-variable body: h and theta_b) leaves the others out,
+    their inputs are still checked. For a shipped robot it gives the numbers of LivePredictor
+    (tests/ros/test_description_predictor.py)."""
 
     def __init__(self, path: str, medium: str = '', method: str = 'direct',
-                 n_twists: int | None = None):
+                 n_twists: int | None = None, state_map: dict[str, str] | None = None):
         from rftgls_core.anchor import DEFAULT_TWISTS
         from rftgls_core.description import DescriptionError, DescriptionModel
         from rftgls_core.rft.media import get_medium
@@ -75,10 +95,14 @@ class DescriptionPredictor:
         method = 'direct' if method == 'direct-warm' else method
         try:
             self.model = DescriptionModel(desc, get_medium(medium or desc.medium),
-                                          method=method, n_twists=n_twists or DEFAULT_TWISTS)
+                                          method=method, n_twists=n_twists or DEFAULT_TWISTS,
+                                          state_map=state_map)
         except DescriptionError as exc:
+            feeds = '; '.join(f'{k} <- {v}' for k, v in ESTIMATE_SOURCES.items())
             raise ConfigError(f'anchor_description_file: capacity_node estimates h, theta_b, '
-                              f'theta_l1, theta_l2: {one_line(exc)}') from exc
+                              f'theta_l1, theta_l2 ({feeds}) and feeds a description\'s state '
+                              f'variables from them by name or anchor_state_variables: '
+                              f'{one_line(exc)}') from exc
         self.description = desc
         self.name = f'live:{method}:{desc.name}'
 
@@ -149,6 +173,61 @@ class MapPredictor:
         return self.map.query(state, phi, pull)
 
 
+class DescribedMapPredictor:
+    """A described map (`rftgls map build --anchor`, maps/described.py) for the description
+    of `anchor_description_file`: rftgls_core's DescribedMapModel (the node's estimates feed
+    the description's variables by name or anchor_state_variables). The map must answer for
+    that description (identity) and be built for the node's medium and pull."""
+
+    def __init__(self, path: Path, desc, medium: str | None = None, pull: str | None = None,
+                 state_map: dict[str, str] | None = None):
+        from rftgls_core.description import DescriptionError
+        from rftgls_core.maps import MapFileError
+        from rftgls_core.maps.described import DescribedMap, DescribedMapModel
+        try:
+            cmap = DescribedMap.load(path)
+        except MapFileError as exc:
+            raise ConfigError(f'bad map file {path}: {one_line(exc)}') from exc
+        try:
+            self.model = DescribedMapModel(cmap, desc, state_map)
+        except DescriptionError as exc:
+            feeds = '; '.join(f'{k} <- {v}' for k, v in ESTIMATE_SOURCES.items())
+            raise ConfigError(f'anchor_description_file: capacity_node estimates h, theta_b, '
+                              f'theta_l1, theta_l2 ({feeds}): {one_line(exc)}') from exc
+        except ValueError as exc:
+            raise ConfigError(f'map file {path} does not answer for anchor_description_file: '
+                              f'{one_line(exc)}') from exc
+        if medium is not None and medium.strip().lower() != cmap.medium_name.lower():
+            raise ConfigError(f'map file {path} is for medium {cmap.medium_name!r}, the node '
+                              f'is configured for {medium!r}')
+        if pull is not None and str(pull) not in cmap.grid.pulls:
+            raise ConfigError(f'map file {path} holds pulls {list(cmap.grid.pulls)}, '
+                              f'not {str(pull)!r}')
+        self.path = Path(path)
+        self.integrity = 'verified'   # load_described_map checked its content hash
+        self.name = f'map:{self.path.name}:{desc.name}'
+
+    def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
+        return self.model.predict(state, phi, pull)
+
+
+def _described_map(map_file: str, desc_path: str, medium: str, pull: str | None,
+                   state_map: dict[str, str] | None) -> DescribedMapPredictor | None:
+    """The described-map predictor when map_file names a described map, else None."""
+    from rftgls_core.maps import MapFileError
+    from rftgls_core.maps.described import is_described_map
+    try:
+        path = resolve_map_path(map_file)
+    except MapFileError:
+        return None                      # MapPredictor says so, in its words
+    if not is_described_map(path):
+        return None
+    if not desc_path:
+        raise ConfigError(f'map file {path} is a described map: set anchor_description_file '
+                          'to the description it was built for')
+    return DescribedMapPredictor(path, _description(desc_path), medium, pull, state_map)
+
+
 class LiveFallback:
     """A map, with the live solver answering where the map says `out_of_range` (outside its
     grid). Every other map answer stands; the live answer's reason says it came from the
@@ -171,25 +250,34 @@ class LiveFallback:
 def predictor_from_params(map_file: str, live_method: str = 'direct', robot: str = 'minirquad',
                    medium: str = 'm90_sand', n_twists: int = 0,
                    pull: str | None = None, out_of_range_live_method: str = '',
-                   anchor_description_file: str = '') -> Predictor:
+                   anchor_description_file: str = '',
+                   anchor_state_variables: str = '') -> Predictor:
     """capacity_node's predictor from its parameters: the map predictor when map_file is set
     (with the live solver `out_of_range_live_method` answering outside its grid when that is
     set), else the live one. anchor_description_file: path of an anchor description YAML for the
-    live solver (and the identity a map must answer for); '' = the `robot` preset.
+    live solver (and the identity a map must answer for); '' = the `robot` preset;
+    anchor_state_variables: which estimate feeds which of its variables (parse_state_variables).
     Raises ConfigError."""
     desc = anchor_description_file.strip()
+    state_map = parse_state_variables(anchor_state_variables)
+    if state_map is not None and not desc:
+        raise ConfigError('anchor_state_variables needs anchor_description_file')
     if map_file.strip():
-        sha = _description(desc).sha256 if desc else None
-        cmap = MapPredictor(map_file.strip(), robot, medium, pull, description_sha256=sha)
+        cmap: Predictor | None = _described_map(map_file.strip(), desc, medium, pull, state_map)
+        if cmap is None:
+            sha = _description(desc).sha256 if desc else None
+            cmap = MapPredictor(map_file.strip(), robot, medium, pull, description_sha256=sha)
         if out_of_range_live_method.strip():
             return LiveFallback(cmap, _live(robot, medium, out_of_range_live_method.strip(),
-                                            n_twists, 'out_of_range_live_method', desc))
+                                            n_twists, 'out_of_range_live_method', desc,
+                                            state_map))
         return cmap
-    return _live(robot, medium, live_method, n_twists, 'live_method', desc)
+    return _live(robot, medium, live_method, n_twists, 'live_method', desc, state_map)
 
 
 def _live(robot: str, medium: str, live_method: str, n_twists: int,
-          param: str, anchor_description_file: str = '') -> LivePredictor | DescriptionPredictor:
+          param: str, anchor_description_file: str = '',
+          state_map: dict[str, str] | None = None) -> LivePredictor | DescriptionPredictor:
     if live_method not in LIVE_METHODS:
         raise ConfigError(f'{param} must be one of {", ".join(LIVE_METHODS)}, '
                           f'got {live_method!r}')
@@ -198,7 +286,7 @@ def _live(robot: str, medium: str, live_method: str, n_twists: int,
     try:
         if anchor_description_file:
             return DescriptionPredictor(anchor_description_file, medium, live_method,
-                                        n_twists or None)
+                                        n_twists or None, state_map)
         return LivePredictor(robot, medium, live_method, n_twists or None)
     except ConfigError:
         raise

@@ -12,4 +12,7 @@ the lab tools run on any machine with the venv and no ROS install:
     evaluate       measured vs. predicted peak force, dz/dx, dthetaB/|dx|: Table I, Fig. 8
     calibrate      least-squares (xi_n, mu_surf) with confidence intervals -> medium JSON
     replay         recorded bytes -> rclpy publishers (original timing, faster, lock-step)
+
+synthetic, evaluate, calibrate and replay take `--anchor FILE.yaml` (an anchor description)
+instead of the bag's robot (docs/design/six-d.md, "Lab tools").
 """

@@ -47,7 +47,14 @@ from rftgls_core.types import AnchorState
 
 from .bag_layout import BagError, PullTest, read_pull_test
 from .evaluate import running_median
-from .predict import initial_pose, make_predictor, measured_initial_state
+from .predict import (
+    LabAnchor,
+    add_anchor_arguments,
+    initial_pose,
+    load_anchor,
+    make_predictor,
+    measured_initial_state,
+)
 
 BREAKAWAY_TRAVEL_M = 2e-3
 XI_SCALE = 1e5              # N/m^3 per unit of the fitted variable (conditioning)
@@ -240,9 +247,10 @@ def calibrate(pulls: list[PullObservation],
               penetration: PenetrationTrace | list[PenetrationTrace] | None = None,
               method: str = 'twist-mesh', x0: tuple[float, float] = (3.8e5, 0.4),
               sigma_pull_N: float = 0.05, sigma_penetration_N: float = 0.05,
-              progress: bool = False) -> Calibration:
+              progress: bool = False, anchor: LabAnchor | None = None) -> Calibration:
     """Least-squares fit of (xi_n, mu_surf) to pull tests and penetration tests.
 
+    anchor: the description posed for every pull test (None: each test's own robot preset).
     penetration: one test or a list of tests (each its own plate area). Every penetration
     test and every pull test is a separate experiment (a cluster): with more tests than
     fitted parameters, each parameter's standard deviation is the wider of the cluster-robust
@@ -285,7 +293,7 @@ def calibrate(pulls: list[PullObservation],
         out = np.empty(len(pulls))
         for i, ob in enumerate(pulls):
             if ob.robot not in models:
-                models[ob.robot] = make_predictor(method, ob.robot, med)
+                models[ob.robot] = make_predictor(method, ob.robot, med, anchor=anchor)
             r = models[ob.robot].predict(ob.state, ob.phi, ob.pull)
             # No balance at this medium: the anchor holds nothing; the residual says so
             # (a NaN would stop the solver).
@@ -459,6 +467,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                          '--penetration in the same order')
     ap.add_argument('--method', default='twist-mesh',
                     choices=['twist-mesh', 'direct', 'alpha', 'ellipsoid'])
+    add_anchor_arguments(ap)
     ap.add_argument('--sigma-pull', type=float, default=0.05, help='N (relative weighting)')
     ap.add_argument('--sigma-penetration', type=float, default=0.05, help='N')
     ap.add_argument('--name', default='calibrated')
@@ -484,6 +493,7 @@ def run(args, command: str) -> int:
         v = getattr(args, name)
         if not (math.isfinite(v) and v > 0):
             raise ValueError(f'--{name.replace("_", "-")} must be a positive number, got {v}')
+    anchor = load_anchor(args.anchor, args.anchor_state)
     pulls = []
     for bag in args.bags:
         try:
@@ -505,7 +515,7 @@ def run(args, command: str) -> int:
     elif args.plate_area:
         raise ValueError('--plate-area is used only with --penetration')
     cal = calibrate(pulls, pen or None, method=args.method, sigma_pull_N=args.sigma_pull,
-                    sigma_penetration_N=args.sigma_penetration, progress=True)
+                    sigma_penetration_N=args.sigma_penetration, progress=True, anchor=anchor)
     cal.sources = [str(b) for b in args.bags] + list(args.penetration)
     Path(args.out).write_text(cal.to_json(args.name, command))
     png = plot_path(args.out)

@@ -31,8 +31,11 @@ from rftgls_core.predictor import Predictor
 from .bag_layout import PullTest, read_pull_test
 from .predict import (
     METHODS,
+    LabAnchor,
     PredictedPull,
+    add_anchor_arguments,
     initial_pose,
+    load_anchor,
     load_medium,
     make_predictor,
     medium_from_dict,
@@ -180,9 +183,11 @@ def plot_fig8(tests: list[PullTest], preds: dict[str, list[PredictedPull]], path
 
 def evaluate(tests: list[PullTest], methods: list[str], map_path: str | Path | None = None,
              medium=None, step: float = 1e-3, max_travel: float = 0.04,
-             integrator: str = 'heun', progress: bool = True
+             integrator: str = 'heun', progress: bool = True,
+             anchor: LabAnchor | None = None
              ) -> tuple[list[Row], dict[str, list[PredictedPull]]]:
-    """Predict every test with every method (medium: None = each bag's own medium)."""
+    """Predict every test with every method (medium: None = each bag's own medium; anchor:
+    None = each bag's own robot, else this description for every bag)."""
     predictors: dict[tuple, Predictor] = {}
     rows: list[Row] = []
     preds: dict[str, list[PredictedPull]] = {m: [] for m in methods}
@@ -195,9 +200,10 @@ def evaluate(tests: list[PullTest], methods: list[str], map_path: str | Path | N
         med = medium if medium is not None else medium_from_dict(test.meta.medium)
         key = (method, test.meta.robot, med)
         if key not in predictors:
-            predictors[key] = make_predictor(method, test.meta.robot, med, map_path)
+            predictors[key] = make_predictor(method, test.meta.robot, med, map_path,
+                                             anchor=anchor)
         pred = predict_pull(predictors[key], test, method, step=step, max_travel=max_travel,
-                            integrator=integrator)
+                            integrator=integrator, anchor=anchor)
         preds[method].append(pred)
         rows.append(compare(test, pred, window=max_travel))
     return rows, preds
@@ -225,34 +231,38 @@ def main(argv: list[str] | None = None) -> int:
                     "(default: the robot's shipped map, if built for the bags' medium)")
     ap.add_argument('--medium', default=None,
                     help='preset name or medium JSON (default: each bag\'s own medium)')
+    add_anchor_arguments(ap)
     ap.add_argument('--step', type=float, default=1e-3, help='simulation step, m of p')
     ap.add_argument('--max-travel', type=float, default=0.04, help='m')
     ap.add_argument('--integrator', choices=['euler', 'heun'], default='heun')
     ap.add_argument('--out-dir', default='lab_eval')
     args = ap.parse_args(argv)
     try:
+        anchor = load_anchor(args.anchor, args.anchor_state)
         tests = [read_pull_test(b) for b in args.bags]
         methods = list(args.methods)
         map_path = args.map
         if 'map' in methods and map_path is None:
             # The robot's installed map (never a file in the current directory), and only
             # if it was built for the bags' medium: a map answers for its own medium only.
-            from rftgls_core.maps import CapacityMap, MapFileError, resolve_map
+            from rftgls_core.maps import CapacityMap, resolve_map
             try:
                 guess = resolve_map(None, robot=tests[0].meta.robot)
-                medium_ok = (CapacityMap.load(guess).medium_name
-                             == tests[0].meta.medium.get('name'))
-            except MapFileError:
+                cmap = CapacityMap.load(guess)
+                medium_ok = cmap.medium_name == tests[0].meta.medium.get('name')
+                if anchor is not None:   # and it answers for the description (ValueError)
+                    cmap.check_description(anchor.sha256)
+            except ValueError:   # MapFileError is one
                 guess, medium_ok = None, False
             if guess is not None and medium_ok:
                 map_path = guess
             else:
-                print("evaluate: no --map given and no shipped map for this robot and medium; "
-                      "skipping 'map'", file=sys.stderr)
+                print("evaluate: no --map given and no shipped map for this robot, medium "
+                      "(and --anchor); skipping 'map'", file=sys.stderr)
                 methods.remove('map')
         medium = load_medium(args.medium) if args.medium else None
         rows, preds = evaluate(tests, methods, map_path, medium, args.step, args.max_travel,
-                               args.integrator)
+                               args.integrator, anchor=anchor)
     except (ValueError, OSError) as exc:
         print(f'evaluate: error: {exc}', file=sys.stderr)
         return 2

@@ -4,6 +4,14 @@ Predictors: the four AnchorModel surfaces ('ellipsoid', 'alpha', 'twist-mesh', '
 'map' (CapacityMap.query on a precomputed HDF5 map). Trajectories use rftgls_core.sim
 (quasi-static slip integration, paper section IV) from the measured initial state.
 
+Robot: the bag's (metadata `robot`, a preset name) unless an anchor description is given
+(`--anchor FILE.yaml` of evaluate and calibrate; rftgls_core.description): then the
+description is posed from the measured (h, thetaB, thetaL1, thetaL2), fed to its state
+variables by name or by `--anchor-state NAME=QUANTITY,...` (as capacity_node's
+anchor_state_variables; load_anchor checks; ValueError, one line), and a slip stops
+where the description's `surface_points` reach the surface. For the shipped description of
+the bag's robot this gives the preset's numbers (tests/lab/test_lab_anchor.py).
+
 Medium files (JSON, written by calibrate): {"name", "xi_n", "mu_surf", "zeta", ...} with the
 fields of rftgls_core.rft.media.Medium; extra keys (covariance, confidence intervals, fit
 report) are ignored here.
@@ -11,11 +19,19 @@ report) are ignored here.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from rftgls_core.description import (
+    AnchorDescription,
+    DescriptionError,
+    load_description,
+    parse_state_map,
+    robot_state_map,
+    state_values,
+)
 from rftgls_core.predictor import Predictor
 from rftgls_core.rft.media import Medium, medium_from_dict
 from rftgls_core.rft.media import load_medium as core_load_medium
@@ -36,21 +52,102 @@ def load_medium(spec: str | Path | dict) -> Medium:
     return core_load_medium(str(spec))
 
 
+@dataclass(frozen=True)
+class LabAnchor:
+    """An anchor description as the lab tools pose it: state_map says which measured
+    quantity (h, theta_b, theta_l1, theta_l2) feeds each of its state variables."""
+
+    description: AnchorDescription
+    state_map: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def name(self) -> str:
+        return self.description.name
+
+    @property
+    def sha256(self) -> str:
+        return self.description.sha256
+
+    def values(self, state: AnchorState) -> dict[str, float]:
+        """The description's state values (SI) of a measured AnchorState."""
+        robot = state_values(state)
+        return {n: robot[q] for n, q in self.state_map.items()}
+
+
+def load_anchor(path: str | Path | None, state: str = '') -> LabAnchor | None:
+    """The description of `--anchor` (None: the bags' own robot), its variables fed by name
+    or by `state` ('NAME=QUANTITY,...', --anchor-state). ValueError (one line) when it
+    cannot be read or a variable is fed by nothing a bag measures (h, thetaB and the two leg
+    angles)."""
+    if path is None or not str(path).strip():
+        if state.strip():
+            raise ValueError('--anchor-state needs --anchor')
+        return None
+    try:
+        desc = load_description(path)
+    except DescriptionError as exc:
+        raise ValueError(f'--anchor: {" ".join(str(exc).split())}') from None
+    try:
+        mapping = robot_state_map(desc, parse_state_map(state))
+    except DescriptionError as exc:
+        raise ValueError(f'--anchor: {" ".join(str(exc).split())} (what a pull-test bag '
+                         'measures; --anchor-state NAME=QUANTITY,... maps them)') from None
+    return LabAnchor(desc, mapping)
+
+
+def add_anchor_arguments(ap) -> None:
+    """--anchor and --anchor-state of the lab tools (argparse)."""
+    ap.add_argument('--anchor', default=None, metavar='FILE.yaml',
+                    help="anchor description (YAML with its URDF) to pose instead of the bags' "
+                         'robot; its state variables are fed from h, theta_b, theta_l1, '
+                         'theta_l2 by name or by --anchor-state')
+    ap.add_argument('--anchor-state', default='', metavar='NAME=QUANTITY,...',
+                    help='which measured quantity feeds each state variable of --anchor, e.g. '
+                         'depth=h,tilt=theta_b')
+
+
 def make_predictor(method: str, robot: str, medium: Medium, map_path: str | Path | None = None,
-                   n_twists: int | None = None) -> Predictor:
+                   n_twists: int | None = None,
+                   anchor: LabAnchor | None = None) -> Predictor:
     """The core Predictor of `method` (one of METHODS) for `robot` in `medium`: the live
-    AnchorModel, or for 'map' the CapacityMap at map_path (checked to be of `robot`)."""
+    AnchorModel, or for 'map' the CapacityMap at map_path (checked to be of `robot`).
+    anchor: a description to pose instead of the preset `robot` (DescriptionModel; a map
+    must then answer for that description, CapacityMap.check_description)."""
     if method == 'map':
         if map_path is None:
             raise ValueError("method 'map' needs a map file")
         from rftgls_core.maps import CapacityMap, resolve_map
-        cmap = CapacityMap.load(resolve_map(map_path))   # predict() like AnchorModel
-        if cmap.robot_name != robot:
+        from rftgls_core.maps.described import DescribedMap, DescribedMapModel, is_described_map
+        path = resolve_map(map_path)
+        if is_described_map(path):   # built with `map build --anchor`: for that description
+            if anchor is None:
+                raise ValueError(f'{path} is a described map: give --anchor FILE.yaml, the '
+                                 'description it was built for')
+            return DescribedMapModel(DescribedMap.load(path), anchor.description,
+                                     anchor.state_map)
+        cmap = CapacityMap.load(path)   # predict() like AnchorModel
+        if anchor is not None:
+            cmap.check_description(anchor.sha256)
+        elif cmap.robot_name != robot:
             raise ValueError(f'{cmap.source}: map is for robot {cmap.robot_name!r}, the test '
                              f'is of {robot!r}')
         return cmap
+    if anchor is not None:
+        from rftgls_core.description import DescriptionModel
+        return DescriptionModel(anchor.description, medium, method=method, n_twists=n_twists,
+                                state_map=anchor.state_map)
     from rftgls_core.anchor import AnchorModel
     return AnchorModel(get_robot(robot), medium, method=method, n_twists=n_twists)
+
+
+def surface_min_z(robot: str, pull: str, anchor: LabAnchor | None = None):
+    """plate_min_z(state) for rftgls_core.sim.simulate_pull: the preset's body plate, or the
+    description's surface_points (m; the run stops when it reaches 0)."""
+    if anchor is not None:
+        desc = anchor.description
+        return lambda st: desc.surface_min_z(anchor.values(st))
+    rb = get_robot(robot)
+    return lambda st: rb.pose(st, pull).plate_min_z
 
 
 def initial_pose(test: PullTest) -> np.ndarray | None:
@@ -98,16 +195,17 @@ class PredictedPull:
 
 def predict_pull(predictor: Predictor, test: PullTest, method: str, step: float = 1e-3,
                  max_travel: float = 0.04, integrator: str = 'heun',
-                 state: AnchorState | None = None) -> PredictedPull:
-    """Capacity and slip trajectory of `test` (initial state measured unless given)."""
+                 state: AnchorState | None = None,
+                 anchor: LabAnchor | None = None) -> PredictedPull:
+    """Capacity and slip trajectory of `test` (initial state measured unless given); anchor:
+    the description posed instead of the bag's robot (its surface_points end the slip)."""
     from rftgls_core.sim.trajectory import simulate_pull
 
     state = state or measured_initial_state(test)
     meta = test.meta
-    robot = get_robot(meta.robot)
     res = predictor.predict(state, meta.phi_rad, meta.pull)
     traj = simulate_pull(predictor, state, meta.phi_rad, meta.pull,
-                         lambda st: robot.pose(st, meta.pull).plate_min_z, step=step,
+                         surface_min_z(meta.robot, meta.pull, anchor), step=step,
                          integrator=integrator, max_travel=max_travel)
     arr = traj.as_array()
     p0 = initial_pose(test)

@@ -13,7 +13,14 @@ Feed capacity_node (its own defaults read /joint_states, /winch/tension, /winch/
     python -m rftgls_ros.capacity_node --ros-args -p robot:=prototype -p medium:=glass_beads \
         -p map_file:=maps/prototype_glass_beads.h5 -p pull:=forward \
         -p pitch_topic:=/lab/theta_b -p phi_topic:=/winch/phi &
-    python -m rftgls_ros.lab.replay BAG [--rate 1 | --rate 4 | --rate 0]
+    python -m rftgls_ros.lab.replay BAG [--rate 1 | --rate 4 | --rate 0] [--anchor FILE.yaml]
+
+The robot: the replay also publishes the URDF of the anchor description on /robot_description
+(std_msgs/String, transient-local, as ROS's robot_state_publisher offers it): by default the
+shipped description of the bag's robot (metadata `robot`), with `--anchor FILE.yaml` that
+description (it must declare the four state variables a bag measures: h, theta_b, theta_l1,
+theta_l2; a bad file is one line, exit 2). Give capacity_node the same file
+(`-p anchor_description_file:=FILE.yaml`); the replay prints the parameter.
 """
 from __future__ import annotations
 
@@ -30,10 +37,43 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from minirquad_driver.dds_loopback import during_init
 
 from .bag_layout import KNOWN_TYPES, BagError, guard_bag_read
+from .predict import add_anchor_arguments
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 LATCHED_TOPICS = ('/lab/metadata',)   # bags recorded without offered QoS profiles
+DESCRIPTION_TOPIC = '/robot_description'
+
+
+def bag_description(bag: str | Path, anchor: str | Path | None = None, state: str = ''):
+    """The AnchorDescription a replay of `bag` stands for: `anchor` (lab.predict.load_anchor:
+    ValueError, one line) or else the shipped description of the bag's robot; None when the
+    bag's robot has no shipped description or the bag no readable metadata (nothing is
+    published then; the replay itself reports a bag it cannot read)."""
+    from rftgls_core.description import load_description, shipped_description
+
+    from .bag_layout import BagError, read_metadata
+    from .predict import load_anchor
+    if anchor is not None:
+        lab = load_anchor(anchor, state)
+        return None if lab is None else lab.description
+    try:
+        robot = read_metadata(bag).robot
+    except BagError:
+        return None
+    from rftgls_core.robots.presets import ROBOTS
+    if robot not in ROBOTS:   # the name is text from the bag: never a path
+        return None
+    return load_description(shipped_description(robot))
+
+
+def publish_description(node: Node, desc) -> object:
+    """A transient-local /robot_description publisher carrying desc's URDF (kept alive by the
+    caller for late joiners); returns the publisher."""
+    from std_msgs.msg import String
+    pub = node.create_publisher(String, DESCRIPTION_TOPIC, LATCHED)
+    pub.publish(String(data=desc.urdf_text()))
+    return pub
 
 
 def message_class(msgtype: str):
@@ -139,12 +179,23 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument('--skip-images', action='store_true')
     ap.add_argument('--wait-subscribers', type=float, default=1.0,
                     help='s to wait for discovery before the first message')
+    add_anchor_arguments(ap)
     args = ap.parse_args(argv)
+    try:   # before ROS starts: a bad description or bag is one line, exit 2
+        desc = bag_description(args.bag, args.anchor, args.anchor_state)
+    except ValueError as exc:   # BagError is one
+        print(f'replay: error: {" ".join(str(exc).split())}', file=sys.stderr)
+        return 2
+    if desc is not None:
+        print(f'robot_description: {desc.name} from {desc.source}; capacity_node: '
+              f'-p anchor_description_file:={desc.source}')
     with during_init():
         rclpy.init()
     node = Node('rftgls_lab_replay')   # the node is named as its executable
     try:
         rep = BagReplayer(node, args.bag, args.topics, args.skip_images)
+        if desc is not None:
+            publish_description(node, desc)
         # Give DDS discovery a moment, or the first messages go to nobody.
         end = time.monotonic() + args.wait_subscribers
         while time.monotonic() < end:

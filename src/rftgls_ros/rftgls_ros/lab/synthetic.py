@@ -8,6 +8,11 @@ metadata carries synthetic = true, the generating command and the truth medium.
 
     python -m rftgls_ros.lab.synthetic --out-dir DIR [--xi-n 4.2e5 --mu-surf 0.3] \
         [--config=-40,0,forward --config=-20,20,backward ...] [--h 0.02] [--seed 1]
+        [--anchor FILE.yaml]
+
+`--anchor` simulates an anchor description instead of the `--robot` preset (its state
+variables fed from (h, thetaB, thetaL1, thetaL2) by name, predict.load_anchor); the bags
+record the description's name as their robot and its identity in the notes.
 """
 from __future__ import annotations
 
@@ -25,7 +30,7 @@ from rftgls_core.rft.media import Medium, custom_medium, get_medium
 from rftgls_core.types import AnchorState
 
 from .bag_layout import PullTest, PullTestMeta, write_pull_test
-from .predict import make_predictor
+from .predict import add_anchor_arguments, load_anchor, make_predictor, surface_min_z
 from .render import default_bench
 
 # (thetaL1 deg, thetaL2 deg, pull): leg pairs whose slip runs long enough to measure a slope
@@ -53,15 +58,16 @@ def synthesize(state: AnchorState, pull: str, truth: Medium, nominal: Medium,
                generator: str = '', speed: float = 2e-3, hold_s: float = 1.0,
                step: float = 1e-3, max_travel: float = 0.04, integrator: str = 'heun',
                method: str = 'twist-mesh', sensors: SensorModel = SensorModel(),
-               seed: int = 0, predictor: Predictor | None = None) -> PullTest:
-    """One synthetic pull test (SI). speed: pull speed of p along its path, m/s."""
-    from rftgls_core.robots.presets import get_robot
+               seed: int = 0, predictor: Predictor | None = None,
+               anchor=None) -> PullTest:
+    """One synthetic pull test (SI). speed: pull speed of p along its path, m/s. anchor: an
+    LabAnchor (predict.load_anchor) simulated instead of the preset `robot` (recorded under
+    its name)."""
     from rftgls_core.sim.trajectory import simulate_pull
 
     rng = np.random.default_rng(seed)
-    predictor = predictor or make_predictor(method, robot, truth)
-    rb = get_robot(robot)
-    traj = simulate_pull(predictor, state, phi, pull, lambda st: rb.pose(st, pull).plate_min_z,
+    predictor = predictor or make_predictor(method, robot, truth, anchor=anchor)
+    traj = simulate_pull(predictor, state, phi, pull, surface_min_z(robot, pull, anchor),
                          step=step, integrator=integrator, max_travel=max_travel).as_array()
     ok = np.isfinite(traj[:, 4])
     traj = traj[ok] if ok.any() else traj[:1]
@@ -87,13 +93,16 @@ def synthesize(state: AnchorState, pull: str, truth: Medium, nominal: Medium,
         0.0, sensors.leg_sigma_rad, (jt.size, 2))
     bench = default_bench()
     meta = PullTestMeta(
-        test_id=test_id, robot=robot, medium=nominal.to_dict(), pull=pull,
+        test_id=test_id, robot=anchor.name if anchor is not None else robot,
+        medium=nominal.to_dict(), pull=pull,
         initial_state=state, phi_rad=phi, synthetic=True, generator=generator,
         markers=bench.markers, camera=bench.camera, truth_medium=truth.to_dict(),
         notes=f'SYNTHETIC: simulated by rftgls_core ({method}, {integrator}, {step * 1e3:g} mm '
               f'steps; stop: {s_end * 1e3:.1f} mm), pull {speed * 1e3:g} mm/s, noise '
               f'{sensors.tension_sigma_N} N, {sensors.xz_sigma_m * 1e3} mm, '
-              f'{math.degrees(sensors.theta_sigma_rad)} deg; seed {seed}')
+              f'{math.degrees(sensors.theta_sigma_rad)} deg; seed {seed}'
+              + (f'; anchor description {anchor.name} ({anchor.sha256[:12]})'
+                 if anchor is not None else ''))
     return PullTest(meta=meta, t0_ns=T0_NS, force_t=ft, tension_N=np.maximum(force, 0.0),
                     phi_rad=np.full(ft.size, phi), pose_t=pt, pose=pose, joint_t=jt, legs=legs)
 
@@ -129,14 +138,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument('--integrator', choices=['euler', 'heun'], default='heun')
     ap.add_argument('--seed', type=int, default=1)
     ap.add_argument('--storage', choices=['mcap', 'sqlite3'], default='mcap')
+    add_anchor_arguments(ap)
     args = ap.parse_args(argv)
+    try:
+        anchor = load_anchor(args.anchor, args.anchor_state)
+    except ValueError as exc:
+        print(f'synthetic: error: {exc}', file=sys.stderr)
+        return 2
     generator = 'python -m rftgls_ros.lab.synthetic ' + shlex.join(
         sys.argv[1:] if argv is None else argv)
     truth = custom_medium(xi_n=args.xi_n, mu_surf=args.mu_surf)
     truth = Medium('synthetic_truth', truth.xi_n, truth.mu_surf, truth.zeta,
                    note='truth of synthetic bags')
     nominal = get_medium(args.nominal_medium)
-    predictor = make_predictor(args.method, args.robot, truth)
+    predictor = make_predictor(args.method, args.robot, truth, anchor=anchor)
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     from tqdm import tqdm
@@ -148,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
                           phi=math.radians(args.phi), test_id=tid, generator=generator,
                           step=args.step, max_travel=args.max_travel,
                           integrator=args.integrator, method=args.method,
-                          seed=args.seed * 1000 + k, predictor=predictor)
+                          seed=args.seed * 1000 + k, predictor=predictor, anchor=anchor)
         path = out / tid
         if path.exists():
             import shutil
