@@ -48,7 +48,7 @@ from .behavior import (
     write_report,
 )
 from .behavior.tug_series import write_tug_series
-from .capacity.predictor import DEFAULT_MAP, MapPredictor
+from .capacity.predictor import DEFAULT_MAP, MapPredictor, predictor_from_params
 from .capacity_query import CAPACITY_SOURCES, ServicePredictor, record_tug
 
 WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's deadman (0.1 s)
@@ -110,9 +110,24 @@ class BehaviorNode(Node):
         if source not in CAPACITY_SOURCES:
             raise ValueError(f'capacity_source must be one of '
                              f'{", ".join(CAPACITY_SOURCES)}, got {source!r}')
-        predictor = (MapPredictor(self.map_file or DEFAULT_MAP)
-                     if source == 'local_map' or self.cfg.own_capacity_fallback
-                     else ServicePredictor(self, f'{cap_ns}/query_capacity'))
+        desc = declare(self, 'anchor_description_file', '',
+                       "anchor description YAML of this node's own map (local_map or the "
+                       "fallback); '' = the map's robot preset")
+        desc_vars = declare(self, 'anchor_state_variables', '',
+                            "NAME=ESTIMATE,... feeding the description's variables")
+        own_map = source == 'local_map' or self.cfg.own_capacity_fallback
+        if (desc or desc_vars) and not own_map:
+            raise ValueError("anchor_description_file and anchor_state_variables describe this "
+                             "node's own map (capacity_source local_map or "
+                             "own_capacity_fallback); with the service, set them on "
+                             "capacity_node")
+        if own_map:
+            predictor = (predictor_from_params(self.map_file or DEFAULT_MAP, robot=None,
+                                               anchor_description_file=desc,
+                                               anchor_state_variables=desc_vars)
+                         if desc else MapPredictor(self.map_file or DEFAULT_MAP))
+        else:
+            predictor = ServicePredictor(self, f'{cap_ns}/query_capacity')
         self.machine = BehaviorMachine(
             self.cfg, ModeChooser(predictor, self.cfg.safety_factor, self.cfg.phis_rad))
         self.obs = Observation(t=self.now_s())

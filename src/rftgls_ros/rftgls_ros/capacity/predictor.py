@@ -247,17 +247,19 @@ class LiveFallback:
         return dataclasses.replace(live, reason=reason)
 
 
-def predictor_from_params(map_file: str, live_method: str = 'direct', robot: str = 'minirquad',
-                   medium: str = 'm90_sand', n_twists: int = 0,
-                   pull: str | None = None, out_of_range_live_method: str = '',
-                   anchor_description_file: str = '',
-                   anchor_state_variables: str = '') -> Predictor:
+def predictor_from_params(map_file: str, live_method: str = 'direct',
+                          robot: str | None = 'minirquad', medium: str = 'm90_sand',
+                          n_twists: int = 0, pull: str | None = None,
+                          out_of_range_live_method: str = '',
+                          anchor_description_file: str = '',
+                          anchor_state_variables: str = '') -> Predictor:
     """capacity_node's predictor from its parameters: the map predictor when map_file is set
     (with the live solver `out_of_range_live_method` answering outside its grid when that is
-    set), else the live one. anchor_description_file: path of an anchor description YAML for the
-    live solver (and the identity a map must answer for); '' = the `robot` preset;
-    anchor_state_variables: which estimate feeds which of its variables (parse_state_variables).
-    Raises ConfigError."""
+    set), else the live one. robot: the preset the node is configured for (None: a map of any
+    robot, checked against the description when one is given). anchor_description_file: path
+    of an anchor description YAML for the live solver (and the identity a map must answer
+    for); '' = the `robot` preset; anchor_state_variables: which estimate feeds which of its
+    variables (parse_state_variables). Raises ConfigError."""
     desc = anchor_description_file.strip()
     state_map = parse_state_variables(anchor_state_variables)
     if state_map is not None and not desc:
@@ -268,11 +270,13 @@ def predictor_from_params(map_file: str, live_method: str = 'direct', robot: str
             sha = _description(desc).sha256 if desc else None
             cmap = MapPredictor(map_file.strip(), robot, medium, pull, description_sha256=sha)
         if out_of_range_live_method.strip():
-            return LiveFallback(cmap, _live(robot, medium, out_of_range_live_method.strip(),
+            return LiveFallback(cmap, _live(robot or 'minirquad', medium,
+                                            out_of_range_live_method.strip(),
                                             n_twists, 'out_of_range_live_method', desc,
                                             state_map))
         return cmap
-    return _live(robot, medium, live_method, n_twists, 'live_method', desc, state_map)
+    return _live(robot or 'minirquad', medium, live_method, n_twists, 'live_method', desc,
+                 state_map)
 
 
 def _live(robot: str, medium: str, live_method: str, n_twists: int,
