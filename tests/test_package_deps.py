@@ -26,7 +26,7 @@ ROSDEP = {
     'dask': 'python3-dask', 'cv2': 'python3-opencv', 'serial': 'python3-serial',
     'yaml': 'python3-yaml', 'rosbags': 'python3-rosbags',
 }
-ROS = {'rclpy', 'launch', 'launch_ros', 'ament_index_python', 'builtin_interfaces'}
+ROS = {'rclpy', 'launch', 'launch_ros', 'ament_index_python', 'builtin_interfaces', 'xacro'}
 EXEMPT = {'setuptools'}
 RUN_TAGS = ('depend', 'exec_depend')
 

@@ -5,12 +5,13 @@ the base pose, the C-leg orientation of a pull, media defaults). docs/design/six
 
     description YAML + URDF --(state values)--> forward kinematics --> Scene (scene.py)
 
-The URDF is read with the standard library's XML parser (URDF is plain XML; xacro files must
-be expanded first). Frames: base_link is placed in the world from the state (its origin at
-height `base_pose.height`, turned by rot_y(-pitch), as the robots' body frame B); every joint
-is origin (xyz, fixed-axis rpy) then rotation about its axis by the joint value; the tether
-point is the origin of `tether_link`. Mesh scales in the URDF are applied in the link frame;
-a negative determinant (a mirrored leg) reverses the winding so normals stay outward.
+The URDF is read with the standard library's XML parser (URDF is plain XML); a file named
+`*.xacro` is expanded first with the `xacro` package, as ROS's own tools do. Frames: base_link
+is placed in the world from the state (its origin at height `base_pose.height`, turned by
+rot_y(-pitch), as the robots' body frame B); every joint is origin (xyz, fixed-axis rpy) then
+rotation about its axis by the joint value; the tether point is the origin of `tether_link`.
+Mesh scales in the URDF are applied in the link frame; a negative determinant (a mirrored leg)
+reverses the winding so normals stay outward.
 
 The shipped descriptions (rftgls_core/data/<robot>.urdf and .yaml, leg mesh c_leg.stl) are
 written by `write_robot_description` from robots/presets.py, so `--anchor` and `--robot` give
@@ -68,12 +69,35 @@ def _transform(origin) -> np.ndarray:
     return t
 
 
+def urdf_bytes(path: str | Path) -> bytes:
+    """The URDF XML of `path`: the file's bytes, or for a `*.xacro` file the document xacro
+    expands it to (the root element only: xacro's banner comment names the file, which would
+    make a copy elsewhere a different description)."""
+    path = Path(path)
+    if path.suffix != '.xacro':
+        try:
+            return path.read_bytes()
+        except OSError as exc:
+            raise DescriptionError(f'{path}: cannot read URDF ({exc})') from None
+    try:
+        import xacro
+    except ImportError:  # pragma: no cover - a dependency of rftgls_core
+        raise DescriptionError(f'{path}: expanding xacro needs the xacro package') from None
+    try:
+        doc = xacro.process_file(str(path))
+    except Exception as exc:  # noqa: BLE001 - xacro raises its own and parser errors
+        raise DescriptionError(f'{path}: xacro cannot expand it ({type(exc).__name__}: '
+                               f'{str(exc).strip() or "no message"})') from None
+    return doc.documentElement.toxml().encode('utf-8')
+
+
 def read_urdf(path: str | Path) -> tuple[dict[str, Link], list[Joint]]:
-    """Links (meshes loaded, in URDF order) and joints of a URDF file."""
+    """Links (meshes loaded, in URDF order) and joints of a URDF file (or a `*.xacro` file,
+    expanded first)."""
     path = Path(path)
     try:
-        root = ET.parse(path).getroot()
-    except (ET.ParseError, OSError) as exc:
+        root = ET.fromstring(urdf_bytes(path))
+    except ET.ParseError as exc:
         raise DescriptionError(f'{path}: cannot read URDF ({exc})') from None
     if root.tag != 'robot':
         raise DescriptionError(f'{path}: not a URDF (root element {root.tag!r})')
@@ -161,8 +185,9 @@ class AnchorDescription:
     urdf_path: Path | None = None  # the URDF file it was read from
 
     def urdf_text(self) -> str:
-        """The URDF as read (what a ROS `robot_description` carries); '' when unknown."""
-        return self.urdf_path.read_text() if self.urdf_path is not None else ''
+        """The URDF as read, xacro expanded (what a ROS `robot_description` carries); '' when
+        unknown."""
+        return urdf_bytes(self.urdf_path).decode('utf-8') if self.urdf_path is not None else ''
 
     @property
     def state_names(self) -> tuple[str, ...]:
@@ -332,8 +357,9 @@ def description_sha256(path: str | Path) -> str:
         feed(text)
         doc = yaml.safe_load(text)
         urdf = path.parent / str(doc['urdf'])
-        feed(urdf.read_bytes())
-        root = ET.parse(urdf).getroot()
+        xml = urdf_bytes(urdf)
+        feed(xml)
+        root = ET.fromstring(xml)
         seen: list[Path] = []
         for el in root.iter('mesh'):
             fname = (el.get('filename') or '').replace('file://', '')
