@@ -9,9 +9,10 @@ inside a cell whose corners disagree on support:
 
     margin = +dist(origin, surface) where the legs hold the weight, -dist where they do not,
 
-in the scaled metric (dimensionless), on the same twist-sphere mesh as the fit's weight-held
-check (the map's n_twists), signed by the node's own status (the fit's check may use a
-denser sphere next to the edge). It also bounds the capacity from below: the first exit of
+in the scaled metric (dimensionless), signed by the node's own status. The build computes it
+on the map's twist sphere (n_twists) and, at the corners of cells that straddle the support
+edge (the only place the rule reads it), again on the dense sphere of the weight-held check
+(EDGE_MARGIN_TWISTS), together with its gradient. It also bounds the capacity from below: the first exit of
 the load ray lies at least the origin's distance from the surface away, and d(phi) has no
 moment part, so capacity_N >= s_F margin.
 
