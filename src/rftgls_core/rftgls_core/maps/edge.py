@@ -12,9 +12,9 @@ inside a cell whose corners disagree on support:
 in the scaled metric (dimensionless), signed by the node's own status. The build computes it
 on the map's twist sphere (n_twists) and, at the corners of cells that straddle the support
 edge (the only place the rule reads it), again on the dense sphere of the weight-held check
-(EDGE_MARGIN_TWISTS), together with its gradient. It also bounds the capacity from below: the first exit of
-the load ray lies at least the origin's distance from the surface away, and d(phi) has no
-moment part, so capacity_N >= s_F margin.
+(EDGE_MARGIN_TWISTS), together with its gradient. It also bounds the capacity from below:
+the first exit of the load ray lies at least the origin's distance from the surface away, and
+d(phi) has no moment part, so capacity_N >= s_F margin.
 
 The margin is not linear across a cell (the coarse grid's cells span margins of -1.2 .. +1.0
 next to a zero crossing), so each node also stores its gradient along the four state axes
