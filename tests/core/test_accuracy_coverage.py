@@ -31,6 +31,11 @@ def test_agreement_report_has_the_issue_numbers():
     # A small run (2 states, a 10^4-twist reference) of what `rftgls chart agreement` reports.
     r = acc.agreement('minirquad', 2, seed=1, reference_twists=10_000)
     assert len(r['rows']) == 2 and r['error_floor_N'] == pytest.approx(0.05 * 0.296 * 9.81)
+    # the reference states its own error bound (local re-sampling, surfaces/brute_force.py)
+    assert r['reference_err_N_worst'] is not None and 0.0 <= r['reference_err_N_worst'] < 1e-3
+    for row in r['rows']:
+        ref = row['brute-force']
+        assert (ref['error_N'] is None) == (ref['capacity_N'] is None)
     for m in acc.AGREEMENT_METHODS:
         s = r['summary'][m]
         assert {'status_agree_pct', 'degenerate_pct', 'cap_err_pct_p95',

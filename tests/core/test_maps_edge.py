@@ -18,9 +18,10 @@ from rftgls_core.maps import CapacityMap, shipped_map_path
 from rftgls_core.maps.accuracy import coverage_report
 from rftgls_core.types import AnchorState
 
-# maps/README.md, "Support edge": largest overestimate against the live solver at 300 random
-# states (prototype +0.40 N, MiniRQuad +0.23 N), rounded up to the documented bound.
-DOCUMENTED_OVER_N = {'prototype': 0.40, 'minirquad': 0.23}
+# maps/README.md, "Support edge": largest overestimate against the live solver over 5 x 300
+# (prototype, +0.582 N) and 6 x 300 (MiniRQuad, +0.226 N) random states, rounded up to the
+# documented bound.
+DOCUMENTED_OVER_N = {'prototype': 0.59, 'minirquad': 0.23}
 # Coverage measured on this 40-state slice: 97.2 % (prototype), 97.1 % (MiniRQuad; 85.3 %
 # with the valued-corner rule alone). The issue asks >= 95 % on 300 states (maps/README.md).
 MIN_COVERAGE_PCT = {'prototype': 95.0, 'minirquad': 95.0}
@@ -202,3 +203,29 @@ def test_edge_cell_corners_marks_only_cells_that_straddle_the_support_edge():
     need = edge_cell_corners(held)
     assert need[0, :2].all() and not need[0, 2].any()
     assert not need[1].any()
+
+
+def test_shipped_edge_corners_carry_the_dense_sphere_margin():
+    # The edge-margin rule reads the margin only at the corners of cells that straddle the
+    # support edge; there the build recomputes it on the dense sphere of the weight-held check
+    # (the 1000-twist mesh gave margins up to 0.21 at states that cannot hold, the dense one at
+    # most 0.027). Elsewhere the map's own sphere. Recomputed here at one node of each kind.
+    from rftgls_core.maps.build import spec_from_map
+    from rftgls_core.maps.edge import EDGE_MARGIN_TWISTS, node_support_margin
+    from rftgls_core.surfaces.twist_sphere import TwistSphere
+
+    cmap = CapacityMap.load(shipped_map_path('minirquad'))
+    data = cmap.data
+    model = spec_from_map(data).anchor_model()
+    p = 1                                               # backward pull
+    grad_ok = np.isfinite(data.support_margin_grad[p, ..., 0])
+    marg_ok = np.isfinite(data.support_margin[p])
+    held = np.isfinite(data.capacity_N[p]).any(axis=-1)
+    edge_node = tuple(np.argwhere(grad_ok & ~held)[0])    # an unsupported edge corner
+    plain_node = tuple(np.argwhere(~grad_ok & marg_ok & held)[0])
+    for node, n_twists, is_held in ((edge_node, EDGE_MARGIN_TWISTS, False),
+                                    (plain_node, data.attrs['n_twists'], True)):
+        k = int(np.ravel_multi_index(node, data.grid.state_shape))
+        m = node_support_margin(model, TwistSphere.build(int(n_twists)), data.grid.state(k),
+                                'backward', is_held)
+        assert float(data.support_margin[p][node]) == pytest.approx(m, rel=1e-6, abs=1e-7)

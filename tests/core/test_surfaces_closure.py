@@ -74,6 +74,43 @@ def test_brute_force_reference_agrees_on_the_jump():
         assert r.capacity_N == pytest.approx(_exact(phi)[0], rel=2e-3)
 
 
+def test_refined_brute_force_is_exact_on_the_jump_and_bounds_its_error():
+    # The paper-worked capacities above, to 1e-7: the local re-sampling converges onto the
+    # bridged jump, and the error bound it reports covers its actual error.
+    phis = np.radians([-70.0, -50.0, 20.0, 60.0])
+    surface = BruteForceSurface(20_000).fit(JUMP_PROBLEM)
+    res = surface.capacity_many(phis)
+    for phi, r, bound in zip(phis, res, surface.errors_N_):
+        exact = _exact(phi)[0]
+        assert r.status is Status.OK and bound is not None
+        assert r.capacity_N == pytest.approx(exact, rel=1e-7)
+        assert abs(r.capacity_N - exact) <= bound + 1e-12 * exact
+
+
+def test_uniform_mesh_underestimates_a_small_capacity_next_to_a_jump():
+    # The prototype's worst state of `rftgls chart agreement` (seed 11): a capacity of 4 % of
+    # the weight next to a jump ~8 times larger. The bare 10^5-twist mesh says 0.0435 N (its
+    # straddling triangles' vertices lie up to one spacing off the switching circle); the
+    # local re-sampling, independent of direct's Newton and closure search, converges to
+    # direct's 0.0506 N within its own error bound.
+    state = AnchorState(0.027857058898804875, 0.34003298354550077, 0.07368837271823292,
+                        -0.49621527415977335)
+    phi, pull = math.radians(-11.402250958905148), Pull.FORWARD
+    robot, medium = get_robot('prototype'), get_medium('glass_beads')
+    bare = AnchorModel(robot, medium, method='brute-force',
+                       surface_options={'refine': False}).predict(state, phi, pull)
+    model = AnchorModel(robot, medium, method='brute-force')
+    surface, _ = model.fit(state, pull)
+    assert isinstance(surface, BruteForceSurface)
+    ref = surface.capacity(phi)
+    bound = surface.errors_N_[0]
+    d = AnchorModel(robot, medium, method='direct').predict(state, phi, pull)
+    assert bare.capacity_N is not None and bare.capacity_N < 0.046
+    assert bound is not None and bound < 1e-4
+    assert ref.capacity_N == pytest.approx(d.capacity_N, abs=bound + 1e-5)
+    assert ref.capacity_N > bare.capacity_N + 0.006
+
+
 @pytest.fixture(scope='module')
 def prototype_direct():
     return AnchorModel(get_robot('prototype'), get_medium('glass_beads'), method='direct')
@@ -111,3 +148,21 @@ def test_grid_centre_matches_twist_mesh_and_brute_force(prototype_direct):
     assert d.status is tm.status is bf.status is Status.OK
     assert d.capacity_N == pytest.approx(tm.capacity_N, rel=1e-6)
     assert d.capacity_N == pytest.approx(bf.capacity_N, rel=0.01)
+
+
+def test_twist_mesh_finds_the_thin_fold_its_polish_stepped_over():
+    # Found by the refined reference (seed 11 of `rftgls chart agreement`): the 1,000-twist
+    # chord (3.49 N) lies next to the exit, but the closure search from it settled on a sheet
+    # at 3.65 N (+4.8 % above the reference). The fold check from a 2 % polish move finds it.
+    state = AnchorState(0.0153437537105366, 0.019728332646528606, -0.0008246602076111284,
+                        -0.5108521821067686)
+    phi, pull = math.radians(-27.813277543926485), Pull.BACKWARD
+    robot, medium = get_robot('prototype'), get_medium('glass_beads')
+    tm = AnchorModel(robot, medium).predict(state, phi, pull)
+    surface, _ = AnchorModel(robot, medium, method='brute-force').fit(state, pull)
+    assert isinstance(surface, BruteForceSurface)
+    ref = surface.capacity(phi)
+    assert tm.capacity_N is not None and ref.capacity_N is not None
+    assert surface.errors_N_[0] is not None and surface.errors_N_[0] < 1e-4
+    assert ref.capacity_N == pytest.approx(3.478, abs=2e-3)
+    assert tm.capacity_N <= 1.02 * ref.capacity_N

@@ -78,7 +78,7 @@ def plot_speed_accuracy(summaries: list[Summary], out: str | Path, title: str = 
     ax.tick_params(axis='y', labelsize=7)
     ax.set_xlabel('share of all queries by outcome [%]\n(right of the bars: share answered '
                   'where the reference answers)')
-    ax.legend(fontsize=7, loc='upper center', bbox_to_anchor=(0.5, -0.09), ncol=3)
+    ax.legend(fontsize=7, loc='upper center', bbox_to_anchor=(0.5, -0.16), ncol=3)
     ax.set_title('coverage', fontsize=10)
     fig.suptitle(title or 'speed, accuracy and coverage (reference: direct on the finest leg '
                           'mesh; numbers index the coverage rows)')

@@ -94,6 +94,9 @@ def _agreement(args, tqdm) -> int:
                   f'over {s["cap_over_pct_worst"]:+.3f} %  ({s["compared"]} compared, '
                   f'{s["time_ms_median"]:.1f} ms median)')
         print(f'{robot:<10}all three agree on the status: {r["all_agree_pct"]:.2f} %')
+        e_n, e_pct = r['reference_err_N_worst'], r['reference_err_pct_worst']
+        print(f'{robot:<10}reference error bound, worst: '
+              + ('unknown' if e_n is None else f'{e_n:.2g} N ({e_pct:.3g} % of max(ref, floor))'))
     print(f'wrote {out}')
     if args.json:
         print(json.dumps({k: {kk: v[kk] for kk in v if kk != 'rows'} for k, v in result.items()},

@@ -36,7 +36,7 @@ from ..rft.media import Medium, get_medium
 from ..robots.presets import get_robot
 from ..surfaces.twist_sphere import TwistSphere
 from ..types import Status
-from .edge import node_margin_gradient, node_support_margin
+from .edge import EDGE_MARGIN_TWISTS, node_margin_gradient, node_support_margin
 from .grid import MapGrid, default_grid
 from .hdf5 import STATUS_NAMES, MapData, empty_answers
 
@@ -110,15 +110,18 @@ def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResul
 
 
 def solve_grad_chunk(spec: BuildSpec, grid: MapGrid, jobs: np.ndarray
-                     ) -> tuple[np.ndarray, np.ndarray]:
-    """Support-margin gradients (edge.node_margin_gradient) of jobs (M, 2) = (flat state
-    index, pull index): (jobs, (M, 4))."""
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Edge-cell corners: support margin and its gradient on the dense EDGE_MARGIN_TWISTS
+    sphere (edge.py), for jobs (M, 3) = (flat state index, pull index, held 0/1):
+    (jobs, margins (M,), gradients (M, 4))."""
     model = _anchor_model(spec)
-    sphere = TwistSphere.build(spec.n_twists)
+    sphere = TwistSphere.build(max(EDGE_MARGIN_TWISTS, spec.n_twists))
     out = np.full((len(jobs), 4), np.nan)
-    for a, (k, p) in enumerate(np.asarray(jobs, dtype=np.intp).tolist()):
+    marg = np.full(len(jobs), np.nan)
+    for a, (k, p, held) in enumerate(np.asarray(jobs, dtype=np.intp).tolist()):
+        marg[a] = node_support_margin(model, sphere, grid.state(k), grid.pulls[p], bool(held))
         out[a] = node_margin_gradient(model, sphere, grid, k, grid.pulls[p])
-    return np.asarray(jobs), out
+    return np.asarray(jobs), marg, out
 
 
 def edge_cell_corners(held: np.ndarray) -> np.ndarray:
@@ -242,18 +245,22 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
                     reasons[k, p, :] = r.reason[a][p]
             bar.update(len(r.ks))
 
-    # Second pass: the margin gradient at the corners of cells that straddle the support edge
-    # (the only cells whose rule reads it); NaN elsewhere.
+    # Second pass: at the corners of cells that straddle the support edge (the only cells
+    # whose rule reads them) the margin again and its gradient, on the dense sphere of the
+    # weight-held check; the gradient is NaN elsewhere.
     valued_codes = [STATUS_NAMES.index(st.value) for st in Status if st.has_value]
     held = np.asarray(np.isin(status, valued_codes).any(axis=2)).T.reshape((P,) + grid.state_shape)
     need = edge_cell_corners(held) & np.isfinite(margin.T.reshape(held.shape))
     pk = np.argwhere(need.reshape(P, -1))               # (M, 2) = (pull, flat state)
-    jobs = np.column_stack([pk[:, 1], pk[:, 0]]) if len(pk) else np.zeros((0, 2), np.intp)
+    held_flat = held.reshape(P, -1)
+    jobs = (np.column_stack([pk[:, 1], pk[:, 0], held_flat[pk[:, 0], pk[:, 1]]])
+            if len(pk) else np.zeros((0, 3), np.intp))
     grad = np.full((S, P, 4), np.nan)
     if len(jobs):
         size = max(1, math.ceil(len(jobs) / max(1, (4 if scheduler else workers) * 8)))
-        for js, g4 in run([jobs[i:i + size] for i in range(0, len(jobs), size)],
-                          solve_grad_chunk):
+        for js, m1, g4 in run([jobs[i:i + size] for i in range(0, len(jobs), size)],
+                              solve_grad_chunk):
+            margin[js[:, 0], js[:, 1]] = m1
             grad[js[:, 0], js[:, 1]] = g4
 
     # Sorted table: the reason codes do not depend on completion order.

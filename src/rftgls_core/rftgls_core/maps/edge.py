@@ -9,11 +9,12 @@ inside a cell whose corners disagree on support:
 
     margin = +dist(origin, surface) where the legs hold the weight, -dist where they do not,
 
-in the scaled metric (dimensionless), on the same twist-sphere mesh as the fit's weight-held
-check (the map's n_twists), signed by the node's own status (the fit's check may use a
-denser sphere next to the edge). It also bounds the capacity from below: the first exit of
-the load ray lies at least the origin's distance from the surface away, and d(phi) has no
-moment part, so capacity_N >= s_F margin.
+in the scaled metric (dimensionless), signed by the node's own status. The build computes it
+on the map's twist sphere (n_twists) and, at the corners of cells that straddle the support
+edge (the only place the rule reads it), again on the dense sphere of the weight-held check
+(EDGE_MARGIN_TWISTS), together with its gradient. It also bounds the capacity from below:
+the first exit of the load ray lies at least the origin's distance from the surface away, and
+d(phi) has no moment part, so capacity_N >= s_F margin.
 
 The margin is not linear across a cell (the coarse grid's cells span margins of -1.2 .. +1.0
 next to a zero crossing), so each node also stores its gradient along the four state axes
@@ -28,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..anchor import AnchorModel
+from ..surfaces.base import SUPPORT_CHECK_TWISTS
 from ..surfaces.raycast import winding_number
 from ..surfaces.twist_sphere import TwistSphere
 from ..types import AnchorState, Pull
@@ -35,6 +37,14 @@ from .grid import MapGrid
 
 # Finite-difference step of the margin gradient, as a share of the smaller neighbouring cell.
 GRAD_STEP = 0.25
+# Twists of the sphere the margin and its gradient are computed on at the corners of edge
+# cells (the only place the rule reads them): that of the weight-held check, whose answer the
+# node statuses carry. The map's own 1000-twist mesh is too coarse there: over 6 x 300 random
+# MiniRQuad states in edge cells, states that cannot hold the weight had margins of up to 0.21
+# on it and at most 0.027 on 8,000 twists, while every state that holds had >= 0 on 8,000.
+# The gradient is taken on the same sphere: with 1,000-twist gradients the build took 74 s
+# instead of 335 s but MiniRQuad seed 1 fell from 95.6 to 94.4 % (maps/README.md).
+EDGE_MARGIN_TWISTS = SUPPORT_CHECK_TWISTS
 
 
 def point_mesh_distance(vertices: np.ndarray, faces: np.ndarray,
