@@ -49,6 +49,7 @@ DEFAULT_SEEDS_6D = 12
 EARLIER_ANGLE = 0.5   # rad: cloud wrenches this close to the ray seed the earlier-crossing search
 EARLIER_ROUNDS = 4    # rounds of that search (each only while it finds candidates)
 SETTLED_RTOL = 1e-4   # closure patch: relative spread of the last distances accepted
+STALLED_TRIES = 3     # stalled seeds (short of the first converged root) tried on a switching set
 
 
 @dataclass(frozen=True)
@@ -289,13 +290,21 @@ class Surface6:
             cand = np.r_[cand, early]
         gap = ~conv & (res <= self.gap_tol * np.maximum(np.abs(s), 1e-3))
         ok = (conv | gap) & (s > 0.0)
-        if not np.any(conv & (s > 0.0)):
-            # No seed converged: the first crossing may sit on a switching set (a jump of the
-            # map, e.g. the side faces of a symmetric body at a planar twist). Newton confined
-            # to that set, where RFT counts the switching facets as leading, may still land
-            # on the ray exactly.
-            stalled = np.argsort(np.where(s > 0.0, res / np.maximum(np.abs(s), 1e-3), np.inf))
-            for kk in stalled[:3]:
+        good = conv & (s > 0.0)
+        s_conv = float(s[good].min()) if np.any(good) else math.inf
+        # Seeds that stalled short of the first converged root (or all that stalled, when none
+        # converged): the first crossing may sit on a switching set (a jump of the map, e.g.
+        # the side faces of a symmetric body at a planar twist, or a plate sliding edge-on),
+        # which free Newton cannot land on. Newton confined to that set, where RFT counts the
+        # switching facets as leading, may still land on the ray exactly.
+        earlier = ~conv & ((s < s_conv * (1.0 - 1e-6)) | (s_conv == math.inf))
+        if np.any(earlier):
+            stalled = np.argsort(np.where(earlier & (s > 0.0),
+                                          res / np.maximum(np.abs(s), 1e-3), np.inf))
+            stalled = stalled[earlier[stalled]]
+            for kk in stalled[:STALLED_TRIES]:
+                if s[kk] >= s_conv * (1.0 - 1e-6):
+                    continue     # an exact root already lies before it
                 hit = self._on_switching_set(t[kk], origin, d)
                 if hit is not None:
                     exact = hit[2] <= self.rtol * max(hit[1], 1e-3)
@@ -303,7 +312,7 @@ class Surface6:
                     s, res = np.r_[s, hit[1]], np.r_[res, hit[2]]
                     conv, ok = np.r_[conv, exact], np.r_[ok, True]
                     if exact:
-                        break
+                        s_conv = min(s_conv, hit[1])
         bridged = False
         if not np.any(conv & (s > 0.0)):
             # Still nothing exact: the ray passes a jump. Its exit on the closure (the jump
