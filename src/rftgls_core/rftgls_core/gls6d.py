@@ -23,6 +23,11 @@ method in 6D: no surface is stored.
    wrench lies closest in angle to the ray seed a batched Newton solve on S^5 (5 unknowns,
    forward differences: 6 twists per seed per iteration); the capacity is the smallest
    positive root (the first exit as the load ramps up from zero).
+4. Candidates free Newton cannot reach (docs/design/six-d.md, "Folded surfaces"): seeds that
+   stalled short of the first converged root try the switching set (a plate sliding edge-on);
+   extra seeds (a mirror plane's in-plane slip) start a patch search on the closure; and a
+   checked in-plane answer (`InPlane6`) of a scene symmetric about the pull plane is kept
+   unless the search finds an exact root before it.
 
 Limits: a crossing none of the seeds reaches is missed (raise n_twists / n_seeds); where the
 ray passes through a jump of the RFT map (a facet switching between leading and trailing) no
