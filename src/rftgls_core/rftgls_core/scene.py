@@ -23,7 +23,7 @@ from scipy.spatial import cKDTree
 
 from .geometry.mesh import Facets
 from .geometry.transforms import rot_z
-from .gls6d import DEFAULT_TWISTS_6D, InPlane6, Problem6, Result6, Scaling6, Surface6
+from .gls6d import DEFAULT_TWISTS_6D, EARLIER_ANGLE, InPlane6, Problem6, Result6, Scaling6, Surface6
 from .rft.engine import BuriedBody
 from .rft.media import Medium
 from .rft.models import make_model
@@ -300,14 +300,20 @@ class SceneModel:
         # yawed pull on a symmetric body): the in-plane answers there, lifted, seed the 6D
         # search. A pull yawed slightly off a mirror plane often exits near that plane's slip
         # (on the closure of the jump across it), where the cloud's seeds do not reach.
+        # Only a plane whose pull lies within EARLIER_ANGLE of the actual one (the reach of the
+        # earlier-crossing seeds) is solved: farther off, its slip says little about this ray.
         seeds: list[list[np.ndarray]] = [[] for _ in phis]
         if not sym.symmetric:
             for plane_yaw in mirror_plane_yaws(scene):
                 # the sense of the plane's pull nearer to the actual yaw
                 near = plane_yaw + math.pi * round((yaw - plane_yaw) / math.pi)
+                close = [float(pull_vector(p, yaw) @ pull_vector(p, near))
+                         > math.cos(EARLIER_ANGLE) for p in phis]
+                if not any(close):
+                    continue
                 for k, r0 in enumerate(self._predict_sagittal(scene, phis, near, Symmetry(
                         True, 'mirror plane'))):
-                    if r0.ok and r0.slip_twist_scaled is not None:
+                    if close[k] and r0.ok and r0.slip_twist_scaled is not None:
                         seeds[k].append(np.asarray(r0.slip_twist_scaled, dtype=float))
         out = []
         for phi, cand, sd in zip(phis, planar, seeds, strict=True):
