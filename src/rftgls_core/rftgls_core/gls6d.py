@@ -23,6 +23,11 @@ method in 6D: no surface is stored.
    wrench lies closest in angle to the ray seed a batched Newton solve on S^5 (5 unknowns,
    forward differences: 6 twists per seed per iteration); the capacity is the smallest
    positive root (the first exit as the load ramps up from zero).
+4. Candidates free Newton cannot reach (docs/design/six-d.md, "Folded surfaces"): seeds that
+   stalled short of the first converged root try the switching set (a plate sliding edge-on);
+   extra seeds (a mirror plane's in-plane slip) start a patch search on the closure; and a
+   checked in-plane answer (`InPlane6`) of a scene symmetric about the pull plane is kept
+   unless the search finds an exact root before it.
 
 Limits: a crossing none of the seeds reaches is missed (raise n_twists / n_seeds); where the
 ray passes through a jump of the RFT map (a facet switching between leading and trailing) no
@@ -49,6 +54,8 @@ DEFAULT_SEEDS_6D = 12
 EARLIER_ANGLE = 0.5   # rad: cloud wrenches this close to the ray seed the earlier-crossing search
 EARLIER_ROUNDS = 4    # rounds of that search (each only while it finds candidates)
 SETTLED_RTOL = 1e-4   # closure patch: relative spread of the last distances accepted
+IN_PLANE_RTOL = 1e-8  # a lifted in-plane root must map onto the 6D ray this closely (relative)
+STALLED_TRIES = 3     # stalled seeds (short of the first converged root) tried on a switching set
 
 
 @dataclass(frozen=True)
@@ -85,6 +92,18 @@ class Problem6:
     # switch_forms: (F, 6) a_j = (n_j, r_j x n_j) of the buried facets (r_j from p): facet j
     # switches between trailing and leading where a_j . t = 0 (n . (v + w x r) = 0), linear
     # in the twist. Lets the solver land exactly on a switching set (see `_on_switching_set`).
+
+
+@dataclass(frozen=True)
+class InPlane6:
+    """The sagittal answer lifted into 6D: capacity_N (N), the slip twist as a 6D scaled
+    twist (vx, vy, vz, wx L_c, wy L_c, wz L_c) (any norm), its flags, and the unit normal
+    (3,) of the pull plane (world): in-plane wrenches have F . n = 0 and M along n."""
+
+    capacity_N: float
+    twist_scaled: tuple[float, ...]
+    flags: tuple[str, ...]
+    plane_normal: tuple[float, float, float]
 
 
 @dataclass(frozen=True)
@@ -255,8 +274,8 @@ class Surface6:
         n_roots: int
         detail: str
 
-    def _first_exit(self, origin: np.ndarray, d: np.ndarray,
-                    earlier_than: float = math.inf) -> _Exit:
+    def _first_exit(self, origin: np.ndarray, d: np.ndarray, earlier_than: float = math.inf,
+                    extra_seeds: np.ndarray | None = None) -> _Exit:
         """First root of Ws(t) = origin + s d, s > 0 (scaled), from the cloud's best seeds.
         earlier_than: only crossings below this distance are worth an earlier-crossing search
         (the support check needs to know only whether one lies below the weight)."""
@@ -289,13 +308,21 @@ class Surface6:
             cand = np.r_[cand, early]
         gap = ~conv & (res <= self.gap_tol * np.maximum(np.abs(s), 1e-3))
         ok = (conv | gap) & (s > 0.0)
-        if not np.any(conv & (s > 0.0)):
-            # No seed converged: the first crossing may sit on a switching set (a jump of the
-            # map, e.g. the side faces of a symmetric body at a planar twist). Newton confined
-            # to that set, where RFT counts the switching facets as leading, may still land
-            # on the ray exactly.
-            stalled = np.argsort(np.where(s > 0.0, res / np.maximum(np.abs(s), 1e-3), np.inf))
-            for kk in stalled[:3]:
+        good = conv & (s > 0.0)
+        s_conv = float(s[good].min()) if np.any(good) else math.inf
+        # Seeds that stalled short of the first converged root (or all that stalled, when none
+        # converged): the first crossing may sit on a switching set (a jump of the map, e.g.
+        # the side faces of a symmetric body at a planar twist, or a plate sliding edge-on),
+        # which free Newton cannot land on. Newton confined to that set, where RFT counts the
+        # switching facets as leading, may still land on the ray exactly.
+        earlier = ~conv & ((s < s_conv * (1.0 - 1e-6)) | (s_conv == math.inf))
+        if np.any(earlier):
+            stalled = np.argsort(np.where(earlier & (s > 0.0),
+                                          res / np.maximum(np.abs(s), 1e-3), np.inf))
+            stalled = stalled[earlier[stalled]]
+            for kk in stalled[:STALLED_TRIES]:
+                if s[kk] >= s_conv * (1.0 - 1e-6):
+                    continue     # an exact root already lies before it
                 hit = self._on_switching_set(t[kk], origin, d)
                 if hit is not None:
                     exact = hit[2] <= self.rtol * max(hit[1], 1e-3)
@@ -303,8 +330,26 @@ class Surface6:
                     s, res = np.r_[s, hit[1]], np.r_[res, hit[2]]
                     conv, ok = np.r_[conv, exact], np.r_[ok, True]
                     if exact:
-                        break
+                        s_conv = min(s_conv, hit[1])
+        # Extra seeds (the in-plane answers of a mirror plane off the pull plane, lifted): the
+        # patch search from each finds the exit on the closure of the jump across the plane
+        # (a pull yawed off a plate's slide exits there), or a root when the patch shrinks
+        # onto a smooth crossing. Only an exit earlier than all others is kept.
         bridged = False
+        is_bridge = np.zeros(len(s), dtype=bool)
+        s_now = min(s_conv, earlier_than)
+        for seed in (() if extra_seeds is None else unit_rows(np.asarray(extra_seeds, float))):
+            hit = self._closure_patch(seed, origin, d)
+            exact = hit is not None and hit[2] <= self.rtol * max(hit[1], 1e-3)
+            if hit is None or not hit[1] < s_now * (1.0 - 1e-6):
+                continue
+            t, s, res = np.vstack([t, hit[0]]), np.r_[s, hit[1]], np.r_[res, hit[2]]
+            conv, ok = np.r_[conv, exact], np.r_[ok, True]
+            is_bridge = np.r_[is_bridge, not exact]
+            if not exact:
+                ok &= conv | is_bridge   # a bridged exit: preferred to gap-accepted twists
+                bridged = True
+            s_now = hit[1]
         if not np.any(conv & (s > 0.0)):
             # Still nothing exact: the ray passes a jump. Its exit on the closure (the jump
             # bridged linearly, docs/design/closure.md) from a shrinking patch around the best
@@ -314,7 +359,7 @@ class Surface6:
             if patch is not None:
                 t, s = np.vstack([t, patch[0]]), np.r_[s, patch[1]]
                 res = np.r_[res, patch[2]]
-                conv, ok = np.r_[conv, False], np.r_[np.zeros(len(ok), dtype=bool), True]
+                conv, ok = np.r_[conv, False], np.r_[ok & is_bridge, True]
                 bridged = True
         roots = np.unique(np.round(s[ok] / (1e-7 * max(float(np.max(np.abs(s))), 1e-300))))
         if not np.any(ok):
@@ -446,9 +491,22 @@ class Surface6:
                 line = best     # the set's closest approach to the ray: a gap candidate
         return line
 
-    def capacity(self, direction: np.ndarray) -> Result6:
+    def capacity(self, direction: np.ndarray, in_plane: InPlane6 | None = None,
+                 seeds: np.ndarray | None = None) -> Result6:
         """Capacity along the unit force direction (3,) (the tether's pull, world), no moment
-        about p."""
+        about p.
+
+        in_plane: the sagittal answer lifted into 6D, when the scene is mirror-symmetric about
+        the pull plane (scene.py checks it). Its twist maps onto the ray in 6D too (planar
+        twists give planar wrenches there), so it is a crossing of the 6D ray; it is checked on
+        the 6D map and kept as a candidate. The sagittal root often lies on the switching set
+        of the edge-on facets, where free Newton from the cloud cannot land, and on folded
+        surfaces (a plate pulled up) it is the first exit the cloud's seeds miss. The answer
+        is the smaller of it and the 6D search's first exit (which may lie out of the plane:
+        then the sagittal reduction alone would have missed it).
+
+        seeds: extra scaled twists (K, 6) to start from (`_first_exit`), e.g. the in-plane
+        answers of a mirror plane near the pull plane."""
         if self.fit_status is not Status.OK:
             return Result6(self.fit_status, reason=self.fit_reason, detail=self.fit_detail)
         assert self.problem is not None
@@ -457,17 +515,45 @@ class Surface6:
             return Result6(Status.INVALID_INPUT, reason='invalid_phi',
                            detail=f'pull direction {u.tolist()} is not a unit vector')
         d = np.r_[u, 0.0, 0.0, 0.0]
-        ex = self._first_exit(np.zeros(6), d)
+        ex = self._first_exit(np.zeros(6), d, extra_seeds=seeds)
         sf = self.problem.scaling.force_N
+        plane = self._check_in_plane(in_plane, d) if in_plane is not None else None
+        # The 6D search's exit replaces the in-plane answer only when it is an exact root
+        # before it (an out-of-plane crossing). A bridged or gap-accepted exit before it
+        # straddles the jump across the edge-on facets' switching set, where the in-plane
+        # answer keeps RFT's value at n . v = 0 (the convention both paths use, see
+        # docs/design/six-d.md); it is reported in the detail.
+        ex_exact = ex.s is not None and ex.residual <= self.rtol * max(ex.s, 1e-3)
+        if plane is not None and (ex.s is None or not ex_exact
+                                  or plane[0] <= ex.s * (1.0 + IN_PLANE_RTOL)):
+            s_p, ts_p, note, _ = plane
+            assert in_plane is not None
+            flags = tuple(f for f in in_plane.flags if f == 'on_jump')
+            more = ex.s is not None and abs(ex.s - s_p) > IN_PLANE_RTOL * s_p
+            if more or 'multiple_crossings' in in_plane.flags:
+                flags += ('multiple_crossings',)
+            detail = (note + '; 6D search: ' + ex.detail
+                      + ('' if ex.s is None else f' (first exit {ex.s * sf:.6g} N'
+                         + ('' if ex_exact else ', on a jump') + ')'))
+            raw = self.problem.scaling.twist_from_scaled(ts_p)
+            return Result6(Status.OK, capacity_N=s_p * sf,
+                           slip_twist=tuple(float(v) for v in raw),
+                           slip_twist_scaled=tuple(float(v) for v in ts_p),
+                           n_hits=max(ex.n_roots, 1), detail=detail, flags=flags,
+                           unchecked_capacity_N=s_p * sf)
         if ex.s is None or ex.twist is None:
             return Result6(Status.DEGENERATE, reason='no_root', detail=ex.detail)
-        flags: tuple[str, ...] = ()
+        flags = ()
         detail = ex.detail
+        if in_plane is not None:
+            detail += ('; in-plane answer not confirmed on the 6D map' if plane is None else
+                       f'; an out-of-plane crossing lies before the in-plane one '
+                       f'({plane[0] * sf:.6g} N)')
         if ex.residual > self.rtol * max(ex.s, 1e-3):
             flags = ('on_jump',)
             detail += (f'; the ray passes a jump of the RFT map: nearest twist misses it by '
                        f'{ex.residual / ex.s:.2g} of the distance')
-        if ex.n_roots > 1:
+        if ex.n_roots > 1 or plane is not None:
             flags += ('multiple_crossings',)
         ts = unit_rows(ex.twist)
         raw = self.problem.scaling.twist_from_scaled(ts)
@@ -475,3 +561,38 @@ class Surface6:
                        slip_twist=tuple(float(v) for v in raw),
                        slip_twist_scaled=tuple(float(v) for v in ts), n_hits=ex.n_roots,
                        detail=detail, flags=flags, unchecked_capacity_N=ex.s * sf)
+
+    def _check_in_plane(self, cand: InPlane6, d: np.ndarray
+                        ) -> tuple[float, np.ndarray, str, bool] | None:
+        """(s, scaled twist, note, exact) when the lifted in-plane answer is a crossing of the
+        6D ray. Its twist must carry no out-of-plane wrench on the 6D map (to IN_PLANE_RTOL:
+        the 6D map there is the in-plane one). Then: an exact root when its wrench lies on the
+        ray at the in-plane distance to IN_PLANE_RTOL; an exit on the closure of an in-plane
+        jump (flag on_jump: the jump is bridged between one-sided limits of planar twists,
+        which are limits of the 6D map too); or an answer the sagittal path accepted off the
+        ray by at most gap_tol of the distance (as the 6D search accepts one). Else None."""
+        assert self.problem is not None
+        ts = np.asarray(cand.twist_scaled, dtype=float).reshape(6)
+        if not (cand.capacity_N > 0.0 and np.all(np.isfinite(ts))
+                and np.linalg.norm(ts) > 0.0):
+            return None
+        ts = ts / np.linalg.norm(ts)
+        s_p = cand.capacity_N / self.problem.scaling.force_N
+        w = self._eval(ts[None])[0]
+        miss = float(np.linalg.norm(complement_basis(d) @ w)) / s_p
+        along = abs(float(w @ d) - s_p) / s_p
+        n = np.asarray(cand.plane_normal, dtype=float)
+        wn = max(float(np.linalg.norm(w)), 1e-300)
+        out = math.hypot(float(w[:3] @ n), float(np.linalg.norm(np.cross(w[3:], n)))) / wn
+        if out > IN_PLANE_RTOL:
+            return None
+        if miss <= IN_PLANE_RTOL and along <= IN_PLANE_RTOL:
+            return s_p, ts, f'in-plane root, on the 6D ray to {max(miss, along):.2g}', True
+        if 'on_jump' in cand.flags:
+            return s_p, ts, (f'in-plane exit on the closure of a jump (the twist itself '
+                             f'{miss:.2g} of the distance off the ray, no out-of-plane '
+                             f'wrench to {out:.2g})'), False
+        if miss <= self.gap_tol:
+            return s_p, ts, (f'in-plane answer {miss:.2g} of the distance off the 6D ray (as '
+                             'on the sagittal path)'), False
+        return None

@@ -23,7 +23,7 @@ from scipy.spatial import cKDTree
 
 from .geometry.mesh import Facets
 from .geometry.transforms import rot_z
-from .gls6d import DEFAULT_TWISTS_6D, Problem6, Result6, Scaling6, Surface6
+from .gls6d import DEFAULT_TWISTS_6D, EARLIER_ANGLE, InPlane6, Problem6, Result6, Scaling6, Surface6
 from .rft.engine import BuriedBody
 from .rft.media import Medium
 from .rft.models import make_model
@@ -116,6 +116,29 @@ def pull_plane_symmetry(scene: Scene, yaw: float, rtol: float = SYMMETRY_RTOL) -
                                f'image about the pull plane (yaw {math.degrees(yaw):.3g} deg)')
     return Symmetry(True, f'all {len(f)} buried facets and the centre of mass are mirror-'
                           f'symmetric about the pull plane (yaw {math.degrees(yaw):.3g} deg)')
+
+
+def mirror_plane_yaws(scene: Scene) -> list[float]:
+    """Yaws (rad, in [0, pi)) of the vertical planes through p about which the scene is
+    mirror-symmetric (checked by `pull_plane_symmetry`). Candidates: the principal axes of the
+    buried facets' horizontal area moment about p (a mirror plane's normal is one of them, as
+    the moment is invariant under the mirror) and the world x and y axes (when the moment is
+    isotropic, e.g. a cross of fins, its axes are arbitrary)."""
+    f = scene.buried()
+    if len(f) == 0:
+        return []
+    rel = (f.centroids - scene.ref)[:, :2]
+    mom = (rel * f.areas[:, None]).T @ rel
+    _, vec = np.linalg.eigh(mom)
+    cands = [math.atan2(-float(v[0]), float(v[1])) for v in vec.T] + [0.0, math.pi / 2]
+    out: list[float] = []
+    for c in cands:
+        c = c % math.pi     # the plane with normal Rz(c) y
+        if any(abs(math.remainder(c - o, math.pi)) < 1e-9 for o in out):
+            continue
+        if pull_plane_symmetry(scene, c).symmetric:
+            out.append(c)
+    return out
 
 
 @dataclass(frozen=True)
@@ -263,9 +286,39 @@ class SceneModel:
                     sym: Symmetry) -> list[SceneResult]:
         surface = self.surface_6d(scene)
         why = ('6D forced (--space 6d)' if sym.symmetric else 'full 6D: ' + sym.detail)
+        # Mirror-symmetric about the pull plane: the in-plane answer is a crossing of the 6D
+        # ray too (docs/design/six-d.md), one the cloud's seeds can miss (a root on a switching
+        # set, a fold); the 6D search keeps it as a candidate and looks for earlier ones.
+        planar: list[InPlane6 | None] = [None] * len(phis)
+        if sym.symmetric:
+            nx, ny, nz = (float(v) for v in rot_z(yaw) @ np.array([0.0, 1.0, 0.0]))
+            normal = (nx, ny, nz)
+            planar = [InPlane6(r.capacity_N, r.slip_twist_scaled, r.flags, normal)
+                      if r.ok and r.capacity_N is not None and r.slip_twist_scaled is not None
+                      else None for r in self._predict_sagittal(scene, phis, yaw, sym)]
+        # Not symmetric about the pull plane but about another vertical plane through p (a
+        # yawed pull on a symmetric body): the in-plane answers there, lifted, seed the 6D
+        # search. A pull yawed slightly off a mirror plane often exits near that plane's slip
+        # (on the closure of the jump across it), where the cloud's seeds do not reach.
+        # Only a plane whose pull lies within EARLIER_ANGLE of the actual one (the reach of the
+        # earlier-crossing seeds) is solved: farther off, its slip says little about this ray.
+        seeds: list[list[np.ndarray]] = [[] for _ in phis]
+        if not sym.symmetric:
+            for plane_yaw in mirror_plane_yaws(scene):
+                # the sense of the plane's pull nearer to the actual yaw
+                near = plane_yaw + math.pi * round((yaw - plane_yaw) / math.pi)
+                close = [float(pull_vector(p, yaw) @ pull_vector(p, near))
+                         > math.cos(EARLIER_ANGLE) for p in phis]
+                if not any(close):
+                    continue
+                for k, r0 in enumerate(self._predict_sagittal(scene, phis, near, Symmetry(
+                        True, 'mirror plane'))):
+                    if close[k] and r0.ok and r0.slip_twist_scaled is not None:
+                        seeds[k].append(np.asarray(r0.slip_twist_scaled, dtype=float))
         out = []
-        for phi in phis:
-            r: Result6 = surface.capacity(pull_vector(phi, yaw))
+        for phi, cand, sd in zip(phis, planar, seeds, strict=True):
+            r: Result6 = surface.capacity(pull_vector(phi, yaw), in_plane=cand,
+                                          seeds=np.array(sd) if sd else None)
             out.append(SceneResult(r.status, r.method, '6d', r.capacity_N, r.slip_twist,
                                    r.slip_twist_scaled, r.reason, why + '; ' + r.detail,
                                    r.flags))
