@@ -15,6 +15,7 @@ of gls6d.py answers.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -226,7 +227,32 @@ class SceneModel:
                                        'pull plane: ' + sym.detail) for _ in phis]
         if self.space == '6d' or not sym.symmetric:
             return self._predict_6d(scene, phis, yaw, sym)
-        return self._predict_sagittal(scene, phis, yaw, sym)
+        out = self._predict_sagittal(scene, phis, yaw, sym)
+        vertical = [k for k, phi in enumerate(phis) if abs(math.cos(phi)) < 1e-12]
+        if vertical:
+            self._least_over_mirror_planes(scene, phis, yaw, vertical, out)
+        return out
+
+    def _least_over_mirror_planes(self, scene: Scene, phis: list[float], yaw: float,
+                                  vertical: list[int], out: list[SceneResult]) -> None:
+        """A vertical pull lies in every vertical plane: each mirror plane of the body gives
+        an in-plane crossing of the same load ray, and the sagittal reduction in one plane cannot
+        see the others' (a flat plate pulled up slides along its long side, out of the plane of
+        its short side). The first exit is the least of them (in place, for the indices
+        `vertical`)."""
+        for plane in mirror_plane_yaws(scene):
+            if abs(math.remainder(plane - yaw, math.pi)) < 1e-9:
+                continue
+            other = self._predict_sagittal(scene, [phis[k] for k in vertical], plane,
+                                           pull_plane_symmetry(scene, plane))
+            for k, res in zip(vertical, other):
+                cur = out[k]
+                if res.capacity_N is not None and (cur.capacity_N is None
+                                                   or res.capacity_N < cur.capacity_N):
+                    out[k] = dataclasses.replace(
+                        res, detail=f'vertical pull: the least of the in-plane answers over '
+                                    f'the mirror planes (this one at yaw '
+                                    f'{math.degrees(plane):.3g} deg); ' + res.detail)
 
     # -- the sagittal reduction ------------------------------------------------------------
     def _predict_sagittal(self, scene: Scene, phis: list[float], yaw: float,
