@@ -60,6 +60,48 @@ class AccuracyReport:
         return asdict(self)
 
 
+class MapComparison:
+    """Accumulates map answers against reference answers at the same (state, pull, phi) and
+    makes the AccuracyReport: a status mismatch is counted (conservative when the reference has
+    a value and the map has none); where both have a value and a slip twist, the capacity error
+    (N, % of the reference), the twist angle (deg) and the signed excess map - reference."""
+
+    def __init__(self) -> None:
+        self.cap_err: list[float] = []
+        self.pct_err: list[float] = []
+        self.ang_err: list[float] = []
+        self.over: list[float] = []
+        self.mismatch = 0
+        self.conservative = 0
+
+    def add(self, m, r) -> None:
+        """m, r: CapacityResult-like answers of the map and of the reference."""
+        if m.ok != r.ok:
+            self.mismatch += 1
+            self.conservative += int(r.ok and not m.ok)
+            return
+        if (m.capacity_N is None or r.capacity_N is None or m.slip_twist_scaled is None
+                or r.slip_twist_scaled is None):
+            return
+        d = abs(m.capacity_N - r.capacity_N)
+        self.over.append(m.capacity_N - r.capacity_N)
+        self.cap_err.append(d)
+        if r.capacity_N > 1e-9:
+            self.pct_err.append(100.0 * d / r.capacity_N)
+        cosang = float(np.clip(np.dot(m.slip_twist_scaled, r.slip_twist_scaled), -1, 1))
+        self.ang_err.append(float(np.degrees(np.arccos(cosang))))
+
+    def report(self, reference: str, n_states: int, note: str = '') -> AccuracyReport:
+        return AccuracyReport(reference=reference, n_states=n_states,
+                              n_compared=len(self.cap_err), status_mismatch=self.mismatch,
+                              map_conservative=self.conservative,
+                              capacity_N=ErrorStats.of(np.asarray(self.cap_err)),
+                              capacity_pct=ErrorStats.of(np.asarray(self.pct_err)),
+                              twist_deg=ErrorStats.of(np.asarray(self.ang_err)), note=note,
+                              capacity_over_N_worst=(float(max(self.over)) if self.over
+                                                     else float('nan')))
+
+
 def sample_states(grid, samples: int, seed: int = 0) -> np.ndarray:
     """(M, 4) states: up to `samples` random cell centres, then `samples` random states."""
     rng = np.random.default_rng(seed)
@@ -96,36 +138,14 @@ def accuracy_report(cmap: CapacityMap, samples: int = 20, seed: int = 0,
     states = sample_states(cmap.grid, samples, seed)
     ph = cmap.phis
     phis = 0.5 * (ph[:-1] + ph[1:])
-    cap_err, pct_err, ang_err, over = [], [], [], []
-    mismatch = conservative = 0
+    comp = MapComparison()
     for s in tqdm(states, unit='state', file=sys.stderr, desc='accuracy', disable=not progress):
         state = AnchorState(*map(float, s))
         for pull in cmap.pulls:
             refs = model.predict_many(state, phis, pull)
             for phi, r in zip(phis, refs):
-                m = cmap.query(state, float(phi), pull)
-                if m.ok != r.ok:
-                    mismatch += 1
-                    conservative += int(r.ok and not m.ok)
-                    continue
-                if (m.capacity_N is None or r.capacity_N is None or m.slip_twist_scaled is None
-                        or r.slip_twist_scaled is None):
-                    continue
-                d = abs(m.capacity_N - r.capacity_N)
-                over.append(m.capacity_N - r.capacity_N)
-                cap_err.append(d)
-                if r.capacity_N > 1e-9:
-                    pct_err.append(100.0 * d / r.capacity_N)
-                cosang = float(np.clip(np.dot(m.slip_twist_scaled, r.slip_twist_scaled), -1, 1))
-                ang_err.append(float(np.degrees(np.arccos(cosang))))
-    return AccuracyReport(reference=model.method, n_states=len(states),
-                          n_compared=len(cap_err), status_mismatch=mismatch,
-                          map_conservative=conservative,
-                          capacity_N=ErrorStats.of(np.asarray(cap_err)),
-                          capacity_pct=ErrorStats.of(np.asarray(pct_err)),
-                          twist_deg=ErrorStats.of(np.asarray(ang_err)),
-                          note=note,
-                          capacity_over_N_worst=float(max(over)) if over else float('nan'))
+                comp.add(cmap.query(state, float(phi), pull), r)
+    return comp.report(model.method, len(states), note)
 
 
 @dataclass(frozen=True)

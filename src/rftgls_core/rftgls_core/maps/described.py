@@ -600,41 +600,21 @@ def described_accuracy(cmap: DescribedMap, desc, samples: int = 20, seed: int = 
     one has (map_conservative: the map is the one without)."""
     from tqdm import tqdm
 
-    from .accuracy import AccuracyReport, ErrorStats
+    from .accuracy import MapComparison
     sm = reference_solver(cmap, desc, reference)
     g = cmap.grid
     if len(g.phi) < 2:
         raise ValueError('the map has one pull angle: no midpoints to check')
     phis = 0.5 * (g.phi[:-1] + g.phi[1:])
     states = sample_values(g, samples, seed)
-    cap_err, pct_err, ang_err, over = [], [], [], []
-    mismatch = conservative = 0
+    comp = MapComparison()
     for s in tqdm(states, unit='state', file=sys.stderr, desc='accuracy', disable=not progress):
         values = dict(zip(g.names, map(float, s)))
         for pull in g.pulls:
             for phi in phis.tolist():
-                r = _live(sm, desc, values, phi, pull)
-                m = cmap.query(values, phi, pull, desc.sha256)
-                if m.ok != r.ok:
-                    mismatch += 1
-                    conservative += int(r.ok and not m.ok)
-                    continue
-                if (m.capacity_N is None or r.capacity_N is None or m.slip_twist_scaled is None
-                        or r.slip_twist_scaled is None):
-                    continue
-                d = abs(m.capacity_N - r.capacity_N)
-                over.append(m.capacity_N - r.capacity_N)
-                cap_err.append(d)
-                if r.capacity_N > 1e-9:
-                    pct_err.append(100.0 * d / r.capacity_N)
-                cosang = float(np.clip(np.dot(m.slip_twist_scaled, r.slip_twist_scaled), -1, 1))
-                ang_err.append(float(np.degrees(np.arccos(cosang))))
-    return AccuracyReport(reference=reference, n_states=len(states), n_compared=len(cap_err),
-                          status_mismatch=mismatch, map_conservative=conservative,
-                          capacity_N=ErrorStats.of(np.asarray(cap_err)),
-                          capacity_pct=ErrorStats.of(np.asarray(pct_err)),
-                          twist_deg=ErrorStats.of(np.asarray(ang_err)),
-                          capacity_over_N_worst=float(max(over)) if over else float('nan'))
+                comp.add(cmap.query(values, phi, pull, desc.sha256),
+                         _live(sm, desc, values, phi, pull))
+    return comp.report(reference, len(states))
 
 
 def described_interval_errors(cmap: DescribedMap, desc, samples: int = 6, seed: int = 0,
