@@ -14,7 +14,6 @@ zeros rule as for the robot maps (DescribedMap).
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
@@ -117,9 +116,10 @@ def plot(args) -> int:
     """`map plot` of a described map: capacity over two of its state variables (the others
     at --at or their middle node), the map's own answers (DescribedMap.query_batch); cells
     with status `unsupported` hatched, other statuses without a value white."""
-    from ..charts.figure_io import pyplot, save
+    from ..charts.figure_io import pyplot
     from ..maps.described import DescribedMap
     from ..maps.hdf5 import STATUS_NAMES
+    from .map_plot import save_slice
     cmap = DescribedMap.load(args.file)
     g = cmap.grid
     for flag in ('h_mm', 'theta_b_deg', 'theta_l1_deg', 'theta_l2_deg'):
@@ -181,11 +181,4 @@ def plot(args) -> int:
     name = cmap.data.attrs.get('description_name', '')
     axp.set_title(f'{name}, {cmap.medium_name}, {pull} pull, phi {math.degrees(phi):.0f} deg'
                   + (f'; {others}' if others else ''), fontsize=9)
-    axp.legend(loc='upper right', fontsize=7)
-    out = Path(args.out)
-    save(fig, out)
-    valued = int(np.isfinite(cap).sum())
-    print(f'{out}: {valued} of {cap.size} pixels with a value, {int(unsup.sum())} unsupported, '
-          f'capacity {np.nanmin(cap) if valued else math.nan:.3g} .. '
-          f'{np.nanmax(cap) if valued else math.nan:.3g} N')
-    return 0
+    return save_slice(fig, axp, args.out, cap, unsup)

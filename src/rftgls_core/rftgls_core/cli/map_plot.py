@@ -70,7 +70,7 @@ def map_slice(cmap, x: str, y: str, fixed: dict[str, float], phi: float, pull: s
 
 
 def run_plot(args) -> int:
-    from ..charts.figure_io import pyplot, save
+    from ..charts.figure_io import pyplot
     from ..maps import CapacityMap, resolve_map
     from ..maps.described import is_described_map
     if is_described_map(args.file):   # a map over a description's variables
@@ -123,8 +123,15 @@ def run_plot(args) -> int:
                        for a in AXES if a not in (args.x, args.y))
     axp.set_title(f'{cmap.robot_name}, {cmap.medium_name}, {pull} pull, phi '
                   f'{math.degrees(phi):.0f} deg; {others}', fontsize=9)
+    return save_slice(fig, axp, args.out, cap, unsup)
+
+
+def save_slice(fig, axp, out: str | Path, cap: np.ndarray, unsup: np.ndarray) -> int:
+    """Legend, save, and the one-line summary of a map slice (pixels with a value,
+    unsupported, capacity range in N); the exit code 0."""
+    from ..charts.figure_io import save
     axp.legend(loc='upper right', fontsize=7)
-    out = Path(args.out)
+    out = Path(out)
     save(fig, out)
     valued = int(np.isfinite(cap).sum())
     print(f'{out}: {valued} of {cap.size} pixels with a value, {int(unsup.sum())} unsupported, '

@@ -103,7 +103,9 @@ class MapComparison:
 
 
 def sample_states(grid, samples: int, seed: int = 0) -> np.ndarray:
-    """(M, 4) states: up to `samples` random cell centres, then `samples` random states."""
+    """(M, n) states (SI, the grid's axis order; n = 4 for a robot map, a described map's own
+    variables otherwise): up to `samples` random cell centres, then `samples` uniformly random
+    states inside the grid."""
     rng = np.random.default_rng(seed)
     axes = grid.axes
     n_cells = [len(a) - 1 for a in axes]
@@ -114,7 +116,7 @@ def sample_states(grid, samples: int, seed: int = 0) -> np.ndarray:
                                for d, a in enumerate(axes)])
     lo = np.array([a[0] for a in axes])
     hi = np.array([a[-1] for a in axes])
-    randoms = lo + (hi - lo) * rng.random((samples, 4))
+    randoms = lo + (hi - lo) * rng.random((samples, len(axes)))
     return np.vstack([centres, randoms])
 
 

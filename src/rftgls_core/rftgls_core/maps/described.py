@@ -576,37 +576,21 @@ def _live(sm, desc, values: dict[str, float], phi: float, pull: str) -> SceneRes
     return sm.predict(desc.scene(values, pull), phi, 0.0)
 
 
-def sample_values(grid: DescribedGrid, samples: int, seed: int = 0) -> np.ndarray:
-    """(M, n) states (SI, grid order): up to `samples` random cell centres, then `samples`
-    uniformly random states inside the grid (maps/accuracy.py's rule, over n axes)."""
-    rng = np.random.default_rng(seed)
-    axes = grid.axes
-    n_cells = [len(a) - 1 for a in axes]
-    total = int(np.prod(n_cells))
-    pick = rng.choice(total, size=min(samples, total), replace=False)
-    idx = np.stack(np.unravel_index(np.sort(pick), n_cells), axis=1)
-    centres = np.column_stack([0.5 * (a[idx[:, d]] + a[idx[:, d] + 1])
-                               for d, a in enumerate(axes)])
-    lo = np.array([a[0] for a in axes])
-    hi = np.array([a[-1] for a in axes])
-    return np.vstack([centres, lo + (hi - lo) * rng.random((samples, len(axes)))])
-
-
 def described_accuracy(cmap: DescribedMap, desc, samples: int = 20, seed: int = 0,
                        reference: str = 'direct', progress: bool = False):
     """maps/accuracy.py's AccuracyReport for a described map: its answers against the live
-    `reference` on the description at sample_values states and the midpoints between the
+    `reference` on the description at maps/accuracy.py's sample_states and the midpoints between the
     stored pull angles, every pull. Errors where both have a value; `status_mismatch` where
     one has (map_conservative: the map is the one without)."""
     from tqdm import tqdm
 
-    from .accuracy import MapComparison
+    from .accuracy import MapComparison, sample_states
     sm = reference_solver(cmap, desc, reference)
     g = cmap.grid
     if len(g.phi) < 2:
         raise ValueError('the map has one pull angle: no midpoints to check')
     phis = 0.5 * (g.phi[:-1] + g.phi[1:])
-    states = sample_values(g, samples, seed)
+    states = sample_states(g, samples, seed)
     comp = MapComparison()
     for s in tqdm(states, unit='state', file=sys.stderr, desc='accuracy', disable=not progress):
         values = dict(zip(g.names, map(float, s)))
