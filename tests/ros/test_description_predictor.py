@@ -96,18 +96,24 @@ def test_the_warm_live_method_name_gives_the_cold_direct_on_a_description():
     assert q.predict(dh, 0.0, 'backward').capacity_N == p.predict(dh, 0.0, 'backward').capacity_N
 
 
-def test_other_variable_names_are_fed_by_anchor_state_variables(tmp_path):
-    """The MiniRQuad description with its variables renamed (height, pitch, hip_a, hip_b) is
-    refused by name alone, in one line naming the estimates and their topics; mapped with
-    anchor_state_variables it answers the shipped description's numbers exactly."""
-    write_robot_description('minirquad', tmp_path)
-    yml = (tmp_path / 'minirquad.yaml').read_text()
+def renamed_minirquad(folder) -> str:
+    """The shipped MiniRQuad description written to `folder` with its state variables renamed
+    (h, theta_b, theta_l1, theta_l2 -> height, pitch, hip_a, hip_b); the YAML's path."""
+    write_robot_description('minirquad', folder)
+    yml = (folder / 'minirquad.yaml').read_text()
     for old, new in (('h', 'height'), ('theta_b', 'pitch'), ('theta_l1', 'hip_a'),
                      ('theta_l2', 'hip_b')):
         yml = yml.replace(f'{{name: {old},', f'{{name: {new},')
     yml = yml.replace('height: h', 'height: height').replace('pitch: theta_b', 'pitch: pitch')
-    (tmp_path / 'renamed.yaml').write_text(yml)
-    path = str(tmp_path / 'renamed.yaml')
+    (folder / 'renamed.yaml').write_text(yml)
+    return str(folder / 'renamed.yaml')
+
+
+def test_other_variable_names_are_fed_by_anchor_state_variables(tmp_path):
+    """The MiniRQuad description with its variables renamed (height, pitch, hip_a, hip_b) is
+    refused by name alone, in one line naming the estimates and their topics; mapped with
+    anchor_state_variables it answers the shipped description's numbers exactly."""
+    path = renamed_minirquad(tmp_path)
     with pytest.raises(ConfigError) as err:
         predictor_from_params('', 'twist-mesh', anchor_description_file=path)
     msg = str(err.value)
@@ -137,16 +143,9 @@ def test_other_variable_names_are_fed_by_anchor_state_variables(tmp_path):
     ('depth=h,height=h', 'no state variable depth'),
 ])
 def test_a_bad_state_variable_map_is_one_line(text, must, tmp_path):
-    write_robot_description('minirquad', tmp_path)
-    yml = (tmp_path / 'minirquad.yaml').read_text()
-    for old, new in (('h', 'height'), ('theta_b', 'pitch'), ('theta_l1', 'hip_a'),
-                     ('theta_l2', 'hip_b')):
-        yml = yml.replace(f'{{name: {old},', f'{{name: {new},')
-    yml = yml.replace('height: h', 'height: height').replace('pitch: theta_b', 'pitch: pitch')
-    (tmp_path / 'renamed.yaml').write_text(yml)
     with pytest.raises(ConfigError) as err:
-        predictor_from_params('', 'twist-mesh', anchor_description_file=str(
-            tmp_path / 'renamed.yaml'), anchor_state_variables=text)
+        predictor_from_params('', 'twist-mesh', anchor_description_file=renamed_minirquad(
+            tmp_path), anchor_state_variables=text)
     assert '\n' not in str(err.value) and must in str(err.value), str(err.value)
     with pytest.raises(ConfigError, match='needs anchor_description_file'):
         predictor_from_params('', 'twist-mesh', anchor_state_variables='h=h')
