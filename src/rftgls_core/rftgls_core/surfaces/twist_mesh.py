@@ -22,7 +22,7 @@ import numpy as np
 
 from ..types import Status
 from .base import CapacityResult, FitSamples, GLSProblem, LimitSurface
-from .closure import closure_exit, earlier_exit
+from .closure import closure_exit, earlier_exit, local_exit
 from .diagnostics import collapsed_vertices, fold_mask
 from .newton import newton_on_sphere
 from .raycast import PreparedMesh, cast_rays, prepare_mesh
@@ -179,5 +179,12 @@ class TwistMeshSurface(LimitSurface):
                              f'{cap:.4g} N, relative gap {ch.bridge:.2g})')
         k = int(np.flatnonzero(ok)[np.argmin(s[ok])])  # first exit among the local roots
         cap_polished = float(s[k]) * sc.force_N
+        # A bridged jump just in front of the smooth root (docs/design/closure.md): the same
+        # local closure check as direct's.
+        near = local_exit(eval_scaled, d, t[k], float(s[k]), angle_tol=self.closure_tol)
+        if near is not None:
+            return (near.s * sc.force_N, near.twist, near.on_jump,
+                    detail + f'; closure exit in front of the polished root ({cap_polished:.4g}'
+                             f' N further out, mesh chord {cap:.4g} N)')
         return cap_polished, t[k], False, detail + (f'; polished in {iters} steps (mesh chord '
                                                     f'{cap:.4g} N, residual {res[k]:.1e})')
