@@ -25,6 +25,8 @@ have changed:
   triangle lies in front of the root;
 * no jump crossed or next to the root: the residual derivative within `max_jacobian_change` of
   the previous answer's, and the map linear to `ring_tol` on a ring of `ring_rad` around it;
+* no crossing of the cold solve's local closure check (closure.local_exit: three small patches
+  around the root) in front of the root;
 * the pull angle within `max_phi_change_rad` of the anchor's (its swing of the guarded ray
   segment is added to the guards' motion);
 * the cold solve's own four seeds (the crossed coarse triangle's barycentric and vertex
