@@ -37,7 +37,7 @@ import numpy as np
 
 from ..types import Status
 from .base import SUPPORT_CHECK_TWISTS, CapacityResult, FitSamples, GLSProblem, LimitSurface
-from .closure import closure_exit, earlier_exit
+from .closure import closure_exit, earlier_exit, local_exit
 from .newton import newton_on_sphere, unit_rows
 from .raycast import PreparedMesh, all_hits, prepare_mesh
 from .twist_sphere import TwistSphere
@@ -165,6 +165,15 @@ class DirectSurface(LimitSurface):
             if fold is not None:
                 base += f'; earlier exit on a thin fold ({s0 * sf:.4g} N further out)'
                 s0, t0, on_jump, bridge = fold.s, fold.twist, fold.on_jump, fold.bridge
+        if not on_jump:
+            # Newton converges to a smooth root even where the ray crosses a bridged jump a
+            # few tenths of a degree in front of it (docs/design/closure.md): a local closure
+            # check around the root, one wrench call when there is none.
+            near = local_exit(self._eval_scaled, d, t0, s0)
+            if near is not None:
+                base += (f'; closure exit in front of the Newton root ({s0 * sf:.4g} N '
+                         'further out)')
+                s0, t0, on_jump, bridge = near.s, near.twist, near.on_jump, near.bridge
         flags: list[str] = ['on_jump'] if on_jump else []
         if on_jump:
             detail = base + (f'; the ray crosses a bridged jump (relative gap {bridge:.2g}): '

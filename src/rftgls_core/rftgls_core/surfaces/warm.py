@@ -25,6 +25,8 @@ have changed:
   triangle lies in front of the root;
 * no jump crossed or next to the root: the residual derivative within `max_jacobian_change` of
   the previous answer's, and the map linear to `ring_tol` on a ring of `ring_rad` around it;
+* no crossing of the cold solve's local closure check (closure.local_exit: three small patches
+  around the root) in front of the root;
 * the pull angle within `max_phi_change_rad` of the anchor's (its swing of the guarded ray
   segment is added to the guards' motion);
 * the cold solve's own four seeds (the crossed coarse triangle's barycentric and vertex
@@ -45,7 +47,7 @@ import numpy as np
 
 from ..types import Status
 from .base import CapacityResult, GLSProblem
-from .closure import earlier_exit
+from .closure import _FACES_LOCAL_ALL, LOCAL_RTOL, earlier_exit, local_patches
 from .direct import DirectSurface
 from .newton import unit_rows
 from .scaling import DiagonalScaling
@@ -446,8 +448,17 @@ class WarmDirect:
         # In front of the root its root can be the first exit (the cold solve's seeds may
         # land there, the warm seed does not); behind it, the root stays the first exit.
         w0, u, v, du, dv = local
+        # The cold solve's local closure check around its root (closure.local_exit): the same
+        # patches, evaluated with the ring. A patch crossing in front of the root falls back
+        # (the cold solve decides whether a closure exit is there), with a looser threshold
+        # and barycentric tolerance than the cold cast so that the warm root's ~1e-10 rad
+        # offset from the cold one cannot hide a crossing the cold solve sees.
+        patches = local_patches(t0)
         if w_ring is None:
-            w_ring = eval_scaled(ring)
+            wr = eval_scaled(np.concatenate([ring, patches]))
+            w_ring, w_patch = wr[:len(ring)], wr[len(ring):]
+        else:
+            w_patch = eval_scaled(patches)
         off = w_ring - (w0 + dirs[:, :1] * du + dirs[:, 1:] * dv)
         # Richardson: the smooth part of the misfit grows like r^2, a jump does not; with the
         # r^2 term removed, what is left is a jump between the root and the ring.
@@ -458,6 +469,9 @@ class WarmDirect:
             # The sheet beyond the switch may hold a second root, in front of this one or
             # behind it; which root the cold solve's seeds then land on is theirs to decide.
             return None, 'jump_near'
+        _, s_p, _ = _ray_hits_loop(w_patch, _FACES_LOCAL_ALL, d, 1e-6)
+        if s_p < s0 * (1.0 - 0.5 * LOCAL_RTOL):
+            return None, 'local_exit'
         self.twist_, self.jac_ = t0, g
         detail = (f'warm start from the previous exit: guards used {use:.0%} of their '
                   f'allowance; Jacobian singular values {sv[0]:.3g}, {sv[1]:.3g}')
