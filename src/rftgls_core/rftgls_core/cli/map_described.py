@@ -117,9 +117,9 @@ def plot(args) -> int:
     at --at or their middle node), the map's own answers (DescribedMap.query_batch); cells
     with status `unsupported` hatched, other statuses without a value white."""
     from ..charts.figure_io import pyplot
+    from ..charts.map_slice import save_slice
     from ..maps.described import DescribedMap
     from ..maps.hdf5 import STATUS_NAMES
-    from .map_plot import save_slice
     cmap = DescribedMap.load(args.file)
     g = cmap.grid
     for flag in ('h_mm', 'theta_b_deg', 'theta_l1_deg', 'theta_l2_deg'):

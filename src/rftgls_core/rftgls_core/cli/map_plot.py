@@ -15,7 +15,6 @@ by `--at NAME=VALUE` (cli/map_described.py).
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
@@ -71,6 +70,7 @@ def map_slice(cmap, x: str, y: str, fixed: dict[str, float], phi: float, pull: s
 
 def run_plot(args) -> int:
     from ..charts.figure_io import pyplot
+    from ..charts.map_slice import save_slice
     from ..maps import CapacityMap, resolve_map
     from ..maps.described import is_described_map
     if is_described_map(args.file):   # a map over a description's variables
@@ -124,17 +124,3 @@ def run_plot(args) -> int:
     axp.set_title(f'{cmap.robot_name}, {cmap.medium_name}, {pull} pull, phi '
                   f'{math.degrees(phi):.0f} deg; {others}', fontsize=9)
     return save_slice(fig, axp, args.out, cap, unsup)
-
-
-def save_slice(fig, axp, out: str | Path, cap: np.ndarray, unsup: np.ndarray) -> int:
-    """Legend, save, and the one-line summary of a map slice (pixels with a value,
-    unsupported, capacity range in N); the exit code 0."""
-    from ..charts.figure_io import save
-    axp.legend(loc='upper right', fontsize=7)
-    out = Path(out)
-    save(fig, out)
-    valued = int(np.isfinite(cap).sum())
-    print(f'{out}: {valued} of {cap.size} pixels with a value, {int(unsup.sum())} unsupported, '
-          f'capacity {np.nanmin(cap) if valued else math.nan:.3g} .. '
-          f'{np.nanmax(cap) if valued else math.nan:.3g} N')
-    return 0
