@@ -1,8 +1,13 @@
 """capacity_bench: input message -> published prediction latency of capacity_node, in process.
 
-    ros2 run rftgls_ros capacity_bench [--map PATH | --live] [--n 2000] [--json]
+    ros2 run rftgls_ros capacity_bench [--map PATH | --live] [--separate-process] [--n 2000]
+                                       [--json]
 
-One process, real rclpy and DDS on loopback (the ROS_DOMAIN_ID of the environment). The node
+One process, real rclpy and DDS on loopback (the ROS_DOMAIN_ID of the environment); with
+--separate-process capacity_node runs as its own process, as deployed, so it does not share
+the interpreter lock with the probe and the sender (then the latency figures are the probe's
+round trip, two DDS hops, and there are no in-node timings or solver figures; status_last
+says the node answered `ok`, i.e. really solved). The node
 is triggered by /joint_states in this benchmark and every message carries a slightly
 different leg angle, so each output pays a real predictor query (no cache hit). With a map
 the leg angle wiggles by 2 deg around DH; with --live (map_file '', live_method direct-warm,
@@ -29,6 +34,7 @@ import json
 import math
 import os
 import statistics
+import subprocess
 import sys
 import tempfile
 import threading
@@ -38,6 +44,7 @@ from pathlib import Path
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile
 
 from minirquad_driver.dds_loopback import during_init
 from rftgls_core.conventions import LEG_JOINT_NAMES, pitch_to_quat_xyzw
@@ -63,7 +70,8 @@ def small_map(directory: Path) -> Path:
 class Rig:
     """capacity_node plus a probe node that publishes the inputs and records the outputs."""
 
-    def __init__(self, context, map_file: str, live: bool = False):
+    def __init__(self, context, map_file: str, live: bool = False,
+                 separate_process: bool = False):
         from geometry_msgs.msg import WrenchStamped
         from sensor_msgs.msg import Imu, JointState
         from std_msgs.msg import Float64
@@ -74,8 +82,17 @@ class Rig:
                   'trigger_inputs': ['joint_states'], 'publish_rate_hz': 1.0,
                   **{f'{n}_timeout_s': 30.0 for n in ('joint_states', 'pitch', 'tension',
                                                       'height', 'phi')}}
-        self.node = CapacityNode(context=context, parameter_overrides=[
-            Parameter(k, value=v) for k, v in params.items()])
+        self.proc: subprocess.Popen | None = None
+        self.node: CapacityNode | None = None
+        if separate_process:    # as deployed: the node in its own process (own GIL)
+            argv = [sys.executable, '-m', 'rftgls_ros.capacity_node', '--ros-args']
+            for k, v in params.items():
+                argv += ['-p', f'{k}:={json.dumps(v)}']
+            self.proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL,
+                                         stderr=subprocess.DEVNULL)
+        else:
+            self.node = CapacityNode(context=context, parameter_overrides=[
+                Parameter(k, value=v) for k, v in params.items()])
         self.probe = rclpy.create_node('capacity_bench_probe', context=context)
         self.pub_joints = self.probe.create_publisher(JointState, '/joint_states', 100)
         self.pub_imu = self.probe.create_publisher(Imu, '/imu', 10)
@@ -88,6 +105,12 @@ class Rig:
         self.statuses: set[str] = set()
         self.probe.create_subscription(WrenchStamped, '/capacity_node/capacity', self.on_out,
                                        1000)
+        from std_msgs.msg import String
+        self.status_last = ''
+        self.capacity_last = math.nan
+        self.probe.create_subscription(
+            String, '/capacity_node/status', lambda m: setattr(self, 'status_last', m.data),
+            QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
         self.msg = JointState(name=list(LEG_JOINT_NAMES))
         self.Float64 = Float64
         self.stream = None
@@ -97,6 +120,7 @@ class Rig:
 
     def on_out(self, msg) -> None:
         t = time.perf_counter()
+        self.capacity_last = msg.wrench.force.x
         key = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
         if key in self.sent:
             self.latency[key] = t - self.sent[key]
@@ -150,20 +174,24 @@ def spin_in_thread(executor, stop: threading.Event, period_s: float) -> threadin
     return th
 
 
-def run(map_file: str, n: int) -> dict:
+def run(map_file: str, n: int, separate_process: bool = False) -> dict:
     ctx = rclpy.Context()
     with during_init():
         rclpy.init(context=ctx, domain_id=int(os.environ.get('ROS_DOMAIN_ID', '0')))
-    rig = Rig(ctx, map_file, live=not map_file)
-    # The node spins in its own thread with its own executor, as it would in its own process;
-    # the probe spins in this thread.
+    rig = Rig(ctx, map_file, live=not map_file, separate_process=separate_process)
+    # In process, the node spins in its own thread with its own executor; the probe spins in
+    # this thread. With separate_process the node is a child process (its own interpreter).
     node_ex = SingleThreadedExecutor(context=ctx)
-    node_ex.add_node(rig.node)
     stop = threading.Event()
+    if rig.node is not None:
+        node_ex.add_node(rig.node)
     th = spin_in_thread(node_ex, stop, 0.05)
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(rig.probe)
-    out = {'predictor': rig.node.estimator.predictor.name}
+    out: dict = {'predictor': (rig.node.estimator.predictor.name if rig.node is not None
+                               else 'capacity_node process (' + ('live direct-warm'
+                                                                 if not map_file
+                                                                 else map_file) + ')')}
     try:
         pubs = (rig.pub_joints, rig.pub_imu, rig.pub_tension, rig.pub_height, rig.pub_phi)
         if not spin_until(ex, lambda: all(p.get_subscription_count() for p in pubs), 10.0):
@@ -172,22 +200,42 @@ def run(map_file: str, n: int) -> dict:
                           10.0):
             raise RuntimeError('capacity_node publisher was not discovered')
         rig.static_inputs()
-        spin_until(ex, lambda: len(rig.node.estimator._inputs) >= 3, 5.0)
+        if rig.node is not None:
+            spin_until(ex, lambda: len(rig.node.estimator._inputs) >= 3, 5.0)
+        else:
+            # The child may match a publisher after its first message: repeat the static
+            # inputs until it answers `ok` (a bench of `stale` answers would time no solving).
+            for k in range(50):
+                rig.static_inputs()
+                rig.send(-1 - k)
+                if spin_until(ex, lambda: rig.status_last.startswith('ok'), 0.2):
+                    break
+            else:
+                raise RuntimeError(f'capacity_node process never answered ok '
+                                   f'(last status {rig.status_last!r})')
         # Lock-step: one input, wait for its output, next input.
         processing = []
         for k in range(n):
             key = rig.send(k)
             if not spin_until(ex, lambda k=key: k in rig.latency, 2.0):
                 raise RuntimeError(f'no output for input {k}')
-            processing.append(rig.node.processing_s)
-        node_lat = sorted(v * 1e3 for v in list(rig.node.latency_s)[-n:])
+            if rig.node is not None:
+                processing.append(rig.node.processing_s)
         rtt = sorted(v * 1e3 for v in rig.latency.values())
-        out['node_latency_ms_median'] = statistics.median(node_lat)
-        out['node_latency_ms_p99'] = percentile(node_lat, 0.99)
-        out['node_processing_ms_median'] = statistics.median(processing) * 1e3
+        if rig.node is not None:
+            node_lat = sorted(v * 1e3 for v in list(rig.node.latency_s)[-n:])
+            out['node_latency_ms_median'] = statistics.median(node_lat)
+            out['node_latency_ms_p99'] = percentile(node_lat, 0.99)
+            out['node_processing_ms_median'] = statistics.median(processing) * 1e3
+            out['status_last'] = str(rig.node.last_estimate.status)
+        else:   # seen from outside only: the round trip bounds the node's latency
+            out['status_last'] = rig.status_last.split(':')[0] or 'unknown'
+            out['capacity_last_N'] = rig.capacity_last
+            out['node_latency_ms_median'] = statistics.median(rtt)
+            out['node_latency_ms_p99'] = percentile(rtt, 0.99)
+            out['node_processing_ms_median'] = math.nan
         out['probe_roundtrip_ms_median'] = statistics.median(rtt)
         out['probe_roundtrip_ms_p99'] = percentile(rtt, 0.99)
-        out['status_last'] = str(rig.node.last_estimate.status)
         # Sustained rate: free-running inputs at a fixed rate; the probe spins in a thread.
         stop_probe = threading.Event()
         tp = spin_in_thread(ex, stop_probe, 0.01)
@@ -220,7 +268,8 @@ def run(map_file: str, n: int) -> dict:
             stop_probe.set()
             tp.join(2.0)
         out['node_sustained_rate_hz'] = best
-        stats = getattr(rig.node.estimator.predictor, 'stats', None)
+        stats = (getattr(rig.node.estimator.predictor, 'stats', None) if rig.node is not None
+                 else None)
         if stats is not None:
             out.update({f'solver_{k}': v for k, v in stats().items()})
     finally:
@@ -228,7 +277,15 @@ def run(map_file: str, n: int) -> dict:
         th.join(2.0)
         ex.shutdown()
         node_ex.shutdown()
-        rig.node.destroy_node()
+        if rig.node is not None:
+            rig.node.destroy_node()
+        if rig.proc is not None:   # terminate, timed wait, kill (a node can ignore SIGTERM)
+            rig.proc.terminate()
+            try:
+                rig.proc.wait(5.0)
+            except subprocess.TimeoutExpired:
+                rig.proc.kill()
+                rig.proc.wait()
         rig.probe.destroy_node()
         rclpy.try_shutdown(context=ctx)
     return out
@@ -252,6 +309,9 @@ def main(args=None) -> int:
                     'else a small map built for the bench)')
     ap.add_argument('--live', action='store_true',
                     help='live warm-started direct predictor (direct-warm), no map')
+    ap.add_argument('--separate-process', action='store_true',
+                    help='run capacity_node in its own process, as deployed (latency is then '
+                         'the probe round trip; no in-node timings or solver statistics)')
     ap.add_argument('--n', type=int, default=1000, help='lock-step messages (default 1000)')
     ap.add_argument('--json', action='store_true', help='print JSON')
     ns = ap.parse_args(args if args is not None else sys.argv[1:])
@@ -273,7 +333,7 @@ def main(args=None) -> int:
         else:
             map_file = str(small_map(Path(tmp)))
             note = f'{DEFAULT_MAP} not built: small map built for the bench'
-        res = run(map_file, ns.n)
+        res = run(map_file, ns.n, ns.separate_process)
     res['note'] = note
     if ns.json:
         print(json.dumps(res, indent=2, sort_keys=True))
@@ -286,7 +346,8 @@ def main(args=None) -> int:
     for name, (unit, budget) in units.items():
         line = f'{name:<27} {res[name]:>9.3f} {unit:<3}'
         print(line + (f'  budget {budget}' if budget else ''))
-    print(f'predictor: {res["predictor"]}' + (f' ({note})' if note else ''))
+    print(f'predictor: {res["predictor"]}' + (f' ({note})' if note else '')
+          + f'; last status {res.get("status_last", "?")}')
     for k in sorted(res):
         if k.startswith('rate_') or k.startswith('solver_'):
             print(f'  {k:<32} {res[k]:.3f}')
