@@ -37,7 +37,7 @@ import math
 import sys
 import threading
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -50,7 +50,7 @@ from ..scene import SceneResult
 from ..types import Status
 from .errors import MapFileError
 from .grid import DEFAULT_PHI_DEG, GridShape, check_axis, check_pulls
-from .hdf5 import STATUS_NAMES, ContentHash, empty_answers
+from .hdf5 import STATUS_NAMES, ContentHash, NodeAnswers, empty_answers
 from .interpolate import locate
 
 SCHEMA = 'rftgls.described_map'
@@ -129,15 +129,10 @@ def description_grid(desc, overrides: Mapping[str, np.ndarray] | None = None,
 
 
 @dataclass(eq=False)
-class DescribedMapData:
+class DescribedMapData(NodeAnswers):
+    """A described map's node answers (maps/hdf5.py NodeAnswers) over a DescribedGrid."""
+
     grid: DescribedGrid
-    capacity_N: np.ndarray
-    slip_twist_scaled: np.ndarray
-    slip_twist: np.ndarray
-    status: np.ndarray
-    reason: np.ndarray
-    reason_names: tuple[str, ...]
-    attrs: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

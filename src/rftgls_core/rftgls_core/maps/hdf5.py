@@ -64,6 +64,7 @@ import math
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import h5py
 import numpy as np
@@ -93,14 +94,15 @@ RETIRED_STATUS_NAMES = ('extrapolated',)
 
 
 @dataclass(eq=False)
-class MapData:
-    """Everything a map file holds, in memory. Arrays are shaped like `grid.shape` (+ (3,)).
+class NodeAnswers:
+    """The answers a map stores at its nodes, shared by robot maps (MapData) and described
+    maps (maps/described.py). Arrays are shaped like `grid.shape` (+ (3,) for the twists).
 
     status: uint8 codes into STATUS_NAMES. reason: uint8 codes into reason_names.
     attrs: the root attributes other than schema/schema_version (strings and numbers).
     """
 
-    grid: MapGrid
+    grid: Any
     capacity_N: np.ndarray
     slip_twist_scaled: np.ndarray
     slip_twist: np.ndarray
@@ -108,6 +110,14 @@ class MapData:
     reason: np.ndarray
     reason_names: tuple[str, ...]
     attrs: dict = field(default_factory=dict)
+
+
+@dataclass(eq=False)
+class MapData(NodeAnswers):
+    """Everything a robot map file holds, in memory: the node answers over a MapGrid (the four
+    state axes and phi), plus how its content was verified and its support margins."""
+
+    grid: MapGrid
     # How load_map established the content: 'shipped' (matches the hash recorded in the
     # package), 'verified' (matches its own content_sha256), 'unverified' (no hash stored),
     # '' (built in memory, not loaded).
