@@ -33,8 +33,12 @@ def _local(tag: str) -> str:
     return tag.rsplit('}', 1)[-1]
 
 
-def _children(elem: ET.Element, name: str) -> list[ET.Element]:
-    return [c for c in elem if _local(c.tag) == name]
+def _children(elem: ET.Element | None, name: str) -> list[ET.Element]:
+    return [] if elem is None else [c for c in elem if _local(c.tag) == name]
+
+
+def _text(elem: ET.Element | None) -> str:
+    return '' if elem is None or elem.text is None else elem.text.strip()
 
 
 def _child(elem: ET.Element | None, name: str) -> ET.Element | None:
@@ -51,8 +55,7 @@ def _addresses(locator_list: ET.Element | None) -> list[str]:
     out = []
     for loc in _children(locator_list, 'locator'):
         for kind in loc:
-            addr = _child(kind, 'address')
-            out.append('' if addr is None or addr.text is None else addr.text.strip())
+            out.append(_text(_child(kind, 'address')))
     return out
 
 
@@ -77,45 +80,34 @@ def profile_problems(path: str | Path) -> list[str]:
     if rtps is None:
         return ['default participant profile has no <rtps>']
     problems = []
-    builtin_transports = _child(rtps, 'useBuiltinTransports')
-    if builtin_transports is None or (builtin_transports.text or '').strip() != 'false':
+    if _text(_child(rtps, 'useBuiltinTransports')) != 'false':
         problems.append('built-in transports are not off')
-    descriptors = {}
-    for d in _children(_child(profiles, 'transport_descriptors') or ET.Element('x'),
-                       'transport_descriptor'):
-        tid = _child(d, 'transport_id')
-        descriptors[(tid.text or '').strip() if tid is not None else ''] = d
-    user = _child(rtps, 'userTransports')
-    ids = [(t.text or '').strip() for t in _children(user, 'transport_id')] if user is not None \
-        else []
+    descriptors = {_text(_child(d, 'transport_id')): d for d in
+                   _children(_child(profiles, 'transport_descriptors'), 'transport_descriptor')}
+    ids = [_text(t) for t in _children(_child(rtps, 'userTransports'), 'transport_id')]
     if not ids:
         problems.append('no user transports')
     for tid in ids:
         d = descriptors.get(tid)
-        kind = (_child(d, 'type').text or '').strip() if d is not None and \
-            _child(d, 'type') is not None else ''
+        kind = _text(_child(d, 'type'))
         if kind == 'SHM':
             continue
         if kind != 'UDPv4':
             problems.append(f'transport {tid!r} is {kind or "undefined"}, not UDPv4 or SHM')
             continue
-        white = _child(d, 'interfaceWhiteList')
-        addrs = [(a.text or '').strip() for a in _children(white, 'address')] \
-            if white is not None else []
-        if addrs != [LOOPBACK]:
+        if [_text(a) for a in _children(_child(d, 'interfaceWhiteList'), 'address')] \
+                != [LOOPBACK]:
             problems.append(f'transport {tid!r} is not whitelisted to {LOOPBACK} only')
     builtin = _child(rtps, 'builtin')
-    meta = _addresses(_child(builtin, 'metatrafficUnicastLocatorList'))
-    if not meta or any(a != LOOPBACK for a in meta):
-        problems.append(f'metatraffic unicast locators are not {LOOPBACK} only')
-    peers = _addresses(_child(builtin, 'initialPeersList'))
-    if not peers or any(a != LOOPBACK for a in peers):
-        problems.append(f'initial peers are not {LOOPBACK} only')
-    for name in ('metatrafficMulticastLocatorList',):
-        if _addresses(_child(builtin, name)):
+    for what, name in (('metatraffic unicast locators', 'metatrafficUnicastLocatorList'),
+                       ('initial peers', 'initialPeersList')):
+        addrs = _addresses(_child(builtin, name))
+        if not addrs or any(a != LOOPBACK for a in addrs):
+            problems.append(f'{what} are not {LOOPBACK} only')
+    for parent, name in ((builtin, 'metatrafficMulticastLocatorList'),
+                         (rtps, 'defaultMulticastLocatorList')):
+        if _addresses(_child(parent, name)):
             problems.append(f'{name} is not empty')
-    if _addresses(_child(rtps, 'defaultMulticastLocatorList')):
-        problems.append('defaultMulticastLocatorList is not empty')
     if any(a != LOOPBACK for a in _addresses(_child(rtps, 'defaultUnicastLocatorList'))):
         problems.append(f'default unicast locators are not {LOOPBACK} only')
     return problems
