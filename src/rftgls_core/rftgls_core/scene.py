@@ -119,12 +119,13 @@ def pull_plane_symmetry(scene: Scene, yaw: float, rtol: float = SYMMETRY_RTOL) -
                           f'symmetric about the pull plane (yaw {math.degrees(yaw):.3g} deg)')
 
 
-def mirror_plane_yaws(scene: Scene) -> list[float]:
-    """Yaws (rad, in [0, pi)) of the vertical planes through p about which the scene is
-    mirror-symmetric (checked by `pull_plane_symmetry`). Candidates: the principal axes of the
-    buried facets' horizontal area moment about p (a mirror plane's normal is one of them, as
-    the moment is invariant under the mirror) and the world x and y axes (when the moment is
-    isotropic, e.g. a cross of fins, its axes are arbitrary)."""
+def mirror_planes(scene: Scene) -> list[tuple[float, Symmetry]]:
+    """The vertical planes through p about which the scene is mirror-symmetric: (yaw in
+    [0, pi) of the plane with normal Rz(yaw) y, its passed `pull_plane_symmetry` check).
+    Candidates: the principal axes of the buried facets' horizontal area moment about p (a
+    mirror plane's normal is one of them, as the moment is invariant under the mirror) and the
+    world x and y axes (when the moment is isotropic, e.g. a cross of fins, its axes are
+    arbitrary)."""
     f = scene.buried()
     if len(f) == 0:
         return []
@@ -132,14 +133,20 @@ def mirror_plane_yaws(scene: Scene) -> list[float]:
     mom = (rel * f.areas[:, None]).T @ rel
     _, vec = np.linalg.eigh(mom)
     cands = [math.atan2(-float(v[0]), float(v[1])) for v in vec.T] + [0.0, math.pi / 2]
-    out: list[float] = []
+    out: list[tuple[float, Symmetry]] = []
     for c in cands:
         c = c % math.pi     # the plane with normal Rz(c) y
-        if any(abs(math.remainder(c - o, math.pi)) < 1e-9 for o in out):
+        if any(abs(math.remainder(c - o, math.pi)) < 1e-9 for o, _ in out):
             continue
-        if pull_plane_symmetry(scene, c).symmetric:
-            out.append(c)
+        sym = pull_plane_symmetry(scene, c)
+        if sym.symmetric:
+            out.append((c, sym))
     return out
+
+
+def mirror_plane_yaws(scene: Scene) -> list[float]:
+    """The yaws (rad, in [0, pi)) of `mirror_planes`."""
+    return [yaw for yaw, _ in mirror_planes(scene)]
 
 
 @dataclass(frozen=True)
@@ -240,11 +247,11 @@ class SceneModel:
         see the others' (a flat plate pulled up slides along its long side, out of the plane of
         its short side). The first exit is the least of them (in place, for the indices
         `vertical`)."""
-        for plane in mirror_plane_yaws(scene):
+        for plane, plane_sym in mirror_planes(scene):
             if abs(math.remainder(plane - yaw, math.pi)) < 1e-9:
                 continue
             other = self._predict_sagittal(scene, [phis[k] for k in vertical], plane,
-                                           pull_plane_symmetry(scene, plane))
+                                           plane_sym)
             for k, res in zip(vertical, other):
                 cur = out[k]
                 if res.capacity_N is not None and (cur.capacity_N is None
