@@ -261,6 +261,7 @@ def predictor_from_params(map_file: str, live_method: str = 'direct',
     for); '' = the `robot` preset; anchor_state_variables: which estimate feeds which of its
     variables (parse_state_variables). Raises ConfigError."""
     desc = anchor_description_file.strip()
+    live_robot = robot or 'minirquad'     # None only frees a map's robot check
     state_map = parse_state_variables(anchor_state_variables)
     if state_map is not None and not desc:
         raise ConfigError('anchor_state_variables needs anchor_description_file')
@@ -270,13 +271,11 @@ def predictor_from_params(map_file: str, live_method: str = 'direct',
             sha = _description(desc).sha256 if desc else None
             cmap = MapPredictor(map_file.strip(), robot, medium, pull, description_sha256=sha)
         if out_of_range_live_method.strip():
-            return LiveFallback(cmap, _live(robot or 'minirquad', medium,
-                                            out_of_range_live_method.strip(),
+            return LiveFallback(cmap, _live(live_robot, medium, out_of_range_live_method.strip(),
                                             n_twists, 'out_of_range_live_method', desc,
                                             state_map))
         return cmap
-    return _live(robot or 'minirquad', medium, live_method, n_twists, 'live_method', desc,
-                 state_map)
+    return _live(live_robot, medium, live_method, n_twists, 'live_method', desc, state_map)
 
 
 def _live(robot: str, medium: str, live_method: str, n_twists: int,
