@@ -102,7 +102,6 @@ class Rig:
         self.last_ns = 0
         self.sent: dict[int, float] = {}    # stamp ns -> perf_counter at publish
         self.latency: dict[int, float] = {}  # stamp ns -> s
-        self.statuses: set[str] = set()
         self.probe.create_subscription(WrenchStamped, '/capacity_node/capacity', self.on_out,
                                        1000)
         from std_msgs.msg import String
