@@ -74,7 +74,7 @@ class Rig:
                  separate_process: bool = False):
         from geometry_msgs.msg import WrenchStamped
         from sensor_msgs.msg import Imu, JointState
-        from std_msgs.msg import Float64
+        from std_msgs.msg import Float64, String
         # phi on its topic: a measured phi, so the node runs its `ok` path (an assumed phi
         # would add the assumed-range lower bound to every new state)
         params = {'map_file': map_file, 'live_method': 'direct-warm', 'phi_rad': PHI,
@@ -104,7 +104,6 @@ class Rig:
         self.latency: dict[int, float] = {}  # stamp ns -> s
         self.probe.create_subscription(WrenchStamped, '/capacity_node/capacity', self.on_out,
                                        1000)
-        from std_msgs.msg import String
         self.status_last = ''
         self.capacity_last = math.nan
         self.probe.create_subscription(
