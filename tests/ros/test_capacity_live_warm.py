@@ -70,3 +70,58 @@ def test_node_live_mode_answers_with_the_warm_solver_and_reports_it(ros_context)
         ex.shutdown()
         node.destroy_node()
         probe.node.destroy_node()
+
+
+@pytest.mark.parametrize('depth', [50, 5])
+def test_a_burst_of_joint_states_is_answered_in_full_up_to_the_queue_depth(ros_context, depth):
+    """40 joint_states published back to back while the node is not spinning (as when it is
+    busy): with the default queue (50) every one gets its own answer, in order; with sensor
+    data's usual 5 most are lost. The control shows the queue, not luck, keeps them."""
+    from _capacity_common import PHI, Probe
+    from geometry_msgs.msg import WrenchStamped
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+
+    from rftgls_ros.capacity_node import CapacityNode
+    assert PARAMETERS['input_queue_depth'].default == 50
+    params = {'map_file': '', 'phi_rad': PHI, 'phi_topic': '/winch/phi',
+              'trigger_inputs': ['joint_states'], 'input_queue_depth': depth,
+              **{f'{n}_timeout_s': 5.0 for n in ('joint_states', 'pitch', 'tension', 'height',
+                                                 'phi')}}
+    node = CapacityNode(context=ros_context, parameter_overrides=[
+        Parameter(k, value=v) for k, v in params.items()])
+    ex = SingleThreadedExecutor(context=ros_context)
+    probe = Probe(ros_context, ex, expect_phi=True, expect_height=True)
+    answers: list = []
+    probe.node.create_subscription(WrenchStamped, '/capacity_node/capacity',
+                                   answers.append, 500)
+    ex.add_node(node)
+    ex.add_node(probe.node)
+    try:
+        probe.wait_matched()
+        probe.state(DH, (0.0, 0.0))
+        probe.tension(1.0)
+        est = node.estimator
+        assert probe.spin_until(lambda: len(est._joints) == 4 and 'pitch' in est._inputs
+                                and 'phi' in est._inputs and 'height' in est._inputs
+                                and 'tension' in est._inputs)
+        probe.spin_until(lambda: False, 0.3)   # the state's own answers are in
+        answers.clear()
+        # small steps of theta_L1 (sensor noise), so every answer is a real solve
+        sent = [probe.joints(DH.theta_l1 + 1e-4 * (k % 7), DH.theta_l2).header.stamp
+                for k in range(40)]
+        probe.spin_until(lambda: len(answers) >= len(sent), 10.0)
+        probe.spin_until(lambda: False, 0.3)   # and nothing more arrives
+        # (heartbeat outputs carry the node's clock, not an input's stamp)
+        mine = [m for m in answers if m.header.stamp in sent]
+        got = [m.header.stamp for m in mine]
+        if depth >= len(sent):
+            assert got == sent
+            assert all(math.isfinite(m.wrench.force.x) for m in mine)
+        else:
+            assert len(got) <= depth + 1 < len(sent)
+            assert got == sent[-len(got):]   # keep last: the newest survive
+    finally:
+        ex.shutdown()
+        node.destroy_node()
+        probe.node.destroy_node()

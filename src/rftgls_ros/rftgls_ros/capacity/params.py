@@ -96,6 +96,9 @@ PARAMETERS: dict[str, Param] = {
                                       ' s', 0.0, 60.0),
     'publish_rate_hz': Param(20.0, 'minimum output rate (heartbeat), Hz', 0.0, 1000.0),
     'trigger_inputs': Param(['tension'], 'inputs whose every message produces an output'),
+    'input_queue_depth': Param(50, 'messages each input subscription keeps while the node is '
+                               'busy (best effort, keep last): a burst up to this long is '
+                               'answered in full, a longer one loses its oldest', 1, 10000),
     'diagnostics_period_s': Param(1.0, 'period of unchanged /diagnostics, s', 0.0, 3600.0),
     'frame_id': Param('anchor', 'frame of the outputs (world-aligned axes at p)'),
 }
