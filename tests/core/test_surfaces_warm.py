@@ -176,10 +176,13 @@ def test_scalar_kernels_agree_with_the_numpy_versions():
     assert median == pytest.approx(float(np.median(np.linalg.norm(v - w0, axis=1))))
     for d in unit_rows_of(rng.normal(size=(20, 3))):
         s_ref, f_ref = W._ray_hits(v[tri], d)
-        n, s, f = W._ray_hits_loop(v, tri, d)
+        n, s, f, u, w = W._ray_hits_loop(v, tri, d)
         assert n == len(s_ref)
         if n:
             assert s == pytest.approx(s_ref[0], rel=1e-12) and f == f_ref[0]
+            # (u, v): the crossing point on the face, v0 + u (v1 - v0) + w (v2 - v0)
+            a, b, c = v[tri[f]]
+            assert np.allclose(a + u * (b - a) + w * (c - a), s * d, atol=1e-12)
 
 
 def test_scaled_evaluator_is_the_problems_scaled_map_bitwise():
@@ -198,6 +201,25 @@ def test_scaled_evaluator_is_the_problems_scaled_map_bitwise():
     assert np.array_equal(ev(ts), ref)
     for k in range(5):
         assert np.array_equal(ev(ts[k:k + 1]), ref[k:k + 1])
+
+
+def test_warm_patch_twists_are_the_closure_checks_patches():
+    # The warm step builds the local closure check's 243 patch twists in a small kernel; they
+    # must be closure.local_patches' twists (the cold check's own), to rounding, for twists
+    # whose tangent basis takes each of the three helper axes (and a tie).
+    from rftgls_core.surfaces import closure
+    from rftgls_core.surfaces import warm as W
+    if W.numba is None:
+        pytest.skip('numba not installed: the warm step calls local_patches itself')
+    rng = np.random.default_rng(4)
+    twists = [*rng.normal(size=(20, 3)), (1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (1.0, 1.0, 0.0),
+              (0.3, 0.3, 0.3)]
+    for t in twists:
+        t = np.asarray(t, dtype=float) / np.linalg.norm(t)
+        ref = closure.local_patches(t)
+        got = W._patch_twists(t, closure._CU, closure._CV)
+        assert got.shape == ref.shape == (243, 3)
+        assert np.abs(got - ref).max() < 1e-14
 
 
 def unit_rows_of(x):

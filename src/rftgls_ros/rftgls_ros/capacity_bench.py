@@ -1,14 +1,16 @@
-"""capacity_bench: input message -> published prediction latency of capacity_node, in process.
+"""capacity_bench: input message -> published prediction latency of capacity_node.
 
-    ros2 run rftgls_ros capacity_bench [--map PATH | --live] [--separate-process] [--n 2000]
+    ros2 run rftgls_ros capacity_bench [--map PATH | --live] [--in-process] [--n 1000]
                                        [--json]
 
-One process, real rclpy and DDS on loopback (the ROS_DOMAIN_ID of the environment); with
---separate-process capacity_node runs as its own process, as deployed, so it does not share
-the interpreter lock with the probe and the sender (then the latency figures are the probe's
-round trip, two DDS hops, and there are no in-node timings or solver figures; status_last
-says the node answered `ok`, i.e. really solved). The node
-is triggered by /joint_states in this benchmark and every message carries a slightly
+Real rclpy and DDS on loopback (the ROS_DOMAIN_ID of the environment). capacity_node runs as
+its own process, as deployed (`python -m rftgls_ros.capacity_node`, own interpreter and GIL),
+next to a probe process that publishes the inputs and receives the outputs. With --in-process
+the node spins in a thread of the probe's process instead: in-node timings straight from the
+node object, but the node then shares the interpreter lock with the probe and the sender, so
+its throughput is the three together's (a bench artefact a deployed node does not have).
+
+The node is triggered by /joint_states in this benchmark and every message carries a slightly
 different leg angle, so each output pays a real predictor query (no cache hit). With a map
 the leg angle wiggles by 2 deg around DH; with --live (map_file '', live_method direct-warm,
 the warm-started direct of docs/design/warm-direct.md) the legs follow the stream of
@@ -17,15 +19,18 @@ the warm-started direct of docs/design/warm-direct.md) the legs follow the strea
 Figures:
   node_latency_ms_median, node_latency_ms_p99: lock-step (publish one input, wait for its
       output), from the input message's DDS source timestamp to the moment the node has
-      published all outputs for it (measured by the node: DDS hop in, executor wake-up,
-      parsing, estimate, five publishes). The node spins its own executor in its own thread.
+      published all outputs for it, measured by the node itself (DDS hop in, executor
+      wake-up, parsing, estimate, five publishes); read from its /diagnostics when it runs in
+      its own process.
   node_processing_ms_median: the node's callback alone (parse, estimate, publish).
   probe_roundtrip_ms_median/_p99: input published -> output received by the probe (both DDS
       hops plus the probe's executor), for comparison.
-  node_sustained_rate_hz: the highest tried input rate (100 .. 1000 Hz, free running, node
-      and probe in their own threads) at which >= 99 % of the inputs produced an output
-      (rate_<R>hz_delivered: the fraction answered at each rate).
-  solver_*: with --live, the warm solver's own time per call and its fallback rate.
+  node_sustained_rate_hz: the highest tried input rate (100 .. 1000 Hz, free running for 1 s)
+      at which every input was answered (rate_<R>hz_delivered: the fraction answered at each
+      rate, waiting for a backlog to drain; rate_<R>hz_roundtrip_ms_median: how late).
+  solver_*: with --live, the warm solver's own time per call and its fallback rate (over the
+      node's last 1000 calls, so mostly the free-running phase).
+  status_last: the node's status at the end (`ok`: it really solved).
 """
 from __future__ import annotations
 
@@ -56,6 +61,8 @@ from .capacity_node import CapacityNode
 DH = (0.034, math.radians(5.0), math.radians(-40.0), math.radians(30.0))
 PHI = math.radians(-20.0)
 RATES_HZ = (100, 200, 500, 1000)
+# The drain after a free-running second: until every output is in, or none for DRAIN_IDLE_S.
+DRAIN_IDLE_S, DRAIN_MAX_S = 0.5, 5.0
 
 
 def small_map(directory: Path) -> Path:
@@ -72,6 +79,7 @@ class Rig:
 
     def __init__(self, context, map_file: str, live: bool = False,
                  separate_process: bool = False):
+        from diagnostic_msgs.msg import DiagnosticArray
         from geometry_msgs.msg import WrenchStamped
         from sensor_msgs.msg import Imu, JointState
         from std_msgs.msg import Float64, String
@@ -80,6 +88,7 @@ class Rig:
         params = {'map_file': map_file, 'live_method': 'direct-warm', 'phi_rad': PHI,
                   'phi_topic': '/winch/phi',
                   'trigger_inputs': ['joint_states'], 'publish_rate_hz': 1.0,
+                  'diagnostics_period_s': 0.2,
                   **{f'{n}_timeout_s': 30.0 for n in ('joint_states', 'pitch', 'tension',
                                                       'height', 'phi')}}
         self.proc: subprocess.Popen | None = None
@@ -109,6 +118,9 @@ class Rig:
         self.probe.create_subscription(
             String, '/capacity_node/status', lambda m: setattr(self, 'status_last', m.data),
             QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        self.diag: dict[str, str] = {}   # the node's last /diagnostics values
+        self.diag_time = -math.inf
+        self.probe.create_subscription(DiagnosticArray, '/diagnostics', self.on_diag, 10)
         self.msg = JointState(name=list(LEG_JOINT_NAMES))
         self.Float64 = Float64
         self.stream = None
@@ -118,10 +130,24 @@ class Rig:
 
     def on_out(self, msg) -> None:
         t = time.perf_counter()
-        self.capacity_last = msg.wrench.force.x
+        # the scalar capacity: the published vector C d(phi) along d(phi) = (-cos phi, sin phi)
+        f = msg.wrench.force
+        self.capacity_last = -f.x * math.cos(PHI) + f.z * math.sin(PHI)
         key = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
         if key in self.sent:
             self.latency[key] = t - self.sent[key]
+
+    def on_diag(self, msg) -> None:
+        for st in msg.status:
+            if st.name.startswith('capacity_node'):
+                self.diag = {kv.key: kv.value for kv in st.values}
+                self.diag_time = time.monotonic()
+
+    def fresh_diag(self, executor, after: float, timeout: float = 3.0) -> dict[str, str]:
+        """The node's diagnostics values from a message received after `after` (monotonic)."""
+        if not spin_until(executor, lambda: self.diag_time > after, timeout):
+            raise RuntimeError('capacity_node published no /diagnostics')
+        return dict(self.diag)
 
     def static_inputs(self) -> None:
         from geometry_msgs.msg import WrenchStamped
@@ -172,13 +198,13 @@ def spin_in_thread(executor, stop: threading.Event, period_s: float) -> threadin
     return th
 
 
-def run(map_file: str, n: int, separate_process: bool = False) -> dict:
+def run(map_file: str, n: int, in_process: bool = False) -> dict:
     ctx = rclpy.Context()
     with during_init():
         rclpy.init(context=ctx, domain_id=int(os.environ.get('ROS_DOMAIN_ID', '0')))
-    rig = Rig(ctx, map_file, live=not map_file, separate_process=separate_process)
+    rig = Rig(ctx, map_file, live=not map_file, separate_process=not in_process)
     # In process, the node spins in its own thread with its own executor; the probe spins in
-    # this thread. With separate_process the node is a child process (its own interpreter).
+    # this thread. Otherwise the node is a child process (its own interpreter).
     node_ex = SingleThreadedExecutor(context=ctx)
     stop = threading.Event()
     if rig.node is not None:
@@ -186,10 +212,10 @@ def run(map_file: str, n: int, separate_process: bool = False) -> dict:
     th = spin_in_thread(node_ex, stop, 0.05)
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(rig.probe)
+    where = 'in process' if in_process else 'own process'
     out: dict = {'predictor': (rig.node.estimator.predictor.name if rig.node is not None
-                               else 'capacity_node process (' + ('live direct-warm'
-                                                                 if not map_file
-                                                                 else map_file) + ')')}
+                               else 'live:direct-warm' if not map_file else map_file)
+                 + f' ({where})'}
     try:
         pubs = (rig.pub_joints, rig.pub_imu, rig.pub_tension, rig.pub_height, rig.pub_phi)
         if not spin_until(ex, lambda: all(p.get_subscription_count() for p in pubs), 10.0):
@@ -197,21 +223,18 @@ def run(map_file: str, n: int, separate_process: bool = False) -> dict:
         if not spin_until(ex, lambda: rig.probe.count_publishers('/capacity_node/capacity'),
                           10.0):
             raise RuntimeError('capacity_node publisher was not discovered')
-        rig.static_inputs()
-        if rig.node is not None:
-            spin_until(ex, lambda: len(rig.node.estimator._inputs) >= 3, 5.0)
+        # The node may match a publisher after its first message: repeat the static inputs
+        # until it answers `ok` (a bench of `stale` answers would time no solving).
+        for k in range(50):
+            rig.static_inputs()
+            rig.send(-1 - k)
+            if spin_until(ex, lambda: rig.status_last.startswith('ok'), 0.2):
+                break
         else:
-            # The child may match a publisher after its first message: repeat the static
-            # inputs until it answers `ok` (a bench of `stale` answers would time no solving).
-            for k in range(50):
-                rig.static_inputs()
-                rig.send(-1 - k)
-                if spin_until(ex, lambda: rig.status_last.startswith('ok'), 0.2):
-                    break
-            else:
-                raise RuntimeError(f'capacity_node process never answered ok '
-                                   f'(last status {rig.status_last!r})')
+            raise RuntimeError(f'capacity_node never answered ok '
+                               f'(last status {rig.status_last!r})')
         # Lock-step: one input, wait for its output, next input.
+        rig.latency.clear()
         processing = []
         for k in range(n):
             key = rig.send(k)
@@ -225,51 +248,24 @@ def run(map_file: str, n: int, separate_process: bool = False) -> dict:
             out['node_latency_ms_median'] = statistics.median(node_lat)
             out['node_latency_ms_p99'] = percentile(node_lat, 0.99)
             out['node_processing_ms_median'] = statistics.median(processing) * 1e3
-            out['status_last'] = str(rig.node.last_estimate.status)
-        else:   # seen from outside only: the round trip bounds the node's latency
-            out['status_last'] = rig.status_last.split(':')[0] or 'unknown'
-            out['capacity_last_N'] = rig.capacity_last
-            out['node_latency_ms_median'] = statistics.median(rtt)
-            out['node_latency_ms_p99'] = percentile(rtt, 0.99)
-            out['node_processing_ms_median'] = math.nan
+        else:   # the node's own figures over its last 1000 outputs: the lock-step's
+            diag = rig.fresh_diag(ex, time.monotonic())
+            out['node_latency_ms_median'] = float(diag['input_to_output_ms_median'])
+            out['node_latency_ms_p99'] = float(diag['input_to_output_ms_p99'])
+            out['node_processing_ms_median'] = float(diag['processing_ms_median'])
         out['probe_roundtrip_ms_median'] = statistics.median(rtt)
         out['probe_roundtrip_ms_p99'] = percentile(rtt, 0.99)
-        # Sustained rate: free-running inputs at a fixed rate; the probe spins in a thread.
-        stop_probe = threading.Event()
-        tp = spin_in_thread(ex, stop_probe, 0.01)
-        best = 0
-        k0 = n + 10
-        try:
-            for rate in RATES_HZ:
-                rig.latency.clear()
-                rig.sent.clear()
-                count = max(100, int(rate * 1.0))
-                t0 = time.perf_counter()
-                keys = []
-                for i in range(count):
-                    target = t0 + i / rate
-                    while time.perf_counter() < target:
-                        time.sleep(min(0.0005, max(0.0, target - time.perf_counter())))
-                    keys.append(rig.send(k0 + i))
-                k0 += count + 10
-                time.sleep(0.3)
-                got = sum(1 for key in keys if key in rig.latency)
-                lags = sorted(rig.latency[key] * 1e3 for key in keys if key in rig.latency)
-                out[f'rate_{rate}hz_delivered'] = got / count
-                out[f'rate_{rate}hz_roundtrip_ms_median'] = (statistics.median(lags) if lags
-                                                             else math.nan)
-                if got >= 0.99 * count:
-                    best = rate
-                else:
-                    break
-        finally:
-            stop_probe.set()
-            tp.join(2.0)
-        out['node_sustained_rate_hz'] = best
-        stats = (getattr(rig.node.estimator.predictor, 'stats', None) if rig.node is not None
-                 else None)
-        if stats is not None:
-            out.update({f'solver_{k}': v for k, v in stats().items()})
+        out.update(sustained(rig, ex, k0=n + 10))
+        out['status_last'] = rig.status_last.split(':')[0] or 'unknown'
+        out['capacity_last_N'] = rig.capacity_last
+        if rig.node is not None:
+            stats = getattr(rig.node.estimator.predictor, 'stats', None)
+            solver = stats() if stats is not None else {}
+        else:
+            diag = rig.fresh_diag(ex, time.monotonic())
+            solver = {k[len('solver_'):]: float(v) for k, v in diag.items()
+                      if k.startswith('solver_')}
+        out.update({f'solver_{k}': v for k, v in solver.items()})
     finally:
         stop.set()
         th.join(2.0)
@@ -286,6 +282,52 @@ def run(map_file: str, n: int, separate_process: bool = False) -> dict:
                 rig.proc.wait()
         rig.probe.destroy_node()
         rclpy.try_shutdown(context=ctx)
+    return out
+
+
+def sustained(rig: Rig, ex, k0: int) -> dict:
+    """Free-running inputs at each rate of RATES_HZ for 1 s (the probe spins in a thread);
+    an input counts as answered when its output arrives at all, however late: the drain
+    wait ends when every one is in or none came for DRAIN_IDLE_S. Stops at the first rate
+    with an unanswered input."""
+    out: dict = {}
+    stop_probe = threading.Event()
+    tp = spin_in_thread(ex, stop_probe, 0.01)
+    best = 0
+    try:
+        for rate in RATES_HZ:
+            rig.latency.clear()
+            rig.sent.clear()
+            count = max(100, int(rate * 1.0))
+            t0 = time.perf_counter()
+            keys = []
+            for i in range(count):
+                target = t0 + i / rate
+                while time.perf_counter() < target:
+                    time.sleep(min(0.0005, max(0.0, target - time.perf_counter())))
+                keys.append(rig.send(k0 + i))
+            k0 += count + 10
+            got, last_change, end = -1, time.monotonic(), time.monotonic() + DRAIN_MAX_S
+            while time.monotonic() < end:
+                now_got = sum(1 for key in keys if key in rig.latency)
+                if now_got == count:
+                    break
+                if now_got != got:
+                    got, last_change = now_got, time.monotonic()
+                elif time.monotonic() - last_change > DRAIN_IDLE_S:
+                    break
+                time.sleep(0.02)
+            lags = sorted(rig.latency[key] * 1e3 for key in keys if key in rig.latency)
+            out[f'rate_{rate}hz_delivered'] = len(lags) / count
+            out[f'rate_{rate}hz_roundtrip_ms_median'] = (statistics.median(lags) if lags
+                                                         else math.nan)
+            if len(lags) < count:
+                break
+            best = rate
+    finally:
+        stop_probe.set()
+        tp.join(2.0)
+    out['node_sustained_rate_hz'] = best
     return out
 
 
@@ -307,9 +349,10 @@ def main(args=None) -> int:
                     'else a small map built for the bench)')
     ap.add_argument('--live', action='store_true',
                     help='live warm-started direct predictor (direct-warm), no map')
-    ap.add_argument('--separate-process', action='store_true',
-                    help='run capacity_node in its own process, as deployed (latency is then '
-                         'the probe round trip; no in-node timings or solver statistics)')
+    ap.add_argument('--in-process', action='store_true',
+                    help='run capacity_node in a thread of the bench process instead of its own '
+                         'process (in-node timings from the node object; the node shares the '
+                         'interpreter lock with the probe and the sender)')
     ap.add_argument('--n', type=int, default=1000, help='lock-step messages (default 1000)')
     ap.add_argument('--json', action='store_true', help='print JSON')
     ns = ap.parse_args(args if args is not None else sys.argv[1:])
@@ -323,7 +366,7 @@ def main(args=None) -> int:
     note = ''
     with tempfile.TemporaryDirectory() as tmp:
         if ns.live:
-            map_file, note = '', 'live direct-warm predictor (no map)'
+            map_file = ''
         elif ns.map:
             map_file = ns.map
         elif _default_map_installed():
@@ -331,7 +374,7 @@ def main(args=None) -> int:
         else:
             map_file = str(small_map(Path(tmp)))
             note = f'{DEFAULT_MAP} not built: small map built for the bench'
-        res = run(map_file, ns.n, ns.separate_process)
+        res = run(map_file, ns.n, ns.in_process)
     res['note'] = note
     if ns.json:
         print(json.dumps(res, indent=2, sort_keys=True))
@@ -340,7 +383,7 @@ def main(args=None) -> int:
              'node_latency_ms_p99': ('ms', ''), 'node_processing_ms_median': ('ms', ''),
              'probe_roundtrip_ms_median': ('ms', ''), 'probe_roundtrip_ms_p99': ('ms', ''),
              'node_sustained_rate_hz': ('Hz', '>= 500 Hz, none dropped' if ns.live
-                                        else '>= 100 Hz')}
+                                        else '>= 100 Hz, none dropped')}
     for name, (unit, budget) in units.items():
         line = f'{name:<27} {res[name]:>9.3f} {unit:<3}'
         print(line + (f'  budget {budget}' if budget else ''))

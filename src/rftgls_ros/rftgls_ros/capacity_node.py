@@ -14,7 +14,6 @@ stamps are in the past. Inputs, checks and statuses: docs/design/capacity-inputs
 from __future__ import annotations
 
 import math
-import statistics
 import sys
 import time
 from collections import deque
@@ -108,7 +107,10 @@ class CapacityNode(Node):
         self.last_diag_key: tuple | None = None
         self.last_diag_time = -math.inf
         self.processing_s = 0.0
-        self.latency_s: deque[float] = deque(maxlen=1000)  # for diagnostics and the bench
+        # the last 1000 outputs' figures, for /diagnostics (and the bench, which reads them
+        # there when the node runs in its own process)
+        self.latency_s: deque[float] = deque(maxlen=1000)
+        self.processing_window_s: deque[float] = deque(maxlen=1000)
         # The timer also keeps the executor waking up, so Ctrl-C / SIGTERM are seen promptly.
         self.create_timer(self.period_s, self.on_timer)
         self.get_logger().info(
@@ -260,6 +262,7 @@ class CapacityNode(Node):
         self.last_estimate = est
         self.last_publish = time.monotonic()
         self.processing_s = time.perf_counter() - t0
+        self.processing_window_s.append(self.processing_s)
         self._maybe_diagnostics(est)
         return est
 
@@ -277,8 +280,9 @@ class CapacityNode(Node):
         d = self.estimator.diagnostic(est, f'{self.get_name()}: anchor capacity', {
             'freshness_source': self.params['freshness_source'],
             'processing_ms': f'{self.processing_s * 1e3:.3f}',
-            'input_to_output_ms_median': (f'{statistics.median(self.latency_s) * 1e3:.3f}'
-                                          if self.latency_s else 'nan'),
+            'processing_ms_median': _ms(self.processing_window_s, 0.5),
+            'input_to_output_ms_median': _ms(self.latency_s, 0.5),
+            'input_to_output_ms_p99': _ms(self.latency_s, 0.99),
         })
         stats = getattr(self.estimator.predictor, 'stats', None)   # live direct-warm solver
         values = dict(d.values)
@@ -290,6 +294,14 @@ class CapacityNode(Node):
         arr = DiagnosticArray(status=[status])
         arr.header.stamp = self.get_clock().now().to_msg()
         return arr
+
+
+def _ms(window_s, q: float) -> str:
+    """The q-quantile (nearest rank) of a window of durations in s, as ms text ('nan' empty)."""
+    if not window_s:
+        return 'nan'
+    v = sorted(window_s)
+    return f'{v[min(len(v) - 1, max(0, math.ceil(q * len(v)) - 1))] * 1e3:.3f}'
 
 
 def main(args=None) -> int:

@@ -87,7 +87,8 @@ class _PreparedAgarwal:
         # terms T_k = x1^a x2^b x3^c with (a, c) = m of c_jk x2^b, in basis order. Per pose
         # this runs twice (full and mirrored half body), so it is vectorised: the powers
         # once, the 20 products in one call, the sums in four rounds (bitwise the loop over
-        # k it replaces, which cost ~100 us of the ~350 us of a MiniRQuad pose).
+        # k it replaces, which cost ~100 us of the ~350 us of a MiniRQuad pose). Every
+        # constant is per facet, so preparing a subset gives that subset's rows bitwise.
         powers = np.empty((4, len(n)))
         powers[0], powers[1], powers[2], powers[3] = 1.0, x2, x2 ** 2, x2 ** 3
         terms = _COEFFICIENTS_T * powers[_X2_POWER][:, None, :]     # (20, 3, F)
@@ -97,15 +98,6 @@ class _PreparedAgarwal:
         self._poly = poly.transpose(1, 0, 2)                          # (3, 10, F) view
         self._xi = model.xi_n
         self._mu = model.mu_surf
-
-    def subset(self, keep: np.ndarray) -> _PreparedAgarwal:
-        """The same model bound to the facets `keep` (mask or indices) of these: per-facet
-        constants are per-facet, so this equals prepare(normals[keep]) bitwise, for the
-        price of an index."""
-        out = object.__new__(_PreparedAgarwal)
-        out._n, out._nd, out._poly = self._n[keep], self._nd[keep], self._poly[:, :, keep]
-        out._xi, out._mu = self._xi, self._mu
-        return out
 
     def fused_arrays(self) -> dict:
         """Per-facet constants in the layout of the fused kernels (rft/kernels.py)."""

@@ -55,35 +55,43 @@ class BuriedBody:
         self.precision = precision
         self.ref = np.asarray(ref, dtype=float).reshape(3)
         self.facets_total = len(facets)
+        self._surface_z = surface_z
         buried = facets.centroids[:, 2] < surface_z
-        under = facets.subset(buried)
-        self._full = self._bind(under, surface_z, np.ones(int(buried.sum())))
+        self._under = facets.subset(buried)
+        self._n_buried = int(buried.sum())
+        self._full_bound: dict | None = None
         self._half = None
         if mirror_y is not None:
+            under = self._under
             y = under.centroids[:, 1] - mirror_y
             tol = 1e-9 * max(1.0, float(np.abs(facets.centroids).max(initial=0.0)))
             keep = y > -tol
             weight = np.where(y > tol, 2.0, 1.0)[keep]
-            # The half's per-facet constants are the full body's, indexed (a model that can
-            # subset its prepared form saves preparing the same facets twice per pose).
-            stress = self._full['stress']
-            self._half = self._bind(under.subset(keep), surface_z, weight,
-                                    stress.subset(keep) if hasattr(stress, 'subset') else None)
-        if precision != 'float64' and self._full['fused'] is None and self.facets_active:
+            # Planar twists (the sagittal solvers, every warm step) only ever need this half,
+            # so it is prepared on its own and the full body waits until a spatial or
+            # non-symmetric call asks for it (prepare is per facet: the same constants).
+            self._half = self._bind(under.subset(keep), surface_z, weight)
+        if precision != 'float64' and self.facets_active and not self.fused:
             raise ValueError(f'precision {precision} needs the fused numba kernel '
                              f'(backend {backend!r}, model {getattr(model, "name", model)!r})')
 
     @property
+    def _full(self) -> dict:
+        """The whole buried body bound (on first use)."""
+        if self._full_bound is None:
+            self._full_bound = self._bind(self._under, self._surface_z,
+                                          np.ones(self._n_buried))
+        return self._full_bound
+
+    @property
     def facets_active(self) -> int:
         """Buried facets (the ones that can carry force)."""
-        return int(self._full['w'].shape[0])
+        return self._n_buried
 
-    def _bind(self, f: Facets, surface_z: float, multiplicity: np.ndarray,
-              stress=None) -> dict:
+    def _bind(self, f: Facets, surface_z: float, multiplicity: np.ndarray) -> dict:
         r = f.centroids - self.ref
         w = f.areas * (surface_z - f.centroids[:, 2]) * multiplicity  # area x depth, m^3
-        if stress is None:
-            stress = self.model.prepare(f.normals)
+        stress = self.model.prepare(f.normals)
         fused = None
         if self.backend != 'numpy' and kernels.AVAILABLE and hasattr(stress, 'fused_arrays'):
             fused = _kernel_arrays(stress.fused_arrays(), r, w, _PRECISIONS[self.precision])
@@ -93,7 +101,8 @@ class BuriedBody:
     @property
     def fused(self) -> bool:
         """True when evaluation runs in the fused numba kernel."""
-        return self._full['fused'] is not None
+        b = self._half if self._half is not None else self._full
+        return b['fused'] is not None
 
     def wrench(self, twists: np.ndarray) -> np.ndarray:
         """Spatial wrenches (M, 6) about ref for spatial twists (M, 6) or (6,)."""

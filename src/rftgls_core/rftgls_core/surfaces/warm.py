@@ -47,7 +47,7 @@ import numpy as np
 
 from ..types import Status
 from .base import CapacityResult, GLSProblem
-from .closure import _FACES_LOCAL_ALL, LOCAL_RTOL, earlier_exit, local_patches
+from .closure import _CU, _CV, _FACES_LOCAL_ALL, LOCAL_RTOL, earlier_exit, local_patches
 from .direct import DirectSurface
 from .newton import unit_rows
 from .scaling import DiagonalScaling
@@ -382,7 +382,7 @@ class WarmDirect:
         # The cold solve's view around the exit: one crossing of the coarse patch (below: no
         # thin fold in front of the root where its chord is far, no jump triangle longer than
         # the anchor's in front of the root).
-        n_c, s_c, f_c = _ray_hits_loop(wg, a.patch, d)
+        n_c, s_c, f_c, u_c, v_c = _ray_hits_loop(wg, a.patch, d)
         if n_c != 1:
             return None, 'second_exit'
         local: tuple | None = None
@@ -393,7 +393,7 @@ class WarmDirect:
             # the cold answer is the smallest root any of them reaches, and where the map has
             # a second sheet or a jump gap near the root one of them can end on a nearer root
             # (or a gap point within gap_tol of the ray) that the warm seed never sees.
-            seeds = self._cold_seeds(d, wg, a.patch[f_c], float(s_c))
+            seeds = self._cold_seeds(a.guard_twists[a.patch[f_c]], u_c, v_c)
             ts, ss, res, jacs, convs, _ = newton_batch(
                 eval_scaled, d, np.concatenate([self.twist_[None, :], seeds]), rtol, fd,
                 max(self.max_iter, self.seed_iter))
@@ -453,7 +453,7 @@ class WarmDirect:
         # (the cold solve decides whether a closure exit is there), with a looser threshold
         # and barycentric tolerance than the cold cast so that the warm root's ~1e-10 rad
         # offset from the cold one cannot hide a crossing the cold solve sees.
-        patches = local_patches(t0)
+        patches = _patch_twists(t0, _CU, _CV) if numba is not None else local_patches(t0)
         if w_ring is None:
             wr = eval_scaled(np.concatenate([ring, patches]))
             w_ring, w_patch = wr[:len(ring)], wr[len(ring):]
@@ -469,7 +469,7 @@ class WarmDirect:
             # The sheet beyond the switch may hold a second root, in front of this one or
             # behind it; which root the cold solve's seeds then land on is theirs to decide.
             return None, 'jump_near'
-        _, s_p, _ = _ray_hits_loop(w_patch, _FACES_LOCAL_ALL, d, 1e-6)
+        s_p = _ray_hits_loop(w_patch, _FACES_LOCAL_ALL, d, 1e-6)[1]
         if s_p < s0 * (1.0 - 0.5 * LOCAL_RTOL):
             return None, 'local_exit'
         self.twist_, self.jac_ = t0, g
@@ -478,17 +478,12 @@ class WarmDirect:
         return CapacityResult.make(phi, Status.OK, self.method, s0 * sc.force_N, t0, sc,
                                    n_hits=1, detail=detail), ''
 
-    def _cold_seeds(self, d: np.ndarray, wg: np.ndarray, face: np.ndarray, s_c: float
-                    ) -> np.ndarray:
-        """The cold solve's seeds (4, 3) at the crossing s_c d of the coarse triangle `face`
-        (indices into the guard twists, vertex wrenches in `wg`): its barycentric twist (as
-        raycast.all_hits) and its three vertex twists."""
-        a = self.anchor_
-        assert a is not None
-        tv, wv = a.guard_twists[face], wg[face]
-        e = np.column_stack([wv[1] - wv[0], wv[2] - wv[0]])
-        uv = np.linalg.lstsq(e, s_c * d - wv[0], rcond=None)[0]
-        bary = np.clip(np.array([1.0 - uv[0] - uv[1], uv[0], uv[1]]), 0.0, 1.0)
+    @staticmethod
+    def _cold_seeds(tv: np.ndarray, u: float, v: float) -> np.ndarray:
+        """The cold solve's seeds (4, 3) at the ray's crossing of a coarse triangle with
+        vertex twists `tv` (3, 3) and crossing coordinates (u, v) along its two edges: its
+        barycentric twist (as raycast.cast_rays weighs it) and its three vertex twists."""
+        bary = np.clip(np.array([1.0 - u - v, u, v]), 0.0, 1.0)
         bary /= max(float(bary.sum()), np.finfo(float).tiny)
         return np.concatenate([unit_rows((bary @ tv)[None, :]), tv])
 
@@ -753,9 +748,13 @@ def _guard_use_loop(wg, w0, tri, points, slack, clearance, swing):
 
 
 def _ray_hits_loop(wg, patch, d, bary_tol=1e-9, dist_rtol=1e-9):
-    """_ray_hits on the triangles `patch` of `wg`: (distinct crossings, first s, its face)."""
+    """_ray_hits on the triangles `patch` of `wg`: (distinct crossings, first s, its face,
+    and the crossing's coordinates u, v along the face's edges to its second and third
+    vertex, as raycast's)."""
     n = patch.shape[0]
     s_all = np.empty(n)
+    u_all = np.empty(n)
+    v_all = np.empty(n)
     face = np.empty(n, dtype=np.int64)
     h = 0
     scale = 0.0
@@ -784,17 +783,44 @@ def _ray_hits_loop(wg, patch, d, bary_tol=1e-9, dist_rtol=1e-9):
         v = (qx * dx + qy * dy + qz * dz) * inv
         s = (e2x * qx + e2y * qy + e2z * qz) * inv
         if u >= -bary_tol and v >= -bary_tol and u + v <= 1.0 + bary_tol and s > 0.0:
-            s_all[h] = s
+            s_all[h], u_all[h], v_all[h] = s, u, v
             face[h] = k
             h += 1
     if h == 0:
-        return 0, math.inf, -1
+        return 0, math.inf, -1, math.nan, math.nan
     order = np.argsort(s_all[:h])
     count = 1
     for i in range(1, h):
         if s_all[order[i]] - s_all[order[i - 1]] > dist_rtol * max(scale, 1e-300):
             count += 1
-    return count, s_all[order[0]], face[order[0]]
+    i = order[0]
+    return count, s_all[i], face[i], u_all[i], v_all[i]
+
+
+def _patch_twists(t, cu, cv):
+    """closure.local_patches(t) for a unit twist t (3,): the twists t + cu u + cv v, unit,
+    with (u, v) the tangent basis of newton._tangent_basis (the same operations per row;
+    numpy's 3-vector calls cost more than the 243 rows)."""
+    n = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2])
+    tx, ty, tz = t[0] / n, t[1] / n, t[2] / n
+    m = 0   # first smallest |component|, as np.argmin
+    if abs(ty) < abs(tx):
+        m = 1
+    if abs(tz) < (abs(ty) if m == 1 else abs(tx)):
+        m = 2
+    hx, hy, hz = (1.0, 0.0, 0.0) if m == 0 else ((0.0, 1.0, 0.0) if m == 1 else (0.0, 0.0, 1.0))
+    ux, uy, uz = ty * hz - tz * hy, tz * hx - tx * hz, tx * hy - ty * hx
+    n = math.sqrt(ux * ux + uy * uy + uz * uz)
+    ux, uy, uz = ux / n, uy / n, uz / n
+    vx, vy, vz = ty * uz - tz * uy, tz * ux - tx * uz, tx * uy - ty * ux
+    out = np.empty((cu.shape[0], 3))
+    for i in range(cu.shape[0]):
+        px = tx + cu[i] * ux + cv[i] * vx
+        py = ty + cu[i] * uy + cv[i] * vy
+        pz = tz + cu[i] * uz + cv[i] * vz
+        n = math.sqrt(px * px + py * py + pz * pz)
+        out[i, 0], out[i, 1], out[i, 2] = px / n, py / n, pz / n
+    return out
 
 
 def _newton_batch_twists(t, h):
@@ -901,5 +927,6 @@ if numba is not None:
     _guard_use_loop = _jit(_guard_use_loop)
     _ray_hits_loop = _jit(_ray_hits_loop)
     _newton_batch_twists = _jit(_newton_batch_twists)
+    _patch_twists = _jit(_patch_twists)
     _newton_update = _jit(_newton_update)
     _unit_rows_over = _jit(_unit_rows_over)
