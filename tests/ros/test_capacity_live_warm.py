@@ -1,6 +1,7 @@
 """capacity_node's live mode (map_file ''): the default live method is the core's warm-started
 direct, which answers as the cold direct does and reports its own time and fallback rate."""
 import math
+from contextlib import contextmanager
 
 import pytest
 
@@ -31,8 +32,11 @@ def test_warm_live_predictor_answers_as_cold_direct_and_reports_stats():
     assert stats['solve_us_median'] > 0 and stats['solve_us_p99'] >= stats['solve_us_median']
 
 
-def test_node_live_mode_answers_with_the_warm_solver_and_reports_it(ros_context):
-    rclpy = pytest.importorskip('rclpy')  # noqa: F841
+@contextmanager
+def live_node(ros_context, **params):
+    """capacity_node in live mode (map_file '', live_method its default) and a probe on one
+    executor, every input fed once (DH, 1 N) and received; yields (node, probe)."""
+    pytest.importorskip('rclpy')
     from _capacity_common import PHI, Probe
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
@@ -40,20 +44,31 @@ def test_node_live_mode_answers_with_the_warm_solver_and_reports_it(ros_context)
     from rftgls_ros.capacity_node import CapacityNode
     params = {'map_file': '', 'phi_rad': PHI, 'phi_topic': '/winch/phi',
               **{f'{n}_timeout_s': 5.0 for n in ('joint_states', 'pitch', 'tension', 'height',
-                                                 'phi')}}
+                                                 'phi')}, **params}
     node = CapacityNode(context=ros_context, parameter_overrides=[
-        Parameter(k, value=v) for k, v in params.items()])   # live_method: its default
+        Parameter(k, value=v) for k, v in params.items()])
     ex = SingleThreadedExecutor(context=ros_context)
     probe = Probe(ros_context, ex, expect_phi=True, expect_height=True)
     ex.add_node(node)
     ex.add_node(probe.node)
     try:
         probe.wait_matched()
-        assert node.estimator.predictor.name == 'live:direct-warm'
         probe.state(DH, (0.0, 0.0))
         est = node.estimator
-        assert probe.spin_until(lambda: len(est._joints) == 4 and 'pitch' in est._inputs
-                                and 'phi' in est._inputs and 'height' in est._inputs)
+        assert probe.spin_until(lambda: len(est._joints) == 4 and all(
+            k in est._inputs for k in ('pitch', 'phi', 'height')))
+        yield node, probe
+    finally:
+        ex.shutdown()
+        node.destroy_node()
+        probe.node.destroy_node()
+
+
+def test_node_live_mode_answers_with_the_warm_solver_and_reports_it(ros_context):
+    from _capacity_common import PHI
+    with live_node(ros_context) as (node, probe):
+        assert node.estimator.predictor.name == 'live:direct-warm'
+        est = node.estimator
         cap = probe.output_for(probe.tension(1.0).header.stamp)
         cold = AnchorModel(minirquad(), get_medium('m90_sand'), method='direct').predict(
             est.estimate(node.now_s()).state, PHI, 'backward')
@@ -66,10 +81,14 @@ def test_node_live_mode_answers_with_the_warm_solver_and_reports_it(ros_context)
         assert float(values['solver_steps']) >= 1
         assert 0.0 <= float(values['solver_fallback_rate']) <= 1.0
         assert float(values['solver_solve_us_median']) > 0.0
-    finally:
-        ex.shutdown()
-        node.destroy_node()
-        probe.node.destroy_node()
+        # the node's own latency figures over its last outputs (the triggering message's
+        # latency is known once its outputs are out, so in the next periodic report)
+        def latency():
+            v = {kv.key: kv.value for kv in probe.last_diag().values}
+            return float(v['input_to_output_ms_median']), float(v['input_to_output_ms_p99'])
+        assert probe.spin_until(lambda: math.isfinite(latency()[0]), 3.0)
+        assert 0.0 < latency()[0] <= latency()[1]
+        assert 0.0 < float(values['processing_ms_median'])
 
 
 @pytest.mark.parametrize('depth', [50, 5])
@@ -77,34 +96,16 @@ def test_a_burst_of_joint_states_is_answered_in_full_up_to_the_queue_depth(ros_c
     """40 joint_states published back to back while the node is not spinning (as when it is
     busy): with the default queue (50) every one gets its own answer, in order; with sensor
     data's usual 5 most are lost. The control shows the queue, not luck, keeps them."""
-    from _capacity_common import PHI, Probe
     from geometry_msgs.msg import WrenchStamped
-    from rclpy.executors import SingleThreadedExecutor
-    from rclpy.parameter import Parameter
-
-    from rftgls_ros.capacity_node import CapacityNode
     assert PARAMETERS['input_queue_depth'].default == 50
-    params = {'map_file': '', 'phi_rad': PHI, 'phi_topic': '/winch/phi',
-              'trigger_inputs': ['joint_states'], 'input_queue_depth': depth,
-              **{f'{n}_timeout_s': 5.0 for n in ('joint_states', 'pitch', 'tension', 'height',
-                                                 'phi')}}
-    node = CapacityNode(context=ros_context, parameter_overrides=[
-        Parameter(k, value=v) for k, v in params.items()])
-    ex = SingleThreadedExecutor(context=ros_context)
-    probe = Probe(ros_context, ex, expect_phi=True, expect_height=True)
-    answers: list = []
-    probe.node.create_subscription(WrenchStamped, '/capacity_node/capacity',
-                                   answers.append, 500)
-    ex.add_node(node)
-    ex.add_node(probe.node)
-    try:
-        probe.wait_matched()
-        probe.state(DH, (0.0, 0.0))
+    with live_node(ros_context, trigger_inputs=['joint_states'],
+                   input_queue_depth=depth) as (node, probe):
+        answers: list = []
+        probe.node.create_subscription(WrenchStamped, '/capacity_node/capacity',
+                                       answers.append, 500)
         probe.tension(1.0)
         est = node.estimator
-        assert probe.spin_until(lambda: len(est._joints) == 4 and 'pitch' in est._inputs
-                                and 'phi' in est._inputs and 'height' in est._inputs
-                                and 'tension' in est._inputs)
+        assert probe.spin_until(lambda: 'tension' in est._inputs)
         probe.spin_until(lambda: False, 0.3)   # the state's own answers are in
         answers.clear()
         # small steps of theta_L1 (sensor noise), so every answer is a real solve
@@ -121,7 +122,3 @@ def test_a_burst_of_joint_states_is_answered_in_full_up_to_the_queue_depth(ros_c
         else:
             assert len(got) <= depth + 1 < len(sent)
             assert got == sent[-len(got):]   # keep last: the newest survive
-    finally:
-        ex.shutdown()
-        node.destroy_node()
-        probe.node.destroy_node()
