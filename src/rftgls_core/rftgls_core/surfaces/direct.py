@@ -25,6 +25,11 @@ vanish (My = 0 and (Fx, Fz) parallel to d), with s = d . Ws(t) > 0.
    Several crossings at different distances: the smallest is the capacity (reported in n_hits
    and detail, status ok: the load ramps from zero, so the first crossing starts the slip).
 
+4. Nearer exits (closure.py, docs/design/closure.md): a thin-fold check where roots or the
+   chord say the surface folds; then `local_exit` around a Newton root, or `jump_exit` (finer
+   patches, repeated) around an exit of the closure search. Each replaces the answer only by
+   a closer converged exit of the closure.
+
 Limit: a crossing that the coarse mesh misses entirely (a feature thinner than its triangles)
 is not seeded. Raise n_twists when the surface has fine folds.
 """
