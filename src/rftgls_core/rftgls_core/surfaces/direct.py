@@ -25,6 +25,11 @@ vanish (My = 0 and (Fx, Fz) parallel to d), with s = d . Ws(t) > 0.
    Several crossings at different distances: the smallest is the capacity (reported in n_hits
    and detail, status ok: the load ramps from zero, so the first crossing starts the slip).
 
+4. Nearer exits (closure.py, docs/design/closure.md): a thin-fold check where roots or the
+   chord say the surface folds; then `local_exit` around a Newton root, or `jump_exit` (finer
+   patches, repeated) around an exit of the closure search. Each replaces the answer only by
+   a closer converged exit of the closure.
+
 Limit: a crossing that the coarse mesh misses entirely (a feature thinner than its triangles)
 is not seeded. Raise n_twists when the surface has fine folds.
 """
@@ -37,7 +42,7 @@ import numpy as np
 
 from ..types import Status
 from .base import SUPPORT_CHECK_TWISTS, CapacityResult, FitSamples, GLSProblem, LimitSurface
-from .closure import closure_exit, earlier_exit, local_exit
+from .closure import closure_exit, earlier_exit, jump_exit, local_exit
 from .newton import newton_on_sphere, unit_rows
 from .raycast import PreparedMesh, all_hits, prepare_mesh
 from .twist_sphere import TwistSphere
@@ -137,7 +142,7 @@ class DirectSurface(LimitSurface):
         # First exit: the smallest root found from any seed. At the first coarse crossing the
         # ray may pass through a jump of the map (no root there): then the exit is on the
         # closure, found by shrinking patches around that crossing (closure.py).
-        on_jump, bridge = False, 0.0
+        on_jump, bridge, searched = False, 0.0, False
         if np.any(valid & (group == 0)):
             k0 = int(np.flatnonzero(valid)[np.argmin(s[valid])])
             s0, t0 = float(s[k0]), t[k0]
@@ -153,10 +158,10 @@ class DirectSurface(LimitSurface):
                     detail=base + f'; no twist maps onto the ray at the first crossing and the '
                            f'closure search did not settle ({ch.levels} patches, {calls} wrench '
                            'calls); unchecked value from the coarse mesh')
-            s0, t0, on_jump, bridge = ch.s, ch.twist, ch.on_jump, ch.bridge
+            s0, t0, on_jump, bridge, searched = ch.s, ch.twist, ch.on_jump, ch.bridge, True
             if np.any(valid) and float(s[valid].min()) < s0:
                 k0 = int(np.flatnonzero(valid)[np.argmin(s[valid])])
-                s0, t0, on_jump = float(s[k0]), t[k0], False
+                s0, t0, on_jump, searched = float(s[k0]), t[k0], False, False
             base += f'; closure search: {ch.levels} patches, {calls} wrench calls in all'
         # A fold sheet thinner than the coarse mesh hides an earlier exit: look for one where
         # the evidence says the surface folds here (several roots, or a chord far off).
@@ -165,7 +170,8 @@ class DirectSurface(LimitSurface):
             if fold is not None:
                 base += f'; earlier exit on a thin fold ({s0 * sf:.4g} N further out)'
                 s0, t0, on_jump, bridge = fold.s, fold.twist, fold.on_jump, fold.bridge
-        if not on_jump:
+                searched = True
+        if not on_jump and not searched:
             # Newton converges to a smooth root even where the ray crosses a bridged jump a
             # few tenths of a degree in front of it (docs/design/closure.md): a local closure
             # check around the root, one wrench call when there is none.
@@ -173,6 +179,14 @@ class DirectSurface(LimitSurface):
             if near is not None:
                 base += (f'; closure exit in front of the Newton root ({s0 * sf:.4g} N '
                          'further out)')
+                s0, t0, on_jump, bridge = near.s, near.twist, near.on_jump, near.bridge
+        if on_jump or searched:
+            # An exit of the closure search (a jump, or Newton failed): where switching
+            # circles lie 1e-4 rad apart the search can settle on a crossing that is not the
+            # first; finer turned patches around it find the nearer one (closure.jump_exit).
+            near = jump_exit(self._eval_scaled, d, t0, s0)
+            if near is not None:
+                base += f'; nearer closure exit next to the first one ({s0 * sf:.4g} N further out)'
                 s0, t0, on_jump, bridge = near.s, near.twist, near.on_jump, near.bridge
         flags: list[str] = ['on_jump'] if on_jump else []
         if on_jump:

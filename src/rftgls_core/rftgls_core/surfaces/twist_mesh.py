@@ -22,7 +22,7 @@ import numpy as np
 
 from ..types import Status
 from .base import CapacityResult, FitSamples, GLSProblem, LimitSurface
-from .closure import closure_exit, earlier_exit, local_exit
+from .closure import closure_exit, earlier_exit, jump_exit, local_exit
 from .diagnostics import collapsed_vertices, fold_mask
 from .newton import newton_on_sphere
 from .raycast import PreparedMesh, cast_rays, prepare_mesh
@@ -40,16 +40,17 @@ class TwistMeshSurface(LimitSurface):
     pinch_ratio: a mesh edge is 'collapsed' (many twists -> one wrench) when its wrench-space
         length per radian of twist is below pinch_ratio times the median over all edges.
     local_check: after a Newton polish, look for a bridged jump just in front of the root
-        (closure.local_exit, as `direct` does). Off by default: it moves about 1.4 % of the
-        shipped maps' answers (down by 0.1-3 %), so switching it on goes with a map rebuild
-        (docs/design/closure.md).
+        (closure.local_exit), and around an exit of the closure search for a nearer one
+        (closure.jump_exit), as `direct` does. On by default since the shipped maps were
+        rebuilt with it (docs/design/closure.md); False gives the answers of the maps built
+        before.
     """
 
     method = 'twist-mesh'
 
     def __init__(self, n_twists: int = 2000, sphere: TwistSphere | None = None,
                  pinch_ratio: float = 1e-3, polish: bool = True, gap_tol: float = 2e-3,
-                 closure_tol: float = 1e-5, local_check: bool = False) -> None:
+                 closure_tol: float = 1e-5, local_check: bool = True) -> None:
         super().__init__(n_twists if sphere is None else sphere.n)
         self.sphere = sphere
         self.pinch_ratio = float(pinch_ratio)
@@ -122,7 +123,7 @@ class TwistMeshSurface(LimitSurface):
                            'the slip twist is not determined')
             if self.polish:
                 chord = cap
-                cap, tw, on_jump, detail = self._polish(phi, f, tw, cap, detail)
+                cap, tw, on_jump, detail, searched = self._polish(phi, f, tw, cap, detail)
                 # A fold sheet thinner than the mesh hides an earlier exit: look for one where
                 # the evidence says the surface folds here (crossings, or a chord far off).
                 # 2 %, not 5 %: the prototype at h = 15.3 mm, thetaL2 = -29.3 deg, backward,
@@ -135,6 +136,29 @@ class TwistMeshSurface(LimitSurface):
                     if fold is not None:
                         detail += f'; earlier exit on a thin fold ({cap:.4g} N further out)'
                         cap, tw, on_jump = fold.s * s_f, fold.twist, fold.on_jump
+                        searched = True
+                # The local checks come after the fold check, which looks from the polished
+                # root: started from a local exit instead, it can miss the sheet it finds
+                # from the root (the prototype map node h = 5 mm, thetaB = -20, thetaL1 = 20,
+                # thetaL2 = -40 deg, backward, phi = 10 deg: 5.451 N against 5.158 N).
+                if self.local_check and not (on_jump or searched):
+                    # a bridged jump just in front of a Newton root (as direct's check)
+                    near = local_exit(self._eval_scaled(problem),
+                                      problem.load_direction_scaled(phi), tw, cap / s_f,
+                                      angle_tol=self.closure_tol)
+                    if near is not None:
+                        detail += (f'; closure exit in front of the polished root ({cap:.4g} N '
+                                   'further out)')
+                        cap, tw, on_jump = near.s * s_f, near.twist, near.on_jump
+                if self.local_check and (on_jump or searched):
+                    # an exit of the closure search may not be the first one next to it
+                    near = jump_exit(self._eval_scaled(problem),
+                                     problem.load_direction_scaled(phi), tw, cap / s_f,
+                                     angle_tol=self.closure_tol)
+                    if near is not None:
+                        detail += (f'; nearer closure exit next to the first one ({cap:.4g} N '
+                                   'further out)')
+                        cap, tw, on_jump = near.s * s_f, near.twist, near.on_jump
                 if on_jump:
                     flags.append('on_jump')
             out.append(CapacityResult.make(phi, Status.OK, self.method, cap, tw, problem.scaling,
@@ -148,6 +172,9 @@ class TwistMeshSurface(LimitSurface):
 
     def _polish(self, phi: float, face: int, seed: np.ndarray, cap: float, detail: str):
         """Move the hit from the flat facet onto the true surface (Newton from its twist).
+
+        Returns (capacity N, twist, on_jump, detail, searched); searched: the answer is an
+        exit of the closure search (Newton found no root near the hit face).
 
         Facets are chords: on real RFT surfaces, whose wrench density varies strongly over the
         twist sphere, the chord sits up to ~20 % inside the surface at 1,000 twists. A few
@@ -178,19 +205,11 @@ class TwistMeshSurface(LimitSurface):
             ch = closure_exit(eval_scaled, d, seed, reach / 3.0, angle_tol=self.closure_tol)
             if not ch.converged:
                 return cap, seed, False, detail + ('; not polished (no root and no closure '
-                                                   'exit near the hit face: mesh value)')
+                                                   'exit near the hit face: mesh value)'), False
             return (ch.s * sc.force_N, ch.twist, ch.on_jump,
                     detail + f'; exit on the closure after {ch.levels} patches (mesh chord '
-                             f'{cap:.4g} N, relative gap {ch.bridge:.2g})')
+                             f'{cap:.4g} N, relative gap {ch.bridge:.2g})', True)
         k = int(np.flatnonzero(ok)[np.argmin(s[ok])])  # first exit among the local roots
         cap_polished = float(s[k]) * sc.force_N
-        # A bridged jump just in front of the smooth root (docs/design/closure.md): the same
-        # local closure check as direct's.
-        near = (local_exit(eval_scaled, d, t[k], float(s[k]), angle_tol=self.closure_tol)
-                if self.local_check else None)
-        if near is not None:
-            return (near.s * sc.force_N, near.twist, near.on_jump,
-                    detail + f'; closure exit in front of the polished root ({cap_polished:.4g}'
-                             f' N further out, mesh chord {cap:.4g} N)')
         return cap_polished, t[k], False, detail + (f'; polished in {iters} steps (mesh chord '
-                                                    f'{cap:.4g} N, residual {res[k]:.1e})')
+                                                    f'{cap:.4g} N, residual {res[k]:.1e})'), False
