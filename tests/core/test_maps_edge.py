@@ -22,6 +22,9 @@ from rftgls_core.types import AnchorState
 # (prototype, +0.582 N) and 6 x 300 (MiniRQuad, +0.226 N) random states, rounded up to the
 # documented bound.
 DOCUMENTED_OVER_N = {'prototype': 0.59, 'minirquad': 0.23}
+# ... and over all states, counting a map value where the live solver says the anchor holds
+# nothing (unsupported: 0 N) in full: MiniRQuad's one such state (seed 4) is 0.509 N.
+DOCUMENTED_OVER_ALL_N = {'prototype': 0.59, 'minirquad': 0.51}
 # Coverage measured on this 40-state slice: 97.2 % (prototype), 97.1 % (MiniRQuad; 85.3 %
 # with the valued-corner rule alone). The issue asks >= 95 % on 300 states (maps/README.md).
 MIN_COVERAGE_PCT = {'prototype': 95.0, 'minirquad': 95.0}
@@ -35,6 +38,7 @@ def test_edge_rule_answers_more_and_never_above_the_documented_error(robot):
                                               edge_min_margin=None), n=40, seed=0)
     assert rep.map_only == 0, rep            # no value where the anchor cannot hold
     assert rep.over_N_worst <= DOCUMENTED_OVER_N[robot] + 1e-9, rep
+    assert rep.over_all_N_worst == rep.over_N_worst    # no map-only value on this slice
     assert rep.coverage_pct >= MIN_COVERAGE_PCT[robot], rep
     assert rep.by_flag.get('edge_valued', 0) > 0 and 'edge_valued' not in strict.by_flag
     assert rep.map_answers > strict.map_answers
@@ -44,6 +48,18 @@ def test_edge_rule_answers_more_and_never_above_the_documented_error(robot):
         assert no_margin.map_answers < rep.map_answers
         assert rep.by_flag.get('edge_margin', 0) > 0 and 'edge_margin' not in no_margin.by_flag
         assert no_margin.coverage_pct < MIN_COVERAGE_PCT[robot] <= rep.coverage_pct
+
+
+def test_a_map_value_where_the_anchor_holds_nothing_counts_in_full_and_stays_documented():
+    # maps/README.md: MiniRQuad seed 4 holds the one state (of 6 x 300) where the map answers
+    # (edge_margin) and the live solver says unsupported; the anchor holds nothing there, so
+    # the whole map value is the overestimate, and it is inside the documented all-states bound.
+    rep = coverage_report(CapacityMap.load(shipped_map_path('minirquad')), n=300, seed=4)
+    assert rep.map_only == 1
+    assert 0.0 < rep.map_only_N_worst <= DOCUMENTED_OVER_ALL_N['minirquad']
+    assert rep.over_N_worst <= DOCUMENTED_OVER_N['minirquad'] < rep.map_only_N_worst
+    assert rep.over_all_N_worst == rep.map_only_N_worst
+    assert rep.by_flag.get('edge_margin', 0) > 0
 
 
 def single_and_batch_agree(cmap, n: int, seed: int, flag: str) -> list:

@@ -362,7 +362,10 @@ def run_accuracy(args) -> int:
         print(f'{args.file} vs live {cov.reference}: {cov.n_states} random states, reference '
               f'answers {cov.ref_answers}, map answers {cov.map_answers} of them '
               f'({cov.coverage_pct:.1f} %), map-only answers {cov.map_only}')
-        print(f'  largest overestimate {cov.over_N_worst:+.3f} N, |error| p95 '
+        print(f'  largest overestimate {cov.over_N_worst:+.3f} N where both answer, '
+              f'{cov.map_only_N_worst:.3f} N where the live solver holds nothing (unsupported),'
+              f' so {cov.over_all_N_worst:+.3f} N over all states')
+        print(f'  |error| p95 '
               f'{cov.err_N_p95:.3f} N; map answers by rule: '
               + ', '.join(f'{k or "interior"} {v}' for k, v in sorted(cov.by_flag.items())))
         return 0

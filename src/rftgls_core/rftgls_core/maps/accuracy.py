@@ -24,7 +24,7 @@ from tqdm import tqdm
 
 from ..anchor import AnchorModel
 from ..robots.presets import get_robot
-from ..types import AnchorState
+from ..types import AnchorState, Status
 from .build import spec_from_map
 from .query import CapacityMap
 
@@ -158,8 +158,11 @@ class CoverageReport:
     both pulls, phi uniform in -30..10 deg): `ref_answers` states where the reference has a
     value, `map_answers` of those where the map has one too (coverage_pct), `map_only` states
     where only the map has a value (an overestimate of a state that cannot hold), worst and
-    p95 of (map - reference) in N where both answer, and `by_flag` how many map answers each
-    rule gave ('' = interior cell).
+    p95 of (map - reference) in N where both answer, `map_only_N_worst` the largest map value
+    where the reference says `unsupported` (the anchor holds nothing there: 0 N, so the map
+    value is its overestimate; NaN when there is none), `over_all_N_worst` the larger of the
+    two (the bound a consumer of the map must allow for), and `by_flag` how many map answers
+    each rule gave ('' = interior cell).
     """
 
     robot: str
@@ -172,6 +175,8 @@ class CoverageReport:
     over_N_worst: float
     err_N_p95: float
     by_flag: dict
+    map_only_N_worst: float = float('nan')
+    over_all_N_worst: float = float('nan')
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -187,6 +192,7 @@ def coverage_report(cmap: CapacityMap, n: int = 300, seed: int = 0,
     jobs = agreement_states(spec.robot, n, seed)
     ref_n = ans = only = 0
     over: list[float] = []
+    held_nothing: list[float] = []   # map values where the reference holds nothing
     flags: dict[str, int] = {}
     for state, pull, phi in tqdm(jobs, unit='state', file=sys.stderr, desc='coverage',
                                  disable=not progress):
@@ -197,16 +203,22 @@ def coverage_report(cmap: CapacityMap, n: int = 300, seed: int = 0,
             flags[key] = flags.get(key, 0) + 1
         if r.capacity_N is None:
             only += int(m.capacity_N is not None)
+            if m.capacity_N is not None and r.status is Status.UNSUPPORTED:
+                held_nothing.append(m.capacity_N)
             continue
         ref_n += 1
         if m.capacity_N is not None:
             ans += 1
             over.append(m.capacity_N - r.capacity_N)
     o = np.asarray(over)
+    worst = float(o.max()) if o.size else float('nan')
+    only_worst = max(held_nothing) if held_nothing else float('nan')
     return CoverageReport(robot=spec.robot, reference=reference, n_states=n, ref_answers=ref_n,
                           map_answers=ans, coverage_pct=100.0 * ans / ref_n if ref_n else
                           float('nan'), map_only=only,
-                          over_N_worst=float(o.max()) if o.size else float('nan'),
+                          over_N_worst=worst,
                           err_N_p95=float(np.percentile(np.abs(o), 95)) if o.size else
-                          float('nan'), by_flag=flags)
+                          float('nan'), by_flag=flags, map_only_N_worst=only_worst,
+                          over_all_N_worst=float(np.nanmax([worst, only_worst]))
+                          if o.size or held_nothing else float('nan'))
 
