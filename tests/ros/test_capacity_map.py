@@ -69,6 +69,40 @@ def test_off_grid_state_answered_by_the_live_solver_when_configured(small_map, l
     assert inside.capacity_N == CapacityMap.load(small_map).query(DH, PHI, 'backward').capacity_N
 
 
+def test_edge_margin_answers_are_re_answered_by_the_live_solver_when_configured():
+    # maps/README.md: on MiniRQuad's random states of seed 4 (agreement_states, 300) the
+    # shipped map answers one state through the edge-margin rule (0.51 N) where the live
+    # `direct` says `unsupported`: the anchor holds nothing. With the live fallback configured
+    # the live solver decides every edge-margin answer, so that state is published as
+    # unsupported (0 N), never as 0.51 N, and edge answers where the anchor holds take the
+    # live value.
+    from rftgls_core.accuracy import agreement_states
+    from rftgls_core.maps import shipped_map_path
+    from rftgls_ros.capacity.predictor import LivePredictor
+    mp = MapPredictor(shipped_map_path('minirquad'), 'minirquad', 'm90_sand')
+    live = LivePredictor(method='direct')
+    fb = LiveFallback(mp, live)
+    edge = [(st, pull, phi) for st, pull, phi in agreement_states('minirquad', 300, 4)
+            if 'edge_margin' in mp.predict(st, phi, pull).flags]
+    assert len(edge) > 10
+    held_nothing = 0
+    for st, pull, phi in edge:
+        m, r, ref = mp.predict(st, phi, pull), fb.predict(st, phi, pull), live.predict(
+            st, phi, pull)
+        assert m.status is Status.OK and m.capacity_N > 0.0
+        assert r.status is ref.status and r.capacity_N == ref.capacity_N
+        assert 'live_edge_check' in r.reason.split(';')
+        if ref.status is Status.UNSUPPORTED:
+            held_nothing += 1
+            assert 0.5 < m.capacity_N < 0.51 and r.capacity_N is None
+    assert held_nothing == 1
+    # interior answers are the map's own
+    st, pull, phi = next(j for j in agreement_states('minirquad', 300, 4)
+                         if mp.predict(j[0], j[2], j[1]).status is Status.OK
+                         and not mp.predict(j[0], j[2], j[1]).flags)
+    assert fb.predict(st, phi, pull) == mp.predict(st, phi, pull)
+
+
 def test_bad_map_files(tmp_path, small_map):
     import h5py
     wrong = tmp_path / 'wrong_schema.h5'

@@ -229,9 +229,18 @@ def _described_map(map_file: str, desc_path: str, medium: str, pull: str | None,
 
 
 class LiveFallback:
-    """A map, with the live solver answering where the map says `out_of_range` (outside its
-    grid). Every other map answer stands; the live answer's reason says it came from the
-    fallback (`live_fallback`, after the solver's own reason if any)."""
+    """A map, with the live solver answering where the map cannot be trusted on its own:
+
+    * `out_of_range` (outside its grid): the live answer, reason `live_fallback`;
+    * an answer of the edge-margin rule (flag `edge_margin`, a cell next to the support edge
+      answered from an interpolated support margin): the live answer, reason
+      `live_edge_check`. The interpolated margin can say "holds" where the anchor holds
+      nothing (maps/README.md: one state in 1,800 random MiniRQuad states, 0.51 N against
+      `unsupported`); the live solver decides there. Its answer replaces the map's whether
+      lower or higher (the edge-margin value is a deliberately low bound, the live one exact).
+
+    Every other map answer stands; the live answer's reason keeps the solver's own reason
+    first, if any."""
 
     def __init__(self, primary: Predictor, fallback: Predictor):
         self.primary = primary
@@ -240,10 +249,14 @@ class LiveFallback:
 
     def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
         r = self.primary.predict(state, phi, pull)
-        if r.status is not Status.OUT_OF_RANGE:
+        if r.status is Status.OUT_OF_RANGE:
+            why = 'live_fallback'
+        elif 'edge_margin' in r.flags:
+            why = 'live_edge_check'
+        else:
             return r
         live = self.fallback.predict(state, phi, pull)
-        reason = ';'.join(x for x in (live.reason, 'live_fallback') if x)
+        reason = ';'.join(x for x in (live.reason, why) if x)
         return dataclasses.replace(live, reason=reason)
 
 
