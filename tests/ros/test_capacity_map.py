@@ -69,19 +69,19 @@ def test_off_grid_state_answered_by_the_live_solver_when_configured(small_map, l
     assert inside.capacity_N == CapacityMap.load(small_map).query(DH, PHI, 'backward').capacity_N
 
 
-def test_edge_margin_answers_are_re_answered_by_the_live_solver_when_configured():
+def test_edge_margin_answers_are_re_answered_by_the_live_solver():
     # maps/README.md: on MiniRQuad's random states of seed 4 (agreement_states, 300) the
     # shipped map answers one state through the edge-margin rule (0.51 N) where the live
-    # `direct` says `unsupported`: the anchor holds nothing. With the live fallback configured
-    # the live solver decides every edge-margin answer, so that state is published as
-    # unsupported (0 N), never as 0.51 N, and edge answers where the anchor holds take the
-    # live value.
+    # `direct` says `unsupported`: the anchor holds nothing. With an edge checker (capacity_node
+    # default: edge_live_method direct-warm) the live solver decides every edge-margin answer,
+    # so that state is published as unsupported (0 N), never as 0.51 N, and edge answers where
+    # the anchor holds take the live value.
     from rftgls_core.accuracy import agreement_states
     from rftgls_core.maps import shipped_map_path
     from rftgls_ros.capacity.predictor import LivePredictor
     mp = MapPredictor(shipped_map_path('minirquad'), 'minirquad', 'm90_sand')
     live = LivePredictor(method='direct')
-    fb = LiveFallback(mp, live)
+    fb = LiveFallback(mp, edge=live)
     edge = [(st, pull, phi) for st, pull, phi in agreement_states('minirquad', 300, 4)
             if 'edge_margin' in mp.predict(st, phi, pull).flags]
     assert len(edge) > 10
@@ -101,6 +101,21 @@ def test_edge_margin_answers_are_re_answered_by_the_live_solver_when_configured(
                          if mp.predict(j[0], j[2], j[1]).status is Status.OK
                          and not mp.predict(j[0], j[2], j[1]).flags)
     assert fb.predict(st, phi, pull) == mp.predict(st, phi, pull)
+
+
+def test_capacity_node_checks_edge_answers_by_default_and_can_be_told_not_to(small_map):
+    from rftgls_ros.capacity.params import PARAMETERS
+    assert PARAMETERS['edge_live_method'].default == 'direct-warm'
+    p = predictor_from_params(str(small_map), edge_live_method='direct-warm')
+    assert isinstance(p, LiveFallback) and p.fallback is None and p.edge is not None
+    assert p.name.endswith('+live:direct-warm(edge check)')
+    both = predictor_from_params(str(small_map), out_of_range_live_method='direct',
+                                 edge_live_method='direct')
+    assert isinstance(both, LiveFallback) and both.edge is both.fallback   # one solver
+    assert isinstance(predictor_from_params(str(small_map), edge_live_method=''),
+                      MapPredictor)
+    with pytest.raises(ConfigError, match='edge_live_method'):
+        predictor_from_params(str(small_map), edge_live_method='bogus')
 
 
 def test_bad_map_files(tmp_path, small_map):

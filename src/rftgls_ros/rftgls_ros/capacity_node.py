@@ -58,7 +58,8 @@ class CapacityNode(Node):
                                           p['medium'], p['live_n_twists'], p['pull'],
                                           p['out_of_range_live_method'],
                                           anchor_description_file=p['anchor_description_file'],
-                                          anchor_state_variables=p['anchor_state_variables'])
+                                          anchor_state_variables=p['anchor_state_variables'],
+                                          edge_live_method=p['edge_live_method'])
         self.estimator = CapacityEstimator(predictor, est_cfg)
         self.frame_id = p['frame_id']
         self.tension_component = self.config.tension_component

@@ -43,8 +43,10 @@ PARAMETERS: dict[str, Param] = {
                          "the cold direct's answers, warm-started per message)"),
     'live_n_twists': Param(0, 'twists of the live solver; 0 = rftgls_core.anchor.'
                            'DEFAULT_TWISTS (1000) for every method, direct included', 0, 10**6),
-    'out_of_range_live_method': Param('', "live solver answering off-grid states and the "
-                                      "map's edge-margin answers; '' = none"),
+    'out_of_range_live_method': Param('', "live solver answering off-grid states; '' = none"),
+    'edge_live_method': Param('direct-warm', "live solver re-answering the map's edge-margin "
+                              "answers next to the support edge (its interpolated margin can "
+                              "say 'holds' where the anchor holds nothing); '' = they stand"),
     'robot': Param('minirquad', 'robot preset (must match the map)'),
     'anchor_description_file': Param('', "anchor description YAML for the live solver (a map must "
                                "answer for it); '' = the robot preset"),

@@ -229,35 +229,44 @@ def _described_map(map_file: str, desc_path: str, medium: str, pull: str | None,
 
 
 class LiveFallback:
-    """A map, with the live solver answering where the map cannot be trusted on its own:
+    """A map, with a live solver answering where the map cannot be trusted on its own:
 
-    * `out_of_range` (outside its grid): the live answer, reason `live_fallback`;
+    * `out_of_range` (outside its grid), when `fallback` is set: the live answer, reason
+      `live_fallback`;
     * an answer of the edge-margin rule (flag `edge_margin`, a cell next to the support edge
-      answered from an interpolated support margin): the live answer, reason
-      `live_edge_check`. The interpolated margin can say "holds" where the anchor holds
-      nothing (maps/README.md: one state in 1,800 random MiniRQuad states, 0.51 N against
-      `unsupported`); the live solver decides there. Its answer replaces the map's whether
-      lower or higher (the edge-margin value is a deliberately low bound, the live one exact).
+      answered from an interpolated support margin), when `edge` is set: the live answer,
+      reason `live_edge_check`. The interpolated margin can say "holds" where the anchor
+      holds nothing (maps/README.md: one state in 1,800 random MiniRQuad states, 0.51 N
+      against `unsupported`); the live solver decides there. Its answer replaces the map's
+      whether lower or higher (the edge-margin value is a deliberately low bound, the live
+      one exact).
 
     Every other map answer stands; the live answer's reason keeps the solver's own reason
-    first, if any."""
+    first, if any. One solver may serve both (pass the same object)."""
 
-    def __init__(self, primary: Predictor, fallback: Predictor):
+    def __init__(self, primary: Predictor, fallback: Predictor | None = None,
+                 edge: Predictor | None = None):
         self.primary = primary
         self.fallback = fallback
-        self.name = f'{predictor_name(primary)}+{predictor_name(fallback)}'
+        self.edge = edge
+        parts = [predictor_name(primary)]
+        if fallback is not None:
+            parts.append(predictor_name(fallback))
+        if edge is not None:
+            parts.append(('' if edge is fallback else predictor_name(edge)) + '(edge check)')
+        self.name = '+'.join(parts)
 
     def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
         r = self.primary.predict(state, phi, pull)
-        if r.status is Status.OUT_OF_RANGE:
-            why = 'live_fallback'
-        elif 'edge_margin' in r.flags:
-            why = 'live_edge_check'
+        if r.status is Status.OUT_OF_RANGE and self.fallback is not None:
+            live, why = self.fallback, 'live_fallback'
+        elif self.edge is not None and 'edge_margin' in r.flags:
+            live, why = self.edge, 'live_edge_check'
         else:
             return r
-        live = self.fallback.predict(state, phi, pull)
-        reason = ';'.join(x for x in (live.reason, why) if x)
-        return dataclasses.replace(live, reason=reason)
+        answer = live.predict(state, phi, pull)
+        reason = ';'.join(x for x in (answer.reason, why) if x)
+        return dataclasses.replace(answer, reason=reason)
 
 
 def predictor_from_params(map_file: str, live_method: str = 'direct',
@@ -265,11 +274,13 @@ def predictor_from_params(map_file: str, live_method: str = 'direct',
                           n_twists: int = 0, pull: str | None = None,
                           out_of_range_live_method: str = '',
                           anchor_description_file: str = '',
-                          anchor_state_variables: str = '') -> Predictor:
+                          anchor_state_variables: str = '',
+                          edge_live_method: str = '') -> Predictor:
     """capacity_node's predictor from its parameters: the map predictor when map_file is set
     (with the live solver `out_of_range_live_method` answering outside its grid when that is
-    set), else the live one. robot: the preset the node is configured for (None: a map of any
-    robot, checked against the description when one is given). anchor_description_file: path
+    set, and `edge_live_method` re-answering its edge-margin answers), else the live one.
+    robot: the preset the node is configured for (None: a map of any robot, checked against
+    the description when one is given). anchor_description_file: path
     of an anchor description YAML for the live solver (and the identity a map must answer
     for); '' = the `robot` preset; anchor_state_variables: which estimate feeds which of its
     variables (parse_state_variables). Raises ConfigError."""
@@ -283,11 +294,15 @@ def predictor_from_params(map_file: str, live_method: str = 'direct',
         if cmap is None:
             sha = _description(desc).sha256 if desc else None
             cmap = MapPredictor(map_file.strip(), robot, medium, pull, description_sha256=sha)
-        if out_of_range_live_method.strip():
-            return LiveFallback(cmap, _live(live_robot, medium, out_of_range_live_method.strip(),
-                                            n_twists, 'out_of_range_live_method', desc,
-                                            state_map))
-        return cmap
+        oor, edge = out_of_range_live_method.strip(), edge_live_method.strip()
+        fallback = (_live(live_robot, medium, oor, n_twists, 'out_of_range_live_method', desc,
+                          state_map) if oor else None)
+        checker = (fallback if edge == oor else
+                   _live(live_robot, medium, edge, n_twists, 'edge_live_method', desc,
+                         state_map)) if edge else None
+        if fallback is None and checker is None:
+            return cmap
+        return LiveFallback(cmap, fallback, checker)
     return _live(live_robot, medium, live_method, n_twists, 'live_method', desc, state_map)
 
 
