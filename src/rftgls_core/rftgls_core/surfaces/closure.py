@@ -129,6 +129,31 @@ _K_FOLD = 13
 _AF, _BF = (g.ravel() for g in np.meshgrid(np.linspace(-1.0, 1.0, _K_FOLD),
                                            np.linspace(-1.0, 1.0, _K_FOLD), indexing='ij'))
 _FACES_FOLD = _grid_faces(_K_FOLD)
+# The fold patches: the full radius and 0.6 of it (spacing ~0.042 and ~0.025 rad at 0.25 rad),
+# each at three grid orientations, evaluated in one call. A fold sheet narrower than the spacing is
+# crossed by the ray only where a patch's triangles happen to straddle it: MiniRQuad at h =
+# 41.1 mm, thetaB = 0.77, thetaL1 = -47.4, thetaL2 = 19.6 deg, backward, phi = -20.2 deg has a
+# sheet ~0.03 rad wide 9 deg from the root (1.432 N against 1.781 N), which the 0.25 rad
+# patch missed and the 0.15 rad ones see at two of three orientations.
+_FOLD_SCALES = (1.0, 0.6)
+_FOLD_TURNS = (0.0, 0.61, 1.23)   # rad
+_FOLD_PATCHES = len(_FOLD_SCALES) * len(_FOLD_TURNS)
+
+
+def _fold_coefficients() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Tangent-plane coordinates (along u, along v) of every fold-patch twist per unit radius,
+    and each patch's scale."""
+    cu, cv = [], []
+    for k in _FOLD_SCALES:
+        for a in _FOLD_TURNS:
+            c, s = np.cos(a), np.sin(a)
+            cu.append(k * (c * _AF - s * _BF))
+            cv.append(k * (s * _AF + c * _BF))
+    scales = np.repeat(np.tile(np.asarray(_FOLD_SCALES), 1), len(_FOLD_TURNS))
+    return np.concatenate(cu), np.concatenate(cv), scales
+
+
+_FU, _FV, _FOLD_SCALE_OF = _fold_coefficients()
 
 
 def earlier_exit(eval_scaled: Callable[[np.ndarray], np.ndarray], d: np.ndarray,
@@ -138,11 +163,12 @@ def earlier_exit(eval_scaled: Callable[[np.ndarray], np.ndarray], d: np.ndarray,
 
     RFT surfaces fold, and a sheet thinner than the bracketing sphere's spacing is invisible to
     it: the solver then reports the next crossing, too far out. Run where a fold is suspected
-    (several roots, or a polish that moved far from the chord): a dense 13 x 13 patch of
-    half-width `radius` rad (spacing ~0.04 rad, like a 8,000-twist sphere) around the answer,
-    one wrench call; if the ray crosses it closer than s, the closure search follows that
-    crossing, and the patch is laid again around the new exit (up to `max_rounds` times).
-    None when there is no earlier exit.
+    (several roots, or a polish that moved far from the chord): dense 13 x 13 patches around
+    the answer, of half-width `radius` rad and 0.6 of it (spacing ~0.042 and ~0.025 rad), each
+    at three grid orientations, in one wrench call; where the ray crosses a patch closer than
+    s, the closure search follows that crossing (every patch's, nearest first; the nearest
+    converged exit wins), and the patches are laid again around the new exit (up to
+    `max_rounds` times). None when there is no earlier exit.
     """
     best: ClosureHit | None = None
     # The patch's first crossing is the nearest *chord*, and the closure search from it can
@@ -152,17 +178,28 @@ def earlier_exit(eval_scaled: Callable[[np.ndarray], np.ndarray], d: np.ndarray,
     for _ in range(max_rounds):
         t0 = unit_rows(np.asarray(twist, dtype=float).reshape(1, 3))[0]
         u, v = _tangent_basis(t0[None, :])
-        pts = unit_rows(t0 + radius * (_AF[:, None] * u + _BF[:, None] * v))
-        hits = cast_rays(prepare_mesh(eval_scaled(pts), _FACES_FOLD), d)
-        f = int(hits.face[0])
-        if f < 0 or not hits.s[0] < s * (1.0 - 1e-4):
+        pts = unit_rows(t0 + radius * (_FU[:, None] * u + _FV[:, None] * v))
+        ws = eval_scaled(pts)
+        # Each patch's first crossing in front of s seeds a closure search, nearest first,
+        # and the nearest converged exit wins: the search from one patch's crossing can fail
+        # or settle further out where another's finds the sheet, so no patch hides another.
+        n = _K_FOLD ** 2
+        seeds = []
+        for k in range(_FOLD_PATCHES):
+            hits = cast_rays(prepare_mesh(ws[k * n:(k + 1) * n], _FACES_FOLD), d)
+            f = int(hits.face[0])
+            if f >= 0 and hits.s[0] < s * (1.0 - 1e-4):
+                seeds.append((float(hits.s[0]), k, hits.bary[0] @ pts[k * n + _FACES_FOLD[f]]))
+        found: ClosureHit | None = None
+        for _, k, seed in sorted(seeds, key=lambda x: x[:2]):
+            ch = closure_exit(eval_scaled, d, seed,
+                              2.0 * radius * float(_FOLD_SCALE_OF[k]) / (_K_FOLD - 1),
+                              angle_tol=angle_tol)
+            if ch.converged and ch.s < s * (1.0 - 1e-6) and (found is None or ch.s < found.s):
+                found = ch
+        if found is None:
             break
-        seed = hits.bary[0] @ pts[_FACES_FOLD[f]]
-        ch = closure_exit(eval_scaled, d, seed, 2.0 * radius / (_K_FOLD - 1),
-                          angle_tol=angle_tol)
-        if not (ch.converged and ch.s < s * (1.0 - 1e-6)):
-            break
-        best, twist, s = ch, ch.twist, ch.s
+        best, twist, s = found, found.twist, found.s
     return best
 
 
