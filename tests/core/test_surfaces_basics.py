@@ -133,3 +133,14 @@ def test_max_power_check_convex_has_no_violation_dent_has_some():
     assert rep.fraction == 0.0
     bent = ws * (1.0 - 0.4 * np.exp(-((scaled[:, 0] + 1.0) / 0.3) ** 2))[:, None]
     assert max_power_check(scaled, bent).fraction > 0.0
+
+
+def test_cross_rows_is_np_cross_bitwise():
+    # The solvers' row-wise cross product replaces np.cross in hot loops (newton, raycast,
+    # warm); it must give the very same numbers, or maps and warm answers would drift.
+    from rftgls_core.surfaces.newton import cross_rows
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 7, 1000):
+        a = rng.normal(size=(n, 3)) * 10.0 ** rng.uniform(-8, 8, (n, 1))
+        b = rng.normal(size=(n, 3))
+        assert np.array_equal(cross_rows(a, b), np.cross(a, b))

@@ -230,6 +230,25 @@ REFERENCE_CASES = {
         'minirquad',
         (0.04105407926698655, 0.013400783355462229, -0.8272028290640885, 0.3415892270325489),
         -20.231490737407455, Pull.BACKWARD, 1.43228, 1e-4, 1e-6),
+    # Seed 15, prototype: twist-mesh polished 1.7 % (6.059 -> 6.165 N) and 1.1 % (a closure
+    # exit, 2.571 -> 2.600 N) beyond its chord, under the 2 % that started its fold check,
+    # and stopped +4.7 % and +3.2 % above the exits (direct's own seeds found them); the
+    # fold check now starts at a 1 % move.
+    'fold_check_from_a_1_7_percent_polish_move': (
+        'prototype',
+        (0.006711511477798594, -0.20203154797099102, 0.3511530423702217, -0.21353805445661406),
+        -19.44030564135483, Pull.BACKWARD, 5.880888, 1e-5, 1e-6),
+    # A MiniRQuad map node (h = 25 mm, thetaB = 5, thetaL1 = -60, thetaL2 = 10 deg, backward,
+    # phi = -30 deg): direct's Newton root 2.874 N lay 3.2 % beyond its 400-twist chord, under
+    # the 5 % that started its fold check; the exit is 2.238 N (+28 %). Both solvers now
+    # start the check at 1 %.
+    'direct_fold_check_from_a_3_percent_move': (
+        'minirquad', (0.025, 0.08726646259971647, -1.0471975511965976, 0.17453292519943295),
+        -30.0, Pull.BACKWARD, 2.23772, 1e-4, 1e-5),
+    'fold_check_from_a_1_1_percent_closure_exit': (
+        'prototype',
+        (0.019390959339445756, 0.15341181344014113, 0.38337310936955843, -0.43802136564142724),
+        -29.227897926563884, Pull.BACKWARD, 2.518984, 1e-5, 1e-5),
 }
 
 

@@ -20,6 +20,7 @@ which one it was: it vanishes on a smooth surface and stays at the jump size on 
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -154,6 +155,10 @@ def _fold_coefficients() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 _FU, _FV, _FOLD_SCALE_OF = _fold_coefficients()
+_FOLD_SAME_RAD = 0.02   # crossings this close (and at the same distance) are one sheet
+# Where a solver's answer lies this far (relative) from its mesh chord, the surface may fold
+# there and `earlier_exit` runs (direct, twist-mesh; the warm step mirrors it at 0.8 of it).
+FOLD_CHECK_RTOL = 0.01
 
 
 def earlier_exit(eval_scaled: Callable[[np.ndarray], np.ndarray], d: np.ndarray,
@@ -191,7 +196,15 @@ def earlier_exit(eval_scaled: Callable[[np.ndarray], np.ndarray], d: np.ndarray,
             if f >= 0 and hits.s[0] < s * (1.0 - 1e-4):
                 seeds.append((float(hits.s[0]), k, hits.bary[0] @ pts[k * n + _FACES_FOLD[f]]))
         found: ClosureHit | None = None
-        for _, k, seed in sorted(seeds, key=lambda x: x[:2]):
+        tried: list[tuple[float, np.ndarray]] = []
+        for s_k, k, seed in sorted(seeds, key=lambda x: x[:2]):
+            seed = unit_rows(seed[None, :])[0]
+            # a crossing at the same distance and place as one already followed is the same
+            # sheet (patches of different orientation crossing it side by side)
+            if any(abs(s_k - s_j) <= 1e-3 * s and float(seed @ t_j) > math.cos(_FOLD_SAME_RAD)
+                   for s_j, t_j in tried):
+                continue
+            tried.append((s_k, seed))
             ch = closure_exit(eval_scaled, d, seed,
                               2.0 * radius * float(_FOLD_SCALE_OF[k]) / (_K_FOLD - 1),
                               angle_tol=angle_tol)
