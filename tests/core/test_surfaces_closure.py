@@ -240,8 +240,8 @@ REFERENCE_CASES = {
         -19.44030564135483, Pull.BACKWARD, 5.880888, 1e-5, 1e-6),
     # A MiniRQuad map node (h = 25 mm, thetaB = 5, thetaL1 = -60, thetaL2 = 10 deg, backward,
     # phi = -30 deg): direct's Newton root 2.874 N lay 3.2 % beyond its 400-twist chord, under
-    # the 5 % that started its fold check; the exit is 2.238 N (+28 %). Both solvers now
-    # start the check at 1 %.
+    # the 5 % that started its fold check; the exit is 2.238 N (+28 %). direct now starts the
+    # check at 3 % (DIRECT_FOLD_CHECK_RTOL), twist-mesh at 1 %.
     'direct_fold_check_from_a_3_percent_move': (
         'minirquad', (0.025, 0.08726646259971647, -1.0471975511965976, 0.17453292519943295),
         -30.0, Pull.BACKWARD, 2.23772, 1e-4, 1e-5),

@@ -143,7 +143,7 @@ class Rig:
                 self.diag = {kv.key: kv.value for kv in st.values}
                 self.diag_time = time.monotonic()
 
-    def fresh_diag(self, executor, after: float, timeout: float = 3.0) -> dict[str, str]:
+    def fresh_diag(self, executor, after: float, timeout: float = 5.0) -> dict[str, str]:
         """The node's diagnostics values from a message received after `after` (monotonic)."""
         if not spin_until(executor, lambda: self.diag_time > after, timeout):
             raise RuntimeError('capacity_node published no /diagnostics')

@@ -42,7 +42,7 @@ import numpy as np
 
 from ..types import Status
 from .base import SUPPORT_CHECK_TWISTS, CapacityResult, FitSamples, GLSProblem, LimitSurface
-from .closure import FOLD_CHECK_RTOL, closure_exit, earlier_exit, jump_exit, local_exit
+from .closure import DIRECT_FOLD_CHECK_RTOL, closure_exit, earlier_exit, jump_exit, local_exit
 from .newton import newton_on_sphere, unit_rows
 from .raycast import PreparedMesh, all_hits, prepare_mesh
 from .twist_sphere import TwistSphere
@@ -165,7 +165,7 @@ class DirectSurface(LimitSurface):
             base += f'; closure search: {ch.levels} patches, {calls} wrench calls in all'
         # A fold sheet thinner than the coarse mesh hides an earlier exit: look for one where
         # the evidence says the surface folds here (several roots, or a chord far off).
-        if len(roots) > 1 or abs(s0 - float(s_c[0])) > FOLD_CHECK_RTOL * s0:
+        if len(roots) > 1 or abs(s0 - float(s_c[0])) > DIRECT_FOLD_CHECK_RTOL * s0:
             fold = earlier_exit(self._eval_scaled, d, t0, s0)
             if fold is not None:
                 base += f'; earlier exit on a thin fold ({s0 * sf:.4g} N further out)'

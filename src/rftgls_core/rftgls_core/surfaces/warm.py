@@ -51,7 +51,7 @@ from .closure import (
     _CU,
     _CV,
     _FACES_LOCAL_ALL,
-    FOLD_CHECK_RTOL,
+    DIRECT_FOLD_CHECK_RTOL,
     LOCAL_RTOL,
     earlier_exit,
     local_patches,
@@ -410,7 +410,7 @@ class WarmDirect:
             return None, 'capacity_moved'
         if seeds_why:
             return None, seeds_why
-        if abs(s0 - float(s_c)) > 0.8 * FOLD_CHECK_RTOL * s0:
+        if abs(s0 - float(s_c)) > 0.8 * DIRECT_FOLD_CHECK_RTOL * s0:
             # The cold solve looks for a fold sheet thinner than the coarse mesh here (from
             # 5 %): the same search from the same root; no sheet means the same answer.
             if earlier_exit(eval_scaled, d, t0, s0) is not None:
