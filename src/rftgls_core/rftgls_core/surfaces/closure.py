@@ -150,7 +150,7 @@ def _fold_coefficients() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             c, s = np.cos(a), np.sin(a)
             cu.append(k * (c * _AF - s * _BF))
             cv.append(k * (s * _AF + c * _BF))
-    scales = np.repeat(np.tile(np.asarray(_FOLD_SCALES), 1), len(_FOLD_TURNS))
+    scales = np.repeat(np.asarray(_FOLD_SCALES), len(_FOLD_TURNS))
     return np.concatenate(cu), np.concatenate(cv), scales
 
 

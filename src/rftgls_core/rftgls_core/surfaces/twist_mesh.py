@@ -31,6 +31,13 @@ from .twist_sphere import TwistSphere, orient_outward  # noqa: F401  (orient_out
 # Polish moves larger than this share of the capacity trigger the thin-fold check.
 
 
+# The local closure checks after the polish: (check, runs on an exit of the closure search or
+# a jump, what the detail calls a nearer exit it finds). local_exit looks for a bridged jump
+# just in front of a Newton root (as direct's check); jump_exit for a nearer exit next to a
+# closure-search exit, which need not be the first one there.
+_LOCAL_CHECKS = ((local_exit, False, 'closure exit in front of the polished root'),
+                 (jump_exit, True, 'nearer closure exit next to the first one'))
+
 class TwistMeshSurface(LimitSurface):
     """The twist-sphere mesh representation (primary engine).
 
@@ -142,24 +149,16 @@ class TwistMeshSurface(LimitSurface):
                 # root: started from a local exit instead, it can miss the sheet it finds
                 # from the root (the prototype map node h = 5 mm, thetaB = -20, thetaL1 = 20,
                 # thetaL2 = -40 deg, backward, phi = 10 deg: 5.451 N against 5.158 N).
-                if self.local_check and not (on_jump or searched):
-                    # a bridged jump just in front of a Newton root (as direct's check)
-                    near = local_exit(self._eval_scaled(problem),
-                                      problem.load_direction_scaled(phi), tw, cap / s_f,
-                                      angle_tol=self.closure_tol)
-                    if near is not None:
-                        detail += (f'; closure exit in front of the polished root ({cap:.4g} N '
-                                   'further out)')
-                        cap, tw, on_jump = near.s * s_f, near.twist, near.on_jump
-                if self.local_check and (on_jump or searched):
-                    # an exit of the closure search may not be the first one next to it
-                    near = jump_exit(self._eval_scaled(problem),
-                                     problem.load_direction_scaled(phi), tw, cap / s_f,
-                                     angle_tol=self.closure_tol)
-                    if near is not None:
-                        detail += (f'; nearer closure exit next to the first one ({cap:.4g} N '
-                                   'further out)')
-                        cap, tw, on_jump = near.s * s_f, near.twist, near.on_jump
+                if self.local_check:
+                    ev, d = self._eval_scaled(problem), problem.load_direction_scaled(phi)
+                    # in order: a jump found by the first check is then checked by the second
+                    for check, after_search, what in _LOCAL_CHECKS:
+                        if (on_jump or searched) != after_search:
+                            continue
+                        near = check(ev, d, tw, cap / s_f, angle_tol=self.closure_tol)
+                        if near is not None:
+                            detail += f'; {what} ({cap:.4g} N further out)'
+                            cap, tw, on_jump = near.s * s_f, near.twist, near.on_jump
                 if on_jump:
                     flags.append('on_jump')
             out.append(CapacityResult.make(phi, Status.OK, self.method, cap, tw, problem.scaling,
