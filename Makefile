@@ -6,7 +6,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 WS := ros2_ws
-PKGS := rftgls_core minirquad_driver rftgls_ros
+PKGS := rftgls_conventions rftgls_node_base rftgls_core minirquad_driver minirquad_sim rftgls_ros
 PKG_FILES := $(foreach p,$(PKGS),src/$(p)/setup.py src/$(p)/setup.cfg src/$(p)/package.xml)
 # Interface packages (ament_cmake + rosidl) built by colcon only; any change re-builds them.
 IFACE_PKGS := tf2_msgs rftgls_interfaces

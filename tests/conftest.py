@@ -74,7 +74,7 @@ def ros_context():
     """A private, initialised rclpy context on this worker's domain (no signal handlers)."""
     rclpy = pytest.importorskip('rclpy')
     ctx = rclpy.Context()
-    from minirquad_driver.dds_loopback import during_init
+    from rftgls_node_base.dds_loopback import during_init
     with during_init():
         rclpy.init(context=ctx, domain_id=int(os.environ['ROS_DOMAIN_ID']))
     try:

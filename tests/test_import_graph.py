@@ -1,4 +1,10 @@
-"""No import cycle inside any package (issue 14, item 6), checked statically.
+"""The import graph, checked statically: packages depend on each other only downward, and
+no package has an import cycle inside it.
+
+Direction (docs/design/architecture.md, "Layout"): rftgls_conventions at the bottom; the
+ROS-free core and the node base on it; the driver, which runs on the robot, on the node base
+only (no solver, no map code); the simulator on the driver and the core; the nodes on the core
+and the node base, never on the simulator.
 
 Every `import` and `from ... import` in a package's modules counts, at module level or inside a
 function (a lazy import that closes a loop is still a loop a reader has to untangle); imports
@@ -11,9 +17,22 @@ import ast
 from pathlib import Path
 
 import pytest
+from repo_layout import PYTHON_PACKAGES, packages
 
 SRC = Path(__file__).resolve().parents[1] / 'src'
-PACKAGES = ('rftgls_core', 'rftgls_ros', 'minirquad_driver')
+PACKAGES = PYTHON_PACKAGES
+# Which of the repository's packages each Python package may import.
+ALLOWED = {
+    'rftgls_conventions': set(),
+    'rftgls_core': {'rftgls_conventions'},
+    'rftgls_node_base': {'rftgls_conventions'},
+    'minirquad_driver': {'rftgls_conventions', 'rftgls_node_base'},
+    'minirquad_sim': {'rftgls_conventions', 'rftgls_node_base', 'rftgls_core',
+                      'minirquad_driver'},
+    'rftgls_ros': {'rftgls_conventions', 'rftgls_node_base', 'rftgls_core',
+                   'rftgls_interfaces', 'tf2_msgs'},
+}
+REPO_PACKAGES = set(PYTHON_PACKAGES) | set(packages('ament_cmake'))
 
 
 def module_names(pkg_dir: Path, pkg: str) -> dict[str, Path]:
@@ -120,5 +139,42 @@ def test_checker_finds_a_cycle_and_ignores_type_checking(tmp_path):
 @pytest.mark.parametrize('pkg', PACKAGES)
 def test_no_import_cycle(pkg):
     mods = module_names(SRC / pkg / pkg, pkg)
-    assert len(mods) > 5
+    assert mods                  # the scan found the package's modules
     assert cycles(import_edges(mods)) == []
+
+
+def first_party_imports(pkg_dir: Path, repo_packages: set[str]) -> dict[str, set[str]]:
+    """Repository package -> files of pkg_dir's package that import it (at any depth)."""
+    out: dict[str, set[str]] = {}
+    for f in pkg_dir.rglob('*.py'):
+        for node in _imports(ast.parse(f.read_text(), str(f))):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif node.level == 0 and node.module:
+                names = [node.module]
+            else:
+                continue
+            for n in names:
+                top = n.split('.')[0]
+                if top in repo_packages:
+                    out.setdefault(top, set()).add(f.name)
+    return out
+
+
+def test_every_package_has_a_rule():
+    assert set(ALLOWED) == set(PACKAGES)
+
+
+@pytest.mark.parametrize('pkg', PACKAGES)
+def test_packages_import_only_downward(pkg):
+    used = first_party_imports(SRC / pkg / pkg, REPO_PACKAGES - {pkg})
+    forbidden = {p: sorted(fs) for p, fs in used.items() if p not in ALLOWED[pkg]}
+    assert not forbidden, f'{pkg} imports {forbidden}'
+
+
+def test_the_direction_check_sees_a_forbidden_import(tmp_path):
+    pkg = tmp_path / 'minirquad_driver'
+    pkg.mkdir()
+    (pkg / 'bridge.py').write_text('def f():\n    from rftgls_core.maps import query\n')
+    used = first_party_imports(pkg, REPO_PACKAGES)
+    assert set(used) == {'rftgls_core'} and 'rftgls_core' not in ALLOWED['minirquad_driver']

@@ -12,15 +12,13 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
     ],
-    install_requires=['setuptools', 'pyserial', 'numpy'],
+    install_requires=['setuptools', 'pyserial'],
     zip_safe=False,
-    description=('MiniRQuad serial bridge (COBS + CRC-16 protocol) and a simulated '
-                 'microcontroller on a pty.'),
+    description='MiniRQuad serial protocol (COBS + CRC-16 frames) and the serial bridge node.',
     license='BSD-3-Clause',
     entry_points={
         'console_scripts': [
             'bridge_node = minirquad_driver.bridge_node:main',
-            'minirquad_sim = minirquad_driver.sim.main:main',
         ],
     },
 )

@@ -1,4 +1,4 @@
-"""rftgls_core.conventions: every shared convention checked against an independent source
+"""rftgls_conventions: every shared convention checked against an independent source
 (scipy's Rotation for quaternions, hand-worked angles for the circle means)."""
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from rftgls_core import conventions as cv
+import rftgls_conventions as cv
 from rftgls_core.types import pull_direction
 
 DEG = math.pi / 180.0

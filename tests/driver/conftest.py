@@ -21,7 +21,7 @@ def sim(spawn, python_exe, tmp_path):
             self.link = tmp_path / 'tty'
             self.path_file = tmp_path / 'tty.path'
             self.record = tmp_path / 'record.jsonl'
-            self.proc = spawn([python_exe, '-m', 'minirquad_driver.sim.main',
+            self.proc = spawn([python_exe, '-m', 'minirquad_sim.main',
                                '--symlink', str(self.link), '--link-file', str(self.path_file),
                                '--record', str(self.record), *args])
             deadline = time.monotonic() + 10.0

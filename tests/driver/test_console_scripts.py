@@ -16,7 +16,7 @@ def test_ros2_run_bridge_node_and_sim(spawn, ros_context, tmp_path):
     if ros2 is None:
         pytest.skip('ros2 stand-in not on PATH (source tools/env.sh after make setup)')
     link = tmp_path / 'tty'
-    spawn([ros2, 'run', 'minirquad_driver', 'minirquad_sim', '--symlink', str(link)])
+    spawn([ros2, 'run', 'minirquad_sim', 'minirquad_sim', '--symlink', str(link)])
     deadline = time.monotonic() + 10
     while not link.exists():
         assert time.monotonic() < deadline

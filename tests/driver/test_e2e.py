@@ -42,7 +42,7 @@ def test_no_frame_lost_at_100hz(sim, harness):
     link = h.link()
     # Losses are counted by sequence number; the rate itself depends on how loaded the shared
     # machine is (the simulator is a Python process), so it is only checked loosely here and
-    # measured properly by `python -m minirquad_driver.bench`.
+    # measured properly by `python -m minirquad_sim.bridge_throughput`.
     assert link['dropped_frames'] == 0
     assert link['crc_errors'] == 0 and link['cobs_errors'] == 0
     assert link['telemetry_rate_hz'] >= 50.0

@@ -12,7 +12,7 @@ DH = AnchorState.from_degrees(0.034, 5.0, -40.0, 30.0)
 IN_AIR = AnchorState.from_degrees(0.20, 5.0, -40.0, 30.0)
 PHI = math.radians(-20.0)
 NODE_NS = '/capacity_node'
-from rftgls_core.conventions import LEG_JOINT_NAMES as JOINT_NAMES  # noqa: E402
+from rftgls_conventions import LEG_JOINT_NAMES as JOINT_NAMES  # noqa: E402
 
 
 class Probe:

@@ -6,7 +6,7 @@ import math
 import pytest
 from _capacity_common import DH, IN_AIR, PHI
 
-from rftgls_core.conventions import quat_xyzw_to_pitch
+from rftgls_conventions import quat_xyzw_to_pitch
 from rftgls_core.types import Pull, Status
 from rftgls_ros.capacity.estimator import CapacityEstimator, EstimatorConfig
 from rftgls_ros.capacity.predictor import ConfigError, predictor_from_params

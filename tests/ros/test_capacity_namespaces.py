@@ -23,10 +23,10 @@ from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from sensor_msgs.msg import Imu, JointState  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
-from minirquad_driver.dds_loopback import during_init  # noqa: E402
-from rftgls_core.conventions import LEG_JOINT_NAMES, pitch_to_quat_xyzw  # noqa: E402
+from rftgls_conventions import LEG_JOINT_NAMES, pitch_to_quat_xyzw  # noqa: E402
 from rftgls_core.types import AnchorState  # noqa: E402
 from rftgls_interfaces.msg import AnchorEstimate  # noqa: E402
+from rftgls_node_base.dds_loopback import during_init  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 PHI = math.radians(-20.0)          # the params file's phi_rad (no phi topic: assumed)

@@ -16,7 +16,7 @@ from rclpy.parameter import Parameter  # noqa: E402
 from rosbags.rosbag2 import Reader, Writer  # noqa: E402
 from rosbags.typesys import Stores, get_typestore  # noqa: E402
 
-from rftgls_core.conventions import quat_xyzw_to_pitch  # noqa: E402
+from rftgls_conventions import quat_xyzw_to_pitch  # noqa: E402
 from rftgls_core.types import AnchorState, Pull, Status, pull_direction  # noqa: E402
 from rftgls_ros.capacity_node import CapacityNode  # noqa: E402
 

@@ -7,7 +7,7 @@ holds bound to 127.0.0.1. Read from the kernel's socket table (/proc/<pid>/net/u
 
 The checks can fail: without the profile the same node binds its DDS ports to 0.0.0.0, and a
 process that leaves rmw_fastrtps in LOCALHOST mode with the profile (no
-minirquad_driver.dds_loopback) still gets rmw's extra send sockets outside loopback.
+rftgls_node_base.dds_loopback) still gets rmw's extra send sockets outside loopback.
 Why the profile, not LOCALHOST alone: docs/design/capacity-inputs.md ("DDS on loopback").
 """
 from __future__ import annotations
@@ -24,7 +24,7 @@ import pytest
 
 rclpy = pytest.importorskip('rclpy')
 
-from minirquad_driver.dds_loopback import profile_problems  # noqa: E402
+from rftgls_node_base.dds_loopback import profile_problems  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 DDS_PROFILE = REPO / 'ros2_ws' / 'params' / 'fastdds_localhost.xml'
@@ -175,7 +175,7 @@ def test_profile_nodes_talk_to_plain_localhost_processes_and_rmw_alone_leaks(spa
 def test_a_profile_that_is_not_loopback_only_is_not_relied_on(tmp_path, edit, problem):
     """dds_loopback switches rmw's LOCALHOST handling off only for a profile that keeps every
     socket on loopback; each weakening of the shipped profile is named (and the range stays)."""
-    from minirquad_driver.dds_loopback import prepare
+    from rftgls_node_base.dds_loopback import prepare
     assert profile_problems(DDS_PROFILE) == []
     text = DDS_PROFILE.read_text()
     assert text.count(edit[0]) == 1, edit[0]
@@ -190,7 +190,7 @@ def test_a_profile_that_is_not_loopback_only_is_not_relied_on(tmp_path, edit, pr
 
 def test_the_switch_is_for_rclpy_init_only():
     """The exported range stays LOCALHOST for everything but the rclpy.init inside."""
-    from minirquad_driver.dds_loopback import during_init
+    from rftgls_node_base.dds_loopback import during_init
     env = {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
            'FASTRTPS_DEFAULT_PROFILES_FILE': str(DDS_PROFILE)}
     with during_init(env) as what:

@@ -8,8 +8,8 @@ import math
 
 import pytest
 
-from minirquad_driver.sim.ground import LiveGround
-from minirquad_driver.sim.main import build_parser
+from minirquad_sim.ground import LiveGround
+from minirquad_sim.main import build_parser
 from rftgls_core.cli.demo import ANCHOR_MODES
 from rftgls_core.description import shipped_description, write_robot_description
 from rftgls_ros.capacity.params import DEFAULTS

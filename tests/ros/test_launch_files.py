@@ -48,7 +48,7 @@ def test_launch_file_is_sound(src):
 def test_sim_launch_starts_the_whole_stack():
     nodes = launch_check.parse(installed('sim.launch.py'), {'sled_mass_kg': '0.6'}).nodes
     exes = [(n.package, n.executable) for n in nodes]
-    assert exes == [('minirquad_driver', 'minirquad_sim'), ('minirquad_driver', 'bridge_node'),
+    assert exes == [('minirquad_sim', 'minirquad_sim'), ('minirquad_driver', 'bridge_node'),
                     ('rftgls_ros', 'capacity_node'), ('rftgls_ros', 'state_publisher'),
                     ('rftgls_ros', 'behavior_node')]
     sim, bridge, _cap, _tf, behavior = nodes
@@ -74,7 +74,7 @@ def test_checker_finds_mistakes(tmp_path):
                      remappings=[('/not_a_topic', '/x'), ('/joint_states', '/robot/js')]),
                 Node(package='rftgls_ros', executable='capacity_node', name='cap2',
                      parameters=[{'publish_rate_hz': -1.0}]),
-                Node(package='minirquad_driver', executable='minirquad_sim',
+                Node(package='minirquad_sim', executable='minirquad_sim',
                      parameters=[{'port': 'x'}]),
                 Node(package='rftgls_ros', executable='behavior_node',
                      parameters=[{'sled_mass_kg': LaunchConfiguration('undeclared')}]),

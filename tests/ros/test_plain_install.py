@@ -22,7 +22,7 @@ def test_plain_colcon_install_finds_map_and_params(tmp_path, stop):
     env = dict(os.environ)
     build = subprocess.run(
         ['colcon', '--log-base', str(tmp_path / 'log'), 'build', '--base-paths',
-         str(REPO / 'src' / 'rftgls_core'), str(REPO / 'src' / 'rftgls_ros'),
+         *(str(REPO / 'src' / p) for p in ('rftgls_conventions', 'rftgls_core', 'rftgls_ros')),
          '--build-base', str(tmp_path / 'build'), '--install-base', str(tmp_path / 'install')],
         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
     assert build.returncode == 0, build.stdout[-3000:] + build.stderr[-3000:]

@@ -21,7 +21,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy  # noqa: E
 from sensor_msgs.msg import Imu, JointState  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
-from rftgls_core.conventions import pitch_to_quat_xyzw  # noqa: E402
+from rftgls_conventions import pitch_to_quat_xyzw  # noqa: E402
 from rftgls_ros.state_publisher import ConfigError, StatePublisher  # noqa: E402
 from tf2_msgs.msg import TFMessage  # noqa: E402
 

@@ -18,8 +18,8 @@ class Plant:
                  heavier_mass: float = 0.0, ground=None):
         from minirquad_driver.gaits import GAITS
         from minirquad_driver.protocol.messages import BurrowMode
-        from minirquad_driver.sim.robot import SimRobot
-        from minirquad_driver.sim.winch import WinchSled
+        from minirquad_sim.robot import SimRobot
+        from minirquad_sim.winch import WinchSled
         self.gaits, self.burrow_modes = GAITS, BurrowMode
         kw = {'ground': ground} if ground is not None else {}
         self.robot = SimRobot(winch=WinchSled(sled_mass=sled_mass), **kw)

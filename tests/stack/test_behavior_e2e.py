@@ -29,7 +29,7 @@ def run_stack(tmp_path, spawn, sled, params=(), sim=None, sim_args=(), timeout=6
     """Start the stack, wait for behavior_node to exit (or ``until(log)``), return logs."""
     link, tty = tmp_path / 'link', str(tmp_path / 'tty')
     sim_log = open(tmp_path / 'sim.log', 'w')
-    sim_argv = sim or _ros2('minirquad_driver', 'minirquad_sim')
+    sim_argv = sim or _ros2('minirquad_sim', 'minirquad_sim')
     sim_proc = spawn([*sim_argv, '--link-file', str(link), '--symlink', tty,
                       '--sled-mass', str(sled), *sim_args],
                      stdout=sim_log, stderr=sim_log, cwd=REPO)
@@ -135,9 +135,9 @@ def _heavier_sim(argv):
     import argparse
     import atexit
 
-    from minirquad_driver.sim import main as sim_main
-    from minirquad_driver.sim.robot import SimRobot
-    from minirquad_driver.sim.winch import WinchSled
+    from minirquad_sim import main as sim_main
+    from minirquad_sim.robot import SimRobot
+    from minirquad_sim.winch import WinchSled
 
     ap = argparse.ArgumentParser()
     ap.add_argument('--heavier-at', type=float, required=True)

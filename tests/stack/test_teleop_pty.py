@@ -126,7 +126,7 @@ def test_teleop_pty_guard_against_simulated_robot(tmp_path, spawn, ros_context):
 
     link, tty = tmp_path / 'link', str(tmp_path / 'tty')
     log = open(tmp_path / 'stack.log', 'w')
-    spawn(['ros2', 'run', 'minirquad_driver', 'minirquad_sim', '--link-file', str(link),
+    spawn(['ros2', 'run', 'minirquad_sim', 'minirquad_sim', '--link-file', str(link),
            '--symlink', tty, '--sled-mass', '0.6'], stdout=log, stderr=log, cwd=REPO)
     deadline = time.monotonic() + 10
     while not link.exists() and time.monotonic() < deadline:

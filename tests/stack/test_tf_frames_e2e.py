@@ -155,7 +155,7 @@ def frames_and_tree(got, types):
 def test_every_frame_id_resolves(tmp_path, spawn, ros_context):
     link, tty = tmp_path / 'link', str(tmp_path / 'tty')
     logs = {n: open(tmp_path / f'{n}.log', 'w') for n in ('sim', *NODES)}
-    spawn(['ros2', 'run', 'minirquad_driver', 'minirquad_sim', '--link-file', str(link),
+    spawn(['ros2', 'run', 'minirquad_sim', 'minirquad_sim', '--link-file', str(link),
            '--symlink', tty], stdout=logs['sim'], stderr=logs['sim'], cwd=REPO)
     deadline = time.monotonic() + 10
     while not link.exists() and time.monotonic() < deadline:

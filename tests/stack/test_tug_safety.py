@@ -14,7 +14,7 @@ import math
 import pytest
 from plant import Plant, fast_config, run_loop
 
-from minirquad_driver.sim.ground import LiveGround
+from minirquad_sim.ground import LiveGround
 from rftgls_ros.behavior import BehaviorMachine, ModeChooser, State, evidence
 from rftgls_ros.behavior.slip import SLIP_LEGS, SLIP_PITCH, SLIP_TENSION_DROP, SlipDetector
 from rftgls_ros.capacity.predictor import MapPredictor

@@ -1,4 +1,4 @@
-"""The workspace contract: three ament_python packages, `ros2 run` lookup, a ROS-free core."""
+"""The workspace contract: the ament_python packages, `ros2 run` lookup, a ROS-free core."""
 import os
 import shutil
 import subprocess
@@ -7,9 +7,10 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
+from repo_layout import PYTHON_PACKAGES
 
 REPO = Path(__file__).resolve().parents[2]
-PACKAGES = ('rftgls_core', 'rftgls_ros', 'minirquad_driver')
+PACKAGES = PYTHON_PACKAGES
 
 
 @pytest.mark.parametrize('pkg', PACKAGES)

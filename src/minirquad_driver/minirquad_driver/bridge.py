@@ -22,6 +22,8 @@ import time
 from collections import deque
 from dataclasses import dataclass, field
 
+from rftgls_node_base.diagnostics import DiagStatus
+
 from . import ina219
 from .energy import EnergyIntegrator
 from .mcu_clock import McuClock
@@ -86,14 +88,6 @@ class CommandResult:
     seq: int
     type: int
     result: int | None
-
-
-@dataclass(frozen=True)
-class DiagStatus:
-    name: str
-    level: int          # 0 OK, 1 WARN, 2 ERROR, 3 STALE (diagnostic_msgs/DiagnosticStatus)
-    message: str
-    values: dict
 
 
 @dataclass

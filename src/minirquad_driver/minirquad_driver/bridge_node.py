@@ -27,15 +27,16 @@ from rclpy.time import Time
 from sensor_msgs.msg import BatteryState, Imu, JointState
 from std_msgs.msg import Bool, Float64, String
 
-from rftgls_core.conventions import JOINT_NAMES, LEG_KEYS, pitch_to_quat_xyzw
+from rftgls_conventions import JOINT_NAMES, LEG_KEYS, pitch_to_quat_xyzw
+from rftgls_node_base.node_main import run_node, usage, wants_help
+from rftgls_node_base.parameters import declare
 
 from .bridge import BridgeConfig, BridgeCore, CommandResult, PowerSample, TelemetrySample
 from .gaits import GAITS
-from .node_main import declare, run_node, usage, wants_help
 from .protocol import messages as m
 from .transport import SerialTransport
 
-# The JointState names of rftgls_core.conventions, in the MCU's leg order (protocol LEG_NAMES).
+# The JointState names of rftgls_conventions, in the MCU's leg order (protocol LEG_NAMES).
 assert LEG_KEYS == m.LEG_NAMES, 'protocol leg order must match the shared conventions'
 _UNKNOWN_VAR = (math.pi ** 2)    # variance for a quantity the robot does not measure
 
@@ -152,7 +153,7 @@ class BridgeNode(Node):
         imu = Imu()
         imu.header.stamp = stamp
         imu.header.frame_id = self.imu_frame
-        # thetaB (nose up) as a body -> world quaternion (rftgls_core.conventions). Roll and
+        # thetaB (nose up) as a body -> world quaternion (rftgls_conventions). Roll and
         # yaw are not measured and set to 0 with a huge variance.
         o = imu.orientation
         o.x, o.y, o.z, o.w = pitch_to_quat_xyzw(t.pitch)

@@ -24,7 +24,7 @@ def generate_launch_description():
                               description='symlink the simulator keeps at its pty'),
         DeclareLaunchArgument('sled_mass_kg', default_value='0.4',
                               description='simulated sled mass, kg'),
-        Node(package='minirquad_driver', executable='minirquad_sim',
+        Node(package='minirquad_sim', executable='minirquad_sim',
              arguments=['--symlink', port, '--sled-mass', sled], output='screen'),
         IncludeLaunchDescription(
             PythonLaunchDescriptionSource(os.path.join(launch_dir, 'bringup.launch.py')),

@@ -5,7 +5,7 @@ The logic is ``rftgls_ros.behavior.BehaviorMachine``; this node converts message
 reacts at the tension rate), and publishes the commands, the state and every event.
 
 Subscribed: /joint_states (sensor_msgs/JointState: legs rad, ``winch_rope`` m / m/s),
-  /imu (sensor_msgs/Imu: thetaB nose up positive, rftgls_core.conventions.quat_xyzw_to_pitch),
+  /imu (sensor_msgs/Imu: thetaB nose up positive, rftgls_conventions.quat_xyzw_to_pitch),
   /winch/tension (geometry_msgs/WrenchStamped, N), /energy (std_msgs/Float64, J),
   /minirquad/link_state (std_msgs/String ok|stale), /capacity_node/capacity (WrenchStamped,
   N along the tether: |force|), /capacity_node/slip_twist (TwistStamped), /capacity_node/status,
@@ -31,14 +31,15 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, String
 
-from minirquad_driver.node_main import declare, run_node, usage, wants_help
-from rftgls_core.conventions import (
+from rftgls_conventions import (
     LEG_KEYS,
     WINCH_ROPE_JOINT,
     axle_angles,
     leg_keys_from_joint_names,
     quat_xyzw_to_pitch,
 )
+from rftgls_node_base.node_main import run_node, usage, wants_help
+from rftgls_node_base.parameters import declare
 
 from .behavior import (
     BehaviorConfig,

@@ -51,8 +51,8 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
 
-from minirquad_driver.dds_loopback import during_init
-from rftgls_core.conventions import LEG_JOINT_NAMES, pitch_to_quat_xyzw
+from rftgls_conventions import LEG_JOINT_NAMES, pitch_to_quat_xyzw
+from rftgls_node_base.dds_loopback import during_init
 
 from .capacity.predictor import DEFAULT_MAP, resolve_map_path
 from .capacity_node import CapacityNode

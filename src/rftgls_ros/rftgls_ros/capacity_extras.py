@@ -30,10 +30,10 @@ from geometry_msgs.msg import Point, Twist
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
-from minirquad_driver.node_main import declare
 from rftgls_core.types import AnchorState, Pull, Status
 from rftgls_interfaces.msg import AnchorEstimate
 from rftgls_interfaces.srv import QueryCapacity
+from rftgls_node_base.parameters import declare
 
 from .capacity.estimator import Estimate
 from .capacity.markers import CurveSample, MarkerStyle, estimate_markers, limit_curve

@@ -27,9 +27,10 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, String
 
-from minirquad_driver.node_main import declare, run_node, usage, wants_help
-from rftgls_core.cli.main import one_line
+from rftgls_conventions import one_line
 from rftgls_core.types import pull_direction
+from rftgls_node_base.node_main import run_node, usage, wants_help
+from rftgls_node_base.parameters import declare
 
 from .capacity.estimator import JOINTS, CapacityEstimator, Estimate
 from .capacity.inputs import gravity_problem, quat_xyzw_to_pitch

@@ -30,7 +30,7 @@ import threading
 import time
 from pathlib import Path
 
-from minirquad_driver.node_main import stop_on_signals
+from rftgls_node_base.node_main import stop_on_signals
 
 from .behavior.report import read_csv, write_report
 
@@ -51,15 +51,21 @@ def _reserve_domain() -> tuple[int, socket.socket]:
     raise RuntimeError('no free ROS domain id')
 
 
-def _ros2_run(pkg: str, exe: str) -> list[str]:
+# The stack's programs: executable -> (its package, the module `python -m` runs when there is
+# no `ros2` on PATH).
+PROGRAMS = {
+    'minirquad_sim': ('minirquad_sim', 'minirquad_sim.main'),
+    'bridge_node': ('minirquad_driver', 'minirquad_driver.bridge_node'),
+    'capacity_node': ('rftgls_ros', 'rftgls_ros.capacity_node'),
+    'state_publisher': ('rftgls_ros', 'rftgls_ros.state_publisher'),
+    'behavior_node': ('rftgls_ros', 'rftgls_ros.behavior_node'),
+}
+
+
+def _ros2_run(exe: str) -> list[str]:
+    pkg, module = PROGRAMS[exe]
     ros2 = shutil.which('ros2')
-    if ros2:
-        return [ros2, 'run', pkg, exe]
-    return [sys.executable, '-m', {'minirquad_sim': 'minirquad_driver.sim.main',
-                                   'bridge_node': 'minirquad_driver.bridge_node',
-                                   'capacity_node': 'rftgls_ros.capacity_node',
-                                   'state_publisher': 'rftgls_ros.state_publisher',
-                                   'behavior_node': 'rftgls_ros.behavior_node'}[exe]]
+    return [ros2, 'run', pkg, exe] if ros2 else [sys.executable, '-m', module]
 
 
 def stop_process(proc: subprocess.Popen, timeout: float = 3.0) -> None:
@@ -123,7 +129,7 @@ def run_set(args, sled: float, env: dict, out: Path, params: Path | None) -> Pat
         port = args.port
         if not port:
             link_file, port = tmp / 'link', str(tmp / 'tty')
-            sim = [*_ros2_run('minirquad_driver', 'minirquad_sim'), '--link-file',
+            sim = [*_ros2_run('minirquad_sim'), '--link-file',
                    str(link_file), '--symlink', port, '--sled-mass', str(sled)]
             sim += args.sim_arg or []
             stack.start('minirquad_sim', sim)
@@ -133,18 +139,18 @@ def run_set(args, sled: float, env: dict, out: Path, params: Path | None) -> Pat
             if not link_file.exists():
                 print('demo: the simulator did not open its pty', file=sys.stderr)
                 return None
-        stack.start('bridge_node', [*_ros2_run('minirquad_driver', 'bridge_node'),
+        stack.start('bridge_node', [*_ros2_run('bridge_node'),
                                     '--ros-args', '-p', f'port:={port}'])
-        cap = [*_ros2_run('rftgls_ros', 'capacity_node'), '--ros-args']
+        cap = [*_ros2_run('capacity_node'), '--ros-args']
         cap_params = Path('ros2_ws/params/capacity_node.yaml')
         if cap_params.exists():
             cap += ['--params-file', str(cap_params)]
         cap += ['-p', 'phi_topic:=winch/phi']   # relative: behavior_node's winch/phi
         stack.start('capacity_node', cap)
         # /tf and /tf_static for RViz/Foxglove (odom -> base_link -> legs, imu_link, winch_link)
-        stack.start('state_publisher', [*_ros2_run('rftgls_ros', 'state_publisher'),
+        stack.start('state_publisher', [*_ros2_run('state_publisher'),
                                         '--ros-args', '-p', 'robot:=minirquad'])
-        beh = [*_ros2_run('rftgls_ros', 'behavior_node'), '--ros-args']
+        beh = [*_ros2_run('behavior_node'), '--ros-args']
         if params:
             beh += ['--params-file', str(params)]
         beh += ['-p', f'sled_mass_kg:={sled}', '-p', f'cycles:={args.cycles}',

@@ -36,8 +36,8 @@ from typing import Any
 
 import yaml
 
-from minirquad_driver.dds_loopback import during_init
-from rftgls_core.cli.main import one_line
+from rftgls_conventions import one_line
+from rftgls_node_base.dds_loopback import during_init
 
 STUB_MODULES = ('launch', 'launch.actions', 'launch.substitutions',
                 'launch.launch_description_sources', 'launch_ros', 'launch_ros.actions',

@@ -22,9 +22,10 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64
 
-from minirquad_driver.node_main import ConfigError, declare, run_node, usage, wants_help
-from rftgls_core.conventions import quat_xyzw_to_pitch
+from rftgls_conventions import quat_xyzw_to_pitch
 from rftgls_core.description import DATA
+from rftgls_node_base.node_main import run_node, usage, wants_help
+from rftgls_node_base.parameters import ConfigError, declare
 from tf2_msgs.msg import TFMessage
 
 from .tf_tree import (

@@ -8,7 +8,7 @@ What robot_state_publisher does, for the URDFs of this project (rftgls_core/data
   its axis, and `prismatic` origin then a translation along it, for /tf;
 - odom -> base_link places the body in the world (`odom_to_base`): base_link's origin is the
   winch point p at height h above the free surface (z of odom = 0 on the sand), turned by the
-  body pitch theta_B (rftgls_core.conventions: nose up positive, a rotation of -theta_B about
+  body pitch theta_B (rftgls_conventions: nose up positive, a rotation of -theta_B about
   +y). x and y of p are NOT observed by the robot's sensors: they are 0 (the robot stands at
   the origin of odom); roll and yaw are not modelled (the planar model of the paper).
 - odom -> anchor (`odom_to_anchor`): world-aligned axes at p, the frame of capacity_node's
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rftgls_core.conventions import LEG_KEYS, pitch_to_quat_xyzw
+from rftgls_conventions import LEG_KEYS, pitch_to_quat_xyzw
 from rftgls_core.geometry.transforms import matrix_to_quat, parse_vector, quat_to_matrix, rpy_matrix
 
 MOVING = ('revolute', 'continuous', 'prismatic')
@@ -136,7 +136,7 @@ def static_transforms(joints: Iterable[UrdfJoint], prefix: str = '') -> list[Tra
 
 def urdf_joint_name(joint_state_name: str) -> str:
     """URDF joint of a sensor_msgs/JointState name of the stack: 'leg_proximal_left' (the
-    bridge's, rftgls_core.conventions) -> 'left_proximal_hip' (the shipped URDFs'). Other
+    bridge's, rftgls_conventions) -> 'left_proximal_hip' (the shipped URDFs'). Other
     names are returned unchanged (a JointState may also use the URDF names directly)."""
     key = joint_state_name[len('leg_'):] if joint_state_name.startswith('leg_') else ''
     if key in LEG_KEYS:

@@ -17,6 +17,8 @@ import sys
 import warnings
 from importlib.metadata import entry_points
 
+from rftgls_conventions import one_line
+
 # sub-command -> module in rftgls_core.cli; each has add_parser(subparsers) and run(args).
 COMMANDS = ('wrench', 'capacity', 'plot', 'bench', 'demo', 'chart', 'map', 'simulate', 'figure')
 EXIT_USAGE = 2      # bad input of any kind (the CLI contract)
@@ -24,15 +26,6 @@ EXIT_INTERNAL = 3   # a bug: an exception the project does not define
 
 # argparse only takes '-5' and '-.5' as values, so '--h -1e-3' would read as an option.
 _NEGATIVE_NUMBER = re.compile(r'^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$')
-
-
-def one_line(text: object) -> str:
-    """Collapse whitespace (h5py, numpy and rosbags messages span lines); an exception with
-    no message gives its type name."""
-    line = ' '.join(str(text).split())
-    if not line and isinstance(text, BaseException):
-        return type(text).__name__
-    return line
 
 
 _SEEN = '_rftgls_options_seen'

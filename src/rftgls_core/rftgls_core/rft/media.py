@@ -11,7 +11,7 @@ import math
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
-from ..conventions import G  # m/s^2
+from rftgls_conventions import G  # m/s^2
 
 
 class MediumError(ValueError):

@@ -25,7 +25,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..conventions import G  # m/s^2
+from rftgls_conventions import G  # m/s^2
+
 from ..geometry.mesh import Facets, TriMesh
 from ..geometry.transforms import rot_y
 from ..types import AnchorState, Pull

@@ -11,7 +11,7 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
-from rftgls_core.conventions import G, tether_phi
+from rftgls_conventions import G, tether_phi
 from rftgls_core.predictor import Predictor
 from rftgls_core.types import AnchorState, Pull, Status
 

@@ -29,15 +29,15 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from minirquad_driver.bridge import DiagStatus
-from rftgls_core.conventions import LEG_KEYS, axle_angles, tether_direction_xz, wrap_angle
+from rftgls_conventions import LEG_KEYS, axle_angles, tether_direction_xz, wrap_angle
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull, Status
 from rftgls_core.uncertainty import capacity_lower_bound
+from rftgls_node_base.diagnostics import DiagStatus
 
 from .predictor import ConfigError, Predictor, predictor_name
 
-JOINTS = LEG_KEYS  # leg angle keys, rftgls_core.conventions
+JOINTS = LEG_KEYS  # leg angle keys, rftgls_conventions
 # Input names, as used for timeouts and in stale/invalid reasons.
 INPUTS = ('joint_states', 'pitch', 'tension', 'height', 'phi')
 DEFAULT_TIMEOUTS_S = {'joint_states': 0.25, 'pitch': 0.25, 'tension': 0.25, 'height': 1.0,

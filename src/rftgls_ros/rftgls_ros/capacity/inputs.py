@@ -1,16 +1,16 @@
 """Pure conversions and plausibility checks of capacity_node's sensor inputs (no ROS).
 
 Angles in rad, accelerations in m/s^2, quaternions (x, y, z, w) of the body in a z-up world
-(frames and signs: rftgls_core.conventions). The rules and their
+(frames and signs: rftgls_conventions). The rules and their
 tolerances are explained in docs/design/capacity-inputs.md.
 """
 from __future__ import annotations
 
 import math
 
-# The conversions themselves live in rftgls_core.conventions (one place for every package);
+# The conversions themselves live in rftgls_conventions (one place for every package);
 # re-exported here for the estimator's callers.
-from rftgls_core.conventions import (  # noqa: F401
+from rftgls_conventions import (  # noqa: F401
     axle_angle,
     body_z_in_world,
     quat_xyzw_to_pitch,

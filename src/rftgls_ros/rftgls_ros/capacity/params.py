@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from rftgls_core.conventions import LEG_JOINT_NAMES, LEG_KEYS
+from rftgls_conventions import LEG_JOINT_NAMES, LEG_KEYS
 
 from .estimator import DEFAULT_TIMEOUTS_S, EstimatorConfig
 from .predictor import DEFAULT_MAP, ConfigError

@@ -13,12 +13,12 @@ import dataclasses
 import os
 from pathlib import Path
 
-from minirquad_driver.node_main import ConfigError
-from rftgls_core.cli.main import one_line
+from rftgls_conventions import one_line
 from rftgls_core.predictor import Predictor
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.surfaces.registry import PREDICTOR_METHODS
 from rftgls_core.types import AnchorState, Pull, Status
+from rftgls_node_base.parameters import ConfigError
 
 # The installed (shipped) map; rftgls_core.maps.resolve_map maps this name to maps_dir().
 DEFAULT_MAP = 'maps/minirquad_m90_sand.h5'

@@ -29,12 +29,12 @@ from pathlib import Path
 
 import numpy as np
 
-from rftgls_core.cli.main import one_line
-from rftgls_core.conventions import (
+from rftgls_conventions import (
     LEG_JOINT_NAMES,
     LEG_KEYS,
     axle_angles,
     leg_keys_from_joint_names,
+    one_line,
     tether_direction_xz,
     tether_phi_from_xz,
 )

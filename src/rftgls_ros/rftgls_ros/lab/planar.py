@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rftgls_core.conventions import (
+from rftgls_conventions import (
     pitch_to_quat_xyzw_array,
     pure_pitch_quat_xyzw_to_pitch_array,
 )
@@ -51,7 +51,7 @@ def from_marker_transform(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return pose, T[..., 2, 3]
 
 
-# Planar theta is the body pitch theta_b of rftgls_core.conventions (x_B raised toward z, a
+# Planar theta is the body pitch theta_b of rftgls_conventions (x_B raised toward z, a
 # rotation about world -y); the quaternion forms live there.
 quaternion_from_theta = pitch_to_quat_xyzw_array
 theta_from_quaternion = pure_pitch_quat_xyzw_to_pitch_array

@@ -34,7 +34,7 @@ import rclpy
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from minirquad_driver.dds_loopback import during_init
+from rftgls_node_base.dds_loopback import during_init
 
 from .bag_layout import KNOWN_TYPES, BagError, guard_bag_read
 from .predict import add_anchor_arguments

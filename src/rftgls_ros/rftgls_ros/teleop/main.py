@@ -24,8 +24,9 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64, String
 
-from minirquad_driver.node_main import declare, run_node, usage, wants_help
-from rftgls_core.conventions import WINCH_ROPE_JOINT
+from rftgls_conventions import WINCH_ROPE_JOINT
+from rftgls_node_base.node_main import run_node, usage, wants_help
+from rftgls_node_base.parameters import declare
 
 from ..behavior.tug_series import write_tug_series
 from ..capacity_query import record_tug

@@ -1,7 +1,8 @@
 """Conventions every package shares: joint names, leg angles, body pitch, tether direction, units.
 
 ROS-free and dependency-free (math only; the vectorised `*_array` forms import numpy when
-called), so rftgls_core, rftgls_ros and minirquad_driver all import it. Each conversion exists
+called): the bottom package of the stack, so every other package (the ROS-free core, the
+driver on the robot, the nodes) imports it without pulling anything heavier. Each conversion exists
 here once; frames, units, shapes and component order are stated in every docstring
 (docs/design/architecture.md#frames-and-signs explains the choices).
 
@@ -18,6 +19,8 @@ Angles (rad)
             world; phi = 0 horizontal, phi < 0 pulls backward and down.
 Quaternions are (x, y, z, w) as in geometry_msgs/Quaternion, rotating body vectors into the
 world.
+Messages: an error or warning for a person is one line (`one_line`), whatever the library
+that raised it printed.
 Units: SI inside (m, rad, N, s). Degrees and millimetres appear only at the edges (CLI, ROS
 parameters meant for people, logs); convert there with `deg_to_rad` and `mm_to_m`.
 """
@@ -187,3 +190,13 @@ def tether_phi(h_p: float, h_attach: float, free_length: float) -> float:
     length), negative when p is above the attachment. The length is floored at 1 mm."""
     s = (h_attach - h_p) / max(free_length, 1e-3)
     return math.asin(max(-1.0, min(1.0, s)))
+
+
+# --------------------------------------------------------------------------- messages
+def one_line(text: object) -> str:
+    """Collapse whitespace (h5py, numpy and rosbags messages span lines); an exception with
+    no message gives its type name."""
+    line = ' '.join(str(text).split())
+    if not line and isinstance(text, BaseException):
+        return type(text).__name__
+    return line

@@ -2,8 +2,8 @@
 
     minirquad_sim --link-file /tmp/mcu.path --symlink /tmp/minirquad_tty [faults...]
 
-prints the slave path it opened (first line on stdout, then flushes) and speaks the
-protocol in PROTOCOL.md on it until SIGINT/SIGTERM. Fault options are in ``--help``.
+prints the slave path it opened (first line on stdout, then flushes) and speaks the protocol
+of src/minirquad_driver/PROTOCOL.md on it until SIGINT/SIGTERM. Fault options: ``--help``.
 """
 from __future__ import annotations
 
@@ -14,9 +14,10 @@ import sys
 import time
 from collections import deque
 
-from ..node_main import stop_on_signals
-from ..protocol import messages as m
-from ..protocol.codec import encode_frame
+from minirquad_driver.protocol import messages as m
+from minirquad_driver.protocol.codec import encode_frame
+from rftgls_node_base.node_main import stop_on_signals
+
 from .faults import FaultConfig, FaultInjector
 from .ground import make_ground
 from .mcu import McuConfig, SimMcu

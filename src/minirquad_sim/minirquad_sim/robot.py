@@ -12,10 +12,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from rftgls_core.conventions import G, tether_direction_xz
+from minirquad_driver.protocol.messages import BurrowMode, Flag, GaitKind, Mode
+from rftgls_conventions import G, tether_direction_xz
 from rftgls_core.types import AnchorState, Status
 
-from ..protocol.messages import BurrowMode, Flag, GaitKind, Mode
 from .burrow import TABLE_II
 from .gait import BuehlerClock, wrap_angle
 from .ground import AnchorPrediction, Ground, default_ground

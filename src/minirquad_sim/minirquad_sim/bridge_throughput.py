@@ -1,6 +1,7 @@
 """Throughput of the bridge: the telemetry rate it sustains, sim -> pty -> node -> probe.
 
-    python -m minirquad_driver.bench --rates 100 200 500 1000 --seconds 5 [--pace-baud 115200]
+    python -m minirquad_sim.bridge_throughput --rates 100 200 500 1000 --seconds 5 \
+        [--pace-baud 115200]
 
 For each rate it starts ``minirquad_sim`` on a pty, runs the bridge node and a probe in
 this process, and reports telemetry frames per second decoded by the node and received by
@@ -22,14 +23,14 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
-from .bridge_node import BridgeNode
-from .dds_loopback import during_init
+from minirquad_driver.bridge_node import BridgeNode
+from rftgls_node_base.dds_loopback import during_init
 
 
 def run_one(rate: int, seconds: float, pace_baud: int) -> dict:
     tmp = Path(tempfile.mkdtemp(prefix='mq-bench-'))
     link = tmp / 'tty'
-    argv = [sys.executable, '-m', 'minirquad_driver.sim.main', '--symlink', str(link),
+    argv = [sys.executable, '-m', 'minirquad_sim.main', '--symlink', str(link),
             '--telemetry-hz', str(rate), '--power-hz', str(max(1, rate // 2)),
             '--pace-baud', str(pace_baud)]
     sim = subprocess.Popen(argv, stdout=subprocess.DEVNULL)

@@ -5,14 +5,14 @@ import pytest
 
 from minirquad_driver.protocol import messages as m
 from minirquad_driver.protocol.codec import FrameDecoder, encode_frame
-from minirquad_driver.sim.burrow import TABLE_II
-from minirquad_driver.sim.calibration import RATIOS, burrow_energy
-from minirquad_driver.sim.gait import BuehlerClock, wrap_angle
-from minirquad_driver.sim.ground import TableGround
-from minirquad_driver.sim.mcu import McuConfig, SimMcu
-from minirquad_driver.sim.robot import SimRobot
-from minirquad_driver.sim.servo import Servo
-from minirquad_driver.sim.winch import WinchSled
+from minirquad_sim.burrow import TABLE_II
+from minirquad_sim.calibration import RATIOS, burrow_energy
+from minirquad_sim.gait import BuehlerClock, wrap_angle
+from minirquad_sim.ground import TableGround
+from minirquad_sim.mcu import McuConfig, SimMcu
+from minirquad_sim.robot import SimRobot
+from minirquad_sim.servo import Servo
+from minirquad_sim.winch import WinchSled
 from rftgls_core.types import AnchorState, Status
 
 

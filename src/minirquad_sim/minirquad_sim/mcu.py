@@ -23,9 +23,10 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from .. import ina219
-from ..protocol import messages as m
-from ..protocol.codec import FrameDecoder, encode_frame
+from minirquad_driver import ina219
+from minirquad_driver.protocol import messages as m
+from minirquad_driver.protocol.codec import FrameDecoder, encode_frame
+
 from .robot import SimRobot
 
 FIRMWARE_VERSION = 100

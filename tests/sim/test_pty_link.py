@@ -13,7 +13,7 @@ import subprocess
 
 import pytest
 
-from minirquad_driver.sim.pty_link import LinkPathError, PtyLink
+from minirquad_sim.pty_link import LinkPathError, PtyLink
 
 VICTIM_TEXT = 'precious\n'
 
@@ -26,7 +26,7 @@ def victim(tmp_path):
 
 
 def _run_sim(python_exe, tmp_path, *args, timeout=20.0):
-    return subprocess.run([python_exe, '-m', 'minirquad_driver.sim.main', *args,
+    return subprocess.run([python_exe, '-m', 'minirquad_sim.main', *args,
                            '--duration', '0.3'],
                           capture_output=True, text=True, timeout=timeout, cwd=tmp_path)
 

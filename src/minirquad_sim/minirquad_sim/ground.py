@@ -20,7 +20,7 @@ import math
 from collections import OrderedDict
 from typing import NamedTuple, Protocol
 
-from rftgls_core.conventions import G
+from rftgls_conventions import G
 from rftgls_core.types import AnchorState, Status
 
 from .burrow import TABLE_II

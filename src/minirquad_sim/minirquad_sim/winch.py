@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from rftgls_core.conventions import G, tether_phi_from_xz
+from rftgls_conventions import G, tether_phi_from_xz
 
 
 @dataclass

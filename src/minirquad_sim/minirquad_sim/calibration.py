@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..protocol.messages import BurrowMode
+from minirquad_driver.protocol.messages import BurrowMode
+
 from .robot import SimRobot
 
 WINDOW_S = 8.0
@@ -61,7 +62,7 @@ def calibrate(k_free: float, k_sand: float) -> tuple[float, float]:
     return float(k_hold), float(k_contact)
 
 
-if __name__ == '__main__':   # python -m minirquad_driver.sim.calibration
+if __name__ == '__main__':   # python -m minirquad_sim.calibration
     from .power import PowerModel
     pm = PowerModel()
     k_hold, k_contact = calibrate(pm.k_free, pm.k_sand)
