@@ -70,7 +70,7 @@ def test_state_outside_the_physical_range_has_no_value(robot, bad_state):
 
 
 def test_status_list_has_no_extrapolated():
-    # Issue 15 item 2: off-grid and off-range states have no value; nothing is clamped.
+    # off-grid and off-range states have no value; nothing is clamped.
     assert 'extrapolated' not in {s.value for s in Status}
     assert {s for s in Status if s.has_value} == {Status.OK, Status.ASSUMED}
 
@@ -84,7 +84,7 @@ def test_non_finite_phi_and_too_few_twists():
 
 
 def test_default_method_matches_direct_over_a_harness():
-    """Issue 3 acceptance: twist-mesh within 1 % and 2 deg of direct (same leg mesh), never
+    """twist-mesh within 1 % and 2 deg of direct (same leg mesh), never
     more than 1 % above it, on random states of both robots, both pulls, phi = 0 and -20."""
     compared = mismatched = 0
     for robot in ('prototype', 'minirquad'):

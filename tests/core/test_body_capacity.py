@@ -1,4 +1,4 @@
-"""`rftgls capacity --mesh`: a single rigid body from an STL file (issue 12 item 3).
+"""`rftgls capacity --mesh`: a single rigid body from an STL file.
 
 The must-show reference is independent of the limit-surface code: a sphere pulled straight up
 slips by a pure upward translation (by symmetry its wrench has no other component), so the

@@ -102,7 +102,7 @@ def test_capacity_on_a_jump_reports_the_flag():
 
 @pytest.mark.parametrize('theta_l1', ['60', '90', '172'])
 def test_map_off_grid_has_no_value(theta_l1, capsys):
-    """Issue 15: theta_l1 = 60 deg answered 7.45 N 'extrapolated' (the grid edge's value)
+    """theta_l1 = 60 deg answered 7.45 N 'extrapolated' (the grid edge's value)
     where direct gives 3.15 N, and 90 / 172 deg the same where direct says unsupported."""
     from rftgls_core.cli.main import main
     assert main(['capacity', '--robot', 'minirquad', '--h', '0.034', '--theta-b', '5',

@@ -1,4 +1,4 @@
-"""Maps over the state variables a description declares (issue 12, item 7): a two-variable ellipsoid
+"""Maps over the state variables a description declares: a two-variable ellipsoid
 anchor gets a two-axis map, the shipped MiniRQuad description a map whose nodes are the robot's
 live answers, and a map refuses another description."""
 from __future__ import annotations
@@ -162,7 +162,7 @@ def test_a_robot_map_answers_for_its_shipped_description_only():
         cmap.check_description(load_description(shipped_description('prototype')).sha256)
 
 
-# ------------------------------------------------ issue 12 item 2: described maps in every tool
+# ------------------------------------------------ described maps in every tool
 @pytest.fixture
 def box_map(box_anchor, tmp_path):
     """The box anchor over depth -50..-30 mm (3) and tilt 0..10 deg (2), phi 0, 45, 90 deg."""

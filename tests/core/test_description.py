@@ -1,4 +1,4 @@
-"""Anchor descriptions (issue 12 items 1-2): the shipped URDF + YAML of each robot give the
+"""Anchor descriptions: the shipped URDF + YAML of each robot give the
 numbers of `--robot` (1e-9), have the frames a ROS TF publisher needs, and bad descriptions
 get one line."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Anchor descriptions from xacro (issue 12, item 1: "read URDF, with xacro expanded"): a
+"""Anchor descriptions from xacro (a URDF is read with xacro expanded): a
 `*.urdf.xacro` file is expanded with the xacro package before it is read. The reference is the
 plain URDF of the same body, examples/anchors/ellipsoid.urdf, written by hand: the xacro
 version below builds the same link from a macro and properties, and must give the same

@@ -1,4 +1,4 @@
-"""examples/anchors (issue 12 item 6): the STL files are what make_anchors.py writes, the
+"""examples/anchors: the STL files are what make_anchors.py writes, the
 documented commands answer, and the finned stake's own symmetries check the two paths."""
 from __future__ import annotations
 

@@ -134,8 +134,8 @@ def test_missing_file_raises_mesh_error(tmp_path):
 
 
 def test_one_stray_far_triangle_does_not_weld_the_mesh_away():
-    """A bounding-box-relative tolerance let one far triangle merge every real vertex
-    (issue 15): the tolerance is capped by the feature size, and clean_mesh refuses strays."""
+    """A bounding-box-relative tolerance would let one far triangle merge every real vertex:
+    the tolerance is capped by the feature size, and clean_mesh refuses strays."""
     from rftgls_core.geometry.validate import clean_mesh
     leg = c_leg(arc_diameter=0.09, thickness=0.005, width=0.01, n_arc=12)
     far = np.array([[[1e5, 1e5, 1e5], [1e5 + 0.01, 1e5, 1e5], [1e5, 1e5 + 0.01, 1e5]]])

@@ -166,7 +166,7 @@ def test_out_of_grid_has_no_value(cmap):
     inside = cmap.query(state(20, 0, 20, 40), 0.0, 'backward')
     out = cmap.query(state(35, 0, 30, 40), math.radians(10), 'backward')
     assert inside.status is Status.OK
-    # Outside the grid the map knows nothing: no clamped edge value (issue 15 item 2).
+    # Outside the grid the map knows nothing: no clamped edge value.
     assert out.status is Status.OUT_OF_RANGE and out.reason == 'out_of_grid'
     assert out.capacity_N is None and out.slip_twist is None and not out.status.has_value
     assert 'h 35 mm above grid' in out.detail and 'theta_l1' in out.detail and 'phi' in out.detail

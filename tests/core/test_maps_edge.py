@@ -1,4 +1,4 @@
-"""Maps next to the support edge (issue 11 item 3): the valued-corner and edge-margin rules.
+"""Maps next to the support edge: the valued-corner and edge-margin rules.
 
 Against the live reference (`direct`, the solver capacity_node falls back to) at random states
 of each robot, both pulls, phi in -30..10 deg (a 40-state slice of the 300-state measurement

@@ -1,4 +1,4 @@
-"""Map integrity (issue 15 item 5): content hash, shipped hashes, the one resolver.
+"""Map integrity: content hash, shipped hashes, the one resolver.
 
 A tampered map must be refused, not answered from: capacities doubled, the pull labels
 swapped, one flipped bit in an axis, one changed value; a shipped map must match the hash

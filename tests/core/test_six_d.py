@@ -1,5 +1,5 @@
 """The 6D path (gls6d.py, scene.py): exact on a synthetic 6D surface, equal to the sagittal
-reduction where both apply, out of the plane where the pull is (issue 12 item 4)."""
+reduction where both apply, out of the plane where the pull is."""
 from __future__ import annotations
 
 import math

@@ -1,4 +1,4 @@
-"""The 6D path on folded limit surfaces (issue 12 item 4: "where both paths apply they agree to
+"""The 6D path on folded limit surfaces ("where both paths apply they agree to
 1e-6"): the example anchors of examples/anchors, posed as their README documents, on the 6D
 path against the sagittal reduction (an independent solver: 3D wrench space, half the facets
 with doubled weights), and yawed pulls on the flat plate, whose limit surface folds."""

@@ -1,4 +1,4 @@
-"""Capacity through the closure of a discontinuous twist -> wrench map (issue 11, items 1-2).
+"""Capacity through the closure of a discontinuous twist -> wrench map.
 
 RFT's wrench jumps where a facet switches between trailing and leading; at the switch the
 facet may carry any fraction of its leading stress (a set-valued closure, like Coulomb

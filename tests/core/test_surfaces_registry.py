@@ -1,4 +1,4 @@
-"""One registry and one fit template for every limit-surface method (issue 14, item 1).
+"""One registry and one fit template for every limit-surface method.
 
 A method only provides `method`, `min_twists`, `_fit_samples` and a query; the base class's
 `fit(problem)` does the rest. The checks below hold for every registered method and for a new

@@ -77,7 +77,7 @@ def test_ellipsoid_degenerate_fits():
 
 def test_folded_mesh_and_multiple_hits_answer_the_first_exit_with_a_flag():
     # A capacity is defined wherever the load ray leaves the surface: the first exit. Folds
-    # and further crossings do not withhold it; they are reported as flags (issue 11).
+    # and further crossings do not withhold it; they are reported as flags.
     case = folded_case()
     surf = TwistMeshSurface(2000).fit(case.problem)
     assert surf.fit_info.diagnostics['folds'] > 0

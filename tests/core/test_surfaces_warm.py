@@ -1,4 +1,4 @@
-"""Warm-started `direct` over streams of states (issue 16 item 1): at every step the warm
+"""Warm-started `direct` over streams of states: at every step the warm
 solver answers what the cold `direct` answers (capacity within 1e-6 relative, same status),
 on streams that stay put (sensor noise), drift (slow burrowing), cross the support edge, cross
 jumps of the RFT map and grow a second exit (a fold). The reference is the cold solve itself,

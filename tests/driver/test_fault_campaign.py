@@ -1,4 +1,4 @@
-"""Fault campaign, driver side (issue 15, item 9): the decoder under >= 10**6 fuzzed bytes,
+"""Fault campaign, driver side: the decoder under >= 10**6 fuzzed bytes,
 and the real bridge node over a real pty with the simulated MCU under 400 ms of link
 latency, 38 % frame loss, a 2 s host stall, an unplug/replug, and a port that cannot be
 opened. Each case asserts the specific safe outcome: the bridge's /diagnostics (as
@@ -299,7 +299,7 @@ def test_port_that_cannot_be_opened_is_logged_once_shown_and_retried(
 
 def test_run_time_parameter_change_is_rejected_with_a_reason(harness, tmp_path):
     """bridge_node reads its parameters at start-up: a change is refused, never accepted and
-    ignored (issue 13 item 5); a value outside the declared range is refused at start-up."""
+    ignored; a value outside the declared range is refused at start-up."""
     from rclpy.exceptions import InvalidParameterValueException
     from rclpy.parameter import Parameter
     h = harness(str(tmp_path / 'no_port'))

@@ -1,5 +1,5 @@
-"""SerialTransport: a port that cannot be opened is reported once per episode and retried
-(issue 13, item 9). The opener is the hardware boundary, so it is scripted here; the
+"""SerialTransport: a port that cannot be opened is reported once per episode and retried.
+The opener is the hardware boundary, so it is scripted here; the
 end-to-end test with a real missing path and a real non-tty file is in test_fault_campaign.
 """
 from __future__ import annotations

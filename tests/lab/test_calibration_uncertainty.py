@@ -1,4 +1,4 @@
-"""Calibration uncertainty over separate tests (issue 11 item 5).
+"""Calibration uncertainty over separate tests.
 
 Reference width, worked out here from the construction, not from the code under test: five
 plate-penetration tests whose own xi_n values are xi_true (1 + 0.15 z_i), with z standardised

@@ -1,4 +1,4 @@
-"""The CLI contract over a corpus of bad input (issue 15 items 4, 6, 9): every bad invocation
+"""The CLI contract over a corpus of bad input: every bad invocation
 of `rftgls` (bags, media, meshes, maps, penetration CSVs, options, states) ends with exit 2
 and exactly ONE line on stderr, never a traceback and never a value.
 
@@ -505,7 +505,7 @@ def test_negative_scientific_values_are_values(capsys):
 
 
 def test_repeated_penetration_files_are_separate_tests(files, tmp_path, capsys):
-    """`--penetration A --penetration B` uses both (issue 11 item 5): before, only B counted."""
+    """`--penetration A --penetration B` uses both: before, only B counted."""
     a, b = tmp_path / 'a.csv', tmp_path / 'b.csv'
     area = 1.5e-3
     # F = 0.875 xi A depth with xi = 3e5 (A) and 5e5 (B): the fit lands between them.

@@ -1,4 +1,4 @@
-"""The lab tools take an anchor description (issue 12 item 2): `--anchor FILE.yaml` of evaluate,
+"""The lab tools take an anchor description: `--anchor FILE.yaml` of evaluate,
 calibrate and replay poses that description instead of the bag's robot. The reference is the
 preset path itself (AnchorModel and RobotModel.pose, robots/), which the shipped description is
 written from: the same bag analysed with the shipped description must give the preset's

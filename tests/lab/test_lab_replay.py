@@ -85,8 +85,8 @@ def test_replay_into_capacity_node(ros_context, synthetic_bags):
 
 
 def test_replay_resolves_only_the_layouts_types(ros_context, tmp_path):
-    """A bag names its message types as text; replay must never import a module a bag names
-    (issue 15 item 7). Unknown types are skipped and reported, never resolved."""
+    """A bag names its message types as text; replay must never import a module a bag
+    names. Unknown types are skipped and reported, never resolved."""
     import sys
 
     from rosbags.rosbag2 import StoragePlugin, Writer

@@ -16,7 +16,7 @@ from rftgls_ros.lab.tracking_accuracy import measure
 
 
 def test_accuracy_on_every_frame():
-    """Issue 8: error within 1 mm and 0.2 deg over the test set, with noise and blur.
+    """error within 1 mm and 0.2 deg over the test set, with noise and blur.
 
     Asserted on every frame (max), not on a percentile: on this bench (1280x720, f = 1400 px,
     0.40 m, 60 / 50 mm markers) the max is about 0.2 mm and 0.08 deg

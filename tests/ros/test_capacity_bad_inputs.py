@@ -1,4 +1,4 @@
-"""capacity_node's estimator under each bad-input class of issue 15 (no ROS): none of them
+"""capacity_node's estimator under each class of bad input (no ROS): none of them
 answers `ok` or any value with a plausible number.
 
 Every case starts from the same good, fully measured DH state (which answers `ok`; asserted

@@ -256,7 +256,7 @@ def test_behavior_node_asks_the_service_unless_configured(ros_context):
     assert chooser_predictor(own_capacity_fallback=True) is MapPredictor
     with pytest.raises(ValueError, match='capacity_source must be one of service, local_map'):
         chooser_predictor(capacity_source='guess')
-    # Its own map may answer for an anchor description (issue 12: behavior_node takes one):
+    # Its own map may answer for an anchor description (behavior_node takes one):
     # the shipped MiniRQuad description with the shipped map is accepted and answers as the
     # plain map does; the prototype's description is refused against the MiniRQuad map.
     from rftgls_core.description import shipped_description

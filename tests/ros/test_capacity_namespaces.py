@@ -1,4 +1,4 @@
-"""Two robots on one ROS domain (issue 13, item 6, must-show): two capacity_node processes
+"""Two robots on one ROS domain: two capacity_node processes
 started as a user would (`ros2 run ... --ros-args -r __ns:=/robotN` with the shipped params
 file), each fed different sensor inputs on its own relative topics, do not cross-talk: every
 estimate a node publishes carries its own robot's inputs only, and its capacity is the one

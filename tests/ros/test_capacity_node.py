@@ -267,7 +267,7 @@ def test_a_stream_with_400_ms_link_latency_is_never_ok(make, latency_s):
         assert all(math.isnan(c.wrench.force.x) for c in probe.out['capacity'])
 
 
-# -- parameters that take effect (issue 13 item 5) ---------------------------------------------
+# -- parameters that take effect ---------------------------------------------
 def _set_remote(probe, name, value):
     """Set one parameter through capacity_node's parameter service, as `ros2 param set` does."""
     from rcl_interfaces.srv import SetParameters

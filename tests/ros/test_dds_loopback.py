@@ -1,5 +1,4 @@
-"""DDS stays on loopback (issue 15, item 7, must-show "`ss -lun` while a node runs shows no DDS
-socket bound outside loopback"): a capacity_node process started the way `ros2 run` starts it,
+"""DDS stays on loopback: a capacity_node process started the way `ros2 run` starts it,
 with this repository's environment (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and the Fast DDS
 profile ros2_ws/params/fastdds_localhost.xml from tests/conftest.py), has every UDP socket it
 holds bound to 127.0.0.1. Read from the kernel's socket table (/proc/<pid>/net/udp, what

@@ -1,5 +1,5 @@
-"""capacity_node's live solver and the simulator's true ground on an anchor description
-(issue 12, item 2): the shipped descriptions give the numbers of the robot presets, a map
+"""capacity_node's live solver and the simulator's true ground on an anchor description: the
+shipped descriptions give the numbers of the robot presets, a map
 built for another robot is refused, a description the node cannot estimate is refused in one
 line. No ROS needed (the predictor and ground are built the way the node and simulator do)."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The simulator's link paths are written safely in a shared directory (issue 15, item 7).
+"""The simulator's link paths are written safely in a shared directory.
 
 An attacker who can write to the directory (like /tmp) plants a symlink where the link
 file or the fixed symlink goes, or at the old predictable temporary name, hoping the

@@ -59,7 +59,7 @@ def test_model_refuses_without_valid_status():
 @pytest.mark.parametrize('status', ['extrapolated', 'assumed', 'out_of_range', 'stale',
                                     'degenerate', 'invalid_input'])
 def test_model_stops_a_running_reel_in_on_any_status_but_measured_ok(status):
-    # issue 15: a clamped 'extrapolated' value or an 'assumed' input is not evidence.
+    # a clamped 'extrapolated' value or an 'assumed' input is not evidence.
     m = TeleopModel()
     _valid(m, 1.0, 2.5)
     assert m.key('i', 0.0) == [('winch', pytest.approx(0.01))]

@@ -1,4 +1,4 @@
-"""Every frame_id the stack publishes resolves in its TF tree (issue 13, item 1, must-show):
+"""Every frame_id the stack publishes resolves in its TF tree:
 minirquad_sim on a pty, bridge_node, capacity_node and state_publisher as ``ros2 run``
 processes, real DDS on this worker's domain. A probe discovers every topic those three nodes
 publish, subscribes to each whose type carries a std_msgs/Header anywhere (MarkerArray's

@@ -1,4 +1,4 @@
-"""A tug never outlives its evidence (issue 15, items 1, 2, 8, 9), without ROS.
+"""A tug never outlives its evidence, without ROS.
 
 The behaviour machine runs in closed loop with the simulator's robot model (tests/stack/
 plant.py). Mid-tug, capacity_node is killed (no more estimates) or reports each status
@@ -20,8 +20,8 @@ from rftgls_ros.behavior.slip import SLIP_LEGS, SLIP_PITCH, SLIP_TENSION_DROP, S
 from rftgls_ros.capacity.predictor import MapPredictor
 
 NAN = float('nan')
-MAX_REEL_M = 0.005      # issue 15: <= 5 mm of reel after the evidence is gone
-MAX_STOP_S = 0.1        # issue 15: within 0.1 s of tug time
+MAX_REEL_M = 0.005      # <= 5 mm of reel after the evidence is gone
+MAX_STOP_S = 0.1        # within 0.1 s of tug time
 
 
 @pytest.fixture(scope='module')

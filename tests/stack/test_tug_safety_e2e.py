@@ -1,4 +1,4 @@
-"""A tug never outlives its evidence, over real DDS (issue 15): minirquad_sim on a pty,
+"""A tug never outlives its evidence, over real DDS: minirquad_sim on a pty,
 bridge_node, capacity_node and behavior_node as processes (see test_behavior_e2e.py).
 
 - capacity_node is killed (SIGKILL) mid-tug: behavior_node stops the winch, and the robot's

@@ -132,7 +132,7 @@ class LiveGround:
     ``rftgls calibrate``); medium_scale: multiplies the medium's stress scales (xi_n, zeta),
     e.g. 0.7 for sand 30 % weaker than the preset; mass_scale: multiplies the true robot's
     mass (its weight presses the legs into the sand); method: 'direct' (reference), with
-    ``fallback_method`` answering the few states where it has no root (issue 11: direct
+    ``fallback_method`` answering the few states where it has no root (direct
     says 'degenerate' at some states that do hold). h_step (m) and angle_step (rad): the
     state grid the answers are cached on; each grid state is fitted once and every pull
     angle (phi_step grid) is asked of that fit, so a quasi-static tug costs one fit.

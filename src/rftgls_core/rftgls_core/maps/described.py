@@ -1,4 +1,4 @@
-"""Capacity maps over the state variables an anchor description declares (issue 12, item 7).
+"""Capacity maps over the state variables an anchor description declares.
 
 The robot maps (grid.py, hdf5.py, query.py) have four fixed state axes (h, theta_b, theta_l1,
 theta_l2). A description (description.py) declares its own state variables, with names, units
@@ -539,7 +539,7 @@ class DescribedMap:
         return np.where(ok, np.maximum(c, 0.0), np.nan), code
 
 
-# ------------------------------------------------------- accuracy and refinement (issue 12)
+# ------------------------------------------------------- accuracy and refinement
 def map_medium(data: DescribedMapData) -> Medium:
     """The medium a described map was built with (its provenance)."""
     return Medium(**json.loads(str(data.attrs['provenance_json']))['medium'])

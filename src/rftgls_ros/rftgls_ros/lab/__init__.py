@@ -1,4 +1,4 @@
-"""Lab pull-test tooling (issue 8): bag layout, ArUco tracking, evaluation, calibration.
+"""Lab pull-test tooling: bag layout, ArUco tracking, evaluation, calibration.
 
 One idea per module; every module except `replay` is ROS-free (rosbags is pure Python), so
 the lab tools run on any machine with the venv and no ROS install:
