@@ -38,6 +38,8 @@ def test_linear_in_depth_and_area(backend):
     base = BuriedBody(horizontal_facet(0.02, 1e-4), model, backend=backend).wrench(t)
     deeper = BuriedBody(horizontal_facet(0.06, 1e-4), model, backend=backend).wrench(t)
     wider = BuriedBody(horizontal_facet(0.02, 5e-4), model, backend=backend).wrench(t)
+    # one facet: depth and area enter as one factor each, so the two sides differ by the
+    # rounding of that product (and of 0.06 against 3 * 0.02): a few eps
     assert np.allclose(deeper[:3], 3 * base[:3], rtol=1e-12)
     assert np.allclose(wider[:3], 5 * base[:3], rtol=1e-12)
 
@@ -49,8 +51,11 @@ def test_rate_independent(backend):
     rng = np.random.default_rng(0)
     t = rng.normal(size=(20, 6))
     w = body.wrench(t)
+    # each twist is normalised first: k t / |k t| and t / |t| differ by a few eps per
+    # component, which the sum over n < 1,000 buried facets carries at most n eps of sum|term|
+    # (<= 2e-13 of max|W|, tests/core/test_kernel_parallel.py)
     for k in (1e-3, 7.0, 1e4):
-        assert np.allclose(body.wrench(k * t), w, rtol=1e-10, atol=1e-12)
+        assert np.allclose(body.wrench(k * t), w, rtol=1e-10, atol=1e-12 * np.abs(w).max())
 
 
 def test_zero_force_above_surface():
@@ -72,11 +77,16 @@ def test_mirror_shortcut_matches_full_computation(robot, pull):
         t = rng.normal(size=(50, 3))
         full = body.planar_wrench(t, use_symmetry=False)
         half = body.planar_wrench(t)
+        # the half with doubled weights against both halves: the same terms summed in
+        # another order, <= (n + 30) eps sum|term| with n < 1,000 buried facets, i.e. <= 3e-13 of
+        # max|W| (measured 3e-15); 1e-9 leaves room for the mirrored pairs' rounding in posing
         assert np.abs(full - half).max() <= 1e-9 * np.abs(full).max()
         # Lateral force and roll/yaw moments cancel between mirror legs.
         t6 = np.column_stack([t[:, 0], 0 * t[:, 0], t[:, 1], 0 * t[:, 0], t[:, 2], 0 * t[:, 0]])
         w6 = body.wrench(t6)
-        assert np.allclose(w6[:, [0, 2, 4]], full, rtol=1e-12, atol=1e-12)
+        # the 6D and the planar kernel on the same facets, summed in another order: <= 3e-13 of
+        # max|W| as above (measured 1.4e-13 relative on the smallest entries)
+        assert np.allclose(w6[:, [0, 2, 4]], full, rtol=1e-12, atol=1e-12 * np.abs(full).max())
         assert np.abs(w6[:, [1, 3, 5]]).max() <= 1e-9 * np.abs(w6).max()
 
 
@@ -90,7 +100,11 @@ def test_moment_transport_between_reference_points():
         v_b = v_a + np.cross(omega, b - a)  # same rigid motion described at b
         wa = BuriedBody(posed.facets, model, ref=a).wrench(np.r_[v_a, omega])
         wb = BuriedBody(posed.facets, model, ref=b).wrench(np.r_[v_b, omega])
-        assert np.allclose(wa[:3], wb[:3], rtol=1e-10)
+        # the same motion at another reference point: each facet's velocity is rebuilt from
+        # (v, omega) with a cross product (a few eps relative), so forces agree to the sum's
+        # n eps sum|term| (< 1e-12 of max|W|); moments also go through the transport
+        # r x F of forces ~1 N at ~0.05 m
+        assert np.allclose(wa[:3], wb[:3], rtol=1e-10, atol=1e-12 * np.abs(wa[:3]).max())
         assert np.allclose(wb[3:], wa[3:] + np.cross(a - b, wa[:3]), rtol=1e-9, atol=1e-12)
 
 

@@ -8,6 +8,7 @@ import re
 from pathlib import Path
 
 import pytest
+from tolerances import TWO_SOLVES_RTOL, TWO_SOLVES_TWIST_ATOL
 
 from rftgls_core.cli.main import main
 from rftgls_core.geometry.stl import write_stl
@@ -79,5 +80,6 @@ def test_the_ellipsoid_description_is_the_mesh_command(capsys, monkeypatch):
                  '--phi', '45', '--json']) == 0
     m = json.loads(capsys.readouterr().out)
     assert d['status'] == m['status'] == 'ok'
-    assert d['capacity_N'] == pytest.approx(m['capacity_N'], rel=1e-9)
-    assert d['slip_twist'] == pytest.approx(m['slip_twist'], abs=1e-9)
+    # the same body placed from a description and from the STL: two solves
+    assert d['capacity_N'] == pytest.approx(m['capacity_N'], rel=TWO_SOLVES_RTOL)
+    assert d['slip_twist'] == pytest.approx(m['slip_twist'], abs=TWO_SOLVES_TWIST_ATOL)

@@ -35,6 +35,11 @@ def bodies(facets, mu, **kw):
 
 
 def assert_agree(a, b, tol):
+    """numpy sums the facet terms pairwise, the fused kernel in facet order with fused
+    multiply-adds: for n terms the two differ by at most (n + 30) eps * sum|term| (each term a
+    product of ~30 roundings, the sum n - 1 more), and for these random bodies sum|term| over
+    the facets stays within max|W| over all components (measured: ratio 1.0). With n <= 800
+    that is <= 2e-13 * max|W|, inside tol = 1e-12 of max|W|."""
     assert np.allclose(a, b, rtol=tol, atol=tol * np.abs(a).max())
 
 

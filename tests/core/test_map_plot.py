@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import pytest
+from tolerances import INTERPOLATION_ATOL, INTERPOLATION_RTOL
 
 from rftgls_core.cli.main import main
 from rftgls_core.cli.map_plot import map_slice
@@ -23,7 +24,9 @@ def test_slice_pixels_are_map_queries():
         for j in (0, 3, 8):
             r = cmap.query(AnchorState(0.034, fixed['theta_b'], xs[j], ys[i]), phi, 'backward')
             if r.status.has_value:
-                assert cap[i, j] == pytest.approx(r.capacity_N, abs=1e-9)
+                # batched pixels against single queries: tests/tolerances.py
+                assert cap[i, j] == pytest.approx(r.capacity_N, rel=INTERPOLATION_RTOL,
+                                                  abs=INTERPOLATION_ATOL)
             else:
                 assert math.isnan(cap[i, j])
                 assert unsup[i, j] == (r.status is Status.UNSUPPORTED)

@@ -111,7 +111,7 @@ def test_a_yawed_vertical_pull_is_not_above_the_in_plane_exit(scenes):
                                       pull_plane_symmetry(scene, math.pi / 2))[0]
     assert yz_only.capacity_N > 1.5 * at_0
     both = sagittal(scene, 90.0, 90.0)
-    assert both.capacity_N == pytest.approx(at_0, rel=1e-12)
+    assert both.capacity_N == pytest.approx(at_0, rel=1e-12)   # the yaw-0 answer itself
     assert 'least of the in-plane answers' in both.detail
     assert six_d(scene, 90.0, 90.0).capacity_N == pytest.approx(at_0, rel=1e-6)
 

@@ -172,6 +172,7 @@ def test_scalar_kernels_agree_with_the_numpy_versions():
     clear = W._distances(*(w0[tri[:, i]] - pts for i in range(3))) + 0.05
     closed, median = W._guard_use_loop(v, w0, tri, pts, np.full(30, 0.01), clear, 0.0)
     ref = W._distances(*(v[tri[:, i]] - pts for i in range(3))) - 0.01
+    # the loop and the vectorised distances: a handful of operations per triangle, a few eps
     assert closed == pytest.approx(float(((clear - ref) / clear).max()), rel=1e-12)
     assert median == pytest.approx(float(np.median(np.linalg.norm(v - w0, axis=1))))
     for d in unit_rows_of(rng.normal(size=(20, 3))):
@@ -179,6 +180,7 @@ def test_scalar_kernels_agree_with_the_numpy_versions():
         n, s, f, u, w = W._ray_hits_loop(v, tri, d)
         assert n == len(s_ref)
         if n:
+            # loop against vectorised ray hit: a few eps relative on a unit-size triangle
             assert s == pytest.approx(s_ref[0], rel=1e-12) and f == f_ref[0]
             # (u, v): the crossing point on the face, v0 + u (v1 - v0) + w (v2 - v0)
             a, b, c = v[tri[f]]
