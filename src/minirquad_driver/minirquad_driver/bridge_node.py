@@ -165,6 +165,8 @@ class BridgeNode(Node):
         imu.linear_acceleration_covariance[0] = -1.0   # REP-145: not provided
         self.pub_imu.publish(imu)
 
+        if t.flags & m.Flag.TENSION_INVALID:
+            return    # no fresh load-cell reading: publish no tension rather than an old one
         w = WrenchStamped()
         w.header.stamp = stamp
         w.header.frame_id = self.winch_frame
