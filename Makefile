@@ -19,9 +19,20 @@ export MPLBACKEND := Agg
 ENV := source tools/env.sh
 PYTEST_ARGS ?= -n 2
 
-.PHONY: setup build demo test test-cpus lint bench lock clean
+.PHONY: setup build demo test test-cpus lint bench lock clean firmware firmware-size
 
-setup: $(STAMP) $(BIN)/ros2 $(WS)/install/.built-stamp
+setup: $(STAMP) $(BIN)/ros2 $(WS)/install/.built-stamp firmware
+
+# The MiniRQuad firmware's host build (g++ with AddressSanitizer + UBSan): its unit tests, the
+# fuzz test and fw_sitl, the compiled firmware `minirquad_sim --mcu firmware` runs on the pty.
+FIRMWARE := src/minirquad_driver/firmware
+firmware:
+	$(MAKE) -s -C $(FIRMWARE) host
+
+# The firmware core cross-compiled for the robot's Cortex-M0+ (gcc-arm-none-eabi): flash and
+# RAM against the MKR WiFi 1010's 256 KB / 32 KB; fails if over or if heap use is linked in.
+firmware-size:
+	$(MAKE) -s -C $(FIRMWARE) size
 
 # The ros2 stand-in is re-installed when it changes (it applies the DDS loopback profile).
 $(BIN)/ros2: tools/ros2 $(STAMP)
@@ -93,4 +104,4 @@ lock:
 	$(LOCKENV)/bin/python tools/lock.py write
 
 clean:
-	rm -rf $(VENV) $(WS)/build $(WS)/install $(WS)/log out
+	rm -rf $(VENV) $(WS)/build $(WS)/install $(WS)/log out $(FIRMWARE)/build
