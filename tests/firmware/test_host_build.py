@@ -9,7 +9,7 @@ import struct
 import subprocess
 
 import pytest
-from fw_build import FIRMWARE, make
+from firmware_host import FIRMWARE, make
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from strategies import any_message
@@ -84,11 +84,11 @@ def streams(draw):
     return b''.join(parts) + b'\x00'
 
 
-def _compare(firmware_build, batch: list[bytes]) -> int:
+def _compare(build, batch: list[bytes]) -> int:
     """Decode each stream with fw_codec and with the Python FrameDecoder; assert they agree
     frame for frame (type, seq, stamp, payload bytes) and counter for counter."""
     data = b''.join(struct.pack('<I', len(s)) + s for s in batch)
-    res = subprocess.run([str(firmware_build / 'fw_codec')], input=data, capture_output=True,
+    res = subprocess.run([str(build / 'fw_codec')], input=data, capture_output=True,
                          timeout=60)
     assert res.returncode == 0, res.stderr.decode()[-2000:]
     lines = res.stdout.decode().splitlines()

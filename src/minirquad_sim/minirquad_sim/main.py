@@ -1,6 +1,7 @@
 """``minirquad_sim``: a simulated MiniRQuad microcontroller on a pseudo-terminal.
 
     minirquad_sim --link-file /tmp/mcu.path --symlink /tmp/minirquad_tty [faults...]
+    minirquad_sim --mcu firmware ...      # the compiled firmware instead of the Python MCU
 
 prints the slave path it opened (first line on stdout, then flushes) and speaks the protocol
 of src/minirquad_driver/PROTOCOL.md on it until SIGINT/SIGTERM. Fault options: ``--help``.
@@ -19,8 +20,11 @@ from minirquad_driver.protocol.codec import encode_frame
 from rftgls_node_base.node_main import stop_on_signals
 
 from .faults import FaultConfig, FaultInjector
+from .firmware_link import FirmwareLinkError
+from .firmware_mcu import FirmwareMcu
 from .ground import make_ground
 from .mcu import McuConfig, SimMcu
+from .plant import MotorWinch, PlantRobot
 from .pty_link import LinkPathError, PtyLink
 from .robot import SimRobot
 from .winch import WinchSled
@@ -28,11 +32,19 @@ from .winch import WinchSled
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog='minirquad_sim', description=__doc__.split('\n\n')[0])
+    p.add_argument('--mcu', choices=('python', 'firmware'), default='python',
+                   help='python: the reference MCU in this process (default); firmware: the '
+                        'compiled C++ firmware (fw_sitl, built by `make setup`) runs the '
+                        'protocol and the control, this process the physics')
+    p.add_argument('--firmware', metavar='PATH',
+                   help='fw_sitl binary for --mcu firmware (default: the one make setup built)')
     p.add_argument('--link-file', help='write the slave pty path to this file')
     p.add_argument('--symlink', help='keep this symlink pointing at the current slave pty')
     p.add_argument('--telemetry-hz', type=int, default=100)
     p.add_argument('--power-hz', type=int, default=50)
     p.add_argument('--watchdog', type=float, default=0.5, help='host watchdog timeout, s')
+    p.add_argument('--winch-deadman', type=float, default=0.1,
+                   help='winch deadman, s (0: off, to test the host watchdog alone)')
     p.add_argument('--clock-start-ms', type=lambda s: int(s, 0), default=0,
                    help='initial MCU clock (e.g. 0xFFFFF000 to cross the uint32 wrap)')
     p.add_argument('--sled-mass', type=float, default=0.400, help='kg')
@@ -109,11 +121,16 @@ def run(args: argparse.Namespace) -> int:
 
     start = time.monotonic()
     wall_minus_mono = time.time() - start    # the simulator owns both clocks: exact truth
-    mcu = SimMcu(robot_factory=lambda: SimRobot(ground=ground,
-                                                winch=WinchSled(sled_mass=args.sled_mass)),
-                 config=McuConfig(telemetry_hz=args.telemetry_hz, power_hz=args.power_hz,
-                                  watchdog_s=args.watchdog, clock_start_ms=args.clock_start_ms),
-                 on_telemetry=lambda s, t, tel: pending_tel.append((s, t, tel)), now=start)
+    config = McuConfig(telemetry_hz=args.telemetry_hz, power_hz=args.power_hz,
+                       watchdog_s=args.watchdog, winch_deadman_s=args.winch_deadman,
+                       clock_start_ms=args.clock_start_ms)
+    try:
+        mcu = _make_mcu(args, ground, config, start,
+                        on_telemetry=lambda s, t, tel: pending_tel.append((s, t, tel)))
+    except FirmwareLinkError:
+        link.close()
+        link.remove_links()
+        raise
     queue: deque[tuple[float, bytes]] = deque()    # (release time, bytes), in order
     line_free_at = 0.0                             # UART pacing
     byte_time = 10.0 / args.pace_baud if args.pace_baud else 0.0
@@ -185,9 +202,25 @@ def run(args: argparse.Namespace) -> int:
     link.close()
     link.remove_links()
     recorder.close()
-    print(json.dumps({'faults': dict(faults.counts), 'resets': mcu.resets,
-                      'rx_crc_errors': mcu.rx_crc_errors}), flush=True)
+    mcu.close()
+    report = {'mcu': args.mcu, 'faults': dict(faults.counts), 'resets': mcu.resets,
+              'rx_crc_errors': mcu.rx_crc_errors}
+    if isinstance(mcu, FirmwareMcu):     # how well the firmware kept up with the wall clock
+        report.update(exchanges=mcu.exchanges, late_exchanges=mcu.late)
+    print(json.dumps(report), flush=True)
     return 0
+
+
+def _make_mcu(args: argparse.Namespace, ground, config: McuConfig, start: float,
+              on_telemetry) -> SimMcu | FirmwareMcu:
+    """The Python reference MCU, or the compiled firmware driving the plant."""
+    if args.mcu == 'firmware':
+        return FirmwareMcu(robot_factory=lambda: PlantRobot(
+            ground=ground, winch=MotorWinch(sled_mass=args.sled_mass)),
+            config=config, on_telemetry=on_telemetry, now=start, binary=args.firmware)
+    return SimMcu(robot_factory=lambda: SimRobot(ground=ground,
+                                                 winch=WinchSled(sled_mass=args.sled_mass)),
+                  config=config, on_telemetry=on_telemetry, now=start)
 
 
 def _ground(args: argparse.Namespace):
@@ -214,7 +247,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return run(args)
-    except LinkPathError as exc:
+    except (LinkPathError, FirmwareLinkError) as exc:
         print(f'minirquad_sim: error: {exc}', file=sys.stderr)
         return 2
 

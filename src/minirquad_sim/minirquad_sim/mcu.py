@@ -79,6 +79,9 @@ class SimMcu:
         self._boot(now, 0)
         return self.notice(now, cause)
 
+    def close(self) -> None:
+        """Nothing to release (the firmware MCU stops its process here)."""
+
     def notice(self, now: float, cause: int = m.ResetCause.POWER_ON) -> bytes:
         return self._frame(m.ResetNotice(m.PROTOCOL_VERSION, FIRMWARE_VERSION, int(cause),
                                          self.config.telemetry_hz, self.config.power_hz), now)

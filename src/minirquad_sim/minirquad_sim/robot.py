@@ -55,6 +55,9 @@ class Geometry:
 class SimRobot:
     """State and one ``step(dt)`` of the simulated robot. Commands arrive as method calls."""
 
+    #: rad: legs this close to their targets have arrived (the unburrow move's end)
+    leg_arrived = 1e-3
+
     geometry: Geometry = field(default_factory=Geometry)
     ground: Ground = field(default_factory=default_ground)
     power_model: PowerModel = field(default_factory=PowerModel)
@@ -215,7 +218,7 @@ class SimRobot:
     def _move_body(self, dt: float) -> None:
         g = self.geometry
         if self.mode == Mode.WALKING:
-            self.x_p += g.walk_speed * dt * (self.clocks[0].direction if self.clocks else 1)
+            self.x_p += g.walk_speed * dt * self._walk_direction()
             self._relax(g.h_walk, 0.0, dt)
         elif self.mode in (Mode.BURROW_RETRACT, Mode.BURROW_FINAL) and self._burrow:
             seq = TABLE_II[self._burrow]
@@ -230,9 +233,13 @@ class SimRobot:
             self.theta_b = b0 + (b1 - b0) * k
         elif self._unburrowing:
             self._relax(g.h_walk, 0.0, dt)
-            if abs(self.h - g.h_walk) < 1e-4 and all(abs(s.target - s.angle) < 1e-3
+            if abs(self.h - g.h_walk) < 1e-4 and all(abs(s.target - s.angle) < self.leg_arrived
                                                      for s in self.servos):
                 self._unburrowing = False
+
+    def _walk_direction(self) -> int:
+        """+1 while the gait walks forward, -1 in reverse."""
+        return self.clocks[0].direction if self.clocks else 1
 
     def _relax(self, h: float, theta_b: float, dt: float, rate: float = 2.0) -> None:
         a = min(1.0, rate * dt)

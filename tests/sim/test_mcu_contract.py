@@ -1,0 +1,246 @@
+"""What any MiniRQuad microcontroller must do, checked on both: the Python reference MCU
+(``SimMcu``) and the compiled firmware driving the plant (``FirmwareMcu``, fw_sitl over the
+SITL link). In lockstep on simulated time, no pty and no ROS: bytes of the real protocol in,
+frames out, and the plant's own state (servo speeds, spool speed) as the ground truth of
+whether the motors really stopped.
+"""
+from __future__ import annotations
+
+import pytest
+
+from minirquad_driver.protocol import messages as m
+from minirquad_driver.protocol.codec import FrameDecoder, encode_frame
+from minirquad_sim.burrow import TABLE_II
+from minirquad_sim.firmware_mcu import FirmwareMcu
+from minirquad_sim.ground import TableGround
+from minirquad_sim.mcu import McuConfig, SimMcu
+from minirquad_sim.plant import PlantRobot
+from minirquad_sim.robot import SimRobot
+
+DT = 0.001          # s per lockstep step
+WALK = m.SetGait(m.GaitKind.CLOCK, period=2.0, duty=0.42, sweep=0.698132, down=0.349066,
+                 phases=(0.0, 0.5, 0.5, 0.0))
+
+
+class Bench:
+    """One MCU on simulated time; ``frames`` is everything it sent, decoded, with the
+    simulated time it was sent at."""
+
+    def __init__(self, kind: str, **config):
+        cfg = McuConfig(**config)
+        if kind == 'python':
+            self.mcu = SimMcu(robot_factory=lambda: SimRobot(ground=TableGround()), config=cfg)
+        else:
+            self.mcu = FirmwareMcu(robot_factory=lambda: PlantRobot(ground=TableGround()),
+                                   config=cfg)
+        self.t = 0.0
+        self.seq = 0
+        self.dec = FrameDecoder()
+        self.frames: list[tuple[float, object]] = []
+        self._take(self.mcu.notice(0.0))
+
+    def _take(self, data: bytes) -> None:
+        self.frames += [(self.t, f) for f in self.dec.feed(data)]
+
+    def send(self, msg, seq: int | None = None) -> int:
+        if seq is None:
+            seq, self.seq = self.seq, (self.seq + 1) & 0xFF
+        self._take(self.mcu.receive(encode_frame(msg, seq, 0), self.t))
+        for _, data, _ in self.mcu.tick(self.t):
+            self._take(data)
+        return seq
+
+    def run(self, seconds: float, heartbeat: float | None = 0.1, winch: float | None = None,
+            until=None) -> None:
+        """Step time; heartbeats every `heartbeat` s and a WINCH(winch) every 0.05 s if set."""
+        end = self.t + seconds
+        k = 0
+        while self.t < end - 1e-9:
+            self.t = round(self.t + DT, 6)
+            k += 1
+            if heartbeat and k % round(heartbeat / DT) == 0:
+                self.send(m.Heartbeat())
+            if winch is not None and k % 50 == 0:
+                self.send(m.Winch(winch))
+            for _, data, _ in self.mcu.tick(self.t):
+                self._take(data)
+            if until and until():
+                return
+
+    def of(self, cls) -> list:
+        return [(t, f) for t, f in self.frames if isinstance(f.message, cls)]
+
+    def acks(self) -> list[m.Ack]:
+        return [f.message for _, f in self.of(m.Ack)]
+
+    def last_telemetry(self) -> m.Telemetry:
+        return self.of(m.Telemetry)[-1][1].message
+
+    def legs_still(self) -> bool:
+        return all(abs(s.velocity) < 0.02 for s in self.mcu.robot.servos)
+
+    def close(self) -> None:
+        self.mcu.close()
+
+
+@pytest.fixture(params=['python', 'firmware'])
+def bench(request):
+    if request.param == 'firmware':
+        request.getfixturevalue('firmware_build')
+    made = []
+
+    def make(**config) -> Bench:
+        b = Bench(request.param, **config)
+        made.append(b)
+        return b
+
+    make.kind = request.param
+    yield make
+    for b in made:
+        b.close()
+
+
+def test_reset_notice_first_then_telemetry_and_power_at_their_rates(bench):
+    b = bench()
+    first = b.frames[0][1]
+    assert isinstance(first.message, m.ResetNotice) and first.seq == 0
+    assert first.message.telemetry_hz == 100 and first.message.power_hz == 50
+    b.run(2.0)
+    tel, pw = b.of(m.Telemetry), b.of(m.Power)
+    assert len(tel) == pytest.approx(200, abs=2) and len(pw) == pytest.approx(100, abs=2)
+    seqs = [f.seq for _, f in b.frames]
+    assert all((y - x) & 0xFF == 1 for x, y in zip(seqs, seqs[1:]))   # one counter, no gap
+    # 10 ms apart, give or take the 1 ms truncation of the Python MCU's float clock.
+    stamps = [f.t_mcu_ms for _, f in tel]
+    assert all(9 <= y - x <= 11 for x, y in zip(stamps[1:], stamps[2:]))
+
+
+def test_every_command_is_acked_and_a_retry_is_not_executed_again(bench):
+    b = bench()
+    s = b.send(m.Burrow(m.BurrowMode.SH))
+    assert b.acks()[-1] == m.Ack(s, m.MsgType.BURROW, m.AckResult.OK)
+    b.run(8.0, until=lambda: b.last_telemetry().mode == m.Mode.ANCHORED)
+    assert b.last_telemetry().mode == m.Mode.ANCHORED
+    b.send(m.Burrow(m.BurrowMode.SH), seq=s)        # the host's retry: same seq and type
+    assert b.acks()[-1] == m.Ack(s, m.MsgType.BURROW, m.AckResult.OK)
+    b.run(0.1)
+    assert b.last_telemetry().mode == m.Mode.ANCHORED   # the sequence did not restart
+    b.send(m.Burrow(m.BurrowMode.SH))                 # a new command: executed
+    b.run(0.05)
+    assert b.last_telemetry().mode == m.Mode.BURROW_RETRACT
+
+
+def test_burrow_reaches_the_table_ii_pose_and_body(bench):
+    b = bench()
+    b.send(m.Burrow(m.BurrowMode.DH))
+    modes = []
+    b.run(10.0, until=lambda: modes.append(b.last_telemetry().mode)
+          or b.last_telemetry().mode == m.Mode.ANCHORED)
+    assert {m.Mode.BURROW_RETRACT, m.Mode.BURROW_FINAL} <= set(modes)
+    tel = b.last_telemetry()
+    seq = TABLE_II['DH']
+    # 0.5 deg: the arrival tolerance of both MCUs (and 7 encoder counts of the XL330).
+    for leg, want in enumerate((seq.final[0], seq.final[0], seq.final[1], seq.final[1])):
+        assert tel.leg_angles[leg] == pytest.approx(want, abs=0.0088)
+    robot = b.mcu.robot
+    assert robot.h == pytest.approx(seq.h, abs=1e-3)
+    assert robot.theta_b == pytest.approx(seq.theta_b, abs=0.005)
+
+
+def test_estop_stops_legs_and_winch_and_refuses_motion(bench):
+    b = bench()
+    b.send(WALK)
+    b.run(1.0, winch=-0.02)
+    assert not b.legs_still() and b.mcu.robot.winch.spool_velocity < 0
+    b.send(m.EStop(True))
+    b.run(0.2, winch=-0.02)
+    assert b.legs_still() and b.mcu.robot.winch.spool_velocity == 0.0
+    assert b.acks()[-1].result == m.AckResult.ESTOPPED     # the winch refreshes are refused
+    tel = b.last_telemetry()
+    assert tel.mode == m.Mode.ESTOPPED and tel.flags & m.Flag.ESTOP
+    s = b.send(WALK)
+    assert b.acks()[-1] == m.Ack(s, m.MsgType.SET_GAIT, m.AckResult.ESTOPPED)
+    b.send(m.EStop(False))
+    b.run(0.5)
+    assert b.legs_still() and b.last_telemetry().mode == m.Mode.IDLE   # nothing restarts
+
+
+def test_host_silence_trips_the_watchdog_which_stops_legs_and_winch(bench):
+    """The host falls silent mid-walk with the winch paying out; the winch deadman is off,
+    so only the host watchdog can stop the winch."""
+    b = bench(winch_deadman_s=0.0)
+    b.send(WALK)
+    b.run(1.0, winch=-0.02)
+    silent_from = b.t                  # the last host frame was sent at most 1 ms before
+    assert not b.legs_still() and b.mcu.robot.winch.spool_velocity < 0
+    b.run(0.45, heartbeat=None)
+    assert not b.legs_still() and b.mcu.robot.winch.spool_velocity < 0   # not yet: 0.5 s
+    b.run(0.06, heartbeat=None)
+    assert b.mcu.robot.winch.spool_velocity == 0.0    # braked at the trip
+    angles = [s.angle for s in b.mcu.robot.servos]
+    b.run(0.34, heartbeat=None)
+    # The legs hold where they were: the firmware's hold loop (kp 20 1/s behind the servos'
+    # 10 ms lag) takes a leg from 4.8 rad/s to rest with a 50 ms time constant, so by 0.9 s
+    # it is below 0.02 rad/s (ln(4.8 / 0.02) x 50 ms = 0.27 s) and has not walked on.
+    assert b.legs_still() and b.mcu.robot.winch.spool_velocity == 0.0
+    assert all(abs(s.angle - a) < 0.1 for s, a in zip(b.mcu.robot.servos, angles))
+    errors = [(t, f.message) for t, f in b.of(m.Error)]
+    assert [e.code for _, e in errors] == [m.ErrorCode.HOST_WATCHDOG]
+    assert 0.5 <= errors[0][0] - silent_from <= 0.52
+    tel = b.last_telemetry()
+    assert tel.mode == m.Mode.WATCHDOG and tel.flags & m.Flag.WATCHDOG_TRIPPED
+    b.run(0.5)                          # heartbeats again: the flag clears, motion does not
+    tel = b.last_telemetry()
+    assert tel.mode == m.Mode.IDLE and not tel.flags & m.Flag.WATCHDOG_TRIPPED
+    assert b.legs_still() and b.mcu.robot.winch.spool_velocity == 0.0
+
+
+def test_winch_deadman_is_not_fed_by_heartbeats(bench):
+    b = bench()
+    b.run(0.05)
+    b.send(m.Winch(-0.02))
+    b.run(0.05)
+    assert b.mcu.robot.winch.spool_velocity < 0
+    last_command = b.t - 0.05
+    b.run(0.2)                          # heartbeats continue, WINCH commands do not
+    assert b.mcu.robot.winch.spool_velocity == 0.0
+    errors = [(t, f.message) for t, f in b.of(m.Error)]
+    assert [e.code for _, e in errors] == [m.ErrorCode.WINCH_DEADMAN]
+    assert 0.1 <= errors[0][0] - last_command <= 0.106
+    assert 100 <= errors[0][1].detail <= 106
+    assert not b.last_telemetry().flags & m.Flag.WATCHDOG_TRIPPED
+
+
+def test_the_clock_crosses_the_uint32_wrap(bench):
+    b = bench(clock_start_ms=2**32 - 500)
+    b.send(WALK)
+    b.run(1.0)
+    stamps = [f.t_mcu_ms for _, f in b.of(m.Telemetry)]
+    assert stamps[0] > 2**32 - 600 and stamps[-1] < 600
+    assert all(9 <= (y - x) % 2**32 <= 11 for x, y in zip(stamps[1:], stamps[2:]))
+    assert b.last_telemetry().mode == m.Mode.WALKING
+
+
+def test_walking_follows_the_buehler_clock(bench):
+    """Both MCUs walk the same clock (minirquad_sim.gait, the Python MCU's own): once settled,
+    the telemetry's leg angles trail it by no more than their servo loop allows."""
+    from minirquad_sim.gait import BuehlerClock, wrap_angle
+    b = bench()
+    start = b.t
+    b.send(WALK)
+    b.run(4.0)
+    clocks = [BuehlerClock(WALK.period, WALK.duty, WALK.sweep, WALK.down, ph)
+              for ph in WALK.phases]
+    worst = 0.0
+    for t, f in b.of(m.Telemetry):
+        if t - start < 2.0:
+            continue
+        elapsed = f.t_mcu_ms / 1000.0 - start
+        for leg, c in enumerate(clocks):
+            worst = max(worst, abs(wrap_angle(f.message.leg_angles[leg] - c.angle(elapsed))))
+    # The fastest arc is the recovery, 320 deg in 1.16 s: w = 4.81 rad/s. The Python MCU's
+    # servo is a P loop (25 1/s) without feed-forward: a ramp trails by w / 25 = 0.193 rad.
+    # The firmware feeds the clock's rate forward; what is left is the XL330's velocity lag
+    # (plant.SERVO_TAU = 10 ms): w * tau = 0.048 rad, plus one encoder count (1.5 mrad).
+    bound = 4.81 / 25 + 0.005 if bench.kind == 'python' else 4.81 * 0.010 + 0.005
+    assert worst < bound, worst
