@@ -29,7 +29,7 @@ def sim(request, spawn, python_exe, tmp_path):
             self.proc = spawn([python_exe, '-m', 'minirquad_sim.main',
                                '--symlink', str(self.link), '--link-file', str(self.path_file),
                                '--record', str(self.record), '--mcu', mcu, *args])
-            deadline = time.monotonic() + 10.0
+            deadline = time.monotonic() + 30.0   # the live ground warms up first (loaded host)
             while not self.path_file.exists():
                 assert self.proc.poll() is None, 'simulator exited'
                 assert time.monotonic() < deadline, 'simulator did not open its pty'

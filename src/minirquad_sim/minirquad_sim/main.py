@@ -94,7 +94,10 @@ class _Recorder:
             'host_s': host_s,     # host wall time of the sample instant: tests' truth
             'legs': [round(a * m.MICRORAD) for a in tel.leg_angles],
             'pitch': round(tel.pitch * m.MICRORAD),
-            'tension': round(tel.tension * m.MILLINEWTON)}) + '\n')
+            'tension': round(tel.tension * m.MILLINEWTON),
+            'vel': [round(v * m.MILLIRAD_S) for v in tel.leg_velocities],
+            'spool': round(tel.spool_position * m.MICROMETRE),
+            'mode': int(tel.mode), 'flags': int(tel.flags)}) + '\n')
 
     def close(self) -> None:
         if self.file:
