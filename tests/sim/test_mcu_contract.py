@@ -244,3 +244,35 @@ def test_walking_follows_the_buehler_clock(bench):
     # (plant.SERVO_TAU = 10 ms): w * tau = 0.048 rad, plus one encoder count (1.5 mrad).
     bound = 4.81 / 25 + 0.005 if bench.kind == 'python' else 4.81 * 0.010 + 0.005
     assert worst < bound, worst
+
+
+def test_a_retry_gets_the_first_answer_even_a_refusal(bench):
+    """A retry means the ack was lost: the MCU repeats what it answered, whatever has changed
+    since (here the e-stop was released in between)."""
+    b = bench()
+    b.send(m.EStop(True))
+    s = b.send(m.Burrow(m.BurrowMode.SH))
+    assert b.acks()[-1] == m.Ack(s, m.MsgType.BURROW, m.AckResult.ESTOPPED)
+    b.send(m.Burrow(m.BurrowMode.SH), seq=s)
+    assert b.acks()[-1] == m.Ack(s, m.MsgType.BURROW, m.AckResult.ESTOPPED)
+
+
+def test_get_info_is_answered_with_ack_then_info_also_on_a_retry(bench):
+    b = bench()
+    s = b.send(m.GetInfo())
+    b.send(m.GetInfo(), seq=s)
+    kinds = [type(f.message).__name__ for _, f in b.frames
+             if isinstance(f.message, (m.Ack, m.Info))]
+    assert kinds == ['Ack', 'Info', 'Ack', 'Info']
+    info = b.of(m.Info)[-1][1].message
+    assert info.protocol_version == m.PROTOCOL_VERSION and info.telemetry_hz == 100
+
+
+def test_a_frame_of_an_mcu_type_sent_to_the_mcu_is_not_acked(bench):
+    """No ACK could name it (ACK's acked_type is a host type): the MCU drops it."""
+    b = bench()
+    b.send(m.Error(m.ErrorCode.RX_CRC, 1))
+    b.send(m.Power(1, 2, 3, 4, 5))
+    assert b.acks() == []
+    s = b.send(m.Heartbeat())
+    assert b.acks() == [m.Ack(s, m.MsgType.HEARTBEAT, m.AckResult.OK)]

@@ -112,7 +112,7 @@ void Firmware::on_frame(const Frame& frame, uint32_t now) {
     return;
   }
   const uint8_t result = execute(frame.message, now);
-  if (result == ACK_OK && watchdog_ && type != MSG_ESTOP) {
+  if (result == ACK_OK && watchdog_ && type != MSG_ESTOP && type != MSG_GET_INFO) {
     watchdog_ = false;
     watchdog_reported_ = false;
   }
