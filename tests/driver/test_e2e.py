@@ -72,6 +72,10 @@ def test_no_frame_lost_at_100hz(sim, harness):
     assert all(-0.1 < w.wrench.force.x <= 1.97 for w in h.tension)
     assert h.diag and {st.name for st in h.diag[-1].status} >= {'minirquad_driver: link'}
     assert h.states[-1][1] == 'ok'
+    # Time-synced on the MCU's acks: round trips bound the clock offset, nothing withheld.
+    assert h.node.core.sync.round_trips >= 10
+    time_status = h.node.core.diagnostics()[1]
+    assert time_status.values['clock_synced'] and h.node.core.counters.telemetry > 150
 
 
 FAULTS = {
