@@ -18,7 +18,14 @@ from collections.abc import Callable
 from minirquad_driver.protocol import messages as m
 from minirquad_driver.protocol.codec import FrameDecoder
 
-from .firmware_link import CMD_RESET, CMD_RUN, FirmwareLinkError, FirmwareProcess, Sensors
+from .firmware_link import (
+    CMD_RESET,
+    CMD_RUN,
+    MAX_SERIAL,
+    FirmwareLinkError,
+    FirmwareProcess,
+    Sensors,
+)
 from .mcu import McuConfig
 from .plant import PlantRobot, RobotBuild
 
@@ -160,7 +167,8 @@ class FirmwareMcu:
         for _ in range(n):
             self.robot.step(dt / n)
         self._last_step = max(self._last_step, now)
-        rx, self._rx = bytes(self._rx), bytearray()
+        # At most one exchange's worth of host bytes; the rest goes in the next tick.
+        rx, self._rx = bytes(self._rx[:MAX_SERIAL]), self._rx[MAX_SERIAL:]
         out = self.fw.exchange(round((now - self._t0) * 1e6), self._sensors(), rx, command,
                                cause)
         self.exchanges += 1

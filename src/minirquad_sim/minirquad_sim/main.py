@@ -146,66 +146,68 @@ def run(args: argparse.Namespace) -> int:
             queue.append((release, wire))
         return fault
 
-    emit(mcu.notice(start), start)
-    while not stop.is_set():
-        now = time.monotonic()
-        t = now - start
-        if args.duration and t >= args.duration:
-            break
-        # Scheduled faults.
-        if (args.disconnect_at is not None and reconnect_at is None and link.master is not None
-                and t >= args.disconnect_at):
-            link.close()
-            queue.clear()
-            reconnect_at = now + args.disconnect_for
-            faults.counts['disconnect'] += 1
-        if reconnect_at is not None and now >= reconnect_at and link.master is None:
-            link.open()
-            args.disconnect_at = None
-        if args.reset_at is not None and not reset_done and t >= args.reset_at:
-            reset_done = True
-            # A reset cuts the frame in flight: half a frame with no closing delimiter.
-            cut = encode_frame(mcu.telemetry(), mcu.seq, mcu.clock_ms(now))
-            queue.append((now, cut[:len(cut) // 2]))
-            queue.append((now, mcu.reset(now, m.ResetCause.WATCHDOG)))
-            faults.counts['reset'] += 1
-        # Host bytes.
-        data = link.read()
-        if data:
-            for frame_bytes in _split(mcu.receive(data, now)):
-                emit(frame_bytes, now)
-        # MCU loop.
-        for kind, frame_bytes, _tel in mcu.tick(now):
-            fault = emit(frame_bytes, now)
-            if kind == 'telemetry':
-                for s, tm, tel in pending_tel:
-                    recorder.telemetry(s, tm, tel, fault if link.master is not None
-                                       else 'disconnected', now + wall_minus_mono)
-                pending_tel.clear()
-        # Release due bytes, paced like a UART if asked.
-        while queue and queue[0][0] <= now and now >= line_free_at:
-            _, wire = queue.popleft()
+    try:
+        emit(mcu.notice(start), start)
+        while not stop.is_set():
+            now = time.monotonic()
+            t = now - start
+            if args.duration and t >= args.duration:
+                break
+            # Scheduled faults.
+            if (args.disconnect_at is not None and reconnect_at is None and link.master is not None
+                    and t >= args.disconnect_at):
+                link.close()
+                queue.clear()
+                reconnect_at = now + args.disconnect_for
+                faults.counts['disconnect'] += 1
+            if reconnect_at is not None and now >= reconnect_at and link.master is None:
+                link.open()
+                args.disconnect_at = None
+            if args.reset_at is not None and not reset_done and t >= args.reset_at:
+                reset_done = True
+                # A reset cuts the frame in flight: half a frame with no closing delimiter.
+                cut = encode_frame(mcu.telemetry(), mcu.seq, mcu.clock_ms(now))
+                queue.append((now, cut[:len(cut) // 2]))
+                queue.append((now, mcu.reset(now, m.ResetCause.WATCHDOG)))
+                faults.counts['reset'] += 1
+            # Host bytes.
+            data = link.read()
+            if data:
+                for frame_bytes in _split(mcu.receive(data, now)):
+                    emit(frame_bytes, now)
+            # MCU loop.
+            for kind, frame_bytes, _tel in mcu.tick(now):
+                fault = emit(frame_bytes, now)
+                if kind == 'telemetry':
+                    for s, tm, tel in pending_tel:
+                        recorder.telemetry(s, tm, tel, fault if link.master is not None
+                                           else 'disconnected', now + wall_minus_mono)
+                    pending_tel.clear()
+            # Release due bytes, paced like a UART if asked.
+            while queue and queue[0][0] <= now and now >= line_free_at:
+                _, wire = queue.popleft()
+                if link.master is not None:
+                    link.write(wire)
+                if byte_time:
+                    line_free_at = max(now, line_free_at) + len(wire) * byte_time
+            wake = mcu.next_due()
+            if queue:
+                wake = min(wake, max(queue[0][0], line_free_at))
+            if reconnect_at is not None and link.master is None:
+                wake = min(wake, reconnect_at)
+            timeout = max(0.0, min(wake - time.monotonic(), 0.05))
             if link.master is not None:
-                link.write(wire)
-            if byte_time:
-                line_free_at = max(now, line_free_at) + len(wire) * byte_time
-        wake = mcu.next_due()
-        if queue:
-            wake = min(wake, max(queue[0][0], line_free_at))
-        if reconnect_at is not None and link.master is None:
-            wake = min(wake, reconnect_at)
-        timeout = max(0.0, min(wake - time.monotonic(), 0.05))
-        if link.master is not None:
-            try:
-                select.select([link.master], [], [], timeout)
-            except (OSError, ValueError):
+                try:
+                    select.select([link.master], [], [], timeout)
+                except (OSError, ValueError):
+                    time.sleep(timeout)
+            else:
                 time.sleep(timeout)
-        else:
-            time.sleep(timeout)
-    link.close()
-    link.remove_links()
-    recorder.close()
-    mcu.close()
+    finally:                      # also when the firmware dies: no pty or link left behind
+        link.close()
+        link.remove_links()
+        recorder.close()
+        mcu.close()
     report = {'mcu': args.mcu, 'faults': dict(faults.counts), 'resets': mcu.resets,
               'rx_crc_errors': mcu.rx_crc_errors}
     if isinstance(mcu, FirmwareMcu):     # how well the firmware kept up with the wall clock
