@@ -82,9 +82,10 @@ def test_winch_stall_against_a_fixed_sled_is_detected_and_latched(bench):
     b.run(20.0, winch=0.05, until=lambda: bool(b.of(m.Error)))
     errors = [f.message for _, f in b.of(m.Error)]
     assert [e.code for e in errors] == [m.ErrorCode.WINCH_STALL]
-    # The motor stalls at the stall tension (8 N at full drive); the firmware reports the
-    # load cell's reading at the time.
-    assert errors[0].detail == pytest.approx(8000, abs=300)
+    # Full drive stops the spool at 8 N (plant.MotorWinch); the firmware calls it a stall
+    # below 2 mm/s, reached at 8 N x (1 - 2 / 80) = 7.8 N, and reports the load cell's
+    # reading then (4.7 uN per count).
+    assert 7800 - 5 <= errors[0].detail <= 8000 + 5
     b.run(0.1, winch=0.05)
     assert b.last_telemetry().flags & m.Flag.WINCH_STALLED
     assert b.acks()[-1].result == m.AckResult.BUSY

@@ -107,6 +107,7 @@ def test_reset_notice_first_then_telemetry_and_power_at_their_rates(bench):
     assert first.message.telemetry_hz == 100 and first.message.power_hz == 50
     b.run(2.0)
     tel, pw = b.of(m.Telemetry), b.of(m.Power)
+    # 2 s at 100 and 50 Hz, plus or minus the samples at the two ends.
     assert len(tel) == pytest.approx(200, abs=2) and len(pw) == pytest.approx(100, abs=2)
     seqs = [f.seq for _, f in b.frames]
     assert all((y - x) & 0xFF == 1 for x, y in zip(seqs, seqs[1:]))   # one counter, no gap
@@ -142,6 +143,9 @@ def test_burrow_reaches_the_table_ii_pose_and_body(bench):
     # 0.5 deg: the arrival tolerance of both MCUs (and 7 encoder counts of the XL330).
     for leg, want in enumerate((seq.final[0], seq.final[0], seq.final[1], seq.final[1])):
         assert tel.leg_angles[leg] == pytest.approx(want, abs=0.0088)
+    # The body follows the legs' progress through the final move (span 1.4 rad for DH):
+    # legs within 0.5 deg of the pose leave at most 0.0087 / 1.4 = 0.6 % of the body's travel
+    # (13 mm of h, 2.5 deg of thetaB from the retracting pose), i.e. 0.1 mm and 0.02 deg.
     robot = b.mcu.robot
     assert robot.h == pytest.approx(seq.h, abs=1e-3)
     assert robot.theta_b == pytest.approx(seq.theta_b, abs=0.005)
@@ -186,7 +190,9 @@ def test_host_silence_trips_the_watchdog_which_stops_legs_and_winch(bench):
     assert all(abs(s.angle - a) < 0.1 for s, a in zip(b.mcu.robot.servos, angles))
     errors = [(t, f.message) for t, f in b.of(m.Error)]
     assert [e.code for _, e in errors] == [m.ErrorCode.HOST_WATCHDOG]
-    assert 0.5 <= errors[0][0] - silent_from <= 0.52
+    # The first control cycle more than 500 ms after the last frame: within one control
+    # period (5 ms for the firmware, 1 ms steps for the Python MCU) plus one 1 ms step.
+    assert 0.5 <= errors[0][0] - silent_from <= 0.507
     tel = b.last_telemetry()
     assert tel.mode == m.Mode.WATCHDOG and tel.flags & m.Flag.WATCHDOG_TRIPPED
     b.run(0.5)                          # heartbeats again: the flag clears, motion does not
@@ -206,6 +212,7 @@ def test_winch_deadman_is_not_fed_by_heartbeats(bench):
     assert b.mcu.robot.winch.spool_velocity == 0.0
     errors = [(t, f.message) for t, f in b.of(m.Error)]
     assert [e.code for _, e in errors] == [m.ErrorCode.WINCH_DEADMAN]
+    # The first control cycle more than 100 ms after the command (5 ms period, 1 ms steps).
     assert 0.1 <= errors[0][0] - last_command <= 0.106
     assert 100 <= errors[0][1].detail <= 106
     assert not b.last_telemetry().flags & m.Flag.WATCHDOG_TRIPPED
