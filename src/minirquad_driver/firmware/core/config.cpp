@@ -7,7 +7,7 @@ Config default_config() {
   c.firmware_version = 200;
   c.telemetry_hz = 100;
   c.power_hz = 50;
-  c.control_period_ms = 5;
+  c.control_period_ms = 10;     // one cycle per 100 Hz telemetry sample
   c.host_watchdog_ms = 500;
   c.winch_deadman_ms = 100;
 

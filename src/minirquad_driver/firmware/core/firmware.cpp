@@ -45,7 +45,7 @@ void Firmware::begin(uint8_t reset_cause) {
   const uint32_t now = hal_.clock->millis();
   send_about(MSG_RESET_NOTICE, now);   // before anything else: the host restarts baselines
   power_.begin(*hal_.i2c);
-  read_sensors(now);
+  read_sensors();
   legs_.hold(angle_);                  // the legs stay where they are
   winch_.begin(now, hal_.winch->encoder());
   last_host_frame_ = now;
@@ -187,8 +187,7 @@ void Firmware::stop_motion() {
 
 // ------------------------------------------------------------------ control cycle
 
-void Firmware::read_sensors(uint32_t now) {
-  (void)now;
+void Firmware::read_sensors() {
   servo_ok_ = hal_.servos->read(servo_);
   if (servo_ok_) {
     for (int i = 0; i < 4; ++i) angle_[i] = leg_angle(config_.legs[i], servo_[i].position);
@@ -199,7 +198,7 @@ void Firmware::read_sensors(uint32_t now) {
 }
 
 void Firmware::control_cycle(uint32_t now) {
-  read_sensors(now);
+  read_sensors();
   int32_t load = 0;
   const bool fresh = hal_.winch->load_cell(&load);
 

@@ -54,7 +54,7 @@ class Firmware {
   void on_frame(const Frame& frame, uint32_t now);
   uint8_t execute(const Message& msg, uint32_t now);
   void control_cycle(uint32_t now);
-  void read_sensors(uint32_t now);
+  void read_sensors();
   void sequence_burrow(uint32_t now);
   void stop_motion();
   void send_telemetry(uint32_t now);

@@ -11,7 +11,6 @@
 #include <stdint.h>
 
 #include "config.h"
-#include "hal.h"
 #include "messages.h"
 
 namespace mrq {

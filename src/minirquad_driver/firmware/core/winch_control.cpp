@@ -66,7 +66,7 @@ void WinchControl::update(uint32_t now, int32_t encoder, bool fresh, int32_t loa
   last_update_ = now;
 
   // Spool position and speed (difference over the last WINDOW - 1 cycles: one encoder
-  // count is 26 um, so a single 5 ms cycle would resolve only 5 mm/s).
+  // count is 26 um, so a single 10 ms cycle would resolve only 2.6 mm/s).
   position_ = int32_t(float(encoder - encoder0_) * config_.winch_um_per_count);
   window_[window_i_] = encoder;
   window_t_[window_i_] = now;

@@ -44,7 +44,7 @@ class WinchControl {
 
  private:
   enum { LATCH_NONE = 0, LATCH_STALL = 1, LATCH_OVERTENSION = 2 };
-  static const int WINDOW = 11;                          // encoder samples for the speed
+  static const int WINDOW = 6;     // encoder samples for the speed: 50 ms at 10 ms cycles
   static const int EVENTS = 4;
 
   void raise(uint8_t code, uint32_t detail);

@@ -203,7 +203,7 @@ TEST(host_watchdog_stops_legs_and_winch_once_and_heartbeat_clears_flag) {
     r.run(1, false);
     if (r.fw.watchdog_tripped() && moving) {
       moving = false;
-      CHECK(r.board.clock.ms - t0 > 500 && r.board.clock.ms - t0 <= 506);
+      CHECK(r.board.clock.ms - t0 > 500 && r.board.clock.ms - t0 <= 511);   // + one cycle
     }
   }
   CHECK(r.fw.watchdog_tripped());
@@ -231,7 +231,7 @@ TEST(winch_deadman_is_not_fed_by_heartbeats) {
   CHECK_EQ(r.board.winch.duty, 0);
   CHECK(has_error(r, mrq::ERR_WINCH_DEADMAN));
   const Frame* e = r.last(mrq::MSG_ERROR);
-  CHECK(e && e->message.error.detail > 100 && e->message.error.detail <= 106);
+  CHECK(e && e->message.error.detail > 100 && e->message.error.detail <= 111);
   CHECK(!r.fw.watchdog_tripped());
 }
 
@@ -417,7 +417,7 @@ TEST(no_telemetry_from_stale_sensors) {
   r.run(100);
   CHECK_EQ(r.of(mrq::MSG_TELEMETRY).size(), n);
   CHECK_EQ(r.board.servos.writes, writes);   // no goal from stale angles
-  CHECK(r.fw.servo_read_errors() >= 20);
+  CHECK(r.fw.servo_read_errors() >= 10);   // one per 10 ms control cycle
 }
 
 TEST(mcu_types_sent_to_the_mcu_are_not_acked) {
