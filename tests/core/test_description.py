@@ -53,7 +53,7 @@ def test_urdf_parses_with_a_standard_library(robot):
     """ROS's own URDF parser (urdf_parser_py, PyPI urdf-parser-py) reads the shipped URDF; the
     leg transforms composed from what it reads (base pose, joint origin, rotation about the
     joint axis with scipy's Rotation, mesh scale) place the leg mesh exactly where the robot
-    preset's own posing (robots/model.py, written independently of the URDF) puts it."""
+    preset's own posing (robots/robot.py, written independently of the URDF) puts it."""
     from scipy.spatial.transform import Rotation
     from urdf_parser_py.urdf import URDF
 
@@ -89,7 +89,7 @@ def test_urdf_parses_with_a_standard_library(robot):
             mesh = type(leg)(leg.vertices * scale, leg.faces if np.prod(scale) > 0
                              else leg.faces[:, ::-1])
             posed[h] = mesh.facets().transformed(rot, hip)
-        # forward pulls use the leg mesh as it is (Pull.FORWARD, robots/model.py)
+        # forward pulls use the leg mesh as it is (Pull.FORWARD, robots/robot.py)
         ref = model.pose(state, Pull.FORWARD).facets
         ours = [posed[h] for h in hips]
         cent = np.vstack([f.centroids for f in ours])

@@ -1,6 +1,6 @@
 """The lab tools take an anchor description: `--anchor FILE.yaml` of evaluate,
 calibrate and replay poses that description instead of the bag's robot. The reference is the
-preset path itself (AnchorModel and RobotModel.pose, robots/), which the shipped description is
+preset path itself (AnchorModel and Robot.pose, robots/), which the shipped description is
 written from: the same bag analysed with the shipped description must give the preset's
 numbers. A description the bags cannot feed, or one that cannot be read, is one line, exit 2."""
 from __future__ import annotations
@@ -42,7 +42,7 @@ def renamed(tmp_path_factory):
 @pytest.mark.parametrize('robot', ['prototype', 'minirquad'])
 def test_surface_points_end_the_slip_where_the_body_plate_does(robot):
     """The shipped descriptions' surface_points are the body plate's ends: the stop height
-    equals RobotModel.pose(...).plate_min_z at any pose (pitch both ways)."""
+    equals Robot.pose(...).plate_min_z at any pose (pitch both ways)."""
     desc = load_anchor(shipped_description(robot)).description
     rb = get_robot(robot)
     for h, tb in ((0.03, 0.0), (0.01, math.radians(20)), (0.004, math.radians(-25)),

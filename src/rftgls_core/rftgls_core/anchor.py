@@ -18,7 +18,7 @@ import numpy as np
 from .rft.engine import BuriedBody
 from .rft.media import Medium
 from .rft.models import make_model
-from .robots.model import G, PosedRobot, RobotModel
+from .robots.robot import G, PosedRobot, Robot
 from .surfaces.base import CapacityResult, GLSProblem, LimitSurface
 from .surfaces.registry import surface_class
 from .surfaces.scaling import Scaling
@@ -49,7 +49,7 @@ class AnchorModel:
     them). backend: RFT engine backend ('auto', 'numpy', 'numba').
     """
 
-    def __init__(self, robot: RobotModel, medium: Medium, model: str = 'agarwal',
+    def __init__(self, robot: Robot, medium: Medium, model: str = 'agarwal',
                  method: str = DEFAULT_METHOD, n_twists: int | None = None,
                  backend: str = 'auto', surface_options: dict | None = None):
         self.robot = robot

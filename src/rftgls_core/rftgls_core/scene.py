@@ -28,7 +28,7 @@ from .gls6d import DEFAULT_TWISTS_6D, EARLIER_ANGLE, InPlane6, Problem6, Result6
 from .rft.engine import BuriedBody
 from .rft.media import Medium
 from .rft.models import make_model
-from .robots.model import G, RobotModel
+from .robots.robot import G, Robot
 from .surfaces.base import GLSProblem
 from .surfaces.registry import surface_class
 from .surfaces.scaling import Scaling
@@ -74,12 +74,12 @@ def pull_vector(phi: float, yaw: float = 0.0) -> np.ndarray:
     return rot_z(yaw) @ np.array([-math.cos(phi), 0.0, math.sin(phi)])
 
 
-def scene_from_robot(robot: RobotModel, state: AnchorState, pull: Pull | str) -> Scene:
+def scene_from_robot(robot: Robot, state: AnchorState, pull: Pull | str) -> Scene:
     """The sagittal robot as a Scene (both sides of its legs, p as the tether point)."""
     posed = robot.pose(state, pull)
     p = np.asarray(posed.ref, dtype=float)
     c, s = math.cos(state.theta_b), math.sin(state.theta_b)
-    # Body x_B tilts up by thetaB (robots/model.py: rot_y(-thetaB)).
+    # Body x_B tilts up by thetaB (robots/robot.py: rot_y(-thetaB)).
     com = p + np.array([c * robot.com[0] - s * robot.com[1], 0.0,
                         s * robot.com[0] + c * robot.com[1]])
     return Scene(name=robot.name, facets=posed.facets, ref=p, mass=robot.mass, com=com,

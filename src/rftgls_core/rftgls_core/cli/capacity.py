@@ -33,7 +33,7 @@ STATE_OPTIONS = ('h', 'theta_b', 'theta_l1', 'theta_l2')
 
 def state_from_args(args) -> AnchorState:
     """The state of the command line, refused (ValueError, one line) when the robot cannot be
-    in it (robots.model.StateRange): no capacity is computed for an impossible pose."""
+    in it (robots.robot.StateRange): no capacity is computed for an impossible pose."""
     args.robot = args.robot or 'minirquad'
     missing = [f'--{k.replace("_", "-")}' for k in STATE_OPTIONS if getattr(args, k) is None]
     if missing:

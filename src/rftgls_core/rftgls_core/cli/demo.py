@@ -14,7 +14,7 @@ from pathlib import Path
 from ..anchor import AnchorModel
 from ..charts.limit_surface import plot_limit_surface
 from ..rft.media import get_medium
-from ..robots.model import G
+from ..robots.robot import G
 from ..robots.presets import minirquad
 from ..types import AnchorState, Pull
 

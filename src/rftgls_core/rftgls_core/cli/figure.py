@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..anchor import AnchorModel
 from ..rft.media import get_medium
-from ..robots.model import G
+from ..robots.robot import G
 from ..robots.presets import get_robot
 from ..types import AnchorState, Pull
 
