@@ -1,11 +1,11 @@
-"""AnchorModel on the real robots: statuses every caller relies on, and the acceptance of the
+"""RobotPredictor on the real robots: statuses every caller relies on, and the acceptance of the
 default method against the `direct` reference over a small harness of random states."""
 import math
 
 import pytest
 
 from rftgls_core import accuracy as acc
-from rftgls_core.anchor import AnchorModel
+from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
 from rftgls_core.surfaces.registry import METHOD_NAMES
@@ -16,7 +16,7 @@ METHODS = list(METHOD_NAMES)
 
 def model(robot='prototype', method='twist-mesh', **kw):
     medium = 'glass_beads' if robot == 'prototype' else 'm90_sand'
-    return AnchorModel(get_robot(robot), get_medium(medium), method=method, **kw)
+    return RobotPredictor(get_robot(robot), get_medium(medium), method=method, **kw)
 
 
 @pytest.mark.parametrize('method', METHODS)

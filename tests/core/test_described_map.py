@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 from tolerances import INTERPOLATION_ATOL, INTERPOLATION_RTOL
 
-from rftgls_core.anchor import AnchorModel
 from rftgls_core.cli.main import main
 from rftgls_core.description import (
     load_description,
@@ -27,6 +26,7 @@ from rftgls_core.maps.described import (
     description_grid,
     save_described_map,
 )
+from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
 from rftgls_core.scene import SceneModel
@@ -129,7 +129,7 @@ def test_the_shipped_description_map_holds_the_robot_answers(tmp_path):
                                    'theta_l1': [-40.0, -20.0], 'theta_l2': [20.0, 30.0]},
                             [-20.0, 0.0], ('backward',))
     data = build_described_map(desc, medium, grid, method='twist-mesh')
-    robot = AnchorModel(get_robot('minirquad'), medium, method='twist-mesh')
+    robot = RobotPredictor(get_robot('minirquad'), medium, method='twist-mesh')
     dh = AnchorState.from_degrees(0.034, 5.0, -40.0, 30.0)   # Table II, DH
     for j, phi in enumerate(grid.phi):
         r = robot.predict(dh, float(phi), 'backward')

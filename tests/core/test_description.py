@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 from tolerances import TWO_SOLVES_RTOL, TWO_SOLVES_TWIST_ATOL
 
-from rftgls_core.anchor import AnchorModel
 from rftgls_core.cli.demo import ANCHOR_MODES
 from rftgls_core.cli.main import main
 from rftgls_core.description import (
@@ -21,6 +20,7 @@ from rftgls_core.description import (
     state_values,
     write_robot_description,
 )
+from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
 from rftgls_core.scene import SceneModel
@@ -112,7 +112,7 @@ STATES = list(ANCHOR_MODES.values()) + [AnchorState.from_degrees(0.02, 0.0, -40.
 def test_the_description_gives_the_numbers_of_the_robot(robot, method):
     desc = load_description(shipped_description(robot))
     medium = get_medium(desc.medium)
-    reference = AnchorModel(get_robot(robot), medium, method=method)
+    reference = RobotPredictor(get_robot(robot), medium, method=method)
     model = SceneModel(medium, method=method)
     for state in STATES:
         for pull in Pull:

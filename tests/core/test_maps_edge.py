@@ -235,7 +235,7 @@ def test_shipped_edge_corners_carry_the_dense_sphere_margin():
 
     cmap = CapacityMap.load(shipped_map_path('minirquad'))
     data = cmap.data
-    model = spec_from_map(data).anchor_model()
+    model = spec_from_map(data).predictor()
     p = 1                                               # backward pull
     grad_ok = np.isfinite(data.support_margin_grad[p, ..., 0])
     marg_ok = np.isfinite(data.support_margin[p])

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from rftgls_core.anchor import AnchorModel
 from rftgls_core.gls6d import Problem6, Scaling6, Surface6, complement_basis, sphere5
+from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import minirquad
 from rftgls_core.scene import SceneModel, pull_plane_symmetry, pull_vector, scene_from_robot
@@ -67,7 +67,7 @@ def dh_scene():
 
 @pytest.mark.parametrize('phi_deg', [0.0, -20.0, 30.0])
 def test_6d_equals_the_sagittal_answer_at_yaw_0(dh_scene, phi_deg):
-    sagittal = AnchorModel(minirquad(), get_medium('m90_sand'), method='direct').predict(
+    sagittal = RobotPredictor(minirquad(), get_medium('m90_sand'), method='direct').predict(
         DH, math.radians(phi_deg), Pull.BACKWARD)
     full = SceneModel(get_medium('m90_sand'), space='6d').predict(dh_scene,
                                                                   math.radians(phi_deg))

@@ -1,6 +1,6 @@
 """The lab tools take an anchor description: `--anchor FILE.yaml` of evaluate,
 calibrate and replay poses that description instead of the bag's robot. The reference is the
-preset path itself (AnchorModel and Robot.pose, robots/), which the shipped description is
+preset path itself (RobotPredictor and Robot.pose, robots/), which the shipped description is
 written from: the same bag analysed with the shipped description must give the preset's
 numbers. A description the bags cannot feed, or one that cannot be read, is one line, exit 2."""
 from __future__ import annotations

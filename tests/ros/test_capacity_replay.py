@@ -1,5 +1,5 @@
 """A recorded sequence (rosbag2, written with rosbags) replayed lock-step into capacity_node:
-every published capacity equals rftgls_core's AnchorModel called directly on the same values."""
+every published capacity equals rftgls_core's RobotPredictor called directly on the same values."""
 from __future__ import annotations
 
 import math

@@ -144,7 +144,7 @@ class LiveGround:
                  h_step: float = 1e-3, angle_step: float = math.radians(1.0),
                  phi_step: float = math.radians(1.0), cache_size: int = 512,
                  anchor: str = ''):
-        from rftgls_core.anchor import AnchorModel
+        from rftgls_core.predictor.live import RobotPredictor
         from rftgls_core.rft.media import load_medium
         from rftgls_core.robots.presets import get_robot
         if not (math.isfinite(medium_scale) and medium_scale > 0.0):
@@ -167,9 +167,9 @@ class LiveGround:
             self.models = [DescriptionModel(desc, self.medium, method=m, mass_scale=mass_scale)
                            for m in dict.fromkeys((method, fallback_method)) if m]
         else:
-            self.models = [AnchorModel(self.robot, self.medium, method=method)]
+            self.models = [RobotPredictor(self.robot, self.medium, method=method)]
             if fallback_method and fallback_method != method:
-                self.models.append(AnchorModel(self.robot, self.medium, method=fallback_method))
+                self.models.append(RobotPredictor(self.robot, self.medium, method=fallback_method))
         self.pull = pull
         self.steps = (h_step, angle_step, phi_step)
         self.cache_size = cache_size

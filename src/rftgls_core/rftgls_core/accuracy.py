@@ -16,8 +16,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .anchor import AnchorModel
 from .predictor import Predictor
+from .predictor.live import RobotPredictor
 from .rft.media import get_medium
 from .robots.presets import LEG_ARC_SEGMENTS, get_robot
 from .surfaces.brute_force import BruteForceSurface
@@ -103,7 +103,7 @@ def run_config(robot: str, config: Config, states, phis_deg=PHIS_DEG) -> list[Re
         from .maps import CapacityMap, shipped_map_path
         model = CapacityMap.load(shipped_map_path(robot))
     else:
-        model = AnchorModel(get_robot(robot, config.n_arc), get_medium(MEDIUM[robot]),
+        model = RobotPredictor(get_robot(robot, config.n_arc), get_medium(MEDIUM[robot]),
                             method=config.method, n_twists=config.n_twists,
                             surface_options=config.options)
     model.predict(states[0], 0.0, Pull.BACKWARD)  # warm caches (JIT, twist sphere)
@@ -230,8 +230,8 @@ def agreement(robot: str, n_states: int, seed: int = 0, reference_twists: int = 
     """
     robot_model = get_robot(robot)
     medium = get_medium(MEDIUM[robot])
-    models = {m: AnchorModel(robot_model, medium, method=m) for m in AGREEMENT_METHODS}
-    ref_model = AnchorModel(robot_model, medium, method='brute-force',
+    models = {m: RobotPredictor(robot_model, medium, method=m) for m in AGREEMENT_METHODS}
+    ref_model = RobotPredictor(robot_model, medium, method='brute-force',
                             n_twists=reference_twists)
     floor = 0.05 * robot_model.mass * 9.81
     rows = []

@@ -126,7 +126,7 @@ class _threads:
 def bench_capacity() -> list[Figure]:
     """Per limit-surface method on the MiniRQuad DH pose: from scratch (pose, RFT, fit, one
     query) and the query alone on a fitted surface."""
-    from .anchor import AnchorModel
+    from .predictor.live import RobotPredictor
     from .surfaces.registry import METHOD_NAMES
 
     robot, medium = minirquad(), get_medium('m90_sand')
@@ -134,7 +134,7 @@ def bench_capacity() -> list[Figure]:
     for method in METHOD_NAMES:
         if method == 'brute-force':
             continue   # the dense reference: seconds per state by design, not a live method
-        model = AnchorModel(robot, medium, method=method)
+        model = RobotPredictor(robot, medium, method=method)
         scratch = best_time(partial(model.predict, TYPICAL_STATE, 0.0, Pull.BACKWARD),
                             repeats=5)
         surface, _ = model.fit(TYPICAL_STATE, Pull.BACKWARD)
@@ -195,13 +195,13 @@ def live_stream(n: int = LIVE_STATES, seed: int = 16) -> list[AnchorState]:
 def bench_live() -> list[Figure]:
     """Warm-started direct over the live stream, every state timed (median and p99 of the
     calls, not best-of), against the cold direct on a sample of the same states."""
-    from .anchor import AnchorModel
+    from .predictor.live import RobotPredictor
     from .surfaces.warm import WarmAnchorModel
 
     robot, medium = minirquad(), get_medium('m90_sand')
     states = live_stream()
     warm = WarmAnchorModel(robot, medium)
-    cold = AnchorModel(robot, medium, method='direct')
+    cold = RobotPredictor(robot, medium, method='direct')
     warm.predict(states[0], LIVE_PHI, Pull.BACKWARD)   # compile and cache, then start afresh
     warm = WarmAnchorModel(robot, medium)
     times, cpu = [], []

@@ -455,13 +455,13 @@ def parse_state_map(text: str) -> dict[str, str] | None:
 
 
 class DescriptionModel:
-    """AnchorModel's interface (fit / predict_many / predict on an AnchorState, sagittal
+    """RobotPredictor's interface (fit / predict_many / predict on an AnchorState, sagittal
     (vx, vz, wy) answers) on a description whose state variables the AnchorState feeds, for the
     consumers that speak AnchorState (capacity_node's live solver, the simulator ground).
     The sagittal reduction is used only where the posed facets pass the mirror check
     (scene.pull_plane_symmetry); elsewhere the answer is `invalid_input` `not_symmetric`
     (these consumers cannot carry a 6D twist; `rftgls capacity --anchor` can). For a shipped
-    robot it gives AnchorModel's numbers (tests/core/test_description.py).
+    robot it gives RobotPredictor's numbers (tests/core/test_description.py).
 
     mass_scale multiplies the described mass (the simulator's heavier or lighter true robot).
     state_map: description variable -> AnchorState quantity (robot_state_map; default: the
@@ -471,7 +471,7 @@ class DescriptionModel:
     def __init__(self, desc: AnchorDescription, medium, model: str = 'agarwal',
                  method: str | None = None, n_twists: int | None = None,
                  backend: str = 'auto', mass_scale: float = 1.0, state_map=None):
-        from .anchor import DEFAULT_METHOD, DEFAULT_TWISTS, DEFAULT_TWISTS_BY_METHOD
+        from .predictor.live import DEFAULT_METHOD, DEFAULT_TWISTS, DEFAULT_TWISTS_BY_METHOD
         from .rft.models import make_model
         from .surfaces.registry import surface_class
         self.state_map = robot_state_map(desc, state_map)
@@ -491,7 +491,7 @@ class DescriptionModel:
                               detail=detail)
 
     def fit(self, state: AnchorState, pull: Pull | str):
-        """(fitted surface, None) or (None, failure result), as AnchorModel.fit."""
+        """(fitted surface, None) or (None, failure result), as RobotPredictor.fit."""
         import dataclasses
 
         from .rft.engine import BuriedBody

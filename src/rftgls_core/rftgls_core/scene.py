@@ -187,7 +187,7 @@ class SceneModel:
                  n_twists_6d: int = DEFAULT_TWISTS_6D, backend: str = 'auto'):
         if space not in SPACES:
             raise ValueError(f'space must be one of {", ".join(SPACES)}, got {space!r}')
-        from .anchor import DEFAULT_TWISTS, DEFAULT_TWISTS_BY_METHOD
+        from .predictor.live import DEFAULT_TWISTS, DEFAULT_TWISTS_BY_METHOD
         self.medium = medium
         self.stress_model = make_model(model, medium)
         self.method = method

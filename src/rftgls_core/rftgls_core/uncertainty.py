@@ -40,7 +40,7 @@ def capacity_band(robot: str, xi_n: float, mu_surf: float, cov: np.ndarray,
                   method: str = 'twist-mesh', mode: str = 'linear', level: float = 0.95,
                   n_samples: int = 64, seed: int = 0) -> CapacityBand:
     """Capacity (N) along d(phi) with a one-sided `level` lower bound and the symmetric upper."""
-    from .anchor import AnchorModel
+    from .predictor.live import RobotPredictor
     from .rft.media import custom_medium
     from .robots.presets import get_robot
 
@@ -51,7 +51,7 @@ def capacity_band(robot: str, xi_n: float, mu_surf: float, cov: np.ndarray,
         key = (round(xi, 3), round(mu, 6))
         if key not in models:
             medium = custom_medium(xi_n=max(xi, 1.0), mu_surf=max(mu, 0.0))
-            models[key] = AnchorModel(rob, medium, method=method)
+            models[key] = RobotPredictor(rob, medium, method=method)
         r = models[key].predict(AnchorState(h, tb, state.theta_l1, state.theta_l2), phi, pull)
         return float(r.capacity_N) if r.status.has_value and r.capacity_N is not None else 0.0
 

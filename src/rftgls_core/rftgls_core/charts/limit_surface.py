@@ -7,12 +7,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..anchor import AnchorModel
+from ..predictor.live import RobotPredictor
 from ..types import AnchorState, Pull, pull_direction
 from .figure_io import pyplot, save
 
 
-def limit_curve(model: AnchorModel, state: AnchorState, pull: Pull | str, n: int = 181):
+def limit_curve(model: RobotPredictor, state: AnchorState, pull: Pull | str, n: int = 181):
     """Capacity over all tether angles: the GLS cut by the plane My = 0 (the paper's F)."""
     phis = np.linspace(-math.pi, math.pi, n)
     results = model.predict_many(state, phis, pull)
@@ -21,7 +21,7 @@ def limit_curve(model: AnchorModel, state: AnchorState, pull: Pull | str, n: int
     return phis, caps, dirs * caps[:, None]
 
 
-def plot_limit_surface(model: AnchorModel, state: AnchorState, pull: Pull | str, phi: float,
+def plot_limit_surface(model: RobotPredictor, state: AnchorState, pull: Pull | str, phi: float,
                        out: str | Path, title: str = '') -> dict:
     """Write a two-panel PNG; returns the capacity result at phi for captions and logs."""
     plt = pyplot()

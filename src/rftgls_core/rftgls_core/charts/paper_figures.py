@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..anchor import AnchorModel
+from ..predictor.live import RobotPredictor
 from ..sim.trajectory import Trajectory, simulate_pull
 from ..types import AnchorState, Pull
 from .figure_io import pyplot, save
@@ -30,7 +30,7 @@ class SlipSummary:
     stop_reason: str
 
 
-def slip_summary(model: AnchorModel, state: AnchorState, pull: Pull | str, phi: float = 0.0,
+def slip_summary(model: RobotPredictor, state: AnchorState, pull: Pull | str, phi: float = 0.0,
                  travel: float = 0.02, step: float = 0.002) -> tuple[SlipSummary, Trajectory]:
     plate = lambda st: model.robot.pose(st, pull).plate_min_z
     traj = simulate_pull(model, state, phi, pull, plate, step=step, max_travel=travel)
@@ -45,7 +45,7 @@ def slip_summary(model: AnchorModel, state: AnchorState, pull: Pull | str, phi: 
                        dtb / (1e3 * abs(dx)) if dx != 0 else math.nan, traj.stop_reason), traj
 
 
-def leg_angle_maps(model: AnchorModel, h: float = 0.02, theta_b: float = 0.0,
+def leg_angle_maps(model: RobotPredictor, h: float = 0.02, theta_b: float = 0.0,
                    progress=None) -> dict:
     """Fig. 9 data: {pull: {'peak': (5, 5), 'dz_dx': ..., 'dtb': ...}}, rows thetaL1, cols L2."""
     out = {}

@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 import time
 
-from ..anchor import DEFAULT_TWISTS, AnchorModel
+from ..predictor.live import DEFAULT_TWISTS, RobotPredictor
 from ..robots.presets import ROBOTS, get_robot
 from ..surfaces.registry import METHOD_NAMES
 from ..types import AnchorState, Pull
@@ -66,10 +66,10 @@ def map_from_args(args):
     return cmap
 
 
-def model_from_args(args, method: str | None = None) -> AnchorModel:
+def model_from_args(args, method: str | None = None) -> RobotPredictor:
     args.robot = args.robot or 'minirquad'
     args.default_medium = DEFAULT_MEDIUM[args.robot]
-    return AnchorModel(get_robot(args.robot), medium_from_args(args), model=args.model,
+    return RobotPredictor(get_robot(args.robot), medium_from_args(args), model=args.model,
                        method=method or args.method, n_twists=args.twists)
 
 

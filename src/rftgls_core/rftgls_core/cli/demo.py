@@ -11,11 +11,11 @@ import math
 import time
 from pathlib import Path
 
-from ..anchor import AnchorModel
 from ..charts.limit_surface import plot_limit_surface
+from ..predictor.live import RobotPredictor
 from ..rft.media import get_medium
-from ..robots.robot import G
 from ..robots.presets import minirquad
+from ..robots.robot import G
 from ..types import AnchorState, Pull
 
 # Paper Table II: final leg angles (deg) and the measured mean thetaB (deg) and h (mm).
@@ -40,7 +40,7 @@ def run(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     robot = minirquad()
-    model = AnchorModel(robot, get_medium('m90_sand'), method=args.method)
+    model = RobotPredictor(robot, get_medium('m90_sand'), method=args.method)
     needs = {m: SLED_FRICTION * m * G for m in SLEDS_KG}
     print(f'MiniRQuad ({robot.mass * 1e3:.0f} g) in M90 sand, backward pulls (winch on its '
           f'back), method {args.method}')

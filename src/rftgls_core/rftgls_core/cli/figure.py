@@ -6,10 +6,10 @@ import math
 import sys
 from pathlib import Path
 
-from ..anchor import AnchorModel
+from ..predictor.live import RobotPredictor
 from ..rft.media import get_medium
-from ..robots.robot import G
 from ..robots.presets import get_robot
+from ..robots.robot import G
 from ..types import AnchorState, Pull
 
 
@@ -43,7 +43,8 @@ def run(args) -> int:
     if args.which == 'fig13':
         return _fig13(args, out)
     if args.which == 'fig9':
-        model = AnchorModel(get_robot('prototype'), get_medium('glass_beads'), method=args.method)
+        model = RobotPredictor(get_robot('prototype'), get_medium('glass_beads'),
+                               method=args.method)
         bar = tqdm(total=50, desc='fig9 poses', file=sys.stderr)
         maps = pf.leg_angle_maps(model, progress=bar.update)
         bar.close()
@@ -58,7 +59,7 @@ def run(args) -> int:
         for pull in Pull:
             runs = {}
             for method in ('direct', 'twist-mesh', 'alpha', 'ellipsoid'):
-                model = AnchorModel(robot, medium, method=method)
+                model = RobotPredictor(robot, medium, method=method)
                 summary, traj = pf.slip_summary(model, state, pull, travel=0.04, step=0.001)
                 runs[method] = traj
                 data[f'{pull.value}/{method}'] = summary.__dict__
@@ -73,7 +74,7 @@ def run(args) -> int:
         from .demo import ANCHOR_MODES
         medium = load_medium(args.medium or 'm90_sand')
         cov = _medium_covariance(args)
-        model = AnchorModel(get_robot('minirquad'), medium, method=args.method)
+        model = RobotPredictor(get_robot('minirquad'), medium, method=args.method)
         caps: dict[str, dict] = {}
         lows: dict[str, dict] = {}
         for mode, state in ANCHOR_MODES.items():

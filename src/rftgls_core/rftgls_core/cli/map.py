@@ -21,7 +21,7 @@ import shlex
 
 import numpy as np
 
-from ..anchor import DEFAULT_METHOD, DEFAULT_TWISTS
+from ..predictor.live import DEFAULT_METHOD, DEFAULT_TWISTS
 from ..robots.presets import ROBOTS
 from ..surfaces.registry import METHOD_NAMES
 from .common import add_medium_args, medium_from_args, print_json

@@ -3,7 +3,7 @@
 Sample states (SI): `samples` cell centres (chosen at random, seeded, among all cells) and
 `samples` uniformly random states inside the grid; pull angles are the midpoints between the
 stored angles (the worst place for linear interpolation in phi). Each state is solved by the
-reference AnchorModel for every pull orientation of the map.
+reference RobotPredictor for every pull orientation of the map.
 
 Reference: 'direct' (root-finding, the project's ground truth). If that method cannot be
 built (not finished yet), the report falls back to the map's own method at the map's twist
@@ -22,7 +22,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from tqdm import tqdm
 
-from ..anchor import AnchorModel
+from ..predictor.live import RobotPredictor
 from ..robots.presets import get_robot
 from ..types import AnchorState, Status
 from .build import spec_from_map
@@ -120,17 +120,17 @@ def sample_states(grid, samples: int, seed: int = 0) -> np.ndarray:
     return np.vstack([centres, randoms])
 
 
-def reference_model(cmap: CapacityMap, reference: str = 'direct') -> tuple[AnchorModel, str]:
+def reference_model(cmap: CapacityMap, reference: str = 'direct') -> tuple[RobotPredictor, str]:
     spec = spec_from_map(cmap.data)
     kwargs: dict = dict(model=spec.model, n_twists=spec.n_twists, backend=spec.backend)
     robot = get_robot(spec.robot)
     try:
-        return AnchorModel(robot, spec.medium, method=reference, **kwargs), ''
+        return RobotPredictor(robot, spec.medium, method=reference, **kwargs), ''
     except (ImportError, AttributeError, ValueError) as exc:
         note = (f'reference method {reference!r} unavailable ({type(exc).__name__}: {exc}); '
                 f'compared against {spec.method!r} at n_twists={spec.n_twists} instead '
                 '(interpolation error only)')
-        return AnchorModel(robot, spec.medium, method=spec.method, **kwargs), note
+        return RobotPredictor(robot, spec.medium, method=spec.method, **kwargs), note
 
 
 def accuracy_report(cmap: CapacityMap, samples: int = 20, seed: int = 0,
@@ -188,7 +188,7 @@ def coverage_report(cmap: CapacityMap, n: int = 300, seed: int = 0,
     The reference is the live solver at its defaults (capacity_node's live fallback)."""
     from ..accuracy import agreement_states
     spec = spec_from_map(cmap.data)
-    model = AnchorModel(get_robot(spec.robot), spec.medium, model=spec.model, method=reference)
+    model = RobotPredictor(get_robot(spec.robot), spec.medium, model=spec.model, method=reference)
     jobs = agreement_states(spec.robot, n, seed)
     ref_n = ans = only = 0
     over: list[float] = []

@@ -1,9 +1,9 @@
-"""Building a capacity map: run the AnchorModel at every grid node, in parallel, deterministically.
+"""Building a capacity map: RobotPredictor at every grid node, in parallel, deterministically.
 
 Work unit: a chunk of flat state indices (grid.py order). For each state, each pull
 orientation is fitted once and queried at every stored pull angle (predict_many), so a node
-costs P surface fits. Each worker process (or Dask worker thread) builds its AnchorModel once
-and keeps it (`_anchor_model` cache), because the twist sphere and the numba kernels are the
+costs P surface fits. Each worker process (or Dask worker thread) builds its RobotPredictor once
+and keeps it (`_predictor` cache), because the twist sphere and the numba kernels are the
 expensive part to set up.
 
 Determinism: chunks are fixed by the grid and chunk size, results are placed by state index
@@ -31,7 +31,7 @@ from datetime import UTC, datetime
 import numpy as np
 
 from .. import __version__
-from ..anchor import DEFAULT_METHOD, DEFAULT_TWISTS, AnchorModel
+from ..predictor.live import DEFAULT_METHOD, DEFAULT_TWISTS, RobotPredictor
 from ..rft.media import Medium, get_medium
 from ..robots.presets import get_robot
 from ..surfaces.twist_sphere import TwistSphere
@@ -43,7 +43,7 @@ from .hdf5 import STATUS_NAMES, MapData, empty_answers
 
 @dataclass(frozen=True)
 class BuildSpec:
-    """What a worker needs to rebuild the AnchorModel: names and settings only (picklable)."""
+    """What a worker needs to rebuild the RobotPredictor: names and settings only (picklable)."""
 
     robot: str
     medium: Medium
@@ -52,8 +52,8 @@ class BuildSpec:
     n_twists: int = DEFAULT_TWISTS
     backend: str = 'auto'
 
-    def anchor_model(self) -> AnchorModel:
-        return AnchorModel(get_robot(self.robot), self.medium, model=self.model,
+    def predictor(self) -> RobotPredictor:
+        return RobotPredictor(get_robot(self.robot), self.medium, model=self.model,
                            method=self.method, n_twists=self.n_twists, backend=self.backend)
 
 
@@ -73,18 +73,18 @@ class ChunkResult:
 _local = threading.local()   # per thread (Dask runs tasks on threads), per process
 
 
-def _anchor_model(spec: BuildSpec) -> AnchorModel:
+def _predictor(spec: BuildSpec) -> RobotPredictor:
     cache = getattr(_local, 'models', None)
     if cache is None:
         cache = _local.models = {}
     if spec not in cache:
-        cache[spec] = spec.anchor_model()
+        cache[spec] = spec.predictor()
     return cache[spec]
 
 
 def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResult:
-    """Run the AnchorModel at the flat state indices ks for every pull and pull angle."""
-    model = _anchor_model(spec)
+    """Run the RobotPredictor at the flat state indices ks for every pull and pull angle."""
+    model = _predictor(spec)
     sphere = TwistSphere.build(spec.n_twists)
     idx = np.asarray(ks, dtype=np.intp)
     n, P, K = len(idx), len(grid.pulls), len(grid.phi)
@@ -114,7 +114,7 @@ def solve_grad_chunk(spec: BuildSpec, grid: MapGrid, jobs: np.ndarray
     """Edge-cell corners: support margin and its gradient on the dense EDGE_MARGIN_TWISTS
     sphere (edge.py), for jobs (M, 3) = (flat state index, pull index, held 0/1):
     (jobs, margins (M,), gradients (M, 4))."""
-    model = _anchor_model(spec)
+    model = _predictor(spec)
     sphere = TwistSphere.build(max(EDGE_MARGIN_TWISTS, spec.n_twists))
     out = np.full((len(jobs), 4), np.nan)
     marg = np.full(len(jobs), np.nan)
@@ -205,7 +205,7 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
     """Compute a map in memory (save it with hdf5.save_map).
 
     robot: preset name (robots.presets); medium: preset name or a Medium; grid: default_grid
-    for the robot when None; method/model/n_twists/backend: AnchorModel settings;
+    for the robot when None; method/model/n_twists/backend: RobotPredictor settings;
     workers: local processes (default: all usable cores; 1 = in this process);
     scheduler: Dask scheduler address ('tcp://host:port'), overrides workers;
     progress: tqdm bar on stderr; command: recorded in the file's build_command.
@@ -214,7 +214,7 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
     grid = default_grid(robot) if grid is None else grid
     spec = BuildSpec(robot=get_robot(robot).name, medium=med, model=model, method=method,
                      n_twists=int(n_twists), backend=backend)
-    probe = spec.anchor_model()   # fail fast (unknown method/model) before any worker starts
+    probe = spec.predictor()   # fail fast (unknown method/model) before any worker starts
     workers = default_workers() if workers is None else int(workers)
     if workers < 1:
         raise ValueError(f'workers must be >= 1, got {workers}')

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..anchor import AnchorModel
+from ..predictor.live import RobotPredictor
 from ..surfaces.base import SUPPORT_CHECK_TWISTS
 from ..surfaces.raycast import winding_number
 from ..surfaces.twist_sphere import TwistSphere
@@ -86,7 +86,7 @@ def point_mesh_distance(vertices: np.ndarray, faces: np.ndarray,
     return float(np.min(np.minimum(plane, edge))) if len(f) else float('inf')
 
 
-def node_support_margin(model: AnchorModel, sphere: TwistSphere, state: AnchorState,
+def node_support_margin(model: RobotPredictor, sphere: TwistSphere, state: AnchorState,
                         pull: Pull | str, held: bool | None = None) -> float:
     """Support margin of one state and pull (see the module doc); `held` is the node's status
     (a value at its pull angles), None: the winding number of the sphere mesh decides. NaN
@@ -105,7 +105,7 @@ def node_support_margin(model: AnchorModel, sphere: TwistSphere, state: AnchorSt
     return dist if held else -dist
 
 
-def node_margin_gradient(model: AnchorModel, sphere: TwistSphere, grid: MapGrid, k: int,
+def node_margin_gradient(model: RobotPredictor, sphere: TwistSphere, grid: MapGrid, k: int,
                          pull: Pull | str) -> np.ndarray:
     """(4,) d margin / d (h [1/m], theta_b, theta_l1, theta_l2 [1/rad]) at flat state index
     k: central differences at GRAD_STEP of the smaller neighbouring cell, one-sided at the

@@ -14,7 +14,7 @@ orientations, (Nh, Nb, N1, N2) = state axes, K = pull angles. Everything is SI.
         scaling_length_m       L_c of the scaled metric (m)
         package_version        rftgls_core.__version__ of the builder
         build_command          command line (or call) that built the file
-        provenance_json        JSON (sorted keys) of AnchorModel.describe(): robot and medium
+        provenance_json        JSON (sorted keys) of RobotPredictor.describe(): robot and medium
                                parameters, RFT model, method, n_twists, scaling
         build_time_utc         ISO time of the build; the ONLY attribute that differs between
                                two builds from the same inputs (VOLATILE_ATTRS)

@@ -275,7 +275,7 @@ class CapacityMap:
                               reason=reason, detail=detail)
 
     def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
-        """`query` under AnchorModel's name, so a map can stand wherever a predictor does."""
+        """`query` under RobotPredictor's name, so a map can stand wherever a predictor does."""
         return self.query(state, phi, pull)
 
     def query(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:

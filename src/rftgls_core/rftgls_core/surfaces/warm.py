@@ -629,7 +629,8 @@ def _clearance(ws: np.ndarray, faces: np.ndarray, point: np.ndarray,
 
 class WarmAnchorModel:
     """The live predictor of a streaming robot: `predict(state, phi, pull)` like
-    rftgls_core.anchor.AnchorModel with method 'direct', answered by a WarmDirect per pull.
+    rftgls_core.predictor.live.RobotPredictor with method 'direct', answered by a WarmDirect
+    per pull.
 
     Keeps the solver time of the last `window` calls (`stats()`: median and p99 in us, the
     fallback rate) for diagnostics.
@@ -637,8 +638,8 @@ class WarmAnchorModel:
 
     def __init__(self, robot, medium, model: str = 'agarwal', n_twists: int | None = None,
                  backend: str = 'auto', window: int = 1000, **warm_options) -> None:
-        from ..anchor import AnchorModel  # anchor imports surfaces: import on use
-        self.model = AnchorModel(robot, medium, model=model, method='direct',
+        from ..predictor.live import RobotPredictor  # anchor imports surfaces: import on use
+        self.model = RobotPredictor(robot, medium, model=model, method='direct',
                                  n_twists=n_twists, backend=backend)
         self.warm_options = dict(warm_options)
         self.solvers: dict[str, WarmDirect] = {}

@@ -41,7 +41,7 @@ PARAMETERS: dict[str, Param] = {
     'map_file': Param(DEFAULT_MAP, "HDF5 capacity map; '' = live computation with live_method"),
     'live_method': Param('direct-warm', 'live solver when map_file is empty (direct-warm: '
                          "the cold direct's answers, warm-started per message)"),
-    'live_n_twists': Param(0, 'twists of the live solver; 0 = rftgls_core.anchor.'
+    'live_n_twists': Param(0, 'twists of the live solver; 0 = rftgls_core.predictor.live.'
                            'DEFAULT_TWISTS (1000) for every method, direct included', 0, 10**6),
     'out_of_range_live_method': Param('', "live solver answering off-grid states; '' = none"),
     'edge_live_method': Param('direct-warm', "live solver re-answering the map's edge-margin "

@@ -34,14 +34,15 @@ def predictor_name(predictor: Predictor) -> str:
 
 
 class LivePredictor:
-    """rftgls_core.anchor.AnchorModel computed per call (about 10 ms for twist-mesh), or for
-    'direct-warm' the core's warm-started direct (WarmAnchorModel: the cold direct's answers,
-    under a millisecond per message on a streaming robot; `stats()` for diagnostics).
+    """rftgls_core.predictor.live.RobotPredictor computed per call (about 10 ms for
+    twist-mesh), or for 'direct-warm' the core's warm-started direct (WarmAnchorModel: the
+    cold direct's answers, under a millisecond per message on a streaming robot; `stats()`
+    for diagnostics).
     n_twists None: DEFAULT_TWISTS for every method (not the model's per-method default)."""
 
     def __init__(self, robot: str = 'minirquad', medium: str = 'm90_sand',
                  method: str = 'direct', n_twists: int | None = None):
-        from rftgls_core.anchor import DEFAULT_TWISTS, AnchorModel
+        from rftgls_core.predictor.live import DEFAULT_TWISTS, RobotPredictor
         from rftgls_core.rft.media import get_medium
         from rftgls_core.robots.presets import get_robot
         from rftgls_core.surfaces.warm import WarmAnchorModel
@@ -49,7 +50,7 @@ class LivePredictor:
             self.model = WarmAnchorModel(get_robot(robot), get_medium(medium), n_twists=n_twists)
             self.stats = self.model.stats
         else:
-            self.model = AnchorModel(get_robot(robot), get_medium(medium), method=method,
+            self.model = RobotPredictor(get_robot(robot), get_medium(medium), method=method,
                                      n_twists=n_twists or DEFAULT_TWISTS)
         self.name = f'live:{method}'
 
@@ -76,7 +77,7 @@ def parse_state_variables(text: str) -> dict[str, str] | None:
 
 class DescriptionPredictor:
     """The live solver on an anchor description (ROS parameter `anchor_description_file` = path of
-    its YAML): rftgls_core.description.DescriptionModel, AnchorModel's interface on the posed
+    its YAML): rftgls_core.description.DescriptionModel, RobotPredictor's interface on the posed
     description. The node estimates (h, theta_b, theta_l1, theta_l2) from its inputs
     (ESTIMATE_SOURCES), so every state variable of the description must be fed by one of
     them: by its name, or by `anchor_state_variables` (state_map here, NAME -> estimate); a
@@ -86,8 +87,8 @@ class DescriptionPredictor:
 
     def __init__(self, path: str, medium: str = '', method: str = 'direct',
                  n_twists: int | None = None, state_map: dict[str, str] | None = None):
-        from rftgls_core.anchor import DEFAULT_TWISTS
         from rftgls_core.description import DescriptionError, DescriptionModel
+        from rftgls_core.predictor.live import DEFAULT_TWISTS
         from rftgls_core.rft.media import get_medium
         desc = _description(path)
         # 'direct-warm' (integ's warm-started direct, the cold direct's answers) has no

@@ -1,6 +1,6 @@
 """Model predictions for one pull test: capacity, slip trajectory, with every method.
 
-Predictors: the four AnchorModel surfaces ('ellipsoid', 'alpha', 'twist-mesh', 'direct') and
+Predictors: the four RobotPredictor surfaces ('ellipsoid', 'alpha', 'twist-mesh', 'direct') and
 'map' (CapacityMap.query on a precomputed HDF5 map). Trajectories use rftgls_core.sim
 (quasi-static slip integration, paper section IV) from the measured initial state.
 
@@ -110,7 +110,7 @@ def make_predictor(method: str, robot: str, medium: Medium, map_path: str | Path
                    n_twists: int | None = None,
                    anchor: LabAnchor | None = None) -> Predictor:
     """The core Predictor of `method` (one of METHODS) for `robot` in `medium`: the live
-    AnchorModel, or for 'map' the CapacityMap at map_path (checked to be of `robot`).
+    RobotPredictor, or for 'map' the CapacityMap at map_path (checked to be of `robot`).
     anchor: a description to pose instead of the preset `robot` (DescriptionModel; a map
     must then answer for that description, CapacityMap.check_description)."""
     if method == 'map':
@@ -125,7 +125,7 @@ def make_predictor(method: str, robot: str, medium: Medium, map_path: str | Path
                                  'description it was built for')
             return DescribedMapModel(DescribedMap.load(path), anchor.description,
                                      anchor.state_map)
-        cmap = CapacityMap.load(path)   # predict() like AnchorModel
+        cmap = CapacityMap.load(path)   # predict() like RobotPredictor
         if anchor is not None:
             cmap.check_description(anchor.sha256)
         elif cmap.robot_name != robot:
@@ -136,8 +136,8 @@ def make_predictor(method: str, robot: str, medium: Medium, map_path: str | Path
         from rftgls_core.description import DescriptionModel
         return DescriptionModel(anchor.description, medium, method=method, n_twists=n_twists,
                                 state_map=anchor.state_map)
-    from rftgls_core.anchor import AnchorModel
-    return AnchorModel(get_robot(robot), medium, method=method, n_twists=n_twists)
+    from rftgls_core.predictor.live import RobotPredictor
+    return RobotPredictor(get_robot(robot), medium, method=method, n_twists=n_twists)
 
 
 def surface_min_z(robot: str, pull: str, anchor: LabAnchor | None = None):

@@ -15,14 +15,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .rft.engine import BuriedBody
-from .rft.media import Medium
-from .rft.models import make_model
-from .robots.robot import G, PosedRobot, Robot
-from .surfaces.base import CapacityResult, GLSProblem, LimitSurface
-from .surfaces.registry import surface_class
-from .surfaces.scaling import Scaling
-from .types import AnchorState, Pull, Status
+from ..rft.engine import BuriedBody
+from ..rft.media import Medium
+from ..rft.models import make_model
+from ..robots.robot import G, PosedRobot, Robot
+from ..surfaces.base import CapacityResult, GLSProblem, LimitSurface
+from ..surfaces.registry import surface_class
+from ..surfaces.scaling import Scaling
+from ..types import AnchorState, Pull, Status
 
 DEFAULT_METHOD = 'twist-mesh'
 DEFAULT_TWISTS = 1000
@@ -32,7 +32,7 @@ DEFAULT_TWISTS_BY_METHOD = {'direct': 400, 'brute-force': 100_000}
 
 
 @dataclass(frozen=True)
-class PosedAnchor:
+class PosedProblem:
     """Everything computed for one state and pull orientation before a surface is fitted."""
 
     posed: PosedRobot
@@ -40,7 +40,7 @@ class PosedAnchor:
     problem: GLSProblem
 
 
-class AnchorModel:
+class RobotPredictor:
     """Capacity and slip-twist predictor (fit-then-query per state; cheap to keep around).
 
     robot, medium: what is anchored where. model: RFT stress model name. method: limit
@@ -71,7 +71,7 @@ class AnchorModel:
                 'scaling': {'force_N': self.scaling.force_N,
                                                        'length_m': self.scaling.length_m}}
 
-    def pose(self, state: AnchorState, pull: Pull | str) -> PosedAnchor:
+    def pose(self, state: AnchorState, pull: Pull | str) -> PosedProblem:
         posed = self.robot.pose(state, pull)
         body = BuriedBody(posed.facets, self.stress_model, ref=posed.ref,
                           mirror_y=posed.mirror_y, backend=self.backend)
@@ -80,7 +80,7 @@ class AnchorModel:
         def wrench_fn(twists: np.ndarray) -> np.ndarray:
             return -body.planar_wrench(twists) - gravity
 
-        return PosedAnchor(posed, body, GLSProblem(wrench_fn, self.scaling))
+        return PosedProblem(posed, body, GLSProblem(wrench_fn, self.scaling))
 
     def new_surface(self) -> LimitSurface:
         # The twist-sphere connectivity is cached per twist count, so every state reuses it.

@@ -2,10 +2,10 @@
 
     predict(state, phi, pull) -> CapacityResult
 
-Implemented by the live model (`anchor.AnchorModel`: pose, RFT, limit surface, query) and by a
-loaded state-space map (`maps.CapacityMap`: interpolation). Consumers (accuracy harness,
-capacity_node, behavior_node, the simulator's ground, the lab tools) depend on this protocol,
-not on either class.
+Implemented by the live solver (`predictor.live.RobotPredictor`: pose, RFT, limit surface,
+query) and by a loaded state-space map (`maps.CapacityMap`: interpolation). Consumers
+(accuracy harness, capacity_node, behavior_node, the simulator's ground, the lab tools) depend
+on this protocol, not on either class.
 
 state: AnchorState (h m, thetaB/thetaL1/thetaL2 rad). phi: tether angle, rad, tension along
 (-cos phi, 0, sin phi) in world axes. pull: 'forward' or 'backward' (C-leg orientation).
@@ -15,8 +15,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 if TYPE_CHECKING:
-    from .surfaces.base import CapacityResult
-    from .types import AnchorState, Pull
+    from ..surfaces.base import CapacityResult
+    from ..types import AnchorState, Pull
 
 
 @runtime_checkable
