@@ -20,10 +20,10 @@ from rftgls_core.description import (
     state_values,
     write_robot_description,
 )
+from rftgls_core.posed import PosedAnchorSolver
 from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
-from rftgls_core.scene import SceneModel
 from rftgls_core.types import AnchorState, Pull
 
 ROBOTS = ('prototype', 'minirquad')
@@ -113,12 +113,12 @@ def test_the_description_gives_the_numbers_of_the_robot(robot, method):
     desc = load_description(shipped_description(robot))
     medium = get_medium(desc.medium)
     reference = RobotPredictor(get_robot(robot), medium, method=method)
-    model = SceneModel(medium, method=method)
+    model = PosedAnchorSolver(medium, method=method)
     for state in STATES:
         for pull in Pull:
             for phi in (0.0, math.radians(-20.0)):
                 a = reference.predict(state, phi, pull)
-                b = model.predict(desc.scene(state_values(state), pull), phi)
+                b = model.solve(desc.pose(state_values(state), pull), phi)
                 assert b.space == 'sagittal' and a.status == b.status
                 if a.capacity_N is None:
                     assert b.capacity_N is None

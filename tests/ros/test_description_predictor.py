@@ -159,13 +159,13 @@ def test_a_bad_state_variable_map_is_one_line(text, must, tmp_path):
 def test_a_two_variable_body_uses_h_and_theta_b_only(tmp_path):
     """An ellipsoid anchor with state (depth, tilt), mapped depth=h, tilt=theta_b: the node's
     leg estimates are left out (any leg angles, the same answer), and the answer is the one of
-    rftgls_core's SceneModel on the posed description (the reference path of `rftgls
+    rftgls_core's PosedAnchorSolver on the posed description (the reference path of `rftgls
     capacity --anchor`)."""
     from rftgls_core.description import load_description
     from rftgls_core.geometry.shapes import ellipsoid
     from rftgls_core.geometry.stl import write_stl
+    from rftgls_core.posed import PosedAnchorSolver
     from rftgls_core.rft.media import get_medium
-    from rftgls_core.scene import SceneModel
     from rftgls_core.types import AnchorState
     write_stl(tmp_path / 'egg.stl', ellipsoid(0.02, 0.015, 0.01, subdivisions=2), units='m')
     (tmp_path / 'egg.urdf').write_text(
@@ -185,8 +185,8 @@ def test_a_two_variable_body_uses_h_and_theta_b_only(tmp_path):
     b = p.predict(AnchorState(-0.04, math.radians(10), -1.0, 1.0), 0.5, 'backward')
     assert a.status.has_value and a.capacity_N == b.capacity_N
     desc = load_description(tmp_path / 'egg.yaml')
-    ref = SceneModel(get_medium('glass_beads'), method='twist-mesh', space='sagittal').predict(
-        desc.scene({'depth': -0.04, 'tilt': math.radians(10)}), 0.5)
+    solver = PosedAnchorSolver(get_medium('glass_beads'), method='twist-mesh', space='sagittal')
+    ref = solver.solve(desc.pose({'depth': -0.04, 'tilt': math.radians(10)}), 0.5)
     assert a.capacity_N == pytest.approx(ref.capacity_N, rel=TWO_SOLVES_RTOL)  # two solves
 
 

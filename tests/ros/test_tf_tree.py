@@ -85,26 +85,26 @@ def test_matches_the_core_forward_kinematics(joints):
     d = load_description(shipped_description('minirquad'))
     st = AnchorState(h=0.035, theta_b=math.radians(7.0), theta_l1=math.radians(-25.0),
                      theta_l2=math.radians(15.0))
-    scene = d.scene({'h': st.h, 'theta_b': st.theta_b, 'theta_l1': st.theta_l1,
+    posed = d.pose({'h': st.h, 'theta_b': st.theta_b, 'theta_l1': st.theta_l1,
                      'theta_l2': st.theta_l2})
     names = ['leg_proximal_left', 'leg_proximal_right', 'leg_distal_left', 'leg_distal_right']
     tree = tree_from(static_transforms(joints),
                      [odom_to_base(st.h, st.theta_b),
                       *moving_transforms(joints, names, [st.theta_l1, st.theta_l1,
                                                          st.theta_l2, st.theta_l2])])
-    assert tree.to_root('winch_link')[:3, 3] == pytest.approx(scene.ref, abs=1e-12)
+    assert tree.to_root('winch_link')[:3, 3] == pytest.approx(posed.ref, abs=1e-12)
     com_b = d.links['base_link'].com
-    assert point(tree.to_root('base_link'), com_b) == pytest.approx(scene.com, abs=1e-12)
+    assert point(tree.to_root('base_link'), com_b) == pytest.approx(posed.com, abs=1e-12)
     # The legs' meshes (forward pull: the C-legs as in the URDF, no mirror): the core's posed
     # facets are the URDF leg facets moved by the TF tree's transforms.
-    scene = d.scene({'h': st.h, 'theta_b': st.theta_b, 'theta_l1': st.theta_l1,
+    posed = d.pose({'h': st.h, 'theta_b': st.theta_b, 'theta_l1': st.theta_l1,
                      'theta_l2': st.theta_l2}, pull='forward')
     parts = []
     for link in ('left_proximal_leg', 'left_distal_leg', 'right_proximal_leg',
                  'right_distal_leg'):
         m = tree.to_root(link)
         parts.append(d.links[link].mesh.facets().centroids @ m[:3, :3].T + m[:3, 3])
-    assert np.concatenate(parts) == pytest.approx(scene.facets.centroids, abs=1e-12)
+    assert np.concatenate(parts) == pytest.approx(posed.facets.centroids, abs=1e-12)
 
 
 def test_quaternion_round_trip_including_half_turns():

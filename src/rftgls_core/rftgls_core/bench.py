@@ -152,18 +152,18 @@ def bench_capacity() -> list[Figure]:
 
 
 def bench_capacity_6d() -> list[Figure]:
-    """The 6D path from scratch on the MiniRQuad DH pose (scene, RFT of the 6D cloud, support
+    """The 6D path from scratch on the MiniRQuad DH pose (posed anchor, RFT of the 6D cloud, support
     check, Newton on S^5): a yawed pull (30 deg), and yaw 0 forced into 6D (there the root sits
     on the switching set of the side faces and is found by the confined Newton)."""
     import math
 
-    from .scene import SceneModel, scene_from_robot
+    from .posed import PosedAnchorSolver, pose_robot
 
-    model = SceneModel(get_medium('m90_sand'), space='6d')
+    model = PosedAnchorSolver(get_medium('m90_sand'), space='6d')
 
     def scratch(yaw: float) -> None:
-        scene = scene_from_robot(minirquad(), TYPICAL_STATE, Pull.BACKWARD)
-        model.predict(scene, 0.0, math.radians(yaw))
+        posed = pose_robot(minirquad(), TYPICAL_STATE, Pull.BACKWARD)
+        model.solve(posed, 0.0, math.radians(yaw))
 
     with _threads(1):
         t30 = best_time(partial(scratch, 30.0), repeats=5)

@@ -3,7 +3,7 @@ has no place for: the tether link, which joints are state variables, their units
 the base pose, the C-leg orientation of a pull, media defaults). docs/design/six-d.md,
 "Anchor descriptions".
 
-    description YAML + URDF --(state values)--> forward kinematics --> Scene (scene.py)
+    description YAML + URDF --(state values)--> forward kinematics --> PosedAnchor (posed.py)
 
 The URDF is read with the standard library's XML parser (URDF is plain XML); a file named
 `*.xacro` is expanded first with the `xacro` package, as ROS's own tools do. Frames: base_link
@@ -29,7 +29,7 @@ import numpy as np
 from .geometry.mesh import Facets, TriMesh
 from .geometry.stl import MeshError, read_stl, write_stl
 from .geometry.transforms import parse_vector, rot_y, rpy_matrix
-from .scene import Scene
+from .posed import PosedAnchor
 from .types import AnchorState, Pull
 
 DATA = Path(__file__).resolve().parent / 'data'
@@ -217,9 +217,9 @@ class AnchorDescription:
         if len(self.surface_points):
             base = self.base_pose(values)
             return float(np.min(self.surface_points @ base[:3, :3].T[:, 2] + base[2, 3]))
-        return float(self.scene(values).ref[2])
+        return float(self.pose(values).ref[2])
 
-    def scene(self, values: dict[str, float], pull: Pull | str = Pull.BACKWARD) -> Scene:
+    def pose(self, values: dict[str, float], pull: Pull | str = Pull.BACKWARD) -> PosedAnchor:
         """The posed description for state values (SI, by name) and a pull orientation."""
         missing = [n for n in self.state_names if n not in values]
         if missing:
@@ -265,7 +265,7 @@ class AnchorDescription:
             moment += link.mass * (t[:3, :3] @ link.com + t[:3, 3])
         ref = world[self.tether_link][:3, 3].copy()
         com = moment / mass if mass > 0 else ref
-        return Scene(name=self.name, facets=Facets.concatenate(parts), ref=ref, mass=mass,
+        return PosedAnchor(name=self.name, facets=Facets.concatenate(parts), ref=ref, mass=mass,
                      com=com, char_length=self.char_length)
 
 
@@ -459,7 +459,7 @@ class DescriptionModel:
     (vx, vz, wy) answers) on a description whose state variables the AnchorState feeds, for the
     consumers that speak AnchorState (capacity_node's live solver, the simulator ground).
     The sagittal reduction is used only where the posed facets pass the mirror check
-    (scene.pull_plane_symmetry); elsewhere the answer is `invalid_input` `not_symmetric`
+    (posed.pull_plane_symmetry); elsewhere the answer is `invalid_input` `not_symmetric`
     (these consumers cannot carry a 6D twist; `rftgls capacity --anchor` can). For a shipped
     robot it gives RobotPredictor's numbers (tests/core/test_description.py).
 
@@ -494,8 +494,8 @@ class DescriptionModel:
         """(fitted surface, None) or (None, failure result), as RobotPredictor.fit."""
         import dataclasses
 
+        from .posed import pull_plane_symmetry
         from .rft.engine import BuriedBody
-        from .scene import pull_plane_symmetry
         from .surfaces.base import GLSProblem
         from .surfaces.scaling import Scaling
         from .types import Status
@@ -508,25 +508,25 @@ class DescriptionModel:
         if outside:
             return None, self._fail(Status.OUT_OF_RANGE, 'outside_physical_range',
                                     f'not a {self.description.name} pose: ' + '; '.join(outside))
-        scene = self.description.scene(values, pull)
+        posed = self.description.pose(values, pull)
         if self.mass_scale != 1.0:
-            scene = dataclasses.replace(scene, mass=scene.mass * self.mass_scale)
-        if len(scene.buried()) == 0:
+            posed = dataclasses.replace(posed, mass=posed.mass * self.mass_scale)
+        if len(posed.buried()) == 0:
             return None, self._fail(Status.UNSUPPORTED, 'no_buried_leg',
                                     f'no facet is below the surface (h = {state.h:.4f} m)')
-        sym = pull_plane_symmetry(scene, 0.0)
+        sym = pull_plane_symmetry(posed, 0.0)
         if not sym.symmetric:
             return None, self._fail(Status.INVALID_INPUT, 'not_symmetric',
                                     'sagittal answers need mirror symmetry: ' + sym.detail)
-        p = np.asarray(scene.ref, dtype=float)
-        body = BuriedBody(scene.facets, self.stress_model, ref=p, mirror_y=float(p[1]),
+        p = np.asarray(posed.ref, dtype=float)
+        body = BuriedBody(posed.facets, self.stress_model, ref=p, mirror_y=float(p[1]),
                           backend=self.backend)
-        w = scene.weight
-        gravity = np.array([0.0, -w, w * (scene.com[0] - p[0])])
+        w = posed.weight
+        gravity = np.array([0.0, -w, w * (posed.com[0] - p[0])])
 
         def wrench_fn(twists: np.ndarray) -> np.ndarray:
             return -body.planar_wrench(twists) - gravity
-        scaling = Scaling(w if w > 0.0 else 1.0, scene.char_length)
+        scaling = Scaling(w if w > 0.0 else 1.0, posed.char_length)
         return self.surface_cls(n_twists=self.n_twists).fit(GLSProblem(wrench_fn, scaling)), None
 
     def violations(self, values: dict[str, float]) -> list[str]:

@@ -93,7 +93,7 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     if args.anchor is not None or args.mesh is not None or args.yaw != 0.0 or args.space != 'auto':
-        return run_scene(args)
+        return run_posed(args)
     state = state_from_args(args)
     phi = math.radians(args.phi)
     t0 = time.perf_counter()
@@ -137,19 +137,19 @@ def add_body_args(p) -> None:
                    help='tether yaw about z, deg: the pull is Rz(yaw) (-cos phi, 0, sin phi); '
                         'a yawed pull on a robot needs the 6D path')
     p.add_argument('--space', choices=('auto', 'sagittal', '6d'), default='auto',
-                   help='auto: the sagittal reduction when the scene is checked to be '
+                   help='auto: the sagittal reduction when the posed anchor is checked to be '
                         'mirror-symmetric about the pull plane, else full 6D (default)')
 
 
-def scene_from_args(args):
-    """(Scene, char_length) of the command line: a rigid body (--mesh) or a robot state."""
+def posed_from_args(args):
+    """(PosedAnchor, char_length) of the command line: a rigid body (--mesh) or a robot state."""
     from ..body import RigidBody, load_body_mesh
-    from ..scene import scene_from_robot
+    from ..posed import pose_robot
     if args.anchor is not None:
-        return _anchor_scene(args)
+        return _posed_description(args)
     if args.mesh is None:
         state = state_from_args(args)
-        return scene_from_robot(get_robot(args.robot), state, args.pull)
+        return pose_robot(get_robot(args.robot), state, args.pull)
     given = [f'--{k.replace("_", "-")}' for k in STATE_OPTIONS if getattr(args, k) is not None]
     if args.robot is not None or given:
         raise ValueError(f'--mesh describes the whole body: drop {", ".join(given or ["--robot"])}')
@@ -160,12 +160,12 @@ def scene_from_args(args):
         raise ValueError(f'--mass must be >= 0 kg, got {args.mass:g}')
     mesh = load_body_mesh(args.mesh, units=args.units)
     body = RigidBody(name=str(args.mesh), mesh=mesh, mass=args.mass)
-    return body.scene(args.position, [math.radians(a) for a in args.rpy], args.tether,
+    return body.pose(args.position, [math.radians(a) for a in args.rpy], args.tether,
                       com_world=args.com)
 
 
-def _anchor_scene(args):
-    """The scene of an anchor description at the command line's state values."""
+def _posed_description(args):
+    """The posed anchor of an anchor description at the command line's state values."""
     from ..description import load_description
     if args.mesh is not None or args.robot is not None:
         raise ValueError('--anchor describes the whole anchor: drop --mesh/--robot')
@@ -196,18 +196,18 @@ def _anchor_scene(args):
         raise ValueError(f'not a {desc.name} pose: {"; ".join(outside)}')
     args.description_medium = desc.medium
     args.description_symmetry = desc.symmetry
-    return desc.scene(values, args.pull)
+    return desc.pose(values, args.pull)
 
 
-def run_scene(args) -> int:
+def run_posed(args) -> int:
     """Capacity of a rigid body or of a robot under a yawed pull (6D world twists)."""
-    from ..scene import SceneModel
+    from ..posed import PosedAnchorSolver
     if args.method == 'map' or args.map:
         raise ValueError('--method map answers sagittal robot pulls only: use a live method '
                          'with --mesh, --yaw or --space')
     args.default_medium = (DEFAULT_MEDIUM[args.robot or 'minirquad'] if args.mesh is None
                            else 'glass_beads')
-    scene = scene_from_args(args)
+    posed = posed_from_args(args)
     args.default_medium = getattr(args, 'description_medium', args.default_medium)
     if (getattr(args, 'description_symmetry', '') == 'sagittal' and args.space == 'auto'
             and args.yaw == 0.0):
@@ -215,10 +215,10 @@ def run_scene(args) -> int:
         # invalid_input, not_symmetric, when the posed facets or the centre of mass lack it).
         args.space = 'sagittal'
     t0 = time.perf_counter()
-    model = SceneModel(medium_from_args(args), model=args.model, method=args.method,
+    model = PosedAnchorSolver(medium_from_args(args), model=args.model, method=args.method,
                        n_twists=args.twists, space=args.space)
-    result = model.predict(scene, math.radians(args.phi), math.radians(args.yaw))
-    return report(args, result, time.perf_counter() - t0, scene.char_length, cap_format='.4g',
+    result = model.solve(posed, math.radians(args.phi), math.radians(args.yaw))
+    return report(args, result, time.perf_counter() - t0, posed.char_length, cap_format='.4g',
                   space=result.space, always_detail=True)
 
 

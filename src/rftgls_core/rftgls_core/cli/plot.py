@@ -24,7 +24,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     if (args.anchor is not None or args.mesh is not None or args.against_yaw or args.yaw != 0.0
             or args.space != 'auto'):
-        return run_scene(args)
+        return run_posed(args)
     model = model_from_args(args)
     info = plot_limit_surface(model, state_from_args(args), args.pull, math.radians(args.phi),
                               args.out)
@@ -32,22 +32,22 @@ def run(args) -> int:
     return 0
 
 
-def run_scene(args) -> int:
+def run_posed(args) -> int:
     """Capacity of a rigid body or a robot against yaw and tether angle (docs/design/six-d.md)."""
     import json
     from pathlib import Path
 
-    from ..charts.scene_capacity import plot_scene_capacity
-    from ..scene import SceneModel
-    from .capacity import DEFAULT_MEDIUM, scene_from_args
+    from ..charts.posed_capacity import plot_posed_capacity
+    from ..posed import PosedAnchorSolver
+    from .capacity import DEFAULT_MEDIUM, posed_from_args
     from .common import medium_from_args
     args.default_medium = (DEFAULT_MEDIUM[args.robot or 'minirquad'] if args.mesh is None
                            else 'glass_beads')
-    scene = scene_from_args(args)
+    posed = posed_from_args(args)
     args.default_medium = getattr(args, 'description_medium', args.default_medium)
-    model = SceneModel(medium_from_args(args), model=args.model, method=args.method,
+    model = PosedAnchorSolver(medium_from_args(args), model=args.model, method=args.method,
                        n_twists=args.twists, space=args.space)
-    data = plot_scene_capacity(model, scene, math.radians(args.phi), math.radians(args.yaw),
+    data = plot_posed_capacity(model, posed, math.radians(args.phi), math.radians(args.yaw),
                                args.out)
     Path(args.out).with_suffix('.json').write_text(json.dumps(data, indent=2))
     caps = [c for c in data['by_yaw']['capacity_N'] if c is not None]

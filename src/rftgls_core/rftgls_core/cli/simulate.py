@@ -48,13 +48,13 @@ def run(args) -> int:
     if args.map and args.method != 'map':
         raise ValueError('--map is used only with --method map')
     if body is not None:
-        from ..scene import SceneModel
+        from ..posed import PosedAnchorSolver
         from ..sim.body_pull import BodyPredictor
         from .common import medium_from_args
         if args.method == 'map' or args.map:
             raise ValueError('--method map answers the shipped robots only; use direct or '
                              'twist-mesh with --mesh')
-        predictor = BodyPredictor(body, SceneModel(medium_from_args(args), model=args.model,
+        predictor = BodyPredictor(body, PosedAnchorSolver(medium_from_args(args), model=args.model,
                                                    method=args.method, n_twists=args.twists))
         plate = lambda st: -st.h   # noqa: E731 (stop when the tether point reaches the surface)
         name = str(args.mesh)
@@ -105,15 +105,15 @@ def _body_from_args(args):
     from ..geometry.transforms import rpy_matrix
     from ..sim.body_pull import BodyAnchor
     from ..types import AnchorState
-    from .capacity import scene_from_args
+    from .capacity import posed_from_args
     if args.yaw != 0.0 or args.space != 'auto':
         raise ValueError('simulate pull follows sagittal slips only: drop --yaw and --space')
     args.default_medium = 'glass_beads'
-    scene = scene_from_args(args)       # checks the mesh, the tether and the burial
-    p = scene.ref
+    start = posed_from_args(args)       # checks the mesh, the tether and the burial
+    p = start.ref
     mesh = load_body_mesh(args.mesh, units=args.units)
     rot = rpy_matrix(*np.radians(args.rpy))
-    posed = mesh.transformed(rot, np.asarray(args.position, dtype=float) - p)
-    com_b = tuple(float(v) for v in np.asarray(scene.com) - p)
-    body = RigidBody(str(args.mesh), posed, args.mass, com_body=(com_b[0], com_b[1], com_b[2]))
+    mesh_b = mesh.transformed(rot, np.asarray(args.position, dtype=float) - p)
+    com_b = tuple(float(v) for v in np.asarray(start.com) - p)
+    body = RigidBody(str(args.mesh), mesh_b, args.mass, com_body=(com_b[0], com_b[1], com_b[2]))
     return BodyAnchor(body), AnchorState(float(p[2]), 0.0, 0.0, 0.0)

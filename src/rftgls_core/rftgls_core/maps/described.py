@@ -19,7 +19,7 @@ and default map ranges; this module builds, stores and queries maps over exactly
     /slip_twist                (..., 6) float32 raw (m/s, rad/s) direction, unit norm
     /status, /reason           (P, N_1, ..., N_n, K) uint8 codes (status_names, reason_names)
 
-Answers come from scene.SceneModel at phi with yaw 0 (the sagittal reduction when the
+Answers come from posed.PosedAnchorSolver at phi with yaw 0 (the sagittal reduction when the
 description claims the symmetry, which is checked at every node; else auto), so the twists are
 6D world twists at the tether point. Query (`DescribedMap.query`): multilinear over the state
 axes and phi, the conservative cell rule of query.py (any weighted corner without a value
@@ -45,8 +45,8 @@ import h5py
 import numpy as np
 
 from .. import __version__
+from ..posed import PosedAnchorResult
 from ..rft.media import Medium
-from ..scene import SceneResult
 from ..types import Status
 from .errors import MapFileError
 from .grid import DEFAULT_PHI_DEG, GridShape, check_axis, check_pulls
@@ -149,12 +149,12 @@ class DescribedSpec:
     space: str = 'auto'
 
 
-_local = threading.local()   # per thread and process: (description, SceneModel) by spec
+_local = threading.local()   # per thread and process: (description, PosedAnchorSolver) by spec
 
 
 def _solver(spec: DescribedSpec):
     from ..description import DescriptionError, load_description
-    from ..scene import SceneModel
+    from ..posed import PosedAnchorSolver
     cache = getattr(_local, 'models', None)
     if cache is None:
         cache = _local.models = {}
@@ -164,7 +164,7 @@ def _solver(spec: DescribedSpec):
             raise DescriptionError(f'{spec.path}: changed during the build (identity '
                                    f'{desc.sha256[:12]}, the build started with '
                                    f'{spec.sha256[:12]})')
-        cache[spec] = (desc, SceneModel(spec.medium, model=spec.model, method=spec.method,
+        cache[spec] = (desc, PosedAnchorSolver(spec.medium, model=spec.model, method=spec.method,
                                         n_twists=spec.n_twists, space=spec.space))
     return cache[spec]
 
@@ -185,7 +185,7 @@ def solve_described_chunk(spec: DescribedSpec, grid: DescribedGrid, ks) -> tuple
                 reasons[a, p, :] = 'not_a_pose'
                 continue
             # one fit per node and pull, asked at every stored angle
-            answers = sm.predict_many(desc.scene(values, pull), grid.phi, 0.0)
+            answers = sm.solve_many(desc.pose(values, pull), grid.phi, 0.0)
             for j, r in enumerate(answers):
                 status[a, p, j] = STATUS_NAMES.index(r.status.value)
                 reasons[a, p, j] = r.reason
@@ -200,14 +200,14 @@ def build_described_map(desc, medium, grid: DescribedGrid | None = None, *,
                         method: str = 'direct', model: str = 'agarwal',
                         n_twists: int | None = None, command: str = '',
                         progress: bool = False, workers: int = 1) -> DescribedMapData:
-    """Answers of scene.SceneModel at every node of `grid` (default: the description's map
+    """Answers of posed.PosedAnchorSolver at every node of `grid` (default: the description's map
     ranges). desc: an AnchorDescription; medium: a Medium. workers: local processes (1 = in
     this process), as maps/build.py does for the robot maps (fixed chunks placed by state
     index, serial kernels: the same arrays on any number of workers); progress: a tqdm bar
     on stderr over the states."""
     from tqdm import tqdm
 
-    from ..scene import SceneModel
+    from ..posed import PosedAnchorSolver
     from .build import _run_inline, _run_pool, chunk_indices
     grid = description_grid(desc) if grid is None else grid
     if grid.names != desc.state_names:
@@ -219,7 +219,7 @@ def build_described_map(desc, medium, grid: DescribedGrid | None = None, *,
     space = 'sagittal' if desc.symmetry == 'sagittal' else 'auto'
     spec = DescribedSpec(str(Path(desc.source).resolve()), desc.sha256, medium, model, method,
                          n_twists, space)
-    sm = SceneModel(medium, model=model, method=method, n_twists=n_twists, space=space)
+    sm = PosedAnchorSolver(medium, model=model, method=method, n_twists=n_twists, space=space)
     cache = getattr(_local, 'models', None)
     if cache is None:
         cache = _local.models = {}
@@ -397,12 +397,12 @@ class DescribedMap:
     def medium_name(self) -> str:
         return str(self.data.attrs['medium'])
 
-    def _fail(self, status: Status, reason: str, detail: str) -> SceneResult:
-        return SceneResult(status, METHOD, str(self.data.attrs['space']), reason=reason,
+    def _fail(self, status: Status, reason: str, detail: str) -> PosedAnchorResult:
+        return PosedAnchorResult(status, METHOD, str(self.data.attrs['space']), reason=reason,
                            detail=detail)
 
     def query(self, values: Mapping[str, float], phi: float, pull: str,
-              description_sha256: str) -> SceneResult:
+              description_sha256: str) -> PosedAnchorResult:
         """Capacity (N) and 6D slip twist at state `values` (SI, by name), tether angle phi
         (rad), pull orientation; description_sha256: identity of the caller's description."""
         if description_sha256 != self.description_sha256:
@@ -471,7 +471,7 @@ class DescribedMap:
         # Raw direction: (v, w L_c) -> (v, w), renormalised (the force scale cancels).
         raw = ts / np.r_[np.ones(3), np.full(3, float(self.data.attrs['char_length_m']))]
         raw /= np.linalg.norm(raw)
-        return SceneResult(Status.OK, METHOD, str(self.data.attrs['space']),
+        return PosedAnchorResult(Status.OK, METHOD, str(self.data.attrs['space']),
                            capacity_N=max(c, 0.0),
                            slip_twist=tuple(float(x) for x in raw),
                            slip_twist_scaled=tuple(float(x) for x in ts),
@@ -555,20 +555,20 @@ def check_identity(cmap: DescribedMap, desc) -> None:
 
 
 def reference_solver(cmap: DescribedMap, desc, reference: str = 'direct'):
-    """The live SceneModel a described map is checked against: `reference` method, the map's
+    """The live PosedAnchorSolver a described map is checked against: `reference` method, the map's
     medium, RFT model, twist count and space (the description must be the map's own)."""
-    from ..scene import SceneModel
+    from ..posed import PosedAnchorSolver
     check_identity(cmap, desc)
     at = cmap.data.attrs
-    return SceneModel(map_medium(cmap.data), model=str(at['rft_model']), method=reference,
+    return PosedAnchorSolver(map_medium(cmap.data), model=str(at['rft_model']), method=reference,
                       n_twists=int(at['n_twists']), space=str(at['space']))
 
 
-def _live(sm, desc, values: dict[str, float], phi: float, pull: str) -> SceneResult:
+def _live(sm, desc, values: dict[str, float], phi: float, pull: str) -> PosedAnchorResult:
     """The reference answer at a state, with the build's rule off the physical range."""
     if desc.violations(values):
-        return SceneResult(Status.INVALID_INPUT, sm.method, sm.space, reason='not_a_pose')
-    return sm.predict(desc.scene(values, pull), phi, 0.0)
+        return PosedAnchorResult(Status.INVALID_INPUT, sm.method, sm.space, reason='not_a_pose')
+    return sm.solve(desc.pose(values, pull), phi, 0.0)
 
 
 def described_accuracy(cmap: DescribedMap, desc, samples: int = 20, seed: int = 0,
