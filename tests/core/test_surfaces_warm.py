@@ -16,7 +16,7 @@ from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
 from rftgls_core.surfaces.direct import DirectSurface
 from rftgls_core.surfaces.synthetic import folded_case
-from rftgls_core.surfaces.warm import WarmAnchorModel, WarmDirect, triangle_distances
+from rftgls_core.surfaces.warm import WarmDirect, triangle_distances
 from rftgls_core.types import AnchorState, Pull, Status
 
 RTOL = 1e-6
@@ -31,7 +31,7 @@ def run_stream(robot: str, states, phi: float, pull: Pull) -> dict:
     """Warm and cold answers at every state of the stream; asserts they agree."""
     rob, med = get_robot(robot), get_medium(_medium(robot))
     cold = RobotPredictor(rob, med, method='direct')
-    warm = WarmAnchorModel(rob, med)
+    warm = RobotPredictor(rob, med, method='direct-warm')
     statuses, flags, worst = [], [], 0.0
     for k, st in enumerate(states):
         rw = warm.predict(st, phi, pull)

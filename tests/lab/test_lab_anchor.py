@@ -205,10 +205,11 @@ def test_synthetic_refuses_a_bad_description_in_one_line(renamed, tmp_path, caps
 def test_a_rigid_anchor_is_fed_by_anchor_state(tmp_path, capsys):
     """The example ellipsoid (state depth, tilt) is refused by name alone, and with
     --anchor-state depth=h,tilt=theta_b a synthetic pull of it starts at the description's
-    capacity (reference: rftgls_core's DescriptionModel at that pose, fed the same way)."""
+    capacity (reference: rftgls_core's DescriptionPredictor at that pose, fed the same way)."""
     from pathlib import Path
 
-    from rftgls_core.description import DescriptionModel, load_description
+    from rftgls_core.description import load_description
+    from rftgls_core.predictor.live import DescriptionPredictor
     from rftgls_ros.lab.synthetic import SensorModel, synthesize
     ell = Path(__file__).resolve().parents[2] / 'examples' / 'anchors' / 'ellipsoid.yaml'
     with pytest.raises(ValueError, match='--anchor-state'):
@@ -222,7 +223,7 @@ def test_a_rigid_anchor_is_fed_by_anchor_state(tmp_path, capsys):
     test = synthesize(state, 'backward', med, med, phi=math.radians(45.0), step=2e-3,
                       max_travel=0.004, integrator='euler', anchor=anchor,
                       sensors=SensorModel(tension_sigma_N=0.0))
-    ref = DescriptionModel(load_description(ell), med, method='twist-mesh',
+    ref = DescriptionPredictor(load_description(ell), med, method='twist-mesh',
                            state_map={'depth': 'h', 'tilt': 'theta_b'})
     want = ref.predict(state, math.radians(45.0), 'backward').capacity_N
     assert test.meta.robot == 'ellipsoid_anchor'

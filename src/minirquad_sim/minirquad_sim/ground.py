@@ -162,9 +162,10 @@ class LiveGround:
         if anchor:
             # An anchor description instead of the preset (same four state variables; the
             # shipped descriptions give the preset's numbers): its mass scaled the same way.
-            from rftgls_core.description import DescriptionModel, load_description
+            from rftgls_core.description import load_description
+            from rftgls_core.predictor.live import DescriptionPredictor
             desc = load_description(anchor)
-            self.models = [DescriptionModel(desc, self.medium, method=m, mass_scale=mass_scale)
+            self.models = [DescriptionPredictor(desc, self.medium, method=m, mass_scale=mass_scale)
                            for m in dict.fromkeys((method, fallback_method)) if m]
         else:
             self.models = [RobotPredictor(self.robot, self.medium, method=method)]

@@ -196,14 +196,13 @@ def bench_live() -> list[Figure]:
     """Warm-started direct over the live stream, every state timed (median and p99 of the
     calls, not best-of), against the cold direct on a sample of the same states."""
     from .predictor.live import RobotPredictor
-    from .surfaces.warm import WarmAnchorModel
 
     robot, medium = minirquad(), get_medium('m90_sand')
     states = live_stream()
-    warm = WarmAnchorModel(robot, medium)
+    warm = RobotPredictor(robot, medium, method='direct-warm')
     cold = RobotPredictor(robot, medium, method='direct')
     warm.predict(states[0], LIVE_PHI, Pull.BACKWARD)   # compile and cache, then start afresh
-    warm = WarmAnchorModel(robot, medium)
+    warm = RobotPredictor(robot, medium, method='direct-warm')
     times, cpu = [], []
     for st in states:
         c0, t0 = time.thread_time(), time.perf_counter()

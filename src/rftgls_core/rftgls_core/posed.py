@@ -31,7 +31,7 @@ from .rft.media import Medium
 from .rft.models import make_model
 from .robots.robot import G, Robot
 from .surfaces.base import GLSProblem
-from .surfaces.registry import surface_class
+from .surfaces.registry import default_twists, surface_class
 from .surfaces.scaling import Scaling
 from .types import AnchorState, Pull, Status
 
@@ -188,13 +188,11 @@ class PosedAnchorSolver:
                  n_twists_6d: int = DEFAULT_TWISTS_6D, backend: str = 'auto'):
         if space not in SPACES:
             raise ValueError(f'space must be one of {", ".join(SPACES)}, got {space!r}')
-        from .predictor.live import DEFAULT_TWISTS, DEFAULT_TWISTS_BY_METHOD
         self.medium = medium
         self.stress_model = make_model(model, medium)
         self.method = method
         self.surface_cls = surface_class(method)
-        self.n_twists = int(n_twists if n_twists is not None
-                            else DEFAULT_TWISTS_BY_METHOD.get(method, DEFAULT_TWISTS))
+        self.n_twists = int(n_twists if n_twists is not None else default_twists(method))
         self.space = space
         self.n_twists_6d = int(n_twists_6d)
         self.backend = backend

@@ -4,9 +4,9 @@ from __future__ import annotations
 import math
 import time
 
-from ..predictor.live import DEFAULT_TWISTS, RobotPredictor
+from ..predictor.live import RobotPredictor
 from ..robots.presets import ROBOTS, get_robot
-from ..surfaces.registry import METHOD_NAMES
+from ..surfaces.registry import DEFAULT_TWISTS, METHOD_NAMES
 from ..types import AnchorState, Pull
 from .common import add_medium_args, finite_float, medium_from_args, print_json, twist_count
 

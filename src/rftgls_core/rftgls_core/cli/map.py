@@ -21,9 +21,8 @@ import shlex
 
 import numpy as np
 
-from ..predictor.live import DEFAULT_METHOD, DEFAULT_TWISTS
 from ..robots.presets import ROBOTS
-from ..surfaces.registry import METHOD_NAMES
+from ..surfaces.registry import DEFAULT_METHOD, DEFAULT_TWISTS, METHOD_NAMES
 from .common import add_medium_args, medium_from_args, print_json
 
 GRID_FLAGS = (('h', 'h_mm', 'MM'), ('theta_b', 'theta_b_deg', 'DEG'),

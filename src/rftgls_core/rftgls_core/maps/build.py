@@ -31,9 +31,10 @@ from datetime import UTC, datetime
 import numpy as np
 
 from .. import __version__
-from ..predictor.live import DEFAULT_METHOD, DEFAULT_TWISTS, RobotPredictor
+from ..predictor.live import RobotPredictor
 from ..rft.media import Medium, get_medium
 from ..robots.presets import get_robot
+from ..surfaces.registry import DEFAULT_METHOD, DEFAULT_TWISTS
 from ..surfaces.twist_sphere import TwistSphere
 from ..types import Status
 from .edge import EDGE_MARGIN_TWISTS, node_margin_gradient, node_support_margin

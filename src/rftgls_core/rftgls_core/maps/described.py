@@ -650,7 +650,7 @@ class DescribedMapModel:
     variables are fed from the AnchorState by description.robot_state_map (by name or
     state_map), the answer is DescribedMap.query's. A 6D slip twist with an out-of-plane part
     (> TWIST_PLANE_TOL of the unit scaled twist) cannot be carried: `invalid_input`
-    `not_symmetric`, as DescriptionModel answers there. desc must be the map's own."""
+    `not_symmetric`, as DescriptionPredictor answers there. desc must be the map's own."""
 
     TWIST_PLANE_TOL = 1e-6
 

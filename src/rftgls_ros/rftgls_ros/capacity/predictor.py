@@ -42,12 +42,13 @@ class LivePredictor:
 
     def __init__(self, robot: str = 'minirquad', medium: str = 'm90_sand',
                  method: str = 'direct', n_twists: int | None = None):
-        from rftgls_core.predictor.live import DEFAULT_TWISTS, RobotPredictor
+        from rftgls_core.predictor.live import RobotPredictor
         from rftgls_core.rft.media import get_medium
         from rftgls_core.robots.presets import get_robot
-        from rftgls_core.surfaces.warm import WarmAnchorModel
+        from rftgls_core.surfaces.registry import DEFAULT_TWISTS
         if method == 'direct-warm':
-            self.model = WarmAnchorModel(get_robot(robot), get_medium(medium), n_twists=n_twists)
+            self.model = RobotPredictor(get_robot(robot), get_medium(medium), method=method,
+                                        n_twists=n_twists)
             self.stats = self.model.stats
         else:
             self.model = RobotPredictor(get_robot(robot), get_medium(medium), method=method,
@@ -87,9 +88,10 @@ class DescriptionPredictor:
 
     def __init__(self, path: str, medium: str = '', method: str = 'direct',
                  n_twists: int | None = None, state_map: dict[str, str] | None = None):
-        from rftgls_core.description import DescriptionError, DescriptionModel
-        from rftgls_core.predictor.live import DEFAULT_TWISTS
+        from rftgls_core.description import DescriptionError
+        from rftgls_core.predictor.live import DescriptionPredictor as DescriptionModel
         from rftgls_core.rft.media import get_medium
+        from rftgls_core.surfaces.registry import DEFAULT_TWISTS
         desc = _description(path)
         # 'direct-warm' (integ's warm-started direct, the cold direct's answers) has no
         # description variant yet: the cold direct answers the same, only slower.

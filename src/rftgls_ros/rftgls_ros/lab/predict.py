@@ -133,8 +133,8 @@ def make_predictor(method: str, robot: str, medium: Medium, map_path: str | Path
                              f'is of {robot!r}')
         return cmap
     if anchor is not None:
-        from rftgls_core.description import DescriptionModel
-        return DescriptionModel(anchor.description, medium, method=method, n_twists=n_twists,
+        from rftgls_core.predictor.live import DescriptionPredictor
+        return DescriptionPredictor(anchor.description, medium, method=method, n_twists=n_twists,
                                 state_map=anchor.state_map)
     from rftgls_core.predictor.live import RobotPredictor
     return RobotPredictor(get_robot(robot), medium, method=method, n_twists=n_twists)
