@@ -186,7 +186,7 @@ def test_behavior_asks_capacity_node(ros_context):
     import threading
 
     from rftgls_ros.behavior import ANCHOR_MODES
-    from rftgls_ros.capacity.predictor import MapPredictor
+    from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
     from rftgls_ros.capacity_query import ServicePredictor
     node = CapacityNode(context=ros_context, parameter_overrides=[
         Parameter(k, value=v) for k, v in PARAMS.items()])
@@ -197,7 +197,7 @@ def test_behavior_asks_capacity_node(ros_context):
     asker = rclpy.create_node('behavior_node', context=ros_context)
     pred = ServicePredictor(asker, '/capacity_node/query_capacity', timeout_s=5.0)
     try:
-        local = MapPredictor()
+        local = node_predictor(DEFAULT_MAP, robot=None, medium=None)
         for name, mode in ANCHOR_MODES.items():
             for phi in (0.0, PHI):
                 state = mode.expected_state()
@@ -239,8 +239,8 @@ def test_behavior_query_without_capacity_node_is_no_value(ros_context):
 def test_behavior_node_asks_the_service_unless_configured(ros_context):
     """capacity_source: service (default) -> ServicePredictor; local_map, or the explicit
     own_capacity_fallback, -> its own map; anything else refuses to start."""
+    from rftgls_core.predictor.maps import MapPredictor
     from rftgls_ros.behavior_node import BehaviorNode
-    from rftgls_ros.capacity.predictor import MapPredictor
     from rftgls_ros.capacity_query import ServicePredictor
 
     def chooser_predictor(**params):

@@ -9,8 +9,8 @@ from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import minirquad
 from rftgls_core.types import AnchorState
+from rftgls_ros.capacity.node_predictor import LIVE_METHODS, node_predictor
 from rftgls_ros.capacity.params import PARAMETERS
-from rftgls_ros.capacity.predictor import LIVE_METHODS, predictor_from_params
 
 DH = AnchorState.from_degrees(0.034, 5.0, -40.0, 30.0)
 
@@ -20,7 +20,7 @@ def test_live_mode_defaults_to_the_warm_solver():
 
 
 def test_warm_live_predictor_answers_as_cold_direct_and_reports_stats():
-    p = predictor_from_params('', live_method='direct-warm')
+    p = node_predictor('', live_method='direct-warm')
     cold = RobotPredictor(minirquad(), get_medium('m90_sand'), method='direct')
     phi = math.radians(-20.0)
     for dl in (0.0, 1e-4, 2e-4):

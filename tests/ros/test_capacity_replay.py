@@ -105,7 +105,7 @@ def test_lock_step_replay_matches_core(ros_context, tmp_path, live_predictor):
                                                   imu.orientation.z, imu.orientation.w),
                     0.5 * (js.position[0] + js.position[1]),
                     0.5 * (js.position[2] + js.position[3]))
-                core = live_predictor.model.predict(state, PHI, Pull.BACKWARD)
+                core = live_predictor.predict(state, PHI, Pull.BACKWARD)
                 d = pull_direction(PHI)
                 got = out.wrench.force.x * d[0] + out.wrench.force.z * d[1]
                 if core.status.has_value:

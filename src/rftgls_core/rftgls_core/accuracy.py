@@ -16,7 +16,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .predictor import Predictor
+from .predictor.protocol import Predictor
 from .predictor.live import RobotPredictor
 from .rft.media import get_medium
 from .robots.presets import LEG_ARC_SEGMENTS, get_robot

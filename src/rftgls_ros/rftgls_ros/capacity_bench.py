@@ -52,9 +52,10 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
 
 from rftgls_conventions import LEG_JOINT_NAMES, pitch_to_quat_xyzw
+from rftgls_core.maps import resolve_map
 from rftgls_node_base.dds_loopback import during_init
 
-from .capacity.predictor import DEFAULT_MAP, resolve_map_path
+from .capacity.node_predictor import DEFAULT_MAP
 from .capacity_node import CapacityNode
 
 # The DH anchor of the paper's Table II; the bench wiggles theta_L1 around it.
@@ -337,7 +338,7 @@ def percentile(sorted_values: list[float], q: float) -> float:
 
 def _default_map_installed() -> bool:
     try:
-        resolve_map_path(DEFAULT_MAP)
+        resolve_map(DEFAULT_MAP)
     except ValueError:   # rftgls_core.maps.MapFileError
         return False
     return True

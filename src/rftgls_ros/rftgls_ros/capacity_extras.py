@@ -30,6 +30,7 @@ from geometry_msgs.msg import Point, Twist
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
+from rftgls_core.predictor.maps import MapPredictor
 from rftgls_core.types import AnchorState, Pull, Status
 from rftgls_interfaces.msg import AnchorEstimate
 from rftgls_interfaces.srv import QueryCapacity
@@ -37,7 +38,6 @@ from rftgls_node_base.parameters import declare
 
 from .capacity.estimator import Estimate
 from .capacity.markers import CurveSample, MarkerStyle, estimate_markers, limit_curve
-from .capacity.predictor import MapPredictor
 
 NAN = float('nan')
 # name -> (default, description, lo, hi); start-up only (read-only: a run-time change is
@@ -146,7 +146,7 @@ class CapacityExtras:
         self.pub_markers = node.create_publisher(MarkerArray, '~/markers', 2)
         node.create_service(QueryCapacity, '~/query_capacity', self.on_query)
         pred = node.estimator.predictor
-        primary = getattr(pred, 'primary', pred)     # LiveFallback: its map
+        primary = getattr(pred, 'primary', pred)     # FallbackPredictor: its map
         self.curve_map = primary if isinstance(primary, MapPredictor) else None
         self._curve_key: tuple | None = None
         self._curve: CurveSample | None = None

@@ -30,12 +30,12 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from rftgls_conventions import LEG_KEYS, axle_angles, tether_direction_xz, wrap_angle
+from rftgls_core.predictor import Predictor, predictor_name
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull, Status
 from rftgls_core.uncertainty import capacity_lower_bound
 from rftgls_node_base.diagnostics import DiagStatus
-
-from .predictor import ConfigError, Predictor, predictor_name
+from rftgls_node_base.parameters import ConfigError
 
 JOINTS = LEG_KEYS  # leg angle keys, rftgls_conventions
 # Input names, as used for timeouts and in stale/invalid reasons.

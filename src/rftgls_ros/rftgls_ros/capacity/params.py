@@ -15,9 +15,10 @@ from dataclasses import dataclass
 from typing import Any
 
 from rftgls_conventions import LEG_JOINT_NAMES, LEG_KEYS
+from rftgls_node_base.parameters import ConfigError
 
 from .estimator import DEFAULT_TIMEOUTS_S, EstimatorConfig
-from .predictor import DEFAULT_MAP, ConfigError
+from .node_predictor import DEFAULT_MAP
 
 TRIGGERS = ('joint_states', 'pitch', 'tension', 'height', 'phi')
 TENSION_AXES = ('x', 'y', 'z', 'tether')
@@ -41,8 +42,9 @@ PARAMETERS: dict[str, Param] = {
     'map_file': Param(DEFAULT_MAP, "HDF5 capacity map; '' = live computation with live_method"),
     'live_method': Param('direct-warm', 'live solver when map_file is empty (direct-warm: '
                          "the cold direct's answers, warm-started per message)"),
-    'live_n_twists': Param(0, 'twists of the live solver; 0 = rftgls_core.predictor.live.'
-                           'DEFAULT_TWISTS (1000) for every method, direct included', 0, 10**6),
+    'live_n_twists': Param(0, 'twists of the live solver; 0 = DEFAULT_TWISTS (1000, rftgls_core'
+                           '.surfaces.registry) for every surface method, direct included; '
+                           'direct-warm keeps its own (400)', 0, 10**6),
     'out_of_range_live_method': Param('', "live solver answering off-grid states; '' = none"),
     'edge_live_method': Param('direct-warm', "live solver re-answering the map's edge-margin "
                               "answers next to the support edge (its interpolated margin can "
