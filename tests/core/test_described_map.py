@@ -270,7 +270,7 @@ def test_accuracy_is_honest_next_to_nodes_without_a_value(box_anchor, tmp_path):
     """A grid reaching past the physical range (depth > 0: `not_a_pose`, no value): the map
     withholds its value in every cell that touches such a node, where the live reference
     still answers; it never answers where the reference does not."""
-    from rftgls_core.maps.described import described_accuracy
+    from rftgls_core.maps.described_accuracy import described_accuracy
     desc = load_description(box_anchor / 'box.yaml')
     grid = description_grid(desc, {'depth': [-0.03, -0.01, 0.01]}, [0.0, 90.0])
     data = build_described_map(desc, get_medium('glass_beads'), grid, method='twist-mesh')

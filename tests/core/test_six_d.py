@@ -70,7 +70,7 @@ def test_6d_equals_the_sagittal_answer_at_yaw_0(dh_posed, phi_deg):
     sagittal = RobotPredictor(minirquad(), get_medium('m90_sand'), method='direct').predict(
         DH, math.radians(phi_deg), Pull.BACKWARD)
     full = PosedAnchorSolver(get_medium('m90_sand'), space='6d').solve(dh_posed,
-                                                                  math.radians(phi_deg))
+                             math.radians(phi_deg))
     assert full.space == '6d' and full.status is Status.OK
     assert full.capacity_N == pytest.approx(sagittal.capacity_N, rel=1e-6)
     t6 = np.array(full.slip_twist_scaled)

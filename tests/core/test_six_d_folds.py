@@ -54,7 +54,7 @@ def sagittal(posed, phi_deg, yaw_deg=0.0):
 
 def six_d(posed, phi_deg, yaw_deg=0.0):
     r = PosedAnchorSolver(MEDIUM, space='6d').solve(posed, math.radians(phi_deg),
-                                               math.radians(yaw_deg))
+                          math.radians(yaw_deg))
     assert r.space == '6d'
     return r
 

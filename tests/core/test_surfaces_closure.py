@@ -98,7 +98,7 @@ def test_uniform_mesh_underestimates_a_small_capacity_next_to_a_jump():
     phi, pull = math.radians(-11.402250958905148), Pull.FORWARD
     robot, medium = get_robot('prototype'), get_medium('glass_beads')
     bare = RobotPredictor(robot, medium, method='brute-force',
-                       surface_options={'refine': False}).predict(state, phi, pull)
+                          surface_options={'refine': False}).predict(state, phi, pull)
     model = RobotPredictor(robot, medium, method='brute-force')
     surface, _ = model.fit(state, pull)
     assert isinstance(surface, BruteForceSurface)
@@ -144,7 +144,7 @@ def test_grid_centre_matches_twist_mesh_and_brute_force(prototype_direct):
     tm = RobotPredictor(get_robot('prototype'), get_medium('glass_beads')).predict(
         state, 0.0, Pull.BACKWARD)
     bf = RobotPredictor(get_robot('prototype'), get_medium('glass_beads'), method='brute-force',
-                     n_twists=40_000).predict(state, 0.0, Pull.BACKWARD)
+                        n_twists=40_000).predict(state, 0.0, Pull.BACKWARD)
     assert d.status is tm.status is bf.status is Status.OK
     assert d.capacity_N == pytest.approx(tm.capacity_N, rel=1e-6)
     assert d.capacity_N == pytest.approx(bf.capacity_N, rel=0.01)
@@ -189,7 +189,7 @@ def test_a_bridged_jump_in_front_of_a_converged_root_is_the_exit():
     assert tm_off.capacity_N == pytest.approx(0.02223, abs=1e-4)   # without the check
     for method, options in (('direct', {}), ('twist-mesh', {})):
         r = RobotPredictor(robot, medium, method=method,
-                        surface_options=options).predict(state, phi, pull)
+                           surface_options=options).predict(state, phi, pull)
         assert r.status is Status.OK and r.capacity_N is not None
         assert r.capacity_N - ref.capacity_N <= 0.02 * max(ref.capacity_N, floor), method
         assert 'on_jump' in r.flags, method

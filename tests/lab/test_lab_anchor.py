@@ -224,7 +224,7 @@ def test_a_rigid_anchor_is_fed_by_anchor_state(tmp_path, capsys):
                       max_travel=0.004, integrator='euler', anchor=anchor,
                       sensors=SensorModel(tension_sigma_N=0.0))
     ref = DescriptionPredictor(load_description(ell), med, method='twist-mesh',
-                           state_map={'depth': 'h', 'tilt': 'theta_b'})
+                               state_map={'depth': 'h', 'tilt': 'theta_b'})
     want = ref.predict(state, math.radians(45.0), 'backward').capacity_N
     assert test.meta.robot == 'ellipsoid_anchor'
     assert float(test.tension_N[np.searchsorted(test.force_t, 1.0)]) == pytest.approx(

@@ -104,7 +104,7 @@ def test_capacity_node_checks_edge_answers_by_default_and_can_be_told_not_to(sma
     assert isinstance(p, FallbackPredictor) and p.fallback is None and p.edge is not None
     assert p.name.endswith('+live:direct-warm(edge check)')
     both = node_predictor(str(small_map), out_of_range_live_method='direct',
-                                 edge_live_method='direct')
+                          edge_live_method='direct')
     assert isinstance(both, FallbackPredictor) and both.edge is both.fallback   # one solver
     assert isinstance(node_predictor(str(small_map), edge_live_method=''),
                       MapPredictor)

@@ -110,4 +110,4 @@ class RigidBody:
         # L_c: the RMS facet distance from p, area-weighted (the body's lever arm about p).
         lc = float(np.sqrt(np.average(np.sum((f.centroids - p) ** 2, axis=1), weights=f.areas)))
         return PosedAnchor(name=self.name, facets=f, ref=p, mass=self.mass, com=com,
-                     char_length=max(lc, 1e-6))
+                           char_length=max(lc, 1e-6))

@@ -266,7 +266,7 @@ class AnchorDescription:
         ref = world[self.tether_link][:3, 3].copy()
         com = moment / mass if mass > 0 else ref
         return PosedAnchor(name=self.name, facets=Facets.concatenate(parts), ref=ref, mass=mass,
-                     com=com, char_length=self.char_length)
+                           com=com, char_length=self.char_length)
 
 
 def load_description(path: str | Path) -> AnchorDescription:

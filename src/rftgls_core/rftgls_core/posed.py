@@ -84,7 +84,7 @@ def pose_robot(robot: Robot, state: AnchorState, pull: Pull | str) -> PosedAncho
     com = p + np.array([c * robot.com[0] - s * robot.com[1], 0.0,
                         s * robot.com[0] + c * robot.com[1]])
     return PosedAnchor(name=robot.name, facets=posed.facets, ref=p, mass=robot.mass, com=com,
-                 char_length=robot.char_length)
+                       char_length=robot.char_length)
 
 
 @dataclass(frozen=True)
@@ -216,7 +216,7 @@ class PosedAnchorSolver:
         if bad or not math.isfinite(yaw):
             def invalid(phi: float) -> PosedAnchorResult:
                 return PosedAnchorResult(Status.INVALID_INPUT, self.method, self.space,
-                                   reason='invalid_phi', detail=f'phi {phi!r}, yaw {yaw!r}')
+                                         reason='invalid_phi', detail=f'phi {phi!r}, yaw {yaw!r}')
             if not math.isfinite(yaw):
                 return [invalid(p) for p in phis]
             good = [p for p in phis if math.isfinite(p)]
@@ -224,15 +224,16 @@ class PosedAnchorSolver:
             return [next(answers) if math.isfinite(p) else invalid(p) for p in phis]
         if len(posed.buried()) == 0:
             return [PosedAnchorResult(Status.UNSUPPORTED, self.method, self.space,
-                                reason='no_buried_facet',
-                                detail='no facet of the body is below the free surface z = 0')
+                                      reason='no_buried_facet',
+                                      detail='no facet of the body is below the free surface z = 0')
                     for _ in phis]
         sym = pull_plane_symmetry(posed, yaw)
         if self.space == 'sagittal' and not sym.symmetric:
             return [PosedAnchorResult(Status.INVALID_INPUT, self.method, 'sagittal',
-                                reason='not_symmetric',
-                                detail='the sagittal reduction needs mirror symmetry about the '
-                                       'pull plane: ' + sym.detail) for _ in phis]
+                                      reason='not_symmetric',
+                                      detail='the sagittal reduction needs mirror symmetry '
+                                             'about the pull plane: ' + sym.detail)
+                    for _ in phis]
         if self.space == '6d' or not sym.symmetric:
             return self._solve_6d(posed, phis, yaw, sym)
         out = self._solve_sagittal(posed, phis, yaw, sym)
@@ -297,9 +298,9 @@ class PosedAnchorSolver:
             if res.slip_twist_scaled is not None and res.slip_twist is not None:
                 twist, scaled = lift(res.slip_twist), lift(res.slip_twist_scaled)
             out.append(PosedAnchorResult(res.status, res.method, 'sagittal', res.capacity_N, twist,
-                                   scaled, res.reason,
-                                   'sagittal reduction: ' + sym.detail + '; ' + res.detail,
-                                   res.flags, res.twist_spread_rad))
+                                         scaled, res.reason,
+                                         'sagittal reduction: ' + sym.detail + '; ' + res.detail,
+                                         res.flags, res.twist_spread_rad))
         return out
 
     # -- the full 6D path --------------------------------------------------------------------
@@ -354,6 +355,6 @@ class PosedAnchorSolver:
             r: Result6 = surface.capacity(pull_vector(phi, yaw), in_plane=cand,
                                           seeds=np.array(sd) if sd else None)
             out.append(PosedAnchorResult(r.status, r.method, '6d', r.capacity_N, r.slip_twist,
-                                   r.slip_twist_scaled, r.reason, why + '; ' + r.detail,
-                                   r.flags))
+                                         r.slip_twist_scaled, r.reason, why + '; ' + r.detail,
+                                         r.flags))
         return out

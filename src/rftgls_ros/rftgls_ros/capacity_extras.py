@@ -174,17 +174,17 @@ class CapacityExtras:
 
     def buried(self, est: Estimate):
         """Buried leg facet centroids relative to p, world axes (m), cached per state; None
-        when the robot model is unknown here."""
+        when the robot is unknown here."""
         if est.state is None:
             return None
         key = est.state.as_tuple()
         if key != self._buried_key:
             from rftgls_core.robots.presets import get_robot
             try:
-                model = self._robot = self._robot or get_robot(self.node.params['robot'])
+                robot = self._robot = self._robot or get_robot(self.node.params['robot'])
             except (KeyError, ValueError):
                 return None
-            c = model.pose(est.state, self.pull).facets.centroids
+            c = robot.pose(est.state, self.pull).facets.centroids
             self._buried = c[c[:, 2] < 0.0] - np.array([0.0, 0.0, est.state.h])
             self._buried_key = key
         return self._buried

@@ -4,13 +4,12 @@ from __future__ import annotations
 import math
 import time
 
-from ..predictor.live import RobotPredictor
+from ..predictor import InputNames, PredictorSpec, build_predictor
+from ..predictor.spec import DEFAULT_ROBOT, ROBOT_MEDIUM
 from ..robots.presets import ROBOTS, get_robot
 from ..surfaces.registry import DEFAULT_TWISTS, METHOD_NAMES
 from ..types import AnchorState, Pull
 from .common import add_medium_args, finite_float, medium_from_args, print_json, twist_count
-
-DEFAULT_MEDIUM = {'prototype': 'glass_beads', 'minirquad': 'm90_sand'}
 
 
 def add_state_args(p) -> None:
@@ -47,30 +46,26 @@ def state_from_args(args) -> AnchorState:
     return state
 
 
-def map_from_args(args):
-    """The map of --map (or the robot's shipped map), refused when it was built for another
-    robot or medium than the command line's: a map answers only for what it was built for."""
-    from ..maps import CapacityMap, resolve_map
-    args.robot = args.robot or 'minirquad'
-    cmap = CapacityMap.load(resolve_map(args.map, robot=args.robot))
-    if cmap.robot_name != args.robot:
-        raise ValueError(f'{cmap.source}: map is for robot {cmap.robot_name!r}, not '
-                         f'--robot {args.robot}')
-    if any(v is not None for v in (args.xi_n, args.mu_surf, args.zeta)):
-        raise ValueError('--method map answers for the medium the map was built for; drop '
-                         '--xi-n/--mu-surf/--zeta or use a live method')
-    want = (args.medium or DEFAULT_MEDIUM[args.robot]).strip()
-    if want.lower().endswith('.json') or want.lower() != cmap.medium_name.lower():
-        raise ValueError(f'{cmap.source}: map is for medium {cmap.medium_name!r}, not '
-                         f'{want!r}')
-    return cmap
+# The command line's flag for each input of a predictor specification (errors name these).
+CLI_NAMES = InputNames(map='--map', robot='--robot', description='--anchor', state_map='--state',
+                       medium='--medium', pull='--pull', live_method='--method',
+                       n_twists='--twists', verb='give')
 
 
-def model_from_args(args, method: str | None = None) -> RobotPredictor:
-    args.robot = args.robot or 'minirquad'
-    args.default_medium = DEFAULT_MEDIUM[args.robot]
-    return RobotPredictor(get_robot(args.robot), medium_from_args(args), model=args.model,
-                       method=method or args.method, n_twists=args.twists)
+def spec_from_args(args) -> PredictorSpec:
+    """The predictor of a robot command line (--robot, --method, --twists, the medium options):
+    the live solver, or with --method map the map (--map, default the robot's shipped map),
+    which must have been built for the command line's robot and medium."""
+    args.robot = args.robot or DEFAULT_ROBOT
+    if args.method == 'map':
+        if any(v is not None for v in (args.xi_n, args.mu_surf, args.zeta)):
+            raise ValueError('--method map answers for the medium the map was built for; drop '
+                             '--xi-n/--mu-surf/--zeta or use a live method')
+        return PredictorSpec(map=args.map or args.robot, robot=args.robot,
+                             medium=(args.medium or ROBOT_MEDIUM[args.robot]).strip())
+    args.default_medium = ROBOT_MEDIUM[args.robot]
+    return PredictorSpec(robot=args.robot, medium=medium_from_args(args), model=args.model,
+                         live_method=args.method, n_twists=args.twists)
 
 
 def add_parser(sub) -> None:
@@ -99,16 +94,12 @@ def run(args) -> int:
     t0 = time.perf_counter()
     if args.map and args.method != 'map':
         raise ValueError('--map is used only with --method map')
+    predictor = build_predictor(spec_from_args(args), CLI_NAMES)
     if args.method == 'map':
-        cmap = map_from_args(args)
-        t0 = time.perf_counter()
-        result = cmap.query(state, phi, args.pull)
-        char_length = get_robot(cmap.robot_name).char_length
-    else:
-        model = model_from_args(args)
-        result = model.predict(state, phi, args.pull)
-        char_length = model.robot.char_length
-    return report(args, result, time.perf_counter() - t0, char_length, cap_format='.3f')
+        t0 = time.perf_counter()     # a map's answer, without loading the file
+    result = predictor.predict(state, phi, args.pull)
+    return report(args, result, time.perf_counter() - t0, get_robot(args.robot).char_length,
+                  cap_format='.3f')
 
 
 # --------------------------------------------------------------------- single bodies, 6D
@@ -205,7 +196,7 @@ def run_posed(args) -> int:
     if args.method == 'map' or args.map:
         raise ValueError('--method map answers sagittal robot pulls only: use a live method '
                          'with --mesh, --yaw or --space')
-    args.default_medium = (DEFAULT_MEDIUM[args.robot or 'minirquad'] if args.mesh is None
+    args.default_medium = (ROBOT_MEDIUM[args.robot or DEFAULT_ROBOT] if args.mesh is None
                            else 'glass_beads')
     posed = posed_from_args(args)
     args.default_medium = getattr(args, 'description_medium', args.default_medium)
@@ -215,9 +206,9 @@ def run_posed(args) -> int:
         # invalid_input, not_symmetric, when the posed facets or the centre of mass lack it).
         args.space = 'sagittal'
     t0 = time.perf_counter()
-    model = PosedAnchorSolver(medium_from_args(args), model=args.model, method=args.method,
-                       n_twists=args.twists, space=args.space)
-    result = model.solve(posed, math.radians(args.phi), math.radians(args.yaw))
+    solver = PosedAnchorSolver(medium_from_args(args), model=args.model, method=args.method,
+                               n_twists=args.twists, space=args.space)
+    result = solver.solve(posed, math.radians(args.phi), math.radians(args.yaw))
     return report(args, result, time.perf_counter() - t0, posed.char_length, cap_format='.4g',
                   space=result.space, always_detail=True)
 

@@ -40,7 +40,7 @@ def run(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     robot = minirquad()
-    model = RobotPredictor(robot, get_medium('m90_sand'), method=args.method)
+    predictor = RobotPredictor(robot, get_medium('m90_sand'), method=args.method)
     needs = {m: SLED_FRICTION * m * G for m in SLEDS_KG}
     print(f'MiniRQuad ({robot.mass * 1e3:.0f} g) in M90 sand, backward pulls (winch on its '
           f'back), method {args.method}')
@@ -51,7 +51,7 @@ def run(args) -> int:
     rows = []
     t0 = time.perf_counter()
     for name, state in ANCHOR_MODES.items():
-        res = model.predict_many(state, [0.0, math.radians(-20.0)], Pull.BACKWARD)
+        res = predictor.predict_many(state, [0.0, math.radians(-20.0)], Pull.BACKWARD)
         caps = [r.capacity_N for r in res]
         weakest = min((c for c in caps if c is not None), default=None)
         holds = [f'{1e3 * m:.0f} g' for m, f in needs.items()
@@ -65,7 +65,7 @@ def run(args) -> int:
                      'status': [r.status.value for r in res], 'holds': holds})
     print(f'({1e3 * (time.perf_counter() - t0):.0f} ms for 3 anchors x 2 tether angles)')
     plot = out / 'limit_surface_DH.png'
-    plot_limit_surface(model, ANCHOR_MODES['DH'], Pull.BACKWARD, 0.0, plot)
+    plot_limit_surface(predictor, ANCHOR_MODES['DH'], Pull.BACKWARD, 0.0, plot)
     (out / 'anchors.json').write_text(json.dumps({'sled_force_N': {str(k): v for k, v in
                                                                    needs.items()},
                                                   'anchors': rows}, indent=2))

@@ -43,10 +43,10 @@ def run(args) -> int:
     if args.which == 'fig13':
         return _fig13(args, out)
     if args.which == 'fig9':
-        model = RobotPredictor(get_robot('prototype'), get_medium('glass_beads'),
-                               method=args.method)
+        predictor = RobotPredictor(get_robot('prototype'), get_medium('glass_beads'),
+                                   method=args.method)
         bar = tqdm(total=50, desc='fig9 poses', file=sys.stderr)
-        maps = pf.leg_angle_maps(model, progress=bar.update)
+        maps = pf.leg_angle_maps(predictor, progress=bar.update)
         bar.close()
         pf.plot_leg_angle_maps(maps, out, f'prototype in glass beads, h = 20 mm, thetaB = 0, '
                                           f'phi = 0, method {args.method}')
@@ -59,8 +59,8 @@ def run(args) -> int:
         for pull in Pull:
             runs = {}
             for method in ('direct', 'twist-mesh', 'alpha', 'ellipsoid'):
-                model = RobotPredictor(robot, medium, method=method)
-                summary, traj = pf.slip_summary(model, state, pull, travel=0.04, step=0.001)
+                predictor = RobotPredictor(robot, medium, method=method)
+                summary, traj = pf.slip_summary(predictor, state, pull, travel=0.04, step=0.001)
                 runs[method] = traj
                 data[f'{pull.value}/{method}'] = summary.__dict__
             plot_trajectories(runs, out.with_name(f'{out.stem}_{pull.value}{out.suffix}'),
@@ -74,7 +74,7 @@ def run(args) -> int:
         from .demo import ANCHOR_MODES
         medium = load_medium(args.medium or 'm90_sand')
         cov = _medium_covariance(args)
-        model = RobotPredictor(get_robot('minirquad'), medium, method=args.method)
+        predictor = RobotPredictor(get_robot('minirquad'), medium, method=args.method)
         caps: dict[str, dict] = {}
         lows: dict[str, dict] = {}
         for mode, state in ANCHOR_MODES.items():
@@ -82,7 +82,7 @@ def run(args) -> int:
             for phi in (0.0, -20.0):
                 band = capacity_band('minirquad', medium.xi_n, medium.mu_surf, cov, state,
                                      math.radians(phi), 'backward', method=args.method)
-                res = model.predict(state, math.radians(phi), Pull.BACKWARD)
+                res = predictor.predict(state, math.radians(phi), Pull.BACKWARD)
                 caps[mode][phi] = res.capacity_N
                 lows[mode][phi] = band.lower_N if res.capacity_N is not None else None
         needs = {f'{int(m * 1e3)} g': args.sled_friction * m * G for m in (0.4, 0.6)}

@@ -4,8 +4,10 @@ from __future__ import annotations
 import math
 
 from ..charts.limit_surface import plot_limit_surface
+from ..predictor import build_predictor
+from ..predictor.live import RobotPredictor
 from ..surfaces.registry import METHOD_NAMES
-from .capacity import add_body_args, add_state_args, model_from_args, state_from_args
+from .capacity import CLI_NAMES, add_body_args, add_state_args, spec_from_args, state_from_args
 
 
 def add_parser(sub) -> None:
@@ -25,8 +27,9 @@ def run(args) -> int:
     if (args.anchor is not None or args.mesh is not None or args.against_yaw or args.yaw != 0.0
             or args.space != 'auto'):
         return run_posed(args)
-    model = model_from_args(args)
-    info = plot_limit_surface(model, state_from_args(args), args.pull, math.radians(args.phi),
+    predictor = build_predictor(spec_from_args(args), CLI_NAMES)
+    assert isinstance(predictor, RobotPredictor)     # --method is a live method here
+    info = plot_limit_surface(predictor, state_from_args(args), args.pull, math.radians(args.phi),
                               args.out)
     print(f'wrote {args.out}: capacity {info["capacity_N"]} N, status {info["status"]}')
     return 0
@@ -39,15 +42,16 @@ def run_posed(args) -> int:
 
     from ..charts.posed_capacity import plot_posed_capacity
     from ..posed import PosedAnchorSolver
-    from .capacity import DEFAULT_MEDIUM, posed_from_args
+    from ..predictor.spec import DEFAULT_ROBOT, ROBOT_MEDIUM
+    from .capacity import posed_from_args
     from .common import medium_from_args
-    args.default_medium = (DEFAULT_MEDIUM[args.robot or 'minirquad'] if args.mesh is None
+    args.default_medium = (ROBOT_MEDIUM[args.robot or DEFAULT_ROBOT] if args.mesh is None
                            else 'glass_beads')
     posed = posed_from_args(args)
     args.default_medium = getattr(args, 'description_medium', args.default_medium)
-    model = PosedAnchorSolver(medium_from_args(args), model=args.model, method=args.method,
-                       n_twists=args.twists, space=args.space)
-    data = plot_posed_capacity(model, posed, math.radians(args.phi), math.radians(args.yaw),
+    solver = PosedAnchorSolver(medium_from_args(args), model=args.model, method=args.method,
+                               n_twists=args.twists, space=args.space)
+    data = plot_posed_capacity(solver, posed, math.radians(args.phi), math.radians(args.yaw),
                                args.out)
     Path(args.out).with_suffix('.json').write_text(json.dumps(data, indent=2))
     caps = [c for c in data['by_yaw']['capacity_N'] if c is not None]

@@ -6,8 +6,9 @@ import math
 import sys
 from pathlib import Path
 
-from ..sim.trajectory import Predictor, simulate_pull
-from .capacity import add_body_args, add_state_args, map_from_args, model_from_args, state_from_args
+from ..predictor import Predictor, build_predictor
+from ..sim.trajectory import simulate_pull
+from .capacity import CLI_NAMES, add_body_args, add_state_args, spec_from_args, state_from_args
 from .common import finite_float, twist_count
 
 
@@ -55,17 +56,14 @@ def run(args) -> int:
             raise ValueError('--method map answers the shipped robots only; use direct or '
                              'twist-mesh with --mesh')
         predictor = BodyPredictor(body, PosedAnchorSolver(medium_from_args(args), model=args.model,
-                                                   method=args.method, n_twists=args.twists))
+                                                          method=args.method,
+                                                          n_twists=args.twists))
         plate = lambda st: -st.h   # noqa: E731 (stop when the tether point reaches the surface)
         name = str(args.mesh)
-    elif args.method == 'map':
-        cmap = map_from_args(args)
-        predictor = cmap
-        from ..robots.presets import get_robot
-        robot = get_robot(cmap.robot_name)
     else:
-        model = model_from_args(args)
-        predictor, robot = model, model.robot
+        from ..robots.presets import get_robot
+        predictor = build_predictor(spec_from_args(args), CLI_NAMES)
+        robot = get_robot(args.robot)
     if body is None:
         plate = lambda st: robot.pose(st, args.pull).plate_min_z  # noqa: E731
         name = robot.name

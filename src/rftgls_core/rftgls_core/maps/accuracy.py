@@ -120,7 +120,7 @@ def sample_states(grid, samples: int, seed: int = 0) -> np.ndarray:
     return np.vstack([centres, randoms])
 
 
-def reference_model(cmap: CapacityMap, reference: str = 'direct') -> tuple[RobotPredictor, str]:
+def reference_predictor(cmap: CapacityMap, reference: str = 'direct') -> tuple[RobotPredictor, str]:
     spec = spec_from_map(cmap.data)
     kwargs: dict = dict(model=spec.model, n_twists=spec.n_twists, backend=spec.backend)
     robot = get_robot(spec.robot)
@@ -136,7 +136,7 @@ def reference_model(cmap: CapacityMap, reference: str = 'direct') -> tuple[Robot
 def accuracy_report(cmap: CapacityMap, samples: int = 20, seed: int = 0,
                     reference: str = 'direct', progress: bool = False) -> AccuracyReport:
     """Compare `cmap` with a reference method at 2 x `samples` states (see module doc)."""
-    model, note = reference_model(cmap, reference)
+    predictor, note = reference_predictor(cmap, reference)
     states = sample_states(cmap.grid, samples, seed)
     ph = cmap.phis
     phis = 0.5 * (ph[:-1] + ph[1:])
@@ -144,10 +144,10 @@ def accuracy_report(cmap: CapacityMap, samples: int = 20, seed: int = 0,
     for s in tqdm(states, unit='state', file=sys.stderr, desc='accuracy', disable=not progress):
         state = AnchorState(*map(float, s))
         for pull in cmap.pulls:
-            refs = model.predict_many(state, phis, pull)
+            refs = predictor.predict_many(state, phis, pull)
             for phi, r in zip(phis, refs):
                 comp.add(cmap.query(state, float(phi), pull), r)
-    return comp.report(model.method, len(states), note)
+    return comp.report(predictor.method, len(states), note)
 
 
 @dataclass(frozen=True)
@@ -188,7 +188,8 @@ def coverage_report(cmap: CapacityMap, n: int = 300, seed: int = 0,
     The reference is the live solver at its defaults (capacity_node's live fallback)."""
     from ..accuracy import agreement_states
     spec = spec_from_map(cmap.data)
-    model = RobotPredictor(get_robot(spec.robot), spec.medium, model=spec.model, method=reference)
+    predictor = RobotPredictor(get_robot(spec.robot), spec.medium, model=spec.model,
+                               method=reference)
     jobs = agreement_states(spec.robot, n, seed)
     ref_n = ans = only = 0
     over: list[float] = []
@@ -196,7 +197,7 @@ def coverage_report(cmap: CapacityMap, n: int = 300, seed: int = 0,
     flags: dict[str, int] = {}
     for state, pull, phi in tqdm(jobs, unit='state', file=sys.stderr, desc='coverage',
                                  disable=not progress):
-        r = model.predict(state, phi, pull)
+        r = predictor.predict(state, phi, pull)
         m = cmap.query(state, phi, pull)
         if m.capacity_N is not None:
             key = ','.join(m.flags)

@@ -55,7 +55,7 @@ class BuildSpec:
 
     def predictor(self) -> RobotPredictor:
         return RobotPredictor(get_robot(self.robot), self.medium, model=self.model,
-                           method=self.method, n_twists=self.n_twists, backend=self.backend)
+                              method=self.method, n_twists=self.n_twists, backend=self.backend)
 
 
 @dataclass(frozen=True)
@@ -75,9 +75,9 @@ _local = threading.local()   # per thread (Dask runs tasks on threads), per proc
 
 
 def _predictor(spec: BuildSpec) -> RobotPredictor:
-    cache = getattr(_local, 'models', None)
+    cache = getattr(_local, 'predictors', None)
     if cache is None:
-        cache = _local.models = {}
+        cache = _local.predictors = {}
     if spec not in cache:
         cache[spec] = spec.predictor()
     return cache[spec]
@@ -85,7 +85,7 @@ def _predictor(spec: BuildSpec) -> RobotPredictor:
 
 def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResult:
     """Run the RobotPredictor at the flat state indices ks for every pull and pull angle."""
-    model = _predictor(spec)
+    predictor = _predictor(spec)
     sphere = TwistSphere.build(spec.n_twists)
     idx = np.asarray(ks, dtype=np.intp)
     n, P, K = len(idx), len(grid.pulls), len(grid.phi)
@@ -98,7 +98,7 @@ def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResul
     for a, k in enumerate(idx.tolist()):
         state = grid.state(k)
         for p, pull in enumerate(grid.pulls):
-            for j, r in enumerate(model.predict_many(state, grid.phi, pull)):
+            for j, r in enumerate(predictor.predict_many(state, grid.phi, pull)):
                 status[a, p, j] = STATUS_NAMES.index(r.status.value)
                 reason[a][p][j] = r.reason
                 if r.status.has_value:
@@ -106,7 +106,7 @@ def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResul
                     ts[a, p, j] = r.slip_twist_scaled
                     tr[a, p, j] = r.slip_twist
             held = bool(np.isfinite(cap[a, p]).any())
-            margin[a, p] = node_support_margin(model, sphere, state, pull, held)
+            margin[a, p] = node_support_margin(predictor, sphere, state, pull, held)
     return ChunkResult(idx, cap, ts, tr, status, reason, margin)
 
 
@@ -115,13 +115,13 @@ def solve_grad_chunk(spec: BuildSpec, grid: MapGrid, jobs: np.ndarray
     """Edge-cell corners: support margin and its gradient on the dense EDGE_MARGIN_TWISTS
     sphere (edge.py), for jobs (M, 3) = (flat state index, pull index, held 0/1):
     (jobs, margins (M,), gradients (M, 4))."""
-    model = _predictor(spec)
+    predictor = _predictor(spec)
     sphere = TwistSphere.build(max(EDGE_MARGIN_TWISTS, spec.n_twists))
     out = np.full((len(jobs), 4), np.nan)
     marg = np.full(len(jobs), np.nan)
     for a, (k, p, held) in enumerate(np.asarray(jobs, dtype=np.intp).tolist()):
-        marg[a] = node_support_margin(model, sphere, grid.state(k), grid.pulls[p], bool(held))
-        out[a] = node_margin_gradient(model, sphere, grid, k, grid.pulls[p])
+        marg[a] = node_support_margin(predictor, sphere, grid.state(k), grid.pulls[p], bool(held))
+        out[a] = node_margin_gradient(predictor, sphere, grid, k, grid.pulls[p])
     return np.asarray(jobs), marg, out
 
 

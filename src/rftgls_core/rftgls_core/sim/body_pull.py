@@ -46,13 +46,13 @@ class BodyPredictor:
     the planar slip twist (vx, vz, wy) of the sagittal path. `pull` is ignored (a rigid body
     has no leg orientation)."""
 
-    def __init__(self, anchor: BodyAnchor, model: PosedAnchorSolver):
+    def __init__(self, anchor: BodyAnchor, solver: PosedAnchorSolver):
         self.anchor = anchor
-        self.model = model
+        self.solver = solver
 
     def predict(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD
                 ) -> CapacityResult:
-        r = self.model.solve(self.anchor.pose(state), phi, 0.0)
+        r = self.solver.solve(self.anchor.pose(state), phi, 0.0)
         if r.status.has_value and r.space != 'sagittal':
             return CapacityResult(phi=phi, status=Status.INVALID_INPUT, method=r.method,
                                   reason='not_sagittal',

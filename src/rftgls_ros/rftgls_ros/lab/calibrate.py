@@ -289,12 +289,12 @@ def calibrate(pulls: list[PullObservation],
 
     def pull_forces(xi: float, mu: float) -> np.ndarray:
         med = custom_medium(xi_n=xi, mu_surf=mu)
-        models: dict[str, Predictor] = {}
+        predictors: dict[str, Predictor] = {}
         out = np.empty(len(pulls))
         for i, ob in enumerate(pulls):
-            if ob.robot not in models:
-                models[ob.robot] = make_predictor(method, ob.robot, med, anchor=anchor)
-            r = models[ob.robot].predict(ob.state, ob.phi, ob.pull)
+            if ob.robot not in predictors:
+                predictors[ob.robot] = make_predictor(method, ob.robot, med, anchor=anchor)
+            r = predictors[ob.robot].predict(ob.state, ob.phi, ob.pull)
             # No balance at this medium: the anchor holds nothing; the residual says so
             # (a NaN would stop the solver).
             out[i] = r.capacity_N if r.status.has_value and r.capacity_N is not None else 0.0
