@@ -9,7 +9,7 @@ import math
 import pytest
 from tolerances import TWO_SOLVES_RTOL, TWO_SOLVES_TWIST_ATOL
 
-from minirquad_sim.ground import LiveGround
+from minirquad_sim.ground import LiveGround, slip_per_m
 from minirquad_sim.main import build_parser
 from rftgls_core.cli.demo import ANCHOR_MODES
 from rftgls_core.description import shipped_description, write_robot_description
@@ -25,7 +25,7 @@ MINIRQUAD = str(shipped_description('minirquad'))
 def test_the_shipped_description_gives_the_live_predictor_numbers(method):
     ref = node_predictor('', method, 'minirquad', 'm90_sand', 0, 'backward')
     desc = node_predictor('', method, 'minirquad', 'm90_sand', 0, 'backward',
-                                 anchor_description_file=MINIRQUAD)
+                          anchor_description_file=MINIRQUAD)
     assert isinstance(ref, RobotPredictor) and isinstance(desc, DescriptionPredictor)
     for state in ANCHOR_MODES.values():          # Table II: DH, DL, SH
         for pull in ('backward', 'forward'):
@@ -49,10 +49,10 @@ def test_a_map_for_another_description_is_refused():
     proto = str(shipped_description('prototype'))
     with pytest.raises(ConfigError, match='does not answer for anchor_description_file'):
         node_predictor('minirquad', robot='minirquad', medium='m90_sand',
-                              anchor_description_file=proto)
+                       anchor_description_file=proto)
     # the robot's own description is accepted with its shipped map
     node_predictor('minirquad', robot='minirquad', medium='m90_sand',
-                          anchor_description_file=MINIRQUAD)
+                   anchor_description_file=MINIRQUAD)
 
 
 def test_a_description_the_node_cannot_estimate_is_one_line(tmp_path):
@@ -74,19 +74,19 @@ def test_the_sim_ground_on_the_shipped_description_is_the_preset_ground():
     assert 'anchor description' in described.describe()
     for state in ANCHOR_MODES.values():
         for phi in (0.0, math.radians(-20.0)):
-            a, b = preset.predict(state, phi), described.predict(state, phi)
+            a = preset.predict(state, phi, 'backward')
+            b = described.predict(state, phi, 'backward')
             assert a.status == b.status
-            if a.capacity is not None:
-                assert b.capacity == pytest.approx(a.capacity, rel=TWO_SOLVES_RTOL)
+            if a.capacity_N is not None:
+                assert b.capacity_N == pytest.approx(a.capacity_N, rel=TWO_SOLVES_RTOL)
                 # per metre of travel: the unit twist over |(vx, vz)|, near 1 for these pulls
-                assert b.slip_twist_per_m == pytest.approx(a.slip_twist_per_m,
-                                                           abs=TWO_SOLVES_TWIST_ATOL)
+                assert slip_per_m(b) == pytest.approx(slip_per_m(a), abs=TWO_SOLVES_TWIST_ATOL)
     # the mass scale reaches the described ground too (a heavier robot holds more)
     heavy = LiveGround(method='twist-mesh', fallback_method=None, anchor=MINIRQUAD,
                        mass_scale=1.5)
     dh = ANCHOR_MODES['DH']
-    light = described.predict(dh, 0.0).capacity
-    assert light is not None and heavy.predict(dh, 0.0).capacity > light
+    light = described.predict(dh, 0.0, 'backward').capacity_N
+    assert light is not None and heavy.predict(dh, 0.0, 'backward').capacity_N > light
 
 
 def test_the_warm_live_method_name_gives_the_cold_direct_on_a_description():
@@ -176,8 +176,8 @@ def test_a_two_variable_body_uses_h_and_theta_b_only(tmp_path):
         '  - {name: depth, unit: m, physical: [-0.2, 0.0]}\n'
         '  - {name: tilt, unit: deg, physical: [-45, 45]}\n')
     p = node_predictor('', 'twist-mesh', medium='glass_beads',
-                              anchor_description_file=str(tmp_path / 'egg.yaml'),
-                              anchor_state_variables='depth=h,tilt=theta_b')
+                       anchor_description_file=str(tmp_path / 'egg.yaml'),
+                       anchor_state_variables='depth=h,tilt=theta_b')
     a = p.predict(AnchorState(-0.04, math.radians(10), 0.3, -0.2), 0.5, 'backward')
     b = p.predict(AnchorState(-0.04, math.radians(10), -1.0, 1.0), 0.5, 'backward')
     assert a.status.has_value and a.capacity_N == b.capacity_N
@@ -211,7 +211,7 @@ def test_capacity_node_serves_a_described_map_for_its_description(dh_described_m
     answer is the live description solver's (float32 storage), twist in the sagittal form."""
     from rftgls_core.predictor.maps import DescribedMapPredictor
     p = node_predictor(str(dh_described_map), medium='m90_sand', pull='backward',
-                              anchor_description_file=MINIRQUAD)
+                       anchor_description_file=MINIRQUAD)
     assert isinstance(p, DescribedMapPredictor)
     live = node_predictor('', 'twist-mesh', anchor_description_file=MINIRQUAD)
     dh = ANCHOR_MODES['DH']
