@@ -33,7 +33,7 @@ def test_capacity_json_matches_the_library():
     expect = ref.predict(DH_STATE, 0.0, 'backward')
     assert res['status'] == 'ok' and res['method'] == 'direct'
     assert res['capacity_N'] == pytest.approx(expect.capacity_N, rel=1e-9)
-    assert math.hypot(*res['slip_twist']) == pytest.approx(1.0)
+    assert math.hypot(*res['slip_twist_scaled']) == pytest.approx(1.0)
 
 
 def test_capacity_from_the_shipped_map():

@@ -45,7 +45,7 @@ def est(live_predictor):
 
 def no_value(e):
     return (not e.has_value and e.capacity_N is None and e.margin_N is None
-            and e.slip_twist_raw is None and e.capacity_lower_N is None)
+            and e.slip_twist is None and e.capacity_lower_N is None)
 
 
 def test_the_good_case_answers_ok(est):

@@ -36,7 +36,7 @@ def test_ok_matches_core_and_margin(est, live_predictor):
     assert e.status is Status.OK and e.has_value
     assert e.capacity_N == pytest.approx(core.capacity_N, rel=1e-12)
     assert e.margin_N == pytest.approx(core.capacity_N - 1.5)
-    assert e.slip_twist_raw == pytest.approx(core.slip_twist)
+    assert e.slip_twist == pytest.approx(core.slip_twist)
     assert not e.slipping and e.warnings == ()
     assert e.state == DH and e.phi_rad == PHI
 
@@ -45,7 +45,7 @@ def test_tension_above_capacity_predicts_slip(est):
     feed(est, 0.0, tension=50.0)
     e = est.estimate(0.0)
     assert e.status is Status.OK and e.slipping and e.margin_N < 0
-    assert math.hypot(*e.slip_twist_raw) == pytest.approx(1.0)
+    assert math.hypot(*e.slip_twist) == pytest.approx(1.0)
 
 
 def test_new_tension_reuses_the_prediction(est):
@@ -69,7 +69,7 @@ def test_stale_input(est, late):
     e = est.estimate(2.0)
     assert e.status is Status.STALE and not e.has_value
     assert late in e.detail
-    assert e.capacity_N is None and e.margin_N is None and e.slip_twist_raw is None
+    assert e.capacity_N is None and e.margin_N is None and e.slip_twist is None
 
 
 def test_never_received_is_stale_and_parameter_inputs_are_assumed(live_predictor):
@@ -105,7 +105,7 @@ def test_invalid_scalar_input(est, name, value, code):
     est.update(name, 0.0, value)
     e = est.estimate(0.0)
     assert e.status is Status.INVALID_INPUT and e.reason_codes == (code,)
-    assert e.capacity_N is None and e.margin_N is None and e.slip_twist_raw is None
+    assert e.capacity_N is None and e.margin_N is None and e.slip_twist is None
 
 
 def test_invalid_joint_and_malformed(est):
@@ -138,7 +138,7 @@ def test_unsupported_reports_zero_capacity(est):
     e = est.estimate(0.0)
     assert e.status is Status.UNSUPPORTED and not e.has_value
     assert e.capacity_N == 0.0 and e.margin_N == -0.7 and e.slipping
-    assert e.slip_twist_raw is None
+    assert e.slip_twist is None
 
 
 @pytest.mark.parametrize('kwargs, words', [

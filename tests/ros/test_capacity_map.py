@@ -35,11 +35,11 @@ def test_estimator_statuses_from_the_map(small_map, state, status):
     direct = CapacityMap.load(small_map).query(state, PHI, 'backward')
     assert e.status is status and direct.status is status
     if status is Status.OK:
-        assert e.capacity_N == direct.capacity_N and e.slip_twist_raw == direct.slip_twist
+        assert e.capacity_N == direct.capacity_N and e.slip_twist == direct.slip_twist
     elif status is Status.UNSUPPORTED:
-        assert e.capacity_N == 0.0 and e.margin_N == -1.0 and e.slip_twist_raw is None
+        assert e.capacity_N == 0.0 and e.margin_N == -1.0 and e.slip_twist is None
     else:   # no value at all off the grid
-        assert e.capacity_N is None and e.slip_twist_raw is None
+        assert e.capacity_N is None and e.slip_twist is None
 
 
 def test_off_grid_state_has_no_value(small_map):
@@ -49,7 +49,7 @@ def test_off_grid_state_has_no_value(small_map):
     assert direct.status is Status.OUT_OF_RANGE
     e = estimator_for(small_map, OUTSIDE)
     assert e.status is Status.OUT_OF_RANGE and not e.has_value
-    assert e.capacity_N is None and e.margin_N is None and e.slip_twist_raw is None
+    assert e.capacity_N is None and e.margin_N is None and e.slip_twist is None
     assert e.capacity_lower_N is None
 
 

@@ -111,8 +111,9 @@ class Result6:
     """Capacity along a 6D load direction and the 6D slip twist at the first exit.
 
     capacity_N: tether force at the first exit, N; None unless status.has_value.
-    slip_twist_scaled: unit (vx, vy, vz, wx L_c, wy L_c, wz L_c); slip_twist: raw direction
-    (m/s, rad/s) with unit Euclidean norm. Both None without a value.
+    slip_twist: the slip twist (vx, vy, vz, wx, wy, wz) of the tether point, world axes, m/s and
+    rad/s, unit Euclidean norm; slip_twist_scaled: the same direction as a unit vector
+    (vx, vy, vz, wx L_c, wy L_c, wz L_c). Both None without a value.
     """
 
     status: Status

@@ -154,8 +154,9 @@ def mirror_plane_yaws(posed: PosedAnchor) -> list[float]:
 class PosedAnchorResult:
     """Capacity along u(phi, yaw) and the slip twist, always as 6D world quantities.
 
-    slip_twist_scaled: unit (vx, vy, vz, wx L_c, wy L_c, wz L_c); slip_twist: raw direction
-    (m/s, rad/s) of unit Euclidean norm. space: 'sagittal' or '6d' (which path answered).
+    slip_twist: the slip twist (vx, vy, vz, wx, wy, wz) of the tether point, world axes, m/s and
+    rad/s, unit Euclidean norm; slip_twist_scaled: the same direction as a unit vector
+    (vx, vy, vz, wx L_c, wy L_c, wz L_c). space: 'sagittal' or '6d' (which path answered).
     """
 
     status: Status

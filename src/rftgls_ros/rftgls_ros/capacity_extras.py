@@ -70,7 +70,7 @@ def estimate_msg(est: Estimate, header: Header, pull: str) -> AnchorEstimate:
         has_value=est.has_value, capacity_n=_num(est.capacity_N),
         capacity_lower_n=_num(est.capacity_lower_N), tension_n=_num(est.tension_N),
         margin_n=_num(est.margin_N), slipping=bool(est.slipping),
-        slip_twist=_twist(est.slip_twist_raw), phi_rad=_num(est.phi_rad),
+        slip_twist=_twist(est.slip_twist), phi_rad=_num(est.phi_rad),
         h_m=_num(st.h if st else None), theta_b_rad=_num(st.theta_b if st else None),
         theta_l1_rad=_num(st.theta_l1 if st else None),
         theta_l2_rad=_num(st.theta_l2 if st else None),
@@ -167,7 +167,7 @@ class CapacityExtras:
         st = est.state
         geoms = estimate_markers(
             str(est.status), st.theta_b if st else None, est.phi_rad, est.capacity_N,
-            est.tension_N, est.margin_N, est.slip_twist_raw, est.slipping, self.curve(est),
+            est.tension_N, est.margin_N, est.slip_twist, est.slipping, self.curve(est),
             self.style, st.h if st else None, self.buried(est))
         mheader = Header(stamp=header.stamp, frame_id=self.frame_id)
         self.pub_markers.publish(marker_array(geoms, mheader, 3.0 * self.period_s))

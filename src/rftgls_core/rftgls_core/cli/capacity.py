@@ -71,10 +71,11 @@ def spec_from_args(args) -> PredictorSpec:
 def add_parser(sub) -> None:
     p = sub.add_parser('capacity', help='load capacity and slip twist of one anchor state',
                        description='Load capacity along the tether and slip twist beyond it. '
-                       'JSON: slip_twist_scaled is a unit vector in the scaled metric (vx, vz, '
-                       'wy*L_c), L_c = char_length_m of the robot; slip_twist_raw is (vx, vz, '
-                       'wy) in m/s and rad/s scaled to unit Euclidean norm. slip_twist is the '
-                       'old name of slip_twist_scaled, kept for one release (deprecated).')
+                       'JSON: slip_twist is the direction of the slip at the tether point, '
+                       '(vx, vz, wy) in world axes, m/s and rad/s, scaled to unit Euclidean '
+                       'norm; slip_twist_scaled is the same direction as a unit vector in the '
+                       'scaled metric (vx, vz, wy*L_c), L_c = char_length_m. slip_twist_raw is '
+                       'the old name of slip_twist, kept for one release (deprecated).')
     add_state_args(p)
     add_body_args(p)
     p.add_argument('--method', choices=list(METHOD_NAMES) + ['map'], default='twist-mesh')
@@ -243,12 +244,15 @@ def report(args, result, elapsed_s: float, char_length_m: float, *, cap_format: 
 
 def result_json(result, elapsed_s: float, char_length_m: float) -> dict:
     """The JSON of every `rftgls capacity` answer (robot, anchor or single body): capacity N,
-    slip twists (scaled metric and raw, 3 or 6 components), status, timing and flags."""
+    the slip twist (3 or 6 components, world axes at the tether point: (vx, vz, wy) or (vx, vy,
+    vz, wx, wy, wz), m/s and rad/s, unit Euclidean norm) and the same direction in the scaled
+    metric, status, timing and flags. slip_twist_raw: slip_twist's old name, one release."""
     scaled = list(result.slip_twist_scaled) if result.slip_twist_scaled else None
+    raw = list(result.slip_twist) if result.slip_twist else None
     return {'capacity_N': result.capacity_N,
             'slip_twist_scaled': scaled,
-            'slip_twist': scaled,   # deprecated: the old key of slip_twist_scaled, one release
-            'slip_twist_raw': list(result.slip_twist) if result.slip_twist else None,
+            'slip_twist': raw,
+            'slip_twist_raw': raw,   # deprecated: the old key of slip_twist, one release
             'status': result.status.value, 'method': result.method, 'elapsed_s': elapsed_s,
             'reason': result.reason, 'detail': result.detail, 'char_length_m': char_length_m,
             'flags': list(result.flags), 'twist_spread_rad': result.twist_spread_rad}
