@@ -74,7 +74,7 @@ def test_urdf_parses_with_a_standard_library(robot):
     assert joints['winch_link_joint'].origin.xyz == [0.0, 0.0, 0.0]    # p is the tether point
     links = {ln.name: ln for ln in urdf.links}
     leg = read_stl(DATA / 'c_leg.stl', units='m')
-    model = get_robot(robot)
+    rob = get_robot(robot)
     for state in STATES:
         body = rot_y(-state.theta_b)
         p = np.array([0.0, 0.0, state.h])
@@ -90,7 +90,7 @@ def test_urdf_parses_with_a_standard_library(robot):
                              else leg.faces[:, ::-1])
             posed[h] = mesh.facets().transformed(rot, hip)
         # forward pulls use the leg mesh as it is (Pull.FORWARD, robots/robot.py)
-        ref = model.pose(state, Pull.FORWARD).facets
+        ref = rob.pose(state, Pull.FORWARD).facets
         ours = [posed[h] for h in hips]
         cent = np.vstack([f.centroids for f in ours])
         norm = np.vstack([f.normals for f in ours])
@@ -113,12 +113,12 @@ def test_the_description_gives_the_numbers_of_the_robot(robot, method):
     desc = load_description(shipped_description(robot))
     medium = get_medium(desc.medium)
     reference = RobotPredictor(get_robot(robot), medium, method=method)
-    model = PosedAnchorSolver(medium, method=method)
+    solver = PosedAnchorSolver(medium, method=method)
     for state in STATES:
         for pull in Pull:
             for phi in (0.0, math.radians(-20.0)):
                 a = reference.predict(state, phi, pull)
-                b = model.solve(desc.pose(state_values(state), pull), phi)
+                b = solver.solve(desc.pose(state_values(state), pull), phi)
                 assert b.space == 'sagittal' and a.status == b.status
                 if a.capacity_N is None:
                     assert b.capacity_N is None

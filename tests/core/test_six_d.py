@@ -117,8 +117,8 @@ def test_a_ray_through_a_jump_exits_on_the_closure(dh_posed):
     # Yaw 70 deg: no twist maps onto the ray (Newton stalls at a jump); the patch search finds
     # the exit of the bridged closure. Reference: continuity in yaw, the neighbours 65 and 75 deg
     # are smooth Newton roots.
-    model = PosedAnchorSolver(get_medium('m90_sand'))
-    caps = {y: model.solve(dh_posed, 0.0, math.radians(y)) for y in (65.0, 70.0, 75.0)}
+    solver = PosedAnchorSolver(get_medium('m90_sand'))
+    caps = {y: solver.solve(dh_posed, 0.0, math.radians(y)) for y in (65.0, 70.0, 75.0)}
     assert caps[70.0].status is Status.OK and 'on_jump' in caps[70.0].flags
     assert 'patch search' in caps[70.0].detail
     assert caps[75.0].capacity_N < caps[70.0].capacity_N < caps[65.0].capacity_N

@@ -178,11 +178,11 @@ def test_an_exact_out_of_plane_crossing_before_the_in_plane_one_wins():
     posed = pose_robot(minirquad(), ROBOT_STATES['shallow'], Pull.FORWARD)
     med = get_medium('m90_sand')
     ref = PosedAnchorSolver(med, space='sagittal').solve(posed, math.radians(60.0))
-    model = PosedAnchorSolver(med, space='6d')
-    full = model.solve(posed, math.radians(60.0))
+    solver = PosedAnchorSolver(med, space='6d')
+    full = solver.solve(posed, math.radians(60.0))
     assert full.status is Status.OK and 'out-of-plane crossing' in full.detail
     assert full.capacity_N < 0.99 * ref.capacity_N
-    body = BuriedBody(posed.facets, model.stress_model, ref=posed.ref)
+    body = BuriedBody(posed.facets, solver.stress_model, ref=posed.ref)
     w = -body.wrench(np.array([full.slip_twist]))[0] - posed.gravity6()
     load = full.capacity_N * np.r_[pull_vector(math.radians(60.0)), 0.0, 0.0, 0.0]
     assert np.allclose(w, load, atol=1e-9 * full.capacity_N)

@@ -99,8 +99,8 @@ def test_uniform_mesh_underestimates_a_small_capacity_next_to_a_jump():
     robot, medium = get_robot('prototype'), get_medium('glass_beads')
     bare = RobotPredictor(robot, medium, method='brute-force',
                           surface_options={'refine': False}).predict(state, phi, pull)
-    model = RobotPredictor(robot, medium, method='brute-force')
-    surface, _ = model.fit(state, pull)
+    predictor = RobotPredictor(robot, medium, method='brute-force')
+    surface, _ = predictor.fit(state, pull)
     assert isinstance(surface, BruteForceSurface)
     ref = surface.capacity(phi)
     bound = surface.errors_N_[0]
@@ -130,10 +130,10 @@ def test_direct_answers_every_state_of_the_fig9_grid(prototype_direct):
 
 
 def test_direct_answers_the_table2_poses():
-    model = RobotPredictor(get_robot('minirquad'), get_medium('m90_sand'), method='direct')
+    predictor = RobotPredictor(get_robot('minirquad'), get_medium('m90_sand'), method='direct')
     for mode, state in ANCHOR_MODES.items():
         for phi_deg in (0.0, -20.0):
-            r = model.predict(state, math.radians(phi_deg), Pull.BACKWARD)
+            r = predictor.predict(state, math.radians(phi_deg), Pull.BACKWARD)
             assert r.status is Status.OK and r.capacity_N > 0, (mode, phi_deg, r.detail)
 
 

@@ -197,10 +197,10 @@ class CapacityExtras:
         if key != self._curve_key:
             cmap, state, pull = self.curve_map, est.state, self.pull
 
-            def predict(phi: float) -> float | None:
+            def capacity_at(phi: float) -> float | None:
                 r = cmap.predict(state, phi, pull)
                 return r.capacity_N if r.status.has_value else None
 
-            self._curve = limit_curve(predict, self.style.curve_phis_rad)
+            self._curve = limit_curve(capacity_at, self.style.curve_phis_rad)
             self._curve_key = key
         return self._curve
