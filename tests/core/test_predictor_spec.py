@@ -19,6 +19,7 @@ from rftgls_core.predictor import (
 from rftgls_core.predictor.live import DescriptionPredictor, RobotPredictor
 from rftgls_core.predictor.maps import FallbackPredictor, MapPredictor
 from rftgls_core.surfaces.registry import (
+    DEFAULT_METHOD,
     LIVE_METHODS,
     streaming_class,
     surface_method,
@@ -32,6 +33,7 @@ FLAGS = InputNames(map='--map', robot='--robot', description='--anchor', medium=
 
 
 def test_each_kind_of_specification_builds_its_predictor():
+    assert PredictorSpec().live_method == DEFAULT_METHOD == 'twist-mesh'
     live = build_predictor(PredictorSpec(live_method='twist-mesh'))
     assert isinstance(live, RobotPredictor) and live.name == 'live:twist-mesh'
     desc = build_predictor(PredictorSpec(live_method='twist-mesh',

@@ -19,6 +19,7 @@ way the caller's user wrote them (InputNames: a node parameter, a command-line f
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -79,7 +80,7 @@ class PredictorSpec:
         here (None or a Medium: no check).
     pull: the pull orientation ('forward', 'backward') a map must hold (None: no check).
     live_method: the live solver's method when there is no map (surfaces/registry.py: every
-        registered method, 'direct-warm' included).
+        registered method, 'direct-warm' included; default DEFAULT_METHOD).
     fallback_method: with a map, the live method answering its out_of_range states ('': none).
     edge_method: with a map, the live method re-answering its edge-margin answers ('': none);
         the same method as fallback_method shares one solver.
@@ -96,7 +97,7 @@ class PredictorSpec:
     state_map: str | Mapping[str, str] | None = None
     medium: str | Medium | None = None
     pull: str | None = None
-    live_method: str = 'direct'
+    live_method: str = 'twist-mesh'      # registry.DEFAULT_METHOD (this module imports light)
     fallback_method: str = ''
     edge_method: str = ''
     n_twists: int | Mapping[str, int] | None = None
@@ -140,7 +141,7 @@ class _Builder:
         s, n = self.spec, self.names
         if s.state_map is not None and s.description is None:
             raise PredictorError(f'{n.state_map} needs {n.description}')
-        if not (s.mass_scale > 0.0 and s.mass_scale < float('inf')):
+        if not (math.isfinite(s.mass_scale) and s.mass_scale > 0.0):
             raise PredictorError(f'mass scale must be a positive number, got {s.mass_scale}')
         counts = (s.n_twists.values() if isinstance(s.n_twists, Mapping)
                   else [] if s.n_twists is None else [s.n_twists])
