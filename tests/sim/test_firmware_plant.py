@@ -12,8 +12,9 @@ from test_mcu_contract import Bench
 from minirquad_driver.protocol import messages as m
 from minirquad_sim.firmware_link import FirmwareLinkError
 from minirquad_sim.firmware_mcu import FirmwareMcu
-from minirquad_sim.ground import AnchorPrediction, TableGround
+from minirquad_sim.ground import TableGround
 from minirquad_sim.plant import PlantRobot, RobotBuild
+from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import Status
 
 pytestmark = pytest.mark.usefixtures('firmware_build')
@@ -70,8 +71,9 @@ def test_load_cell_silence_invalidates_tension_and_refuses_reel_in(bench):
 class _Rock(TableGround):
     """An anchor that never slips: the winch can only stall against it."""
 
-    def predict(self, state, phi):
-        return AnchorPrediction(100.0, (1.0, 0.0, 0.0), Status.OK)
+    def predict(self, state, phi, pull='backward'):
+        return CapacityResult(phi=phi, status=Status.OK, method='rock', capacity_N=100.0,
+                              slip_twist=(1.0, 0.0, 0.0))
 
 
 def test_winch_stall_against_a_fixed_sled_is_detected_and_latched(bench):
