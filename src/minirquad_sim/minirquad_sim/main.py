@@ -5,6 +5,11 @@
 
 prints the slave path it opened (first line on stdout, then flushes) and speaks the protocol
 of src/minirquad_driver/PROTOCOL.md on it until SIGINT/SIGTERM. Fault options: ``--help``.
+ROS arguments (`--ros-args ...`, as `ros2 run` and launch_ros append them) are ignored.
+
+On SIGINT/SIGTERM it keeps serving the link for ``--linger`` seconds (0.5 s) before it closes
+the pty: a launch file stops every process at once, and a real MCU outlives its host, so the
+bridge's last commands (the winch to 0) still land and are acted on.
 """
 from __future__ import annotations
 
@@ -17,7 +22,7 @@ from collections import deque
 
 from minirquad_driver.protocol import messages as m
 from minirquad_driver.protocol.codec import encode_frame
-from rftgls_node_base.node_main import stop_on_signals
+from rftgls_node_base.node_main import finish, program_args, stop_on_signals
 
 from .faults import FaultConfig, FaultInjector
 from .firmware_link import FirmwareLinkError
@@ -51,6 +56,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument('--pace-baud', type=int, default=0,
                    help='emulate a UART: write at most baud/10 bytes per second (0: off)')
     p.add_argument('--record', help='append one JSON line per telemetry frame built')
+    p.add_argument('--command-log', help='append one JSON line per host command handled '
+                   '(the Python MCU)')
+    p.add_argument('--linger', type=float, default=0.5,
+                   help='s the link keeps being served after SIGINT/SIGTERM')
     p.add_argument('--duration', type=float, default=0.0, help='exit after this many s')
     t = p.add_argument_group('true ground (what the sand really holds; the stack never sees it)')
     t.add_argument('--ground', choices=('live', 'map', 'table'), default='live',
@@ -97,7 +106,27 @@ class _Recorder:
             'tension': round(tel.tension * m.MILLINEWTON),
             'vel': [round(v * m.MILLIRAD_S) for v in tel.leg_velocities],
             'spool': round(tel.spool_position * m.MICROMETRE),
+            'spool_v': round(tel.spool_velocity * m.MICROMETRE_S),
             'mode': int(tel.mode), 'flags': int(tel.flags)}) + '\n')
+
+    def close(self) -> None:
+        if self.file:
+            self.file.close()
+
+
+class _CommandLog:
+    """JSON lines of the host commands the MCU handled: host wall time, type, fields, ack."""
+
+    def __init__(self, path: str | None, wall_minus_mono: float):
+        self.file = open(path, 'a', buffering=1) if path else None
+        self.offset = wall_minus_mono
+
+    def command(self, now: float, msg, result: int) -> None:
+        if not self.file:
+            return
+        fields = {k: v for k, v in vars(msg).items() if not k.startswith('_')}
+        self.file.write(json.dumps({'host_s': now + self.offset, 'command': msg.TYPE.name,
+                                    'result': result, **fields}) + '\n')
 
     def close(self) -> None:
         if self.file:
@@ -127,9 +156,11 @@ def run(args: argparse.Namespace) -> int:
     config = McuConfig(telemetry_hz=args.telemetry_hz, power_hz=args.power_hz,
                        watchdog_s=args.watchdog, winch_deadman_s=args.winch_deadman,
                        clock_start_ms=args.clock_start_ms)
+    commands = _CommandLog(args.command_log, wall_minus_mono)
     try:
         mcu = _make_mcu(args, ground, config, start,
-                        on_telemetry=lambda s, t, tel: pending_tel.append((s, t, tel)))
+                        on_telemetry=lambda s, t, tel: pending_tel.append((s, t, tel)),
+                        on_command=commands.command)
     except FirmwareLinkError:
         link.close()
         link.remove_links()
@@ -148,11 +179,16 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         emit(mcu.notice(start), start)
-        while not stop.is_set():
+        stop_at: float | None = None
+        while True:
             now = time.monotonic()
             t = now - start
             if args.duration and t >= args.duration:
                 break
+            if stop.is_set():
+                stop_at = now + max(0.0, args.linger) if stop_at is None else stop_at
+                if now >= stop_at:
+                    break
             # Scheduled faults.
             if (args.disconnect_at is not None and reconnect_at is None and link.master is not None
                     and t >= args.disconnect_at):
@@ -207,6 +243,7 @@ def run(args: argparse.Namespace) -> int:
         link.close()
         link.remove_links()
         recorder.close()
+        commands.close()
         mcu.close()
     report = {'mcu': args.mcu, 'faults': dict(faults.counts), 'resets': mcu.resets,
               'rx_crc_errors': mcu.rx_crc_errors}
@@ -217,15 +254,16 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _make_mcu(args: argparse.Namespace, ground, config: McuConfig, start: float,
-              on_telemetry) -> SimMcu | FirmwareMcu:
-    """The Python reference MCU, or the compiled firmware driving the plant."""
+              on_telemetry, on_command=None) -> SimMcu | FirmwareMcu:
+    """The Python reference MCU, or the compiled firmware driving the plant (which handles
+    the host's commands itself: no command log)."""
     if args.mcu == 'firmware':
         return FirmwareMcu(robot_factory=lambda: PlantRobot(
             ground=ground, winch=MotorWinch(sled_mass=args.sled_mass)),
             config=config, on_telemetry=on_telemetry, now=start, binary=args.firmware)
     return SimMcu(robot_factory=lambda: SimRobot(ground=ground,
                                                  winch=WinchSled(sled_mass=args.sled_mass)),
-                  config=config, on_telemetry=on_telemetry, now=start)
+                  config=config, on_telemetry=on_telemetry, now=start, on_command=on_command)
 
 
 def _ground(args: argparse.Namespace):
@@ -248,13 +286,23 @@ def _split(data: bytes) -> list[bytes]:
     return parts
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The simulator's options from argv (default sys.argv[1:]), ROS arguments stripped."""
+    return build_parser().parse_args(program_args(argv, 'minirquad_sim'))
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    """Run the simulator; as the program (argv None) the process ends right after the pty is
+    closed (node_main.finish: no slow native teardown)."""
+    args = parse_args(argv)
     try:
-        return run(args)
+        code = run(args)
     except (LinkPathError, FirmwareLinkError) as exc:
         print(f'minirquad_sim: error: {exc}', file=sys.stderr)
-        return 2
+        code = 2
+    if argv is None:
+        finish(code)
+    return code
 
 
 if __name__ == '__main__':

@@ -45,16 +45,19 @@ class McuConfig:
 
 class SimMcu:
     """Frames in, frames out. ``on_telemetry(seq, t_ms, Telemetry)`` is called for every
-    telemetry frame built (before any fault injection), for test records."""
+    telemetry frame built (before any fault injection), ``on_command(now, message, result)``
+    for every host command handled (not heartbeats or retries), for test records."""
 
     def __init__(self, robot_factory: Callable[[], SimRobot] = SimRobot,
                  config: McuConfig | None = None,
                  on_telemetry: Callable[[int, int, m.Telemetry], None] | None = None,
-                 now: float = 0.0):
+                 now: float = 0.0,
+                 on_command: Callable[[float, object, int], None] | None = None):
         """``now``: the caller's clock (s) at power-on; all later times use the same clock."""
         self.robot_factory = robot_factory
         self.config = config or McuConfig()
         self.on_telemetry = on_telemetry
+        self.on_command = on_command
         self.resets = 0
         self._boot(now, self.config.clock_start_ms)
 
@@ -142,6 +145,8 @@ class SimMcu:
             robot.set_watchdog(False)
             self._watchdog_reported = False
         self._last_cmd = (key, result)
+        if self.on_command is not None:
+            self.on_command(now, msg, int(result))
         return self._answer(frame.seq, msg, result, now)
 
     def _answer(self, seq: int, msg, result: int, now: float) -> bytes:

@@ -1,9 +1,17 @@
 """The one `main()` shape of every rclpy executable of the stack (bridge_node, capacity_node,
-behavior_node, teleop): `--help`, start-up errors in one line, a spin loop that sees Ctrl-C and
-SIGTERM promptly, a best-effort safe stop, and a clean shutdown. Executables without a node
-(minirquad_sim, behavior_demo) stop the same way through `stop_on_signals`.
+behavior_node, teleop, state_publisher): `--help`, start-up errors in one line, a spin loop that
+sees Ctrl-C and SIGTERM promptly, a safe stop while ROS still works, and a clean shutdown.
+Executables without a node (minirquad_sim, behavior_demo) stop the same way through
+`stop_on_signals`, and take their own arguments through `program_args`, which strips the ROS
+arguments that `ros2 run` and launch_ros's Node action append (`--ros-args ... [--]`).
 
-Why spin_once with a timeout and not rclpy.spin: docs/design/ros2-from-pip.md#stopping-nodes.
+Signals: rclpy's own SIGINT/SIGTERM handler shuts the context down from the signal, while the
+executor may be building a wait set and another thread (the bridge's serial reader) may be
+publishing: both then fail with "context is not valid". So rclpy installs no handler here;
+the signal only sets an event, the spin loop ends at its next turn, the node's safe stop runs
+(the winch commanded to 0 while the link still works), the node is destroyed (its threads
+joined) and only then the context is shut down. Why spin_once with a timeout and not
+rclpy.spin: docs/design/ros2-from-pip.md#stopping-nodes.
 """
 from __future__ import annotations
 
@@ -21,9 +29,29 @@ HELP_FLAGS = ('-h', '--help')
 
 
 def user_args(argv: Sequence[str]) -> list[str]:
-    """The arguments before `--ros-args` (those are the program's own; the rest are ROS's)."""
+    """argv without its ROS arguments, by rcl's own parser (rclpy.utilities.remove_ros_args):
+    everything from `--ros-args` up to a closing `--` (or the end) is ROS's, the rest, before
+    and after, the program's. ValueError (one line) on ROS arguments rcl refuses (a params
+    file that does not exist or parse, a malformed remap)."""
     argv = list(argv)
-    return argv[:argv.index('--ros-args')] if '--ros-args' in argv else argv
+    if '--ros-args' not in argv:
+        return argv
+    from rclpy.utilities import remove_ros_args
+    try:
+        return list(remove_ros_args(argv))
+    except Exception as exc:  # noqa: BLE001 - rclpy raises its own RCLInvalidROSArgsError
+        raise ValueError(f'invalid ROS arguments: {one_line(exc)}') from None
+
+
+def program_args(argv: Sequence[str] | None, prog: str) -> list[str]:
+    """The program's own arguments for argparse: argv (default sys.argv[1:]) without the ROS
+    arguments `ros2 run` or launch_ros append. Invalid ROS arguments: one line on stderr and
+    SystemExit(2), as argparse does for its own."""
+    try:
+        return user_args(sys.argv[1:] if argv is None else argv)
+    except ValueError as exc:
+        print(f'{prog}: error: {exc}', file=sys.stderr)
+        raise SystemExit(2) from None
 
 
 def usage(executable: str, package: str, doc: str | None,
@@ -54,7 +82,11 @@ def stop_on_signals(event: threading.Event | None = None) -> threading.Event:
 
 
 def wants_help(argv: Sequence[str] | None) -> bool:
-    return any(a in HELP_FLAGS for a in user_args(sys.argv[1:] if argv is None else argv))
+    try:
+        own = user_args(sys.argv[1:] if argv is None else argv)
+    except ValueError:
+        return False          # rclpy.init reports the bad ROS arguments
+    return any(a in HELP_FLAGS for a in own)
 
 
 def run_node(make_node: Callable[[], Any], executable: str, *,
@@ -73,9 +105,15 @@ def run_node(make_node: Callable[[], Any], executable: str, *,
     import rclpy
     from rclpy.exceptions import ParameterException
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.signals import SignalHandlerOptions
 
-    with during_init():            # DDS on loopback (dds_loopback.py)
-        rclpy.init(args=args)
+    stop = stop_on_signals()       # before init: a signal never meets a half-built node
+    try:
+        with during_init():        # DDS on loopback (dds_loopback.py)
+            rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    except Exception as exc:  # noqa: BLE001 - rcl refuses the ROS arguments
+        print(f'{executable}: error: {one_line(exc)}', file=sys.stderr)
+        return 2
     try:
         node = make_node()
     except (ParameterException, *config_errors) as exc:
@@ -85,19 +123,21 @@ def run_node(make_node: Callable[[], Any], executable: str, *,
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
-        while rclpy.ok():
+        while rclpy.ok() and not stop.is_set():
             executor.spin_once(timeout_sec=spin_period_s)
             if tick is not None and not tick(node):
                 break
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        # The safe stop first, while the context and the node's publishers still work.
         if on_exit is not None:
             try:
                 on_exit(node)
-            except Exception:  # noqa: BLE001 - shutting down anyway
-                pass
+            except Exception as exc:  # noqa: BLE001 - shutting down anyway, but say so
+                print(f'{executable}: safe stop failed: {one_line(exc)}', file=sys.stderr)
         executor.remove_node(node)
-        node.destroy_node()
+        node.destroy_node()        # joins the node's own threads before the context goes
+        executor.shutdown(timeout_sec=0.5)
         rclpy.try_shutdown()
     return 0

@@ -54,6 +54,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile
 from rftgls_conventions import LEG_JOINT_NAMES, pitch_to_quat_xyzw
 from rftgls_core.maps import resolve_map
 from rftgls_node_base.dds_loopback import during_init
+from rftgls_node_base.node_main import program_args
 
 from .capacity.node_predictor import DEFAULT_MAP
 from .capacity_node import CapacityNode
@@ -356,7 +357,7 @@ def main(args=None) -> int:
                          'interpreter lock with the probe and the sender)')
     ap.add_argument('--n', type=int, default=1000, help='lock-step messages (default 1000)')
     ap.add_argument('--json', action='store_true', help='print JSON')
-    ns = ap.parse_args(args if args is not None else sys.argv[1:])
+    ns = ap.parse_args(program_args(args, ap.prog))
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     import rftgls_core  # src/rftgls_core/rftgls_core/__init__.py -> repository root
     profile = (Path(rftgls_core.__file__).resolve().parents[3] / 'ros2_ws' / 'params'

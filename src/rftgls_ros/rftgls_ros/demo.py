@@ -30,7 +30,7 @@ import threading
 import time
 from pathlib import Path
 
-from rftgls_node_base.node_main import stop_on_signals
+from rftgls_node_base.node_main import program_args, stop_on_signals
 
 from .behavior.report import read_csv, write_report
 
@@ -187,7 +187,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--timeout', type=float, default=75.0, help='per sled, s')
     p.add_argument('--allow-aborts', action='store_true',
                    help='exit 0 even if a tug was aborted (fault-injection runs)')
-    args = p.parse_args(argv)
+    args = p.parse_args(program_args(argv, p.prog))
 
     env = dict(os.environ)
     env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')

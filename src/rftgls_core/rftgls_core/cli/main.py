@@ -98,10 +98,26 @@ def _print_warnings(prefix: str, caught) -> None:
         print(f'{prefix}: warning: {one_line(w.message)}', file=sys.stderr)
 
 
+def without_ros_args(argv: list[str]) -> list[str]:
+    """argv without the ROS arguments `ros2 run rftgls_core rftgls ... --ros-args ...` appends:
+    from `--ros-args` up to a closing `--` or the end, the grammar rcl documents. The core
+    stays ROS-free, so this is the one place that does not ask rclpy's parser: it has no ROS
+    argument to apply, only to ignore."""
+    out, in_ros = [], False
+    for a in argv:
+        if a == '--ros-args':
+            in_ros = True
+        elif in_ros and a == '--':
+            in_ros = False
+        elif not in_ros:
+            out.append(a)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
+        args = parser.parse_args(without_ros_args(sys.argv[1:] if argv is None else argv))
     except SystemExit as exc:       # --help (0) and argparse errors (2, one line)
         return int(exc.code or 0) if not isinstance(exc.code, str) else EXIT_USAGE
     prefix = f'rftgls {args.command}'

@@ -28,6 +28,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from rftgls_node_base.node_main import program_args
+
 from . import planar
 from .bag_layout import (
     MARKERS,
@@ -231,7 +233,7 @@ def main(argv: list[str] | None = None) -> int:
     base.add_argument('--meta', help='PullTestMeta JSON for a new bag (see lab_README.md)')
     ap.add_argument('--out', required=True, help='output bag directory (must not exist)')
     ap.add_argument('--storage', choices=['mcap', 'sqlite3'], default='mcap')
-    args = ap.parse_args(argv)
+    args = ap.parse_args(program_args(argv, ap.prog))
     try:
         camera = CameraCalibration.load(args.camera)
         frames = (image_folder_frames(args.images, args.fps) if args.images

@@ -44,6 +44,7 @@ import numpy as np
 from rftgls_core.predictor import Predictor
 from rftgls_core.rft.media import Medium
 from rftgls_core.types import AnchorState
+from rftgls_node_base.node_main import program_args
 
 from .bag_layout import BagError, PullTest, read_pull_test
 from .evaluate import running_median
@@ -541,7 +542,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog='python -m rftgls_ros.lab.calibrate',
                                  description='fit (xi_n, mu_surf) with 95%% confidence intervals')
     add_arguments(ap)
-    args = ap.parse_args(argv)
+    args = ap.parse_args(program_args(argv, ap.prog))
     command = 'python -m rftgls_ros.lab.calibrate ' + shlex.join(
         sys.argv[1:] if argv is None else argv)
     try:

@@ -27,6 +27,7 @@ import numpy as np
 
 from rftgls_core.charts.figure_io import save
 from rftgls_core.predictor import Predictor
+from rftgls_node_base.node_main import program_args
 
 from .bag_layout import PullTest, read_pull_test
 from .predict import (
@@ -236,7 +237,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument('--max-travel', type=float, default=0.04, help='m')
     ap.add_argument('--integrator', choices=['euler', 'heun'], default='heun')
     ap.add_argument('--out-dir', default='lab_eval')
-    args = ap.parse_args(argv)
+    args = ap.parse_args(program_args(argv, ap.prog))
     try:
         anchor = load_anchor(args.anchor, args.anchor_state)
         tests = [read_pull_test(b) for b in args.bags]

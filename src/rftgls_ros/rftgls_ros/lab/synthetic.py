@@ -28,6 +28,7 @@ import numpy as np
 from rftgls_core.predictor import Predictor
 from rftgls_core.rft.media import Medium, custom_medium, get_medium
 from rftgls_core.types import AnchorState
+from rftgls_node_base.node_main import program_args
 
 from .bag_layout import PullTest, PullTestMeta, write_pull_test
 from .predict import add_anchor_arguments, load_anchor, make_predictor, surface_min_z
@@ -139,7 +140,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument('--seed', type=int, default=1)
     ap.add_argument('--storage', choices=['mcap', 'sqlite3'], default='mcap')
     add_anchor_arguments(ap)
-    args = ap.parse_args(argv)
+    args = ap.parse_args(program_args(argv, ap.prog))
     try:
         anchor = load_anchor(args.anchor, args.anchor_state)
     except ValueError as exc:

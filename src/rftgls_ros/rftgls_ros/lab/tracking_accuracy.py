@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rftgls_node_base.node_main import program_args
+
 from .aruco_tracking import ArucoTracker, TrackerConfig
 from .render import BenchScene, default_bench, render
 
@@ -70,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument('--noise', type=float, default=2.0, help='image noise sigma, grey levels')
     ap.add_argument('--blur', type=float, default=0.6, help='Gaussian blur sigma, px')
     ap.add_argument('--seed', type=int, default=1)
-    args = ap.parse_args(argv)
+    args = ap.parse_args(program_args(argv, ap.prog))
     res = measure(args.frames, args.noise, args.blur, args.seed, progress=True)
     s = res.summary()
     print(f"{s['tracked']}/{s['frames']} frames tracked "
