@@ -15,8 +15,8 @@ from rftgls_core.description import (
     load_description,
     shipped_description,
     state_values,
-    write_robot_description,
 )
+from rftgls_core.description_writer import write_robot_description
 from rftgls_core.geometry.shapes import ellipsoid
 from rftgls_core.geometry.stl import write_stl
 from rftgls_core.maps import CapacityMap, MapFileError, resolve_map

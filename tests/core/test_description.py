@@ -18,8 +18,8 @@ from rftgls_core.description import (
     load_description,
     shipped_description,
     state_values,
-    write_robot_description,
 )
+from rftgls_core.description_writer import write_robot_description
 from rftgls_core.posed import PosedAnchorSolver
 from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
@@ -41,7 +41,7 @@ def test_urdf_has_the_frames_of_a_tf_publisher(robot):
     root = ET.parse(DATA / f'{robot}.urdf').getroot()
     links = {el.get('name') for el in root.findall('link')}
     assert {'base_link', 'imu_link', 'winch_link'} <= links
-    hips = [j for j in root.findall('joint') if j.get('type') == 'revolute']
+    hips = [j for j in root.findall('joint') if j.get('type') == 'continuous']
     assert len(hips) == 4
     assert all(j.find('parent').get('link') == 'base_link' for j in hips)
     assert {j.find('child').get('link') for j in hips} == {
@@ -66,8 +66,8 @@ def test_urdf_parses_with_a_standard_library(robot):
         'base_link', 'imu_link', 'winch_link', 'left_proximal_leg', 'left_distal_leg',
         'right_proximal_leg', 'right_distal_leg'}
     joints = {j.name: j for j in urdf.joints}
-    hips = ('left_proximal_hip', 'left_distal_hip', 'right_proximal_hip', 'right_distal_hip')
-    assert {n for n, j in joints.items() if j.type == 'revolute'} == set(hips)
+    hips = ('leg_proximal_left', 'leg_distal_left', 'leg_proximal_right', 'leg_distal_right')
+    assert {n for n, j in joints.items() if j.type == 'continuous'} == set(hips)
     assert {joints[n].type for n in ('imu_link_joint', 'winch_link_joint')} == {'fixed'}
     assert all(joints[h].parent == 'base_link' and joints[h].axis == [0.0, -1.0, 0.0]
                for h in hips)
@@ -153,7 +153,7 @@ def broken(tmp_path):
                                                             'missing_mesh.urdf'))
     (tmp_path / 'no_range.yaml').write_text(yml.replace(
         '{name: theta_b, unit: deg, physical: [-90.0, 90.0],', '{name: theta_b, unit: deg,'))
-    (tmp_path / 'bad_joint.yaml').write_text(yml.replace('left_distal_hip, ', 'knee, '))
+    (tmp_path / 'bad_joint.yaml').write_text(yml.replace('leg_distal_left, ', 'knee, '))
     # One distal leg 1 mm further out than its mirror image: the claimed symmetry is false.
     (tmp_path / 'lopsided.urdf').write_text(urdf.replace('0.12 -0.055 0.01', '0.12 -0.056 0.01'))
     (tmp_path / 'lopsided.yaml').write_text(yml.replace('minirquad.urdf', 'lopsided.urdf'))

@@ -12,7 +12,8 @@ from tolerances import TWO_SOLVES_RTOL, TWO_SOLVES_TWIST_ATOL
 from minirquad_sim.ground import LiveGround, slip_per_m
 from minirquad_sim.main import build_parser
 from rftgls_core.cli.demo import ANCHOR_MODES
-from rftgls_core.description import shipped_description, write_robot_description
+from rftgls_core.description import shipped_description
+from rftgls_core.description_writer import write_robot_description
 from rftgls_core.predictor.live import DescriptionPredictor, RobotPredictor
 from rftgls_node_base.parameters import ConfigError
 from rftgls_ros.capacity.node_predictor import node_predictor

@@ -46,7 +46,7 @@ class Rig:
         self.probe.create_subscription(TFMessage, '/tf_static', self.static.append, LATCHED)
         self.probe.create_subscription(TFMessage, '/tf', self.tf.append, 100)
         self.js = self.probe.create_publisher(JointState, 'joint_states', 10)
-        self.imu = self.probe.create_publisher(Imu, 'imu', 10)
+        self.imu = self.probe.create_publisher(Imu, 'imu/data', 10)
         self.height = self.probe.create_publisher(Float64, 'winch/height', 10)
 
     def spin(self, seconds, until=None):

@@ -10,9 +10,11 @@ import math
 import numpy as np
 import pytest
 
+from rftgls_conventions import LEG_JOINT_NAMES
 from rftgls_core.description import load_description, shipped_description
 from rftgls_core.types import AnchorState
 from rftgls_ros.tf_tree import (
+    MOVING,
     TfTree,
     Transform,
     UrdfError,
@@ -24,7 +26,6 @@ from rftgls_ros.tf_tree import (
     quat_to_matrix,
     static_transforms,
     tree_from,
-    urdf_joint_name,
 )
 
 URDF = shipped_description('minirquad').with_suffix('.urdf')
@@ -119,12 +120,12 @@ def test_quaternion_round_trip_including_half_turns():
 
 
 def test_joint_state_names(joints):
-    assert urdf_joint_name('leg_proximal_left') == 'left_proximal_hip'
-    assert urdf_joint_name('leg_distal_right') == 'right_distal_hip'
-    assert urdf_joint_name('left_distal_hip') == 'left_distal_hip'
+    # The URDF's moving joints are the driver's JointState names (robot_state_publisher
+    # matches by name).
+    assert {j.name for j in joints if j.kind in MOVING} == set(LEG_JOINT_NAMES)
     # The winch rope is not in the URDF; a NaN position gives no transform, never a guess.
     ts = moving_transforms(joints, ['leg_proximal_left', 'winch_rope', 'leg_distal_left',
-                                    'right_proximal_hip'], [0.1, 0.2, float('nan'), 0.3])
+                                    'leg_proximal_right'], [0.1, 0.2, float('nan'), 0.3])
     assert [t.child for t in ts] == ['left_proximal_leg', 'right_proximal_leg']
 
 

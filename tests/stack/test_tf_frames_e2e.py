@@ -36,7 +36,7 @@ NODES = ('bridge_node', 'capacity_node', 'state_publisher')
 NON_SPATIAL = {'sensor_msgs/msg/JointState', 'sensor_msgs/msg/BatteryState',
                'diagnostic_msgs/msg/DiagnosticArray'}
 # What must be among the collected topics (a discovery that finds too little fails here).
-MUST = {'/joint_states', '/imu', '/winch/tension', '/tf', '/tf_static',
+MUST = {'/joint_states', '/imu/data', '/winch/tension', '/tf', '/tf_static',
         '/capacity_node/capacity', '/capacity_node/estimate', '/capacity_node/markers'}
 
 
@@ -182,7 +182,7 @@ def test_every_frame_id_resolves(tmp_path, spawn, ros_context):
     assert EXTRA_PARAMETERS['marker_frame_id'][0] == 'winch_link'
     assert '/capacity_node/capacity' in frames['anchor']
     assert '/capacity_node/markers' in frames['winch_link']
-    assert '/imu' in frames['imu_link'] and '/winch/tension' in frames['winch_link']
+    assert '/imu/data' in frames['imu_link'] and '/winch/tension' in frames['winch_link']
     # Every leg link is in the tree (from the bridge's joint states through the URDF).
     for leg in ('left_proximal_leg', 'left_distal_leg', 'right_proximal_leg',
                 'right_distal_leg'):

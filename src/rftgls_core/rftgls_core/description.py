@@ -14,12 +14,15 @@ Mesh scales in the URDF are applied in the link frame; a negative determinant (a
 reverses the winding so normals stay outward.
 
 The shipped descriptions (rftgls_core/data/<robot>.urdf and .yaml, leg mesh c_leg.stl) are
-written by `write_robot_description` from robots/presets.py, so `--anchor` and `--robot` give
-the same numbers (tests/core/test_description.py).
+written by `description_writer.write_robot_description` from robots/presets.py, so `--anchor`
+and `--robot` give the same numbers (tests/core/test_description.py). Mesh file names may be
+relative to the URDF, `file://` paths or `package://PKG/...` URIs (resolved through
+AMENT_PREFIX_PATH, as ROS tools do, without importing ROS).
 """
 from __future__ import annotations
 
 import math
+import os
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from .geometry.mesh import Facets, TriMesh
-from .geometry.stl import MeshError, read_stl, write_stl
+from .geometry.stl import MeshError, read_stl
 from .geometry.transforms import parse_vector, rot_y, rpy_matrix
 from .posed import PosedAnchor
 from .types import AnchorState, Pull
@@ -67,6 +70,22 @@ def _transform(origin) -> np.ndarray:
         t[:3, :3] = rpy_matrix(*_floats(origin.get('rpy'), (0, 0, 0), 'origin rpy'))
         t[:3, 3] = _floats(origin.get('xyz'), (0, 0, 0), 'origin xyz')
     return t
+
+
+def mesh_path(urdf: Path, filename: str) -> Path:
+    """The file a URDF mesh `filename` names: relative to the URDF's folder, an absolute or
+    `file://` path, or `package://PKG/REST` = <prefix>/share/PKG/REST for the first prefix on
+    AMENT_PREFIX_PATH that has it (DescriptionError when none does)."""
+    if filename.startswith('package://'):
+        pkg, _, rest = filename[len('package://'):].partition('/')
+        for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+            candidate = Path(prefix) / 'share' / pkg / rest
+            if prefix and candidate.is_file():
+                return candidate
+        raise DescriptionError(f'{urdf}: mesh {filename}: package {pkg!r} is not on '
+                               'AMENT_PREFIX_PATH (source the workspace)')
+    name = filename[len('file://'):] if filename.startswith('file://') else filename
+    return Path(name) if Path(name).is_absolute() else urdf.parent / name
 
 
 def urdf_bytes(path: str | Path) -> bytes:
@@ -112,8 +131,7 @@ def read_urdf(path: str | Path) -> tuple[dict[str, Link], list[Joint]]:
             coll = el.find('collision') if el.find('collision/geometry/mesh') is not None \
                 else el.find('visual')
             t = _transform(coll.find('origin') if coll is not None else None)
-            fname = (geo.get('filename') or '').replace('file://', '')
-            file = (path.parent / fname) if not Path(fname).is_absolute() else Path(fname)
+            file = mesh_path(path, geo.get('filename') or '')
             try:
                 m = read_stl(file, units='m')
             except (MeshError, OSError) as exc:
@@ -219,17 +237,17 @@ class AnchorDescription:
             return float(np.min(self.surface_points @ base[:3, :3].T[:, 2] + base[2, 3]))
         return float(self.pose(values).ref[2])
 
-    def pose(self, values: dict[str, float], pull: Pull | str = Pull.BACKWARD) -> PosedAnchor:
-        """The posed description for state values (SI, by name) and a pull orientation."""
-        missing = [n for n in self.state_names if n not in values]
-        if missing:
-            raise ValueError(f'{self.source}: state variables without a value: '
-                             f'{", ".join(missing)}')
-        pull = Pull(pull)
+    def link_poses(self, values: dict[str, float],
+                   joints: dict[str, float] | None = None) -> dict[str, np.ndarray]:
+        """(4, 4) world pose of every link for state values (SI, by name): base_link from
+        base_pose, each joint origin then rotation about its axis (translation along it for
+        prismatic) by its value. The state variables drive their joints; `joints` (joint name
+        -> rad or m) sets joints one by one on top (e.g. four measured leg angles)."""
         q: dict[str, float] = {}
         for v in self.state:
             for j in v.joints:
                 q[j] = values[v.name]
+        q.update(joints or {})
         world = {'base_link': self.base_pose(values)}
         pending = list(self.joints)
         while pending:
@@ -251,6 +269,16 @@ class AnchorDescription:
             if not progressed:
                 raise ValueError(f'{self.source}: joints not connected to base_link: '
                                  f'{", ".join(j.name for j in pending)}')
+        return world
+
+    def pose(self, values: dict[str, float], pull: Pull | str = Pull.BACKWARD) -> PosedAnchor:
+        """The posed description for state values (SI, by name) and a pull orientation."""
+        missing = [n for n in self.state_names if n not in values]
+        if missing:
+            raise ValueError(f'{self.source}: state variables without a value: '
+                             f'{", ".join(missing)}')
+        pull = Pull(pull)
+        world = self.link_poses(values)
         parts, mass, moment = [], 0.0, np.zeros(3)
         scale = self.pull_scale.get(pull.value, np.ones(3))
         for link in self.links.values():
@@ -362,8 +390,7 @@ def description_sha256(path: str | Path) -> str:
         root = ET.fromstring(xml)
         seen: list[Path] = []
         for el in root.iter('mesh'):
-            fname = (el.get('filename') or '').replace('file://', '')
-            file = (urdf.parent / fname) if not Path(fname).is_absolute() else Path(fname)
+            file = mesh_path(urdf, el.get('filename') or '')
             if file not in seen:
                 seen.append(file)
                 feed(file.read_bytes())
@@ -452,100 +479,3 @@ def parse_state_map(text: str) -> dict[str, str] | None:
                                    f'{item.strip()!r}')
         out[name] = q
     return out
-
-
-# ----------------------------------------------------------------- writing the shipped ones
-# Default map ranges (start, stop, count; m and deg), those of maps/grid.py's default grids.
-MAP_RANGES = {
-    'prototype': {'h': (0.005, 0.030, 6), 'theta_b': (-20, 20, 5), 'theta_l1': (-40, 40, 5),
-                  'theta_l2': (-40, 40, 5)},
-    'minirquad': {'h': (0.025, 0.055, 7), 'theta_b': (-5, 15, 5), 'theta_l1': (-60, 0, 4),
-                  'theta_l2': (-20, 40, 7)},
-}
-LEGS = (('left_proximal', 0, +1), ('left_distal', 1, +1), ('right_proximal', 0, -1),
-        ('right_distal', 1, -1))
-
-
-def write_robot_description(name: str, folder: str | Path) -> Path:
-    """Write <name>.urdf, <name>.yaml and the leg mesh (ASCII STL, full precision) for a robot
-    preset into folder; returns the YAML path. Frames: base_link = body frame B (origin at the
-    winch point p), one link per leg on its hip joint (axis -y_B, so the joint value is the
-    paper's leg angle), imu_link (fixed, at the body's centre) and winch_link (fixed, at p)."""
-    from .robots.presets import get_robot
-    robot = get_robot(name)
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    leg_file = 'c_leg.stl'
-    write_stl(folder / leg_file, robot.leg_mesh, units='m', ascii=True, name='c_leg')
-    r = repr
-
-    def origin(x, y, z):
-        return f'<origin xyz="{r(x)} {r(y)} {r(z)}" rpy="0 0 0"/>'
-    lines = ['<?xml version="1.0"?>',
-             f'<!-- {name}: written by rftgls_core.description.write_robot_description from '
-             'robots/presets.py; the numbers the paper does not give are assumptions there -->',
-             f'<robot name="{name}">',
-             '  <link name="base_link">',
-             f'    <inertial>{origin(robot.com[0], 0.0, robot.com[1])}'
-             f'<mass value="{r(robot.mass)}"/>'
-             '<inertia ixx="1e-4" ixy="0" ixz="0" iyy="1e-4" iyz="0" izz="1e-4"/></inertial>',
-             '  </link>']
-    for leg, axle, side in LEGS:
-        scale = '1 1 1' if side > 0 else '1 -1 1'
-        lines += [f'  <link name="{leg}_leg">',
-                  f'    <visual><geometry><mesh filename="{leg_file}" scale="{scale}"/>'
-                  '</geometry></visual>',
-                  f'    <collision><geometry><mesh filename="{leg_file}" scale="{scale}"/>'
-                  '</geometry></collision>',
-                  '  </link>',
-                  f'  <joint name="{leg}_hip" type="revolute">',
-                  '    <parent link="base_link"/>',
-                  f'    <child link="{leg}_leg"/>',
-                  f'    {origin(robot.axle_x[axle], side * robot.leg_y[axle], robot.axle_z)}',
-                  '    <axis xyz="0 -1 0"/>',
-                  f'    <limit lower="{r(-math.pi)}" upper="{r(math.pi)}" effort="1" '
-                  'velocity="10"/>',
-                  '  </joint>']
-    for link, xyz in (('imu_link', (0.5 * sum(robot.axle_x), 0.0, robot.axle_z)),
-                      ('winch_link', (0.0, 0.0, 0.0))):
-        lines += [f'  <link name="{link}"/>',
-                  f'  <joint name="{link}_joint" type="fixed">',
-                  '    <parent link="base_link"/>',
-                  f'    <child link="{link}"/>',
-                  f'    {origin(*xyz)}',
-                  '  </joint>']
-    lines.append('</robot>')
-    (folder / f'{name}.urdf').write_text('\n'.join(lines) + '\n')
-    sr = robot.state_range
-    deg = 180.0 / math.pi
-    mr = MAP_RANGES[name]
-
-    def rng(lo, hi):
-        return f'[{r(lo)}, {r(hi)}]'
-    yaml_text = f"""# Anchor description of {name} (docs/design/six-d.md, "Anchor descriptions").
-# Written by rftgls_core.description.write_robot_description; the URDF holds links, meshes,
-# joints and inertials, this file what URDF has no place for.
-name: {name}
-urdf: {name}.urdf
-tether_link: winch_link
-char_length_m: {r(robot.char_length)}
-medium: {'glass_beads' if name == 'prototype' else 'm90_sand'}
-symmetry: sagittal    # claimed mirror symmetry about x-z of base_link: checked at every pose
-base_pose:            # base_link origin at height h, turned by rot_y(-theta_b)
-  height: h
-  pitch: theta_b
-surface_points:       # the body plate's ends in base_link, m: a slip stops when one reaches z = 0
-  - [0.0, 0.0, 0.0]
-  - [{r(robot.plate_length)}, 0.0, 0.0]
-pull_scale:           # the paper's C-leg orientation (types.Pull), in the leg frames
-  forward: [1.0, 1.0, 1.0]
-  backward: [-1.0, 1.0, 1.0]
-  links: [{', '.join(f'{leg}_leg' for leg, _, _ in LEGS)}]
-state:                # physical: the range a pose can be in; map: start, stop, count
-  - {{name: h, unit: m, physical: {rng(*sr.h)}, map: {list(mr['h'])}}}
-  - {{name: theta_b, unit: deg, physical: {rng(sr.theta_b[0] * deg, sr.theta_b[1] * deg)}, map: {list(mr['theta_b'])}}}
-  - {{name: theta_l1, unit: deg, joints: [left_proximal_hip, right_proximal_hip], physical: {rng(sr.theta_leg[0] * deg, sr.theta_leg[1] * deg)}, map: {list(mr['theta_l1'])}}}
-  - {{name: theta_l2, unit: deg, joints: [left_distal_hip, right_distal_hip], physical: {rng(sr.theta_leg[0] * deg, sr.theta_leg[1] * deg)}, map: {list(mr['theta_l2'])}}}
-"""  # noqa: E501
-    (folder / f'{name}.yaml').write_text(yaml_text)
-    return folder / f'{name}.yaml'

@@ -106,7 +106,7 @@ class Rig:
                 Parameter(k, value=v) for k, v in params.items()])
         self.probe = rclpy.create_node('capacity_bench_probe', context=context)
         self.pub_joints = self.probe.create_publisher(JointState, '/joint_states', 100)
-        self.pub_imu = self.probe.create_publisher(Imu, '/imu', 10)
+        self.pub_imu = self.probe.create_publisher(Imu, '/imu/data', 10)
         self.pub_tension = self.probe.create_publisher(WrenchStamped, '/winch/tension', 10)
         self.pub_height = self.probe.create_publisher(Float64, '/winch/height', 10)
         self.pub_phi = self.probe.create_publisher(Float64, '/winch/phi', 10)

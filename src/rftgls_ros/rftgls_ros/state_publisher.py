@@ -46,7 +46,7 @@ PARAMETERS = {
     'odom_frame': ('odom', 'world frame: x, y of p not observed (0), z = 0 on the free surface'),
     'anchor_frame': ('anchor', "world-aligned frame at p (capacity_node's frame_id); '' = none"),
     'joint_states_topic': ('joint_states', 'sensor_msgs/JointState topic'),
-    'imu_topic': ('imu', 'sensor_msgs/Imu topic (orientation -> body pitch)'),
+    'imu_topic': ('imu/data', 'sensor_msgs/Imu topic (REP-145; orientation -> body pitch)'),
     'pitch_topic': ('', "std_msgs/Float64 body pitch in rad; replaces the IMU if set"),
     'height_topic': ('winch/height', "std_msgs/Float64 height of p in m; '' = height_m only"),
     'height_m': (0.03, 'height of p above the free surface until a height sample'),

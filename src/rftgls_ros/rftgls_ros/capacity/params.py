@@ -59,7 +59,7 @@ PARAMETERS: dict[str, Param] = {
     'pull': Param('backward', "C-leg orientation to the pull: 'forward' or 'backward'"),
     # input topics (relative names: namespaces and remapping apply)
     'joint_states_topic': Param('joint_states', 'sensor_msgs/JointState topic'),
-    'imu_topic': Param('imu', 'sensor_msgs/Imu topic (orientation -> theta_B)'),
+    'imu_topic': Param('imu/data', 'sensor_msgs/Imu topic (REP-145; orientation -> theta_B)'),
     'pitch_topic': Param('', "std_msgs/Float64 theta_B in rad; replaces the IMU if set"),
     'tension_topic': Param('winch/tension', 'geometry_msgs/WrenchStamped tension topic'),
     'tension_component': Param('x', "signed tension: load cell axis 'x', 'y', 'z', or "

@@ -182,6 +182,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument('--skip-images', action='store_true')
     ap.add_argument('--wait-subscribers', type=float, default=1.0,
                     help='s to wait for discovery before the first message')
+    ap.add_argument('--no-description', action='store_true',
+                    help='publish no /robot_description (another node does, e.g. '
+                         'state_publisher in replay.launch.py)')
     add_anchor_arguments(ap)
     return ap
 
@@ -195,7 +198,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     try:   # before ROS starts: a bad description or bag is one line, exit 2
-        desc = bag_description(args.bag, args.anchor, args.anchor_state)
+        desc = None if args.no_description else bag_description(args.bag, args.anchor,
+                                                                args.anchor_state)
     except ValueError as exc:   # BagError is one
         print(f'replay: error: {" ".join(str(exc).split())}', file=sys.stderr)
         return 2
