@@ -174,7 +174,8 @@ def _run_dask(spec, grid, chunks, address: str, timeout_s: float,
         from dask.distributed import Client
         from dask.distributed import as_completed as dask_completed
     except ImportError as exc:  # pragma: no cover - dask is in the venv
-        raise ValueError(f'--scheduler needs dask[distributed]: {exc}') from None
+        raise ValueError(f'--scheduler needs the optional dask[distributed] (pip install '
+                         f'"dask[distributed]"): {exc}') from None
     try:
         client = Client(address, timeout=timeout_s, set_as_default=False)
     except (OSError, TimeoutError) as exc:
