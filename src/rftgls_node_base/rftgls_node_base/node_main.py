@@ -15,11 +15,13 @@ rclpy.spin: docs/design/ros2-from-pip.md#stopping-nodes.
 """
 from __future__ import annotations
 
+import ctypes
+import os
 import signal
 import sys
 import threading
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from typing import Any, NoReturn
 
 from rftgls_conventions import one_line
 
@@ -89,19 +91,48 @@ def wants_help(argv: Sequence[str] | None) -> bool:
     return any(a in HELP_FLAGS for a in own)
 
 
+def finish(code: int) -> NoReturn:
+    """End the process now with `code`, after flushing Python's and C's stdio buffers (rcutils
+    logs through C stdio). Called once the node is destroyed and the context shut down: what
+    is left is the interpreter's teardown of native libraries (numba's thread pool, Fast DDS's
+    static objects), measured at 0.4-1.4 s per node on 2 idle cores, which alone would spend
+    most of the 2 s a launch shutdown should take."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    try:
+        ctypes.CDLL(None).fflush(None)
+    except (OSError, AttributeError):
+        pass
+    os._exit(code)
+
+
 def run_node(make_node: Callable[[], Any], executable: str, *,
              config_errors: tuple[type[BaseException], ...] = (),
              tick: Callable[[Any], bool] | None = None,
              on_exit: Callable[[Any], None] | None = None,
-             spin_period_s: float = 0.1, args: Sequence[str] | None = None) -> int:
+             spin_period_s: float = 0.1, args: Sequence[str] | None = None,
+             exit_process: bool | None = None) -> int:
     """rclpy.init, build the node, spin until shutdown; returns the exit code.
 
     make_node: builds the node (after rclpy.init); an exception of `config_errors` (or
         rclpy's ParameterException) is a user error: one line on stderr, exit code 2.
     tick(node): called after every spin_once; return False to stop (e.g. the run is done).
     on_exit(node): the safe stop (winch 0, a report), run once on the way out, even after
-        Ctrl-C; its errors are ignored (the context may already be gone).
+        Ctrl-C, while ROS still works; an error there is one line on stderr.
+    exit_process: end the process with the code right after the clean shutdown (`finish`)
+        instead of returning it; default: when running as the program (args is None).
     """
+    code = _run_node(make_node, executable, config_errors, tick, on_exit, spin_period_s, args)
+    if exit_process if exit_process is not None else args is None:
+        finish(code)
+    return code
+
+
+def _run_node(make_node, executable, config_errors, tick, on_exit, spin_period_s,
+              args) -> int:
     import rclpy
     from rclpy.exceptions import ParameterException
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
