@@ -127,8 +127,21 @@ def run_node(make_node: Callable[[], Any], executable: str, *,
     """
     code = _run_node(make_node, executable, config_errors, tick, on_exit, spin_period_s, args)
     if exit_process if exit_process is not None else args is None:
+        release_ros()
         finish(code)
     return code
+
+
+def release_ros() -> None:
+    """Finalise rclpy's default context (after its nodes are destroyed and it is shut down):
+    this deletes the process's DDS participant, which tells its peers at once that the nodes
+    are gone. `finish` skips the interpreter's teardown that would otherwise do it; without
+    this the nodes would linger in every other process's graph until the DDS lease ran out."""
+    import gc
+
+    import rclpy
+    gc.collect()        # nodes are reference cycles: their handles go with them, then the
+    rclpy.get_default_context().destroy()   # context can go (it waits for its last user)
 
 
 def _run_node(make_node, executable, config_errors, tick, on_exit, spin_period_s,

@@ -36,7 +36,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
 from rftgls_node_base.dds_loopback import during_init
-from rftgls_node_base.node_main import finish, program_args, stop_on_signals
+from rftgls_node_base.node_main import finish, program_args, release_ros, stop_on_signals
 
 from .bag_layout import KNOWN_TYPES, BagError, guard_bag_read
 from .predict import add_anchor_arguments
@@ -198,6 +198,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> int:
     code = _main(argv)
     if argv is None:       # as the program: end now (node_main.finish)
+        release_ros()
         finish(code)
     return code
 
