@@ -41,7 +41,7 @@ from .bag_layout import (
     read_pull_test,
     write_pull_test,
 )
-from .render import aruco_dictionary, object_corners
+from .render import aruco_dictionary, object_corners, require_aruco
 
 
 @dataclass(frozen=True)
@@ -76,6 +76,7 @@ class ArucoTracker:
                  config: TrackerConfig = TrackerConfig()):
         self.camera = camera
         self.markers = markers
+        require_aruco()           # one clear line on an OpenCV without the detector API
         params = cv2.aruco.DetectorParameters()
         params.cornerRefinementMethod = getattr(cv2.aruco,
                                                 f'CORNER_REFINE_{config.corner_refinement}')
