@@ -154,7 +154,8 @@ def run_set(args, sled: float, env: dict, out: Path, params: Path | None) -> Pat
         if params:
             beh += ['--params-file', str(params)]
         beh += ['-p', f'sled_mass_kg:={sled}', '-p', f'cycles:={args.cycles}',
-                '-p', f'report_dir:={out / tag}', '-p', 'exit_when_done:=true']
+                '-p', f'report_dir:={out / tag}', '-p', 'exit_when_done:=true',
+                '-r', 'imu:=imu/data']          # REP-145's topic, as bringup.launch.py
         for kv in args.param or []:
             beh += ['-p', kv]
         print(f'\n=== {1e3 * sled:.0f} g sled: {args.cycles} walk-burrow-tug cycles '

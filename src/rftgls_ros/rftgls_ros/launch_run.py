@@ -134,6 +134,8 @@ def main(argv_: list[str] | None = None) -> int:
             if code != 0 and n not in dict(early)]
     for line in bad:
         print(f'launch_run: {line}', file=sys.stderr)
+    print('launch_run: stopped ' + ', '.join(f'{n} (exit {code}, {t:.2f} s)'
+                                             for n, (code, t) in result.items()))
     print(f'launch_run: logs in {launch.log_dir}')
     return 1 if bad else 0
 
