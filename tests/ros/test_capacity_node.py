@@ -323,7 +323,7 @@ def test_topics_are_relative_so_namespaces_apply(ros_context):
             'capacity_node', '/robot2')}
     finally:
         node.destroy_node()
-    assert {'/robot2/joint_states', '/robot2/imu', '/robot2/winch/tension',
+    assert {'/robot2/joint_states', '/robot2/imu/data', '/robot2/winch/tension',
             '/robot2/winch/height'} <= subs
     assert {'/robot2/capacity_node/capacity', '/robot2/capacity_node/status',
             '/diagnostics'} <= pubs

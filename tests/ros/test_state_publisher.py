@@ -132,7 +132,7 @@ def test_urdf_text_and_frame_prefix(rig):
 @pytest.mark.parametrize('params, words', [
     ({'robot_description': '<robot><joint name="j" type="hinge"><parent link="a"/>'
       '<child link="b"/></joint></robot>'}, 'unknown type'),
-    ({'robot': 'walker'}, 'no shipped URDF'),
+    ({'robot': 'walker'}, 'no URDF in minirquad_description'),
 ])
 def test_bad_description_is_a_config_error(ros_context, params, words):
     with pytest.raises(ConfigError, match=words):

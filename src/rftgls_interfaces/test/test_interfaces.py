@@ -18,7 +18,7 @@ def test_messages_and_constants():
         AnchorEstimate.get_fields_and_field_types())
     assert WinchCommand.get_fields_and_field_types() == {'header': 'std_msgs/Header',
                                                          'speed_mps': 'double'}
-    # The serial protocol's BURROW mode byte (minirquad_driver PROTOCOL.md: 0 UNBURROW,
+    # The serial protocol's BURROW mode byte (src/minirquad_driver/PROTOCOL.md: 0 UNBURROW,
     # 1 DH, 2 DL, 3 SH) and the named gaits.
     assert (BurrowCommand.UNBURROW, BurrowCommand.DH, BurrowCommand.DL,
             BurrowCommand.SH) == (0, 1, 2, 3)
