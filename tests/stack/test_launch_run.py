@@ -86,6 +86,13 @@ def logs(launch: Launch) -> dict[str, str]:
     return {r.name: r.log.read_text()[-1500:] for r in launch.running}
 
 
+def winch_after(log: Path, t: float) -> list[dict]:
+    """The WINCH commands the simulated MCU handled from host time t on (a command in flight
+    at t may be handled just before it: 10 ms of slack)."""
+    cmds = [json.loads(x) for x in log.read_text().splitlines() if x.strip()]
+    return [c for c in cmds if c['command'] == 'WINCH' and c['host_s'] >= t - 0.01]
+
+
 def stop_cleanly(launch: Launch) -> dict[str, tuple[int, float]]:
     result = launch.shutdown()
     text = logs(launch)
@@ -118,17 +125,26 @@ def test_launch_file_runs_and_stops_like_ros2_launch(name, tmp_path, ros_context
         t_sigint = time.time()
         result = stop_cleanly(launch)
         print(name, {n: f'{t:.2f} s' for n, (_, t) in result.items()})
-        if name == 'sim.launch.py':
-            cmds = [json.loads(x) for x in log.read_text().splitlines() if x.strip()]
-            stops = [c for c in cmds if c['command'] == 'WINCH' and c['host_s'] >= t_sigint]
-            assert stops and all(c['speed'] == 0.0 for c in stops), cmds[-5:]
+        if name == 'sim.launch.py':      # the MCU's last winch command is the stop
+            assert probe.spin(15.0, lambda: any(c['speed'] == 0.0 for c in winch_after(
+                log, t_sigint))), winch_after(log, t_sigint)
+            assert winch_after(log, t_sigint)[-1]['speed'] == 0.0, winch_after(log, t_sigint)
     finally:
         if launch is not None and any(r.popen.poll() is None for r in launch.running):
             launch.shutdown(1.0, 1.0)
         probe.close()
 
 
-REPEATS = int(os.environ.get("REPEATS", 20))
+REPEATS = int(os.environ.get('REPEATS', 20))
+# What each node logs once it is spinning (the graph cannot tell a new node from the previous
+# one of the same name: a participant whose goodbye is lost stays for the DDS lease, 20 s).
+STARTED = {'bridge_node': 'active: streaming', 'capacity_node': 'predictor ',
+           'state_publisher': 'URDF joints', 'behavior_node': 'tugs only on'}
+
+
+def started(launch: Launch) -> bool:
+    text = {r.name: r.log.read_text() for r in launch.running}
+    return all(mark in text.get(name, '') for name, mark in STARTED.items())
 
 
 @pytest.mark.timeout(900)    # 20 stack start-ups: about 6 s each on 2 loaded cores
@@ -156,7 +172,6 @@ def test_sigint_stops_the_stack_cleanly_with_the_winch_stopped_first(tmp_path, r
     def reeling() -> bool:
         lines = record.read_text().splitlines()[-3:] if record.exists() else []
         return bool(lines) and all(json.loads(x)['spool_v'] > 0 for x in lines)
-    want = NODES['bringup.launch.py']
     t_start = time.monotonic()
     worst: dict[str, float] = {}
     launches: list[Launch] = []
@@ -166,8 +181,8 @@ def test_sigint_stops_the_stack_cleanly_with_the_winch_stopped_first(tmp_path, r
                             tmp_path / f'logs{rep}')
             launches.append(launch)
             launch.start()
-            ok = probe.spin(45.0, lambda: (want <= set(probe.node.get_node_names())  # noqa: B023
-                                           and reeling()) or bool(launch.exited()))  # noqa: B023
+            ok = probe.spin(45.0, lambda: (started(launch) and reeling())  # noqa: B023
+                            or bool(launch.exited()))  # noqa: B023
             if not ok or launch.exited():
                 launch.shutdown(1.0, 1.0)
                 pytest.fail(f'repeat {rep}: not up: {launch.exited()} {logs(launch)}')
@@ -178,10 +193,8 @@ def test_sigint_stops_the_stack_cleanly_with_the_winch_stopped_first(tmp_path, r
             # The MCU may run behind under load: wait for it to handle what the bridge wrote
             # before it closed the port (after that, nothing more can reach the MCU).
             def stops():
-                cmds = [json.loads(x) for x in log.read_text().splitlines() if x.strip()]
-                return [c for c in cmds if c['command'] == 'WINCH'
-                        and c['host_s'] >= t_sigint - 0.01]        # noqa: B023
-            assert probe.spin(5.0, lambda: any(c['speed'] == 0.0 for c in stops())), \
+                return winch_after(log, t_sigint)                   # noqa: B023
+            assert probe.spin(15.0, lambda: any(c["speed"] == 0.0 for c in stops())), \
                 (rep, stops())
             assert stops()[-1]['speed'] == 0.0, (rep, stops())
             t_stop = min(c['host_s'] for c in stops() if c['speed'] == 0.0)
@@ -190,11 +203,8 @@ def test_sigint_stops_the_stack_cleanly_with_the_winch_stopped_first(tmp_path, r
             def since_stop():
                 return [r for r in map(json.loads, record.read_text().splitlines()[-200:])
                         if r['host_s'] is not None and r['host_s'] > t_stop + 0.005]  # noqa: B023
-            assert probe.spin(5.0, lambda: len(since_stop()) >= 5), rep
+            assert probe.spin(15.0, lambda: len(since_stop()) >= 5), rep   # (stalls seen: 4.8 s)
             assert all(r['spool_v'] == 0 for r in since_stop()), (rep, since_stop()[:3])
-            # The next nodes must be seen as themselves, not as these (the graph lags).
-            assert probe.spin(10.0, lambda: not want & set(probe.node.get_node_names())), \
-                (rep, want & set(probe.node.get_node_names()))
     finally:
         for launch in launches:       # any left running by a failure or a timeout
             if not all(r.popen.poll() is not None for r in launch.running):

@@ -7,7 +7,8 @@ resolver (rftgls_ros.tf_tree.TfTree) that every frame_id found reaches one root,
 through the transforms received on /tf and /tf_static.
 
 Empty frame_ids are allowed only on types that are not spatial (JointState: positions of
-named joints; BatteryState; DiagnosticArray): REP-103/tf2 give them no frame.
+named joints; BatteryState; DiagnosticArray; the driver's LinkState): REP-103/tf2 give them no
+frame.
 """
 from __future__ import annotations
 
@@ -34,7 +35,7 @@ pytestmark = pytest.mark.realtime
 REPO = Path(__file__).resolve().parents[2]
 NODES = ('bridge_node', 'capacity_node', 'state_publisher')
 NON_SPATIAL = {'sensor_msgs/msg/JointState', 'sensor_msgs/msg/BatteryState',
-               'diagnostic_msgs/msg/DiagnosticArray'}
+               'diagnostic_msgs/msg/DiagnosticArray', 'rftgls_interfaces/msg/LinkState'}
 # What must be among the collected topics (a discovery that finds too little fails here).
 MUST = {'/joint_states', '/imu/data', '/winch/tension', '/tf', '/tf_static',
         '/capacity_node/capacity', '/capacity_node/estimate', '/capacity_node/markers'}
