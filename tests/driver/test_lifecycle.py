@@ -85,8 +85,14 @@ def test_lifecycle_opens_streams_stops_and_closes(rig):
     assert rig.spin_until(lambda: node.core.last_telemetry is not None, 5.0)
     rig.ex.spin_once(timeout_sec=0.3)
     assert rig.joints == []                                     # inactive: nothing published
+    assert rig.spin_until(lambda: rig.winch.get_subscription_count() > 0, 5.0)
+    sent = node.core.counters.commands_sent
+    taken = []
+    node.create_subscription(WinchCommand, 'winch/command', taken.append, 10)
     rig.winch.publish(WinchCommand(speed_mps=0.02))             # ignored while inactive
-    rig.ex.spin_once(timeout_sec=0.2)
+    assert rig.spin_until(lambda: taken, 5.0)                   # the bridge has it...
+    rig.spin_until(lambda: False, 0.1)
+    assert node.core.counters.commands_sent == sent             # ...and sent nothing
     node.trigger_activate()
     assert rig.spin_until(lambda: len(rig.joints) >= 10, 5.0), 'activate starts streaming'
     rig.gait.publish(GaitCommand(gait=GaitCommand.WALK))
@@ -96,7 +102,8 @@ def test_lifecycle_opens_streams_stops_and_closes(rig):
                           >= {'SET_GAIT', 'BURROW', 'WINCH'}, 5.0), rig.commands()
     got = rig.commands()
     winch = [c for c in got if c['command'] == 'WINCH']
-    assert [c['speed'] for c in winch] == [0.02], 'the inactive-time command must not arrive'
+    # (a resend after a late ack under load may be executed again: 0.02 more than once)
+    assert winch and {c['speed'] for c in winch} == {0.02}
     assert [c['mode'] for c in got if c['command'] == 'BURROW'] == [m.BurrowMode.DH]
     assert [c['kind'] for c in got if c['command'] == 'SET_GAIT'] == [m.GaitKind.CLOCK]
     before = len(got)
