@@ -152,9 +152,9 @@ def test_sigint_stops_the_stack_cleanly_with_the_winch_stopped_first(tmp_path, r
                                                                     spawn, python_exe):
     """20 times: bringup.launch.py's nodes on one simulated robot (the MCU outlives its
     host, like a real one), the winch reeling in or out at 20 mm/s on a commander's
-    WinchCommand, then SIGINT to every node at once. Every node exits 0 within 2 s without a traceback,
-    and a winch stop (speed 0) reaches the MCU after the SIGINT (so the bridge sent it before
-    it closed the port) as the last winch command; the spool then stands still."""
+    WinchCommand, then SIGINT to every node at once. Every node exits 0 within 2 s without a
+    traceback, and a winch stop (speed 0) reaches the MCU after the SIGINT (so the bridge sent
+    it before it closed the port) as the last winch command; the spool then stands still."""
     from rftgls_interfaces.msg import WinchCommand
     tty, path_file = tmp_path / 'tty', tmp_path / 'tty.path'
     log, record = tmp_path / 'commands.jsonl', tmp_path / 'record.jsonl'
