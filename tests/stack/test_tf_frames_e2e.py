@@ -36,6 +36,8 @@ REPO = Path(__file__).resolve().parents[2]
 NODES = ('bridge_node', 'capacity_node', 'state_publisher')
 NON_SPATIAL = {'sensor_msgs/msg/JointState', 'sensor_msgs/msg/BatteryState',
                'diagnostic_msgs/msg/DiagnosticArray', 'rftgls_interfaces/msg/LinkState'}
+# Published once (and on change) as reliable + transient local: only such a subscriber gets them.
+LATCHED = ('/tf_static', '/minirquad/link')
 # What must be among the collected topics (a discovery that finds too little fails here).
 MUST = {'/joint_states', '/imu/data', '/winch/tension', '/tf', '/tf_static',
         '/capacity_node/capacity', '/capacity_node/estimate', '/capacity_node/markers'}
@@ -112,7 +114,7 @@ def collect(ros_context, nodes, must, log_text=lambda: ''):
                 if has_header(cls):
                     got[topic] = []
                     probe.create_subscription(
-                        cls, topic, got[topic].append, static if topic == '/tf_static'
+                        cls, topic, got[topic].append, static if topic in LATCHED
                         else any_qos)
 
     def complete():
