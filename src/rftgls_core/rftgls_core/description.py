@@ -26,6 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
+from rftgls_conventions.safe_read import load_yaml, parse_yaml, read_bytes
+from rftgls_conventions.safe_write import write_text
+
+from . import description_input as source
 from .geometry.mesh import Facets, TriMesh
 from .geometry.stl import MeshError, read_stl, write_stl
 from .geometry.transforms import parse_vector, rot_y, rpy_matrix
@@ -69,34 +73,24 @@ def _transform(origin) -> np.ndarray:
     return t
 
 
-def urdf_bytes(path: str | Path) -> bytes:
-    """The URDF XML of `path`: the file's bytes, or for a `*.xacro` file the document xacro
-    expands it to (the root element only: xacro's banner comment names the file, which would
-    make a copy elsewhere a different description)."""
-    path = Path(path)
-    if path.suffix != '.xacro':
-        try:
-            return path.read_bytes()
-        except OSError as exc:
-            raise DescriptionError(f'{path}: cannot read URDF ({exc})') from None
+def urdf_bytes(path: str | Path, roots: tuple[Path, ...] | None = None) -> bytes:
+    """The URDF XML of `path`, a `*.xacro` expanded in the sandbox, every file inside the
+    allow-list `roots` (description_input.py; default: the file's folder and the installed
+    packages). DescriptionError (one line) otherwise."""
     try:
-        import xacro
-    except ImportError:  # pragma: no cover - a dependency of rftgls_core
-        raise DescriptionError(f'{path}: expanding xacro needs the xacro package') from None
-    try:
-        doc = xacro.process_file(str(path))
-    except Exception as exc:  # noqa: BLE001 - xacro raises its own and parser errors
-        raise DescriptionError(f'{path}: xacro cannot expand it ({type(exc).__name__}: '
-                               f'{str(exc).strip() or "no message"})') from None
-    return doc.documentElement.toxml().encode('utf-8')
+        return source.urdf_bytes(path, roots)
+    except source.SourceError as exc:
+        raise DescriptionError(str(exc)) from None
 
 
-def read_urdf(path: str | Path) -> tuple[dict[str, Link], list[Joint]]:
+def read_urdf(path: str | Path, roots: tuple[Path, ...] | None = None
+              ) -> tuple[dict[str, Link], list[Joint]]:
     """Links (meshes loaded, in URDF order) and joints of a URDF file (or a `*.xacro` file,
-    expanded first)."""
+    expanded first); files only inside the allow-list `roots` (urdf_bytes)."""
     path = Path(path)
+    roots = source.allowed_roots(path.parent) if roots is None else roots
     try:
-        root = ET.fromstring(urdf_bytes(path))
+        root = ET.fromstring(urdf_bytes(path, roots))
     except ET.ParseError as exc:
         raise DescriptionError(f'{path}: cannot read URDF ({exc})') from None
     if root.tag != 'robot':
@@ -112,11 +106,9 @@ def read_urdf(path: str | Path) -> tuple[dict[str, Link], list[Joint]]:
             coll = el.find('collision') if el.find('collision/geometry/mesh') is not None \
                 else el.find('visual')
             t = _transform(coll.find('origin') if coll is not None else None)
-            fname = (geo.get('filename') or '').replace('file://', '')
-            file = (path.parent / fname) if not Path(fname).is_absolute() else Path(fname)
             try:
-                m = read_stl(file, units='m')
-            except (MeshError, OSError) as exc:
+                m = read_stl(source.mesh_path(geo.get('filename') or '', path, roots), units='m')
+            except (MeshError, OSError, source.SourceError) as exc:
                 raise DescriptionError(f'{path}: link {name!r}: {exc}') from None
             scale = _floats(geo.get('scale'), (1, 1, 1), f'link {name} mesh scale')
             m = TriMesh(m.vertices * scale, m.faces if np.prod(scale) > 0 else m.faces[:, ::-1])
@@ -187,7 +179,9 @@ class AnchorDescription:
     def urdf_text(self) -> str:
         """The URDF as read, xacro expanded (what a ROS `robot_description` carries); '' when
         unknown."""
-        return urdf_bytes(self.urdf_path).decode('utf-8') if self.urdf_path is not None else ''
+        if self.urdf_path is None:
+            return ''
+        return urdf_bytes(self.urdf_path, source.allowed_roots(self.source.parent)).decode()
 
     @property
     def state_names(self) -> tuple[str, ...]:
@@ -271,19 +265,14 @@ class AnchorDescription:
 
 def load_description(path: str | Path) -> AnchorDescription:
     """Read a description YAML (and the URDF it names); DescriptionError on bad input."""
-    import yaml
-
     path = Path(path)
+    roots = source.allowed_roots(path.parent)
     try:
-        doc = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise DescriptionError(f'{path}: cannot read ({exc.strerror or exc})') from None
-    except yaml.YAMLError as exc:
-        raise DescriptionError(f'{path}: not YAML ({" ".join(str(exc).split())})') from None
-    if not isinstance(doc, dict) or 'urdf' not in doc:
-        raise DescriptionError(f'{path}: a description needs at least `urdf:` and `state:`')
+        doc = source.check_document(path, load_yaml(path, 'description', 'description'))
+    except ValueError as exc:   # safe_read.InputFileError, source.SourceError
+        raise DescriptionError(str(exc)) from None
     urdf_path = path.parent / str(doc['urdf'])
-    links, joints = read_urdf(urdf_path)
+    links, joints = read_urdf(urdf_path, roots)
     tether = str(doc.get('tether_link', 'winch_link'))
     if tether not in links or 'base_link' not in links:
         raise DescriptionError(f'{path}: the URDF needs base_link and the tether link '
@@ -345,29 +334,27 @@ def description_sha256(path: str | Path) -> str:
     files elsewhere has the same identity). A map records it and answers only for it."""
     import hashlib
 
-    import yaml
-
     path = Path(path)
+    roots = source.allowed_roots(path.parent)
     h = hashlib.sha256(b'rftgls.anchor_description/1\0')
 
     def feed(data: bytes) -> None:
         h.update(len(data).to_bytes(8, 'little') + data)
     try:
-        text = path.read_bytes()
+        text = read_bytes(path, 'description', 'description')
         feed(text)
-        doc = yaml.safe_load(text)
+        doc = source.check_document(path, parse_yaml(text, path))
         urdf = path.parent / str(doc['urdf'])
-        xml = urdf_bytes(urdf)
+        xml = urdf_bytes(urdf, roots)
         feed(xml)
         root = ET.fromstring(xml)
         seen: list[Path] = []
         for el in root.iter('mesh'):
-            fname = (el.get('filename') or '').replace('file://', '')
-            file = (urdf.parent / fname) if not Path(fname).is_absolute() else Path(fname)
+            file = source.mesh_path(el.get('filename') or '', urdf, roots)
             if file not in seen:
                 seen.append(file)
-                feed(file.read_bytes())
-    except (OSError, KeyError, TypeError, ET.ParseError, yaml.YAMLError) as exc:
+                feed(read_bytes(file, 'mesh', 'mesh'))
+    except (ValueError, ET.ParseError) as exc:   # DescriptionError, safe_read, SourceError
         raise DescriptionError(f'{path}: cannot hash the description ({exc})') from None
     return h.hexdigest()
 
@@ -515,7 +502,7 @@ def write_robot_description(name: str, folder: str | Path) -> Path:
                   f'    {origin(*xyz)}',
                   '  </joint>']
     lines.append('</robot>')
-    (folder / f'{name}.urdf').write_text('\n'.join(lines) + '\n')
+    write_text(folder / f'{name}.urdf', '\n'.join(lines) + '\n')
     sr = robot.state_range
     deg = 180.0 / math.pi
     mr = MAP_RANGES[name]
@@ -547,5 +534,5 @@ state:                # physical: the range a pose can be in; map: start, stop, 
   - {{name: theta_l1, unit: deg, joints: [left_proximal_hip, right_proximal_hip], physical: {rng(sr.theta_leg[0] * deg, sr.theta_leg[1] * deg)}, map: {list(mr['theta_l1'])}}}
   - {{name: theta_l2, unit: deg, joints: [left_distal_hip, right_distal_hip], physical: {rng(sr.theta_leg[0] * deg, sr.theta_leg[1] * deg)}, map: {list(mr['theta_l2'])}}}
 """  # noqa: E501
-    (folder / f'{name}.yaml').write_text(yaml_text)
+    write_text(folder / f'{name}.yaml', yaml_text)
     return folder / f'{name}.yaml'

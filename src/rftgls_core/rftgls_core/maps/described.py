@@ -52,6 +52,7 @@ from .errors import MapFileError
 from .grid import DEFAULT_PHI_DEG, GridShape, check_axis, check_pulls
 from .hdf5 import STATUS_NAMES, ContentHash, NodeAnswers, empty_answers
 from .interpolate import locate
+from .shipped import regular_map_file
 
 SCHEMA = 'rftgls.described_map'
 SCHEMA_VERSION = 1
@@ -277,9 +278,10 @@ def content_sha256(data: DescribedMapData) -> str:
 
 
 def save_described_map(path: str | Path, data: DescribedMapData) -> Path:
+    from rftgls_conventions.safe_write import atomic_write
     path = Path(path)
     comp = {'compression': 'gzip', 'compression_opts': 4, 'shuffle': True, 'track_times': False}
-    with h5py.File(path, 'w', track_order=True) as f:
+    with atomic_write(path) as tmp, h5py.File(tmp, 'w', track_order=True) as f:
         f.attrs['schema'] = SCHEMA
         f.attrs['schema_version'] = SCHEMA_VERSION
         for key in ANSWER_ATTRS + OTHER_ATTRS:
@@ -304,15 +306,15 @@ def save_described_map(path: str | Path, data: DescribedMapData) -> Path:
 
 def is_described_map(path: str | Path) -> bool:
     try:
-        with h5py.File(path, 'r') as f:
+        with h5py.File(regular_map_file(path), 'r') as f:
             return str(f.attrs.get('schema', '')) == SCHEMA
-    except OSError:
+    except (OSError, MapFileError):
         return False
 
 
 def load_described_map(path: str | Path) -> DescribedMapData:
     """Read and check a described map (MapFileError, one line, on any problem)."""
-    path = Path(path)
+    path = regular_map_file(path)
     try:
         with h5py.File(path, 'r') as f:
             if str(f.attrs.get('schema', '')) != SCHEMA:

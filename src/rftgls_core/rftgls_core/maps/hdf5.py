@@ -69,10 +69,12 @@ from typing import Any
 import h5py
 import numpy as np
 
+from rftgls_conventions.safe_write import atomic_write
+
 from ..types import Status
 from .errors import MapFileError, MapIntegrityWarning
 from .grid import AXIS_HUMAN, AXIS_UNITS, STATE_AXES, MapGrid, check_axis
-from .shipped import SHIPPED_SHA256, maps_dir
+from .shipped import SHIPPED_SHA256, maps_dir, regular_map_file
 
 SCHEMA = 'rftgls.capacity_map'
 SCHEMA_VERSION = 2
@@ -265,7 +267,7 @@ def save_map(path: str | Path, data: MapData) -> Path:
     digest = content_sha256(g, data.capacity_N, data.slip_twist_scaled, data.slip_twist,
                             data.status, STATUS_NAMES, data.reason, reason_names, data.attrs,
                             margin, grad)
-    with h5py.File(path, 'w', track_order=True) as f:
+    with atomic_write(path) as tmp, h5py.File(tmp, 'w', track_order=True) as f:
         f.attrs['schema'] = SCHEMA
         # A map without the support margin (built in memory by older code) stays version 1.
         f.attrs['schema_version'] = SCHEMA_VERSION if margin is not None else 1
@@ -450,9 +452,7 @@ def load_map(path: str | Path, expected_sha256: str | None = None) -> MapData:
     is always checked). A file without a stored hash loads with a MapIntegrityWarning and
     `integrity == 'unverified'` (nodes should log it loudly).
     """
-    path = Path(path)
-    if not path.is_file():
-        raise MapFileError(f'{path}: no such map file')
+    path = regular_map_file(path)
     if expected_sha256 is None:
         expected_sha256 = _shipped_hash(path)
     try:
