@@ -150,14 +150,17 @@ def _sandbox(xacro, roots: tuple[Path, ...], refused: list[str]) -> Iterator[Non
 
     symbols = xacro._global_symbols
     namespace = symbols.get('xacro')
-    patches = [(xacro, 'abs_filename_spec', allowed_abs), (sa, '_eval_env', no_env),
-               (sa, '_eval_optenv', no_env)]
-    items = [(sa._eval_dict, 'env', no_env), (sa._eval_dict, 'optenv', no_env),
-             (symbols, 'load_yaml', load_yaml)]
+    patches: list[tuple[object, str, object]] = [
+        (xacro, 'abs_filename_spec', allowed_abs), (sa, '_eval_env', no_env),
+        (sa, '_eval_optenv', no_env)]
+    items: list[tuple[dict, str, object]] = [
+        (sa._eval_dict, 'env', no_env), (sa._eval_dict, 'optenv', no_env),
+        (symbols, 'load_yaml', load_yaml)]
     if namespace is not None:
         items.append((namespace, 'load_yaml', load_yaml))
     with _XACRO_LOCK:
-        saved = [(obj, name, getattr(obj, name)) for obj, name, _ in patches]
+        saved: list[tuple[object, str, object]] = [(obj, name, getattr(obj, name))
+                                                   for obj, name, _ in patches]
         saved_items = [(d, k, dict.get(d, k)) for d, k, _ in items]
         try:
             for obj, name, value in patches:
@@ -201,6 +204,7 @@ def check_document(path: str | os.PathLike, doc: object) -> dict:
     state = doc.get('state')
     need(isinstance(state, list) and len(state) > 0,
          '`state:` must be a list of state variables ({name, unit, physical, ...})')
+    assert isinstance(state, list)
     for i, item in enumerate(state):
         need(isinstance(item, dict) and isinstance(item.get('name'), str),
              f'state variable {i + 1} must be a mapping with a `name:`')

@@ -107,7 +107,7 @@ WAIT_S = Quantity('wait', 's', 0.0, 60.0)
 RUN_TIMEOUT_S = Quantity('timeout', 's', 1.0, 3600.0)
 IMAGE_NOISE = Quantity('image noise', 'grey levels', 0.0, 255.0)
 IMAGE_BLUR_PX = Quantity('image blur', 'px', 0.0, 20.0)
-PERCENT = Quantity('tolerance', '%', 1e-3, 100.0)
+PERCENT = Quantity('tolerance', '%', 0.0, 100.0)
 
 
 def bounded_int(lo: int, hi: int, what: str = 'value'):
