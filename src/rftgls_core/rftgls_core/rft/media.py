@@ -109,7 +109,7 @@ def custom_medium(xi_n: float | None = None, mu_surf: float | None = None,
                   zeta=float(zeta))
 
 
-def medium_from_dict(d: dict) -> Medium:
+def medium_from_dict(d: object) -> Medium:
     """A Medium from a dict with its field names (extra keys, e.g. confidence intervals of a
     calibration, are ignored), its parameters inside their physical ranges (quantities.py:
     a file, a bag or a parameter is input, not a search value)."""
