@@ -37,6 +37,7 @@ from typing import Any
 import yaml
 
 from rftgls_conventions import one_line
+from rftgls_conventions.safe_read import load_yaml
 from rftgls_node_base.dds_loopback import during_init
 
 STUB_MODULES = ('launch', 'launch.actions', 'launch.substitutions',
@@ -306,7 +307,7 @@ def parameter_values(entry: NodeEntry, node_name: str) -> tuple[dict[str, Any], 
             problems.append(f'{entry.source}: {entry.executable}: parameter file {p} '
                             'does not exist')
             continue
-        doc = yaml.safe_load(p.read_text()) or {}
+        doc = load_yaml(p, 'params', 'parameter file') or {}
         sections = [doc[k]['ros__parameters'] for k in ('/**', node_name, '/' + node_name,
                                                                 '/**/' + node_name)
                     if k in doc and 'ros__parameters' in (doc[k] or {})]

@@ -23,6 +23,7 @@ from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64
 
 from rftgls_conventions import quat_xyzw_to_pitch
+from rftgls_conventions.safe_read import read_text
 from rftgls_core.description import DATA
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import ConfigError, declare
@@ -67,7 +68,7 @@ class StatePublisher(Node):
             path = DATA / f'{p["robot"]}.urdf'
             if not path.is_file():
                 raise ConfigError(f'robot {p["robot"]!r} has no shipped URDF ({path.name})')
-            urdf = path.read_text()
+            urdf = read_text(path, 'urdf', 'URDF')
         try:
             self.joints = parse_urdf_joints(urdf)
         except UrdfError as exc:
