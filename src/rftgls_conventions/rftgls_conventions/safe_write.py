@@ -72,8 +72,10 @@ def output_file(path: str | os.PathLike, label: str = '--out',
 
 
 def output_folder(path: str | os.PathLike, label: str = '--out') -> Path:
-    """The folder an output option names, checked and made: an existing file there is
-    refused (never written over or beside). OutputError otherwise."""
+    """The folder an output option names, checked: an existing file there is refused (never
+    written over or beside), and the folder must exist or be makeable and writable. Nothing
+    is made here (a run refused later leaves no folder behind); atomic_write makes it when
+    the first output is written. OutputError otherwise."""
     text = os.fspath(path)
     if not text.strip():
         raise OutputError(f'{label}: empty folder name')
@@ -81,11 +83,6 @@ def output_folder(path: str | os.PathLike, label: str = '--out') -> Path:
     if os.path.lexists(p) and not p.is_dir():
         raise OutputError(f'{label} {text}: exists and is not a folder; give a folder')
     _check_writable_folder(p, label)
-    try:
-        p.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f'{label} {text}: cannot make the folder ({exc.strerror or exc})') \
-            from None
     return p
 
 

@@ -73,9 +73,10 @@ def run(args) -> int:
     w.writeheader()
     w.writerows(rows)
     write_text(out.with_suffix('.csv'), text.getvalue())
-    write_text(out.with_suffix('.json'), json.dumps(
-        {'states_per_robot': args.states, 'robots': args.robots, 'seed': args.seed,
-         'reference': reference_cfg.label, 'rows': rows}, indent=2))
+    numbers = json.dumps({'states_per_robot': args.states, 'robots': args.robots,
+                          'seed': args.seed, 'reference': reference_cfg.label, 'rows': rows},
+                         indent=2)
+    write_text(out.with_suffix('.json'), numbers)
     print(f'{"configuration":<34}{"ms":>8}{"cap p95 %":>11}{"cap worst %":>12}'
           f'{"over %":>8}{"twist p95":>10}{"worst":>8}{"n/mis":>8}')
     for r in rows:
@@ -85,7 +86,7 @@ def run(args) -> int:
               f'{r["compared"]:>5}/{r["status_mismatch"]}')
     print(f'wrote {out}, {out.with_suffix(".csv")}, {out.with_suffix(".json")}')
     if args.json:
-        print(out.with_suffix('.json').read_text())
+        print(numbers)
     return 0
 
 

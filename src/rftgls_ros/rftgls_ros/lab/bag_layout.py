@@ -457,7 +457,8 @@ def _read_metadata(path) -> PullTestMeta:
     with Reader(path) as r:
         conns = [c for c in r.connections if c.topic == '/lab/metadata']
         _check_types(path, conns)
-        for c, _, raw in r.messages(connections=conns):
+        # rosbags reads every connection when given none: no metadata topic, no reading.
+        for c, _, raw in (r.messages(connections=conns) if conns else ()):
             return PullTestMeta.from_json(ts.deserialize_cdr(raw, c.msgtype).data)
     raise BagError(f'{path}: no /lab/metadata message; not a lab pull-test bag')
 
