@@ -81,8 +81,8 @@ def _refuse_stat(path, st: os.stat_result, kind: str, label: str) -> None:
         raise InputFileError(f'{path}: is {_what(st.st_mode)}, not a regular file ({label})')
     limit = _limit(kind)
     if st.st_size > limit:
-        raise InputFileError(f'{path}: {_size_text(st.st_size)}, larger than the '
-                             f'{_size_text(limit)} limit ({label})')
+        raise InputFileError(f'{path}: {st.st_size} bytes, more than the {limit} '
+                             f'({_size_text(limit)}) a {label} may have')
 
 
 def _os_error(path, exc: OSError, label: str) -> InputFileError:

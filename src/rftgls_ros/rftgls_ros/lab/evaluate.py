@@ -267,6 +267,9 @@ def main(argv: list[str] | None = None) -> int:
                       "(and --anchor); skipping 'map'", file=sys.stderr)
                 methods.remove('map')
         medium = load_medium(args.medium) if args.medium else None
+        if map_path is not None:     # read before the predictions start, not in their loop
+            from rftgls_core.maps import resolve_map
+            map_path = resolve_map(map_path)
         rows, preds = evaluate(tests, methods, map_path, medium, args.step, args.max_travel,
                                args.integrator, anchor=anchor)
     except (ValueError, OSError) as exc:
