@@ -4,8 +4,8 @@ every state variable a command does not have is refused in one line, exit 2, and
 answered (stdout stays empty).
 
 The ranges are rftgls_core/quantities.py (their reasons: docs/design/safe-io.md, "Ranges").
-Values are never wrapped or clipped before the check: `--phi 1e308` answered `ok` with a
-capacity when angles were wrapped first. Each class has values far outside (1e308), just
+Values are never wrapped or clipped before the check: wrapped first, `--phi 1e308` would
+look like any other angle and answer `ok` with a capacity. Each class has values far outside (1e308), just
 outside the range, and non-finite ones, so a check that only caught overflow would fail.
 """
 from __future__ import annotations
@@ -111,6 +111,8 @@ CASES = {
     'state with a mesh': body() + ['--state', 'depth=-0.05'],
     'state unknown of an anchor': ['capacity', '--anchor', ANCHOR, '--state', 'depth=-0.05',
                                    '--state', 'tilt=0', '--state', 'x=1', '--json'],
+    'simulate of an anchor': ['simulate', 'pull', '--anchor', ANCHOR, '--state', 'depth=-0.05',
+                              '--state', 'tilt=0', '--out', 'x.csv'],
     'state 1e308 of an anchor': ['capacity', '--anchor', ANCHOR, '--state', 'depth=-0.05',
                                  '--state', 'tilt=1e308', '--json'],
 }

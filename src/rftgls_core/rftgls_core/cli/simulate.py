@@ -41,6 +41,9 @@ def run(args) -> int:
     out = output_file(args.out, '--out')     # both outputs checked before any work
     if args.plot:
         figure_path(args.plot, '--plot')
+    if args.anchor is not None:
+        raise ValueError('simulate pull follows --robot or --mesh; an --anchor description is '
+                         'simulated by the lab tools (rftgls_lab_synthetic --anchor)')
     body = None
     predictor: Predictor
     if args.mesh is not None:

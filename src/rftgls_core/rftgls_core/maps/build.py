@@ -188,7 +188,7 @@ def probe_scheduler(address: str, timeout_s: float = 3.0) -> None:
             pass
     except OSError as exc:
         reason = exc.strerror or type(exc).__name__
-        raise OSError(f'cannot reach Dask scheduler {address} ({reason} within '
+        raise OSError(f'cannot reach Dask scheduler {address} ({reason}; waited at most '
                       f'{timeout_s:g} s)') from None
 
 
