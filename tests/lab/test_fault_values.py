@@ -5,8 +5,9 @@ answered (stdout stays empty).
 
 The ranges are rftgls_core/quantities.py (their reasons: docs/design/safe-io.md, "Ranges").
 Values are never wrapped or clipped before the check: wrapped first, `--phi 1e308` would
-look like any other angle and answer `ok` with a capacity. Each class has values far outside (1e308), just
-outside the range, and non-finite ones, so a check that only caught overflow would fail.
+look like any other angle and answer `ok` with a capacity. Each class has values far outside
+(1e308), just outside the range, and non-finite ones, so a check that only caught overflow
+would fail.
 """
 from __future__ import annotations
 
