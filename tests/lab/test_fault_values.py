@@ -178,3 +178,29 @@ def test_the_range_of_a_value_is_named_in_the_error(capsys):
     assert rftgls(CAP + ['--phi', '1e308']) == 2
     err = capsys.readouterr().err
     assert 'tether angle phi must be in -90..90 deg' in err and '1e+308' in err
+
+
+@pytest.mark.parametrize('old, new, must', [
+    ('<mass value="0.040"/>', '<mass value="1e308"/>', 'mass must be in'),
+    ('<mass value="0.040"/>', '<mass value="-5"/>', 'mass must be in'),
+    ('scale="0.001 0.001 0.001"', 'scale="0 0 0"', 'mesh scale'),
+    ('scale="0.001 0.001 0.001"', 'scale="1e300 1e300 1e300"', 'mesh scale'),
+    ('<origin xyz="0 0 0" rpy="0 0 0"/>\n  </joint>',
+     '<origin xyz="1e308 0 0" rpy="0 0 0"/>\n  </joint>', 'position must be in'),
+    ('<joint name="winch_joint" type="fixed">',
+     '<joint name="winch_joint" type="revolute"><axis xyz="0 0 0"/>', 'no direction'),
+])
+def test_description_values_outside_their_range_are_refused(tmp_path, capsys, old, new, must):
+    """A URDF's masses, origins, mesh scales and joint axes are input too."""
+    import shutil
+    folder = Path(ANCHOR).parent
+    shutil.copy(folder / 'ellipsoid.stl', tmp_path)
+    urdf = (folder / 'ellipsoid.urdf').read_text()
+    assert old in urdf
+    (tmp_path / 'ellipsoid.urdf').write_text(urdf.replace(old, new))
+    shutil.copy(ANCHOR, tmp_path)
+    code = rftgls(['capacity', '--anchor', str(tmp_path / 'ellipsoid.yaml'), '--state',
+                   'depth=-0.05', '--state', 'tilt=-30', '--json'])
+    cap = capsys.readouterr()
+    assert _problem(code, cap.err, cap.out) is None, (cap.err, cap.out)
+    assert must in cap.err

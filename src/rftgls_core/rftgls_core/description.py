@@ -34,6 +34,7 @@ from .geometry.mesh import Facets, TriMesh
 from .geometry.stl import MeshError, read_stl, write_stl
 from .geometry.transforms import parse_vector, rot_y, rpy_matrix
 from .posed import PosedAnchor
+from .quantities import MASS_KG, MESH_SCALE, POSITION_M
 from .types import AnchorState, Pull
 
 DATA = Path(__file__).resolve().parent / 'data'
@@ -106,11 +107,13 @@ def read_urdf(path: str | Path, roots: tuple[Path, ...] | None = None
             coll = el.find('collision') if el.find('collision/geometry/mesh') is not None \
                 else el.find('visual')
             t = _transform(coll.find('origin') if coll is not None else None)
+            _in_range(path, POSITION_M, t[:3, 3], f'link {name} origin xyz')
             try:
                 m = read_stl(source.mesh_path(geo.get('filename') or '', path, roots), units='m')
             except (MeshError, OSError, source.SourceError) as exc:
                 raise DescriptionError(f'{path}: link {name!r}: {exc}') from None
             scale = _floats(geo.get('scale'), (1, 1, 1), f'link {name} mesh scale')
+            _in_range(path, MESH_SCALE, np.abs(scale), f'link {name} mesh scale')
             m = TriMesh(m.vertices * scale, m.faces if np.prod(scale) > 0 else m.faces[:, ::-1])
             mesh = m.transformed(t[:3, :3], t[:3, 3])
         mass, com = 0.0, np.zeros(3)
@@ -120,6 +123,8 @@ def read_urdf(path: str | Path, roots: tuple[Path, ...] | None = None
             mass = float(_floats(mel.get('value') if mel is not None else None, (0.0,),
                                  f'link {name} mass')[0])
             com = _transform(inertial.find('origin'))[:3, 3]
+            _in_range(path, MASS_KG, [mass], f'link {name} mass')
+            _in_range(path, POSITION_M, com, f'link {name} inertial origin')
         links[name] = Link(name, mesh, mass, com)
     joints = []
     for el in root.findall('joint'):
@@ -129,10 +134,18 @@ def read_urdf(path: str | Path, roots: tuple[Path, ...] | None = None
         axis_el = el.find('axis')
         ax = _floats(axis_el.get('xyz') if axis_el is not None else None, (1, 0, 0),
                      f'joint {el.get("name")} axis')
+        if not np.linalg.norm(ax) > 1e-9:
+            raise DescriptionError(f'{path}: joint {el.get("name")!r} axis has no direction')
+        origin = _transform(el.find('origin'))
+        _in_range(path, POSITION_M, origin[:3, 3], f'joint {el.get("name")} origin xyz')
         joints.append(Joint(el.get('name') or '', el.get('type') or 'fixed',
                             parent.get('link') or '', child.get('link') or '',
-                            _transform(el.find('origin')), ax / np.linalg.norm(ax)))
+                            origin, ax / np.linalg.norm(ax)))
     return links, joints
+
+
+def _in_range(path: Path, quantity, values, what: str) -> None:
+    source.check_range(path, quantity, values, what, DescriptionError)
 
 
 def _axis_rotation(axis: np.ndarray, q: float) -> np.ndarray:

@@ -175,6 +175,16 @@ def _sandbox(xacro, roots: tuple[Path, ...], refused: list[str]) -> Iterator[Non
                 dict.__setitem__(d, k, value)
 
 
+def check_range(path, quantity, values, what: str, error: type = SourceError) -> None:
+    """`error` naming the first of `values` outside the physical range of `quantity`
+    (quantities.py): a description's masses, origins and scales are input like any other."""
+    import numpy as np
+    for v in np.ravel(values):
+        problem = quantity.violation(float(v))
+        if problem:
+            raise error(f'{path}: {what}: {problem}')
+
+
 # ------------------------------------------------------------------------- the YAML's shape
 def _number(x) -> bool:
     import math

@@ -77,6 +77,8 @@ TETHER_YAW_DEG = Quantity('tether yaw', 'deg', -180.0, 180.0)
 POSITION_M = Quantity('position', 'm', -10.0, 10.0)
 POSITION_MM = Quantity('position', 'mm', -10_000.0, 10_000.0)
 MASS_KG = Quantity('mass', 'kg', 0.0, 100.0)
+# |scale| of a URDF mesh: mm -> m is 1e-3; beyond 1e-6..1e3 a body leaves the lab's size range.
+MESH_SCALE = Quantity('mesh scale magnitude', '', 1e-6, 1e3)
 
 # ------------------------------------------------------------------------------ motion
 # RFT is quasi-static: it holds below a Froude number of ~1, sqrt(g d) ~ 1 m/s for a body
