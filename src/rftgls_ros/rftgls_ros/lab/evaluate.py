@@ -243,15 +243,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument('--out-dir', default='lab_eval')
     args = ap.parse_args(argv)
     try:
-        out = output_folder(args.out_dir, '--out-dir')   # checked before any work
+        # The small inputs first, so a bad one is refused before the bags are decoded.
+        out = output_folder(args.out_dir, '--out-dir')
         anchor = load_anchor(args.anchor, args.anchor_state)
+        medium = load_medium(args.medium) if args.medium else None
+        from rftgls_core.maps import resolve_map
+        map_path = resolve_map(args.map) if args.map is not None else None
         tests = [read_pull_test(b) for b in args.bags]
         methods = list(args.methods)
-        map_path = args.map
         if 'map' in methods and map_path is None:
             # The robot's installed map (never a file in the current directory), and only
             # if it was built for the bags' medium: a map answers for its own medium only.
-            from rftgls_core.maps import CapacityMap, resolve_map
+            from rftgls_core.maps import CapacityMap
             try:
                 guess = resolve_map(None, robot=tests[0].meta.robot)
                 cmap = CapacityMap.load(guess)
@@ -266,10 +269,6 @@ def main(argv: list[str] | None = None) -> int:
                 print("evaluate: no --map given and no shipped map for this robot, medium "
                       "(and --anchor); skipping 'map'", file=sys.stderr)
                 methods.remove('map')
-        medium = load_medium(args.medium) if args.medium else None
-        if map_path is not None:     # read before the predictions start, not in their loop
-            from rftgls_core.maps import resolve_map
-            map_path = resolve_map(map_path)
         rows, preds = evaluate(tests, methods, map_path, medium, args.step, args.max_travel,
                                args.integrator, anchor=anchor)
     except (ValueError, OSError) as exc:

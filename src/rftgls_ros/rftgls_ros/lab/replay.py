@@ -186,8 +186,8 @@ def main(argv: list[str] | None = None) -> int:
     add_anchor_arguments(ap)
     args = ap.parse_args(argv)
     try:   # before ROS starts: a bad description or bag is one line, exit 2
-        read_metadata(args.bag)   # only a lab pull test is replayed into the live graph
         desc = bag_description(args.bag, args.anchor, args.anchor_state)
+        read_metadata(args.bag)   # only a lab pull test is replayed into the live graph
     except ValueError as exc:   # BagError is one
         print(f'replay: error: {" ".join(str(exc).split())}', file=sys.stderr)
         return 2
