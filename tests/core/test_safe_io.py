@@ -274,3 +274,19 @@ def test_hostile_documents_are_input_errors_not_internal_ones(tmp_path, capsys):
     (tmp_path / 'bomb.yaml').write_text(billion_laughs() + 'urdf: x.urdf\nstate: *a9\n')
     assert 'expands to more than' in one_line_exit_2(capsys, [
         'capacity', '--anchor', str(tmp_path / 'bomb.yaml')])
+
+
+def test_a_map_declaring_a_huge_dataset_is_refused_before_reading(tmp_path, capsys):
+    """HDF5 lets a small file declare a dataset of any shape (never written: fill values);
+    reading it would allocate what it declares. 2e9 float64 = 16 GB in a file of kilobytes."""
+    import h5py
+
+    from rftgls_core.maps import SHIPPED, maps_dir
+    bad = tmp_path / 'huge_axis.h5'
+    shutil.copy(maps_dir() / SHIPPED['minirquad'], bad)
+    with h5py.File(bad, 'a') as f:
+        del f['axes/h']
+        f['axes'].create_dataset('h', shape=(2 * 10**9,), dtype='f8', chunks=(4096,),
+                                 compression='gzip')
+    assert bad.stat().st_size < 10**6
+    assert 'would take more than' in one_line_exit_2(capsys, ['map', 'info', str(bad)])

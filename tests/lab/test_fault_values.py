@@ -204,3 +204,51 @@ def test_description_values_outside_their_range_are_refused(tmp_path, capsys, ol
     cap = capsys.readouterr()
     assert _problem(code, cap.err, cap.out) is None, (cap.err, cap.out)
     assert must in cap.err
+
+
+def test_every_lab_tool_refuses_a_bag_that_is_not_a_pull_test(tmp_path, capsys):
+    """A real rosbag2 of a robot (joint states and transforms, known types, no pull-test
+    metadata) given to every lab tool that takes a bag: one line, exit 2. The replay refuses
+    before ROS starts, so nothing can reach the live graph."""
+    import importlib
+
+    import numpy as np
+    import rclpy
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    bag = tmp_path / 'drive_log'
+    T = ts.types
+    with Writer(bag, version=8, storage_plugin=StoragePlugin.MCAP) as w:
+        c = w.add_connection('/joint_states', 'sensor_msgs/msg/JointState', typestore=ts)
+        for k in range(50):
+            msg = T['sensor_msgs/msg/JointState'](
+                header=T['std_msgs/msg/Header'](
+                    stamp=T['builtin_interfaces/msg/Time'](sec=k, nanosec=0), frame_id=''),
+                name=['leg_proximal_left'], position=np.array([0.1 * k]),
+                velocity=np.array([], float), effort=np.array([], float))
+            w.write(c, 10**9 * k, ts.serialize_cdr(msg, 'sensor_msgs/msg/JointState'))
+    import json
+    from dataclasses import asdict
+
+    from rftgls_ros.lab.bag_layout import CameraCalibration
+    camera = tmp_path / 'camera.json'
+    camera.write_text(json.dumps(asdict(CameraCalibration.simple(640, 480, 600.0))))
+    tools = {
+        'replay': ('rftgls_ros.lab.replay', [str(bag), '--wait-subscribers', '0']),
+        'evaluate': ('rftgls_ros.lab.evaluate', [str(bag), '--out-dir', str(tmp_path / 'e')]),
+        'calibrate': ('rftgls_ros.lab.calibrate', [str(bag), '--out', str(tmp_path / 'c.json')]),
+        'track': ('rftgls_ros.lab.aruco_tracking', ['--images', str(tmp_path), '--camera',
+                                                    str(camera), '--bag-in', str(bag), '--out',
+                                                    str(tmp_path / 't')]),
+        'rftgls calibrate': ('rftgls_core.cli.main', ['calibrate', str(bag), '--out',
+                                                      str(tmp_path / 'c.json')]),
+    }
+    was_ok = rclpy.ok()
+    for name, (module, argv) in tools.items():
+        code = importlib.import_module(module).main(argv)
+        cap = capsys.readouterr()
+        assert _problem(code, cap.err, cap.out) is None, (name, cap.err, cap.out)
+        assert 'drive_log' in cap.err, (name, cap.err)
+    assert rclpy.ok() == was_ok          # the replay never initialised ROS
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['camera.json', 'drive_log']

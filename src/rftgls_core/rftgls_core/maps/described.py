@@ -50,7 +50,7 @@ from ..rft.media import Medium
 from ..types import Status
 from .errors import MapFileError
 from .grid import DEFAULT_PHI_DEG, GridShape, check_axis, check_pulls
-from .hdf5 import STATUS_NAMES, ContentHash, NodeAnswers, empty_answers
+from .hdf5 import STATUS_NAMES, ContentHash, NodeAnswers, empty_answers, read_dataset
 from .interpolate import locate
 from .shipped import regular_map_file
 
@@ -327,15 +327,15 @@ def load_described_map(path: str | Path) -> DescribedMapData:
                      for k, v in f.attrs.items()}
             names = tuple(str(attrs['state_names']).split(','))
             units = tuple(str(f['axes'][n].attrs['human_unit']) for n in names)
-            grid = DescribedGrid(names, units, tuple(f['axes'][n][()] for n in names),
-                                 f['axes/phi'][()],
+            grid = DescribedGrid(names, units, tuple(read_dataset(f['axes'][n]) for n in names),
+                                 read_dataset(f['axes/phi']),
                                  tuple(str(p) for p in f['axes/pull'].asstr()[()]))
-            arrays = {n: f[n][()] for n in ('capacity_N', 'slip_twist_scaled', 'slip_twist',
-                                            'status', 'reason')}
+            arrays = {n: read_dataset(f[n]) for n in ('capacity_N', 'slip_twist_scaled',
+                                                      'slip_twist', 'status', 'reason')}
             if list(f['status'].attrs['status_names']) != list(STATUS_NAMES):
                 raise MapFileError(f'{path}: status table differs from this reader\'s')
             reason_names = tuple(str(x) for x in f['reason'].attrs['reason_names'])
-    except (OSError, KeyError, ValueError) as exc:
+    except (OSError, KeyError, ValueError, TypeError, AttributeError, IndexError) as exc:
         if isinstance(exc, MapFileError):
             raise
         raise MapFileError(f'{path}: bad described map ({" ".join(str(exc).split())})') \

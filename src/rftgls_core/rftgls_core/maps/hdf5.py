@@ -306,10 +306,29 @@ def _attr(value):
     return value
 
 
+# What one dataset may expand to in memory. A compressed (or never written, fill-valued)
+# dataset can declare any shape in a small file; the shipped maps' largest is 0.1 MB.
+MAX_DATASET_BYTES = 1 << 30
+
+
+def check_dataset_size(ds: h5py.Dataset) -> None:
+    """MapFileError when reading `ds` would take more than MAX_DATASET_BYTES of memory."""
+    if float(np.prod(ds.shape, dtype=float)) * ds.dtype.itemsize > MAX_DATASET_BYTES:
+        raise MapFileError(f'dataset {ds.name} of shape {ds.shape} would take more than '
+                           f'{MAX_DATASET_BYTES >> 20} MiB to read')
+
+
+def read_dataset(ds: h5py.Dataset) -> np.ndarray:
+    """The values of `ds`, after check_dataset_size."""
+    check_dataset_size(ds)
+    return ds[()]
+
+
 def _dataset(f: h5py.File, name: str, shape: tuple, kind: str) -> np.ndarray:
     if name not in f or not isinstance(f[name], h5py.Dataset):
         raise MapFileError(f'dataset /{name} is missing')
     ds = f[name]
+    check_dataset_size(ds)
     if ds.shape != shape:
         raise MapFileError(f'dataset /{name} has shape {ds.shape}, the axes need {shape}')
     if ds.dtype.kind not in kind:
@@ -349,7 +368,7 @@ def _read(f: h5py.File, expected_sha256: str | None = None) -> MapData:
             raise MapFileError(f'axis /{key} is missing')
         if f[key].dtype.kind != 'f':
             raise MapFileError(f'axis /{key} has dtype {f[key].dtype}, expected float')
-        values = f[key][()]
+        values = read_dataset(f[key])
         if values.ndim != 1:
             raise MapFileError(f'axis /axes/{name} must be 1-D, has shape {values.shape}')
         try:
