@@ -43,14 +43,17 @@ def _nearest_existing(p: Path) -> Path:
     return p
 
 
-def _check_writable_folder(folder: Path, label: str) -> None:
+def _check_writable_folder(folder: Path, prefix: str) -> None:
     """The folder exists and is writable, or can be made: its nearest existing ancestor is a
     writable folder. OutputError otherwise."""
     base = _nearest_existing(folder)
     if not base.is_dir():
-        raise OutputError(f'{label} {folder}: {base} is not a folder')
-    if not os.access(base, os.W_OK | os.X_OK):
-        raise OutputError(f'{label} {folder}: folder {base} is not writable')
+        raise OutputError(f'{prefix}: {base} is not a folder')
+    try:   # the real test (permission bits say little to root, or on /proc or a full disk)
+        os.rmdir(tempfile.mkdtemp(prefix='.write-probe-', dir=base))
+    except OSError as exc:
+        raise OutputError(f'{prefix}: cannot write in {base} '
+                          f'({exc.strerror or type(exc).__name__})') from None
 
 
 def output_file(path: str | os.PathLike, label: str = '--out',
@@ -67,7 +70,7 @@ def output_file(path: str | os.PathLike, label: str = '--out',
         raise OutputError(f'{label} {text}: is a folder; give a file name (e.g. {example})')
     if suffixes and p.suffix.lower() not in suffixes:
         raise OutputError(f'{label} {text}: must end with {" or ".join(suffixes)}')
-    _check_writable_folder(p.parent, label)
+    _check_writable_folder(p.parent, f'{label} {text}')
     return p
 
 
@@ -82,7 +85,7 @@ def output_folder(path: str | os.PathLike, label: str = '--out') -> Path:
     p = Path(text)
     if os.path.lexists(p) and not p.is_dir():
         raise OutputError(f'{label} {text}: exists and is not a folder; give a folder')
-    _check_writable_folder(p, label)
+    _check_writable_folder(p, f'{label} {text}')
     return p
 
 
