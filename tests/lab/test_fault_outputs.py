@@ -87,14 +87,14 @@ def test_plot(plant):
 
 
 def test_plot_scene_and_its_json(plant, monkeypatch):
-    from rftgls_core.charts import scene_capacity
+    from rftgls_core.charts import posed_capacity
 
-    def sweep(model, scene, phi, yaw, out):   # stands in for the 6D sweep over yaw
+    def sweep(solver, posed, phi, yaw, out):   # stands in for the 6D sweep over yaw
         from rftgls_core.charts.figure_io import pyplot, save
         fig = pyplot().figure()
         save(fig, out)
         return {'by_yaw': {'capacity_N': [1.0, 2.0]}}
-    monkeypatch.setattr(scene_capacity, 'plot_scene_capacity', sweep)
+    monkeypatch.setattr(posed_capacity, 'plot_posed_capacity', sweep)
     p = plant(['a.png', 'a.json'])
     _ok(rftgls(['plot', '--anchor', str(ANCHORS / 'ellipsoid.yaml'), '--state', 'depth=-0.05',
                 '--state', 'tilt=-30', '--out', str(p.root / 'a.png')]), p)
@@ -144,7 +144,7 @@ def test_figure_fig8_both_pulls(plant, monkeypatch):
     from rftgls_core.charts import paper_figures as pf
     from rftgls_core.sim.trajectory import Trajectory, TrajectoryPoint
 
-    def slip(model, state, pull, travel, step):   # stands in for a slip simulation
+    def slip(predictor, state, pull, travel, step):   # stands in for a slip simulation
         pts = [TrajectoryPoint(s, -s, 0.02 + 0.1 * s, 0.0, 3.0, 'ok') for s in (0.0, 0.01)]
         return pf.SlipSummary(3.0, 0.1, 0.0, 'travel'), Trajectory(pts, 'travel')
     monkeypatch.setattr(pf, 'slip_summary', slip)
@@ -157,7 +157,7 @@ def test_figure_fig9_and_fig13(plant, monkeypatch):
     from rftgls_core.charts import paper_figures as pf
     from rftgls_core.charts.figure_io import pyplot, save
     grids = {k: np.ones((5, 5)) for k in ('peak', 'dz_dx', 'dtb')}
-    monkeypatch.setattr(pf, 'leg_angle_maps', lambda model, progress=None: {
+    monkeypatch.setattr(pf, 'leg_angle_maps', lambda predictor, progress=None: {
         'forward': grids, 'backward': grids})
     monkeypatch.setattr(fig13, 'fig13_data', lambda method, progress: ({'peak_N': 1.0}, {}))
     monkeypatch.setattr(fig13, 'plot_fig13', lambda data, trajs, out: save(pyplot().figure(),
