@@ -22,6 +22,7 @@ from collections import deque
 
 from minirquad_driver.protocol import messages as m
 from minirquad_driver.protocol.codec import encode_frame
+from rftgls_conventions.safe_write import open_fresh
 from rftgls_node_base.node_main import finish, program_args, stop_on_signals
 
 from .faults import FaultConfig, FaultInjector
@@ -55,9 +56,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument('--sled-mass', type=float, default=0.400, help='kg')
     p.add_argument('--pace-baud', type=int, default=0,
                    help='emulate a UART: write at most baud/10 bytes per second (0: off)')
-    p.add_argument('--record', help='append one JSON line per telemetry frame built')
-    p.add_argument('--command-log', help='append one JSON line per host command handled '
-                   '(the Python MCU)')
+    p.add_argument('--record', help='write one JSON line per telemetry frame built (a new '
+                   'file)')
+    p.add_argument('--command-log', help='write one JSON line per host command handled '
+                   '(the Python MCU; a new file)')
     p.add_argument('--linger', type=float, default=0.5,
                    help='s the link keeps being served after SIGINT/SIGTERM')
     p.add_argument('--duration', type=float, default=0.0, help='exit after this many s')
@@ -92,7 +94,8 @@ class _Recorder:
     """JSON lines of what each telemetry frame carried, in wire integers, plus its fate."""
 
     def __init__(self, path: str | None):
-        self.file = open(path, 'a', buffering=1) if path else None
+        # A new file (safe_write.open_fresh): a planted link is replaced, never written through.
+        self.file = open_fresh(path, 'a', buffering=1) if path else None
 
     def telemetry(self, seq: int, t_ms: int, tel: m.Telemetry, fault: str | None,
                   host_s: float | None = None) -> None:
@@ -118,7 +121,7 @@ class _CommandLog:
     """JSON lines of the host commands the MCU handled: host wall time, type, fields, ack."""
 
     def __init__(self, path: str | None, wall_minus_mono: float):
-        self.file = open(path, 'a', buffering=1) if path else None
+        self.file = open_fresh(path, 'a', buffering=1) if path else None
         self.offset = wall_minus_mono
 
     def command(self, now: float, msg, result: int) -> None:

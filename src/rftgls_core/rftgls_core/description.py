@@ -22,17 +22,20 @@ AMENT_PREFIX_PATH, as ROS tools do, without importing ROS).
 from __future__ import annotations
 
 import math
-import os
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from rftgls_conventions.safe_read import load_yaml, parse_yaml, read_bytes
+
+from . import description_input as source
 from .geometry.mesh import Facets, TriMesh
 from .geometry.stl import MeshError, read_stl
 from .geometry.transforms import parse_vector, rot_y, rpy_matrix
 from .posed import PosedAnchor
+from .quantities import MASS_KG, MESH_SCALE, POSITION_M
 from .types import AnchorState, Pull
 
 DATA = Path(__file__).resolve().parent / 'data'
@@ -72,50 +75,24 @@ def _transform(origin) -> np.ndarray:
     return t
 
 
-def mesh_path(urdf: Path, filename: str) -> Path:
-    """The file a URDF mesh `filename` names: relative to the URDF's folder, an absolute or
-    `file://` path, or `package://PKG/REST` = <prefix>/share/PKG/REST for the first prefix on
-    AMENT_PREFIX_PATH that has it (DescriptionError when none does)."""
-    if filename.startswith('package://'):
-        pkg, _, rest = filename[len('package://'):].partition('/')
-        for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
-            candidate = Path(prefix) / 'share' / pkg / rest
-            if prefix and candidate.is_file():
-                return candidate
-        raise DescriptionError(f'{urdf}: mesh {filename}: package {pkg!r} is not on '
-                               'AMENT_PREFIX_PATH (source the workspace)')
-    name = filename[len('file://'):] if filename.startswith('file://') else filename
-    return Path(name) if Path(name).is_absolute() else urdf.parent / name
-
-
-def urdf_bytes(path: str | Path) -> bytes:
-    """The URDF XML of `path`: the file's bytes, or for a `*.xacro` file the document xacro
-    expands it to (the root element only: xacro's banner comment names the file, which would
-    make a copy elsewhere a different description)."""
-    path = Path(path)
-    if path.suffix != '.xacro':
-        try:
-            return path.read_bytes()
-        except OSError as exc:
-            raise DescriptionError(f'{path}: cannot read URDF ({exc})') from None
+def urdf_bytes(path: str | Path, roots: tuple[Path, ...] | None = None) -> bytes:
+    """The URDF XML of `path`, a `*.xacro` expanded in the sandbox, every file inside the
+    allow-list `roots` (description_input.py; default: the file's folder and the installed
+    packages). DescriptionError (one line) otherwise."""
     try:
-        import xacro
-    except ImportError:  # pragma: no cover - a dependency of rftgls_core
-        raise DescriptionError(f'{path}: expanding xacro needs the xacro package') from None
-    try:
-        doc = xacro.process_file(str(path))
-    except Exception as exc:  # noqa: BLE001 - xacro raises its own and parser errors
-        raise DescriptionError(f'{path}: xacro cannot expand it ({type(exc).__name__}: '
-                               f'{str(exc).strip() or "no message"})') from None
-    return doc.documentElement.toxml().encode('utf-8')
+        return source.urdf_bytes(path, roots)
+    except source.SourceError as exc:
+        raise DescriptionError(str(exc)) from None
 
 
-def read_urdf(path: str | Path) -> tuple[dict[str, Link], list[Joint]]:
+def read_urdf(path: str | Path, roots: tuple[Path, ...] | None = None
+              ) -> tuple[dict[str, Link], list[Joint]]:
     """Links (meshes loaded, in URDF order) and joints of a URDF file (or a `*.xacro` file,
-    expanded first)."""
+    expanded first); files only inside the allow-list `roots` (urdf_bytes)."""
     path = Path(path)
+    roots = source.allowed_roots(path.parent) if roots is None else roots
     try:
-        root = ET.fromstring(urdf_bytes(path))
+        root = ET.fromstring(urdf_bytes(path, roots))
     except ET.ParseError as exc:
         raise DescriptionError(f'{path}: cannot read URDF ({exc})') from None
     if root.tag != 'robot':
@@ -131,12 +108,13 @@ def read_urdf(path: str | Path) -> tuple[dict[str, Link], list[Joint]]:
             coll = el.find('collision') if el.find('collision/geometry/mesh') is not None \
                 else el.find('visual')
             t = _transform(coll.find('origin') if coll is not None else None)
-            file = mesh_path(path, geo.get('filename') or '')
+            _in_range(path, POSITION_M, t[:3, 3], f'link {name} origin xyz')
             try:
-                m = read_stl(file, units='m')
-            except (MeshError, OSError) as exc:
+                m = read_stl(source.mesh_path(geo.get('filename') or '', path, roots), units='m')
+            except (MeshError, OSError, source.SourceError) as exc:
                 raise DescriptionError(f'{path}: link {name!r}: {exc}') from None
             scale = _floats(geo.get('scale'), (1, 1, 1), f'link {name} mesh scale')
+            _in_range(path, MESH_SCALE, np.abs(scale), f'link {name} mesh scale')
             m = TriMesh(m.vertices * scale, m.faces if np.prod(scale) > 0 else m.faces[:, ::-1])
             mesh = m.transformed(t[:3, :3], t[:3, 3])
         mass, com = 0.0, np.zeros(3)
@@ -146,6 +124,8 @@ def read_urdf(path: str | Path) -> tuple[dict[str, Link], list[Joint]]:
             mass = float(_floats(mel.get('value') if mel is not None else None, (0.0,),
                                  f'link {name} mass')[0])
             com = _transform(inertial.find('origin'))[:3, 3]
+            _in_range(path, MASS_KG, [mass], f'link {name} mass')
+            _in_range(path, POSITION_M, com, f'link {name} inertial origin')
         links[name] = Link(name, mesh, mass, com)
     joints = []
     for el in root.findall('joint'):
@@ -155,10 +135,18 @@ def read_urdf(path: str | Path) -> tuple[dict[str, Link], list[Joint]]:
         axis_el = el.find('axis')
         ax = _floats(axis_el.get('xyz') if axis_el is not None else None, (1, 0, 0),
                      f'joint {el.get("name")} axis')
+        if not np.linalg.norm(ax) > 1e-9:
+            raise DescriptionError(f'{path}: joint {el.get("name")!r} axis has no direction')
+        origin = _transform(el.find('origin'))
+        _in_range(path, POSITION_M, origin[:3, 3], f'joint {el.get("name")} origin xyz')
         joints.append(Joint(el.get('name') or '', el.get('type') or 'fixed',
                             parent.get('link') or '', child.get('link') or '',
-                            _transform(el.find('origin')), ax / np.linalg.norm(ax)))
+                            origin, ax / np.linalg.norm(ax)))
     return links, joints
+
+
+def _in_range(path: Path, quantity, values, what: str) -> None:
+    source.check_range(path, quantity, values, what, DescriptionError)
 
 
 def _axis_rotation(axis: np.ndarray, q: float) -> np.ndarray:
@@ -205,7 +193,9 @@ class AnchorDescription:
     def urdf_text(self) -> str:
         """The URDF as read, xacro expanded (what a ROS `robot_description` carries); '' when
         unknown."""
-        return urdf_bytes(self.urdf_path).decode('utf-8') if self.urdf_path is not None else ''
+        if self.urdf_path is None:
+            return ''
+        return urdf_bytes(self.urdf_path, source.allowed_roots(self.source.parent)).decode()
 
     @property
     def state_names(self) -> tuple[str, ...]:
@@ -299,19 +289,14 @@ class AnchorDescription:
 
 def load_description(path: str | Path) -> AnchorDescription:
     """Read a description YAML (and the URDF it names); DescriptionError on bad input."""
-    import yaml
-
     path = Path(path)
+    roots = source.allowed_roots(path.parent)
     try:
-        doc = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise DescriptionError(f'{path}: cannot read ({exc.strerror or exc})') from None
-    except yaml.YAMLError as exc:
-        raise DescriptionError(f'{path}: not YAML ({" ".join(str(exc).split())})') from None
-    if not isinstance(doc, dict) or 'urdf' not in doc:
-        raise DescriptionError(f'{path}: a description needs at least `urdf:` and `state:`')
+        doc = source.check_document(path, load_yaml(path, 'description', 'description'))
+    except ValueError as exc:   # safe_read.InputFileError, source.SourceError
+        raise DescriptionError(str(exc)) from None
     urdf_path = path.parent / str(doc['urdf'])
-    links, joints = read_urdf(urdf_path)
+    links, joints = read_urdf(urdf_path, roots)
     tether = str(doc.get('tether_link', 'winch_link'))
     if tether not in links or 'base_link' not in links:
         raise DescriptionError(f'{path}: the URDF needs base_link and the tether link '
@@ -373,28 +358,27 @@ def description_sha256(path: str | Path) -> str:
     files elsewhere has the same identity). A map records it and answers only for it."""
     import hashlib
 
-    import yaml
-
     path = Path(path)
+    roots = source.allowed_roots(path.parent)
     h = hashlib.sha256(b'rftgls.anchor_description/1\0')
 
     def feed(data: bytes) -> None:
         h.update(len(data).to_bytes(8, 'little') + data)
     try:
-        text = path.read_bytes()
+        text = read_bytes(path, 'description', 'description')
         feed(text)
-        doc = yaml.safe_load(text)
+        doc = source.check_document(path, parse_yaml(text, path))
         urdf = path.parent / str(doc['urdf'])
-        xml = urdf_bytes(urdf)
+        xml = urdf_bytes(urdf, roots)
         feed(xml)
         root = ET.fromstring(xml)
         seen: list[Path] = []
         for el in root.iter('mesh'):
-            file = mesh_path(urdf, el.get('filename') or '')
+            file = source.mesh_path(el.get('filename') or '', urdf, roots)
             if file not in seen:
                 seen.append(file)
-                feed(file.read_bytes())
-    except (OSError, KeyError, TypeError, ET.ParseError, yaml.YAMLError) as exc:
+                feed(read_bytes(file, 'mesh', 'mesh'))
+    except (ValueError, ET.ParseError) as exc:   # DescriptionError, safe_read, SourceError
         raise DescriptionError(f'{path}: cannot hash the description ({exc})') from None
     return h.hexdigest()
 

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from rftgls_conventions import LEG_JOINT_NAMES
+from rftgls_conventions.safe_write import write_text
 
 from .geometry.mesh import TriMesh
 from .geometry.stl import write_stl
@@ -140,8 +141,8 @@ def write_robot_description(name: str, folder: str | Path, mesh_uri: str = '') -
                   f'    {origin(*xyz)}',
                   '  </joint>']
     lines.append('</robot>')
-    (folder / f'{name}.urdf').write_text('\n'.join(lines) + '\n')
-    (folder / f'{name}.yaml').write_text(_yaml(name, robot))
+    write_text(folder / f'{name}.urdf', '\n'.join(lines) + '\n')
+    write_text(folder / f'{name}.yaml', _yaml(name, robot))
     return folder / f'{name}.yaml'
 
 

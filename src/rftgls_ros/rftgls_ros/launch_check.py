@@ -34,9 +34,8 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from rftgls_conventions import one_line
+from rftgls_conventions.safe_read import load_yaml
 from rftgls_node_base.dds_loopback import during_init
 
 from .launch_model import Parsed, Process, argv, executable_path, parse, share_dir
@@ -74,7 +73,7 @@ def parameter_values(p: Process, node_name: str) -> tuple[dict[str, Any], list[s
             problems.append(f'{p.source}: {p.executable}: parameter file {params} '
                             'does not exist')
             continue
-        doc = yaml.safe_load(params.read_text()) or {}
+        doc = load_yaml(params, 'params', 'parameter file') or {}
         sections = [doc[k]['ros__parameters'] for k in ('/**', node_name, '/' + node_name,
                                                         '/**/' + node_name)
                     if k in doc and 'ros__parameters' in (doc[k] or {})]

@@ -28,6 +28,7 @@ from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, String
 
 from rftgls_conventions import quat_xyzw_to_pitch
+from rftgls_conventions.safe_read import InputFileError, read_text
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import ConfigError, declare
 from tf2_msgs.msg import TFMessage
@@ -69,7 +70,10 @@ def description_urdf(robot: str) -> str:
     if not path.is_file():
         raise ConfigError(f'robot {robot!r} has no URDF in minirquad_description '
                           f'({path.name})')
-    return path.read_text()
+    try:
+        return read_text(path, 'urdf', 'URDF')
+    except InputFileError as exc:
+        raise ConfigError(str(exc)) from None
 
 
 class StatePublisher(Node):

@@ -27,6 +27,8 @@ import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
 
+from rftgls_conventions.safe_write import write_text
+
 from . import cobs
 from . import messages as m
 from .codec import CRC, HEADER, FrameDecoder, encode_frame
@@ -319,8 +321,7 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     text = render()
     if args.write:
-        with open(args.write, 'w', encoding='ascii') as f:
-            f.write(text)
+        write_text(args.write, text, encoding='ascii')   # atomic, never through a link
     else:
         sys.stdout.write(text)
     return 0

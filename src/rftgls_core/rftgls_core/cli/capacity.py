@@ -6,6 +6,13 @@ import time
 
 from ..predictor import InputNames, PredictorSpec, build_predictor
 from ..predictor.spec import DEFAULT_ROBOT, ROBOT_MEDIUM
+from ..quantities import (
+    ANGLE_DEG,
+    MASS_KG,
+    POSITION_M,
+    TETHER_PHI_DEG,
+    TETHER_YAW_DEG,
+)
 from ..robots.presets import ROBOTS, get_robot
 from ..surfaces.registry import DEFAULT_TWISTS, METHOD_NAMES
 from ..types import AnchorState, Pull
@@ -16,13 +23,13 @@ def add_state_args(p) -> None:
     p.add_argument('--robot', choices=sorted(ROBOTS), default=None,
                    help='robot (default minirquad); give its state with --h and the angles')
     # Required for a robot, refused with --mesh (state_from_args says so in one line).
-    p.add_argument('--h', type=finite_float,
+    p.add_argument('--h', type=POSITION_M.arg,
                    help='height of the winch point p above the free surface, m')
-    p.add_argument('--theta-b', type=finite_float, help='body pitch, deg')
-    p.add_argument('--theta-l1', type=finite_float, help='proximal legs, deg')
-    p.add_argument('--theta-l2', type=finite_float, help='distal legs, deg')
-    p.add_argument('--phi', type=finite_float, default=0.0,
-                   help='tether angle, deg (0 horizontal, negative pulls down)')
+    p.add_argument('--theta-b', type=ANGLE_DEG.arg, help='body pitch, deg')
+    p.add_argument('--theta-l1', type=ANGLE_DEG.arg, help='proximal legs, deg')
+    p.add_argument('--theta-l2', type=ANGLE_DEG.arg, help='distal legs, deg')
+    p.add_argument('--phi', type=TETHER_PHI_DEG.arg, default=0.0,
+                   help='tether angle, deg (0 horizontal, negative pulls down; -90..90)')
     p.add_argument('--pull', choices=[x.value for x in Pull], default='backward')
     add_medium_args(p)
 
@@ -33,6 +40,9 @@ STATE_OPTIONS = ('h', 'theta_b', 'theta_l1', 'theta_l2')
 def state_from_args(args) -> AnchorState:
     """The state of the command line, refused (ValueError, one line) when the robot cannot be
     in it (robots.robot.StateRange): no capacity is computed for an impossible pose."""
+    if getattr(args, 'state', None):
+        raise ValueError('--state NAME=VALUE sets a variable of --anchor FILE.yaml; a robot '
+                         'takes --h/--theta-b/--theta-l1/--theta-l2')
     args.robot = args.robot or 'minirquad'
     missing = [f'--{k.replace("_", "-")}' for k in STATE_OPTIONS if getattr(args, k) is None]
     if missing:
@@ -115,17 +125,17 @@ def add_body_args(p) -> None:
                    help='a state variable of --anchor (may repeat)')
     g.add_argument('--mesh', help='STL file of the body (binary or ASCII), closed')
     g.add_argument('--units', choices=('mm', 'm'), default='mm', help='STL units (default mm)')
-    g.add_argument('--position', nargs=3, type=finite_float, metavar=('X', 'Y', 'Z'),
+    g.add_argument('--position', nargs=3, type=POSITION_M.arg, metavar=('X', 'Y', 'Z'),
                    help='mesh origin in the world, m (free surface z = 0)')
-    g.add_argument('--rpy', nargs=3, type=finite_float, default=(0.0, 0.0, 0.0),
+    g.add_argument('--rpy', nargs=3, type=ANGLE_DEG.arg, default=(0.0, 0.0, 0.0),
                    metavar=('R', 'P', 'Y'),
                    help='roll, pitch, yaw in degrees about the mesh origin (extrinsic x, y, z)')
-    g.add_argument('--tether', nargs=3, type=finite_float, metavar=('X', 'Y', 'Z'),
+    g.add_argument('--tether', nargs=3, type=POSITION_M.arg, metavar=('X', 'Y', 'Z'),
                    help='tether point on the body, m (world); twists and moments refer to it')
-    g.add_argument('--mass', type=finite_float, help='body mass, kg')
-    g.add_argument('--com', nargs=3, type=finite_float, metavar=('X', 'Y', 'Z'),
+    g.add_argument('--mass', type=MASS_KG.arg, help='body mass, kg')
+    g.add_argument('--com', nargs=3, type=POSITION_M.arg, metavar=('X', 'Y', 'Z'),
                    help='centre of mass, m (world; default: centroid of the volume)')
-    p.add_argument('--yaw', type=finite_float, default=0.0,
+    p.add_argument('--yaw', type=TETHER_YAW_DEG.arg, default=0.0,
                    help='tether yaw about z, deg: the pull is Rz(yaw) (-cos phi, 0, sin phi); '
                         'a yawed pull on a robot needs the 6D path')
     p.add_argument('--space', choices=('auto', 'sagittal', '6d'), default='auto',
@@ -142,6 +152,9 @@ def posed_from_args(args):
     if args.mesh is None:
         state = state_from_args(args)
         return pose_robot(get_robot(args.robot), state, args.pull)
+    if args.state:
+        raise ValueError('--state NAME=VALUE sets a variable of --anchor FILE.yaml, not of '
+                         '--mesh')
     given = [f'--{k.replace("_", "-")}' for k in STATE_OPTIONS if getattr(args, k) is not None]
     if args.robot is not None or given:
         raise ValueError(f'--mesh describes the whole body: drop {", ".join(given or ["--robot"])}')

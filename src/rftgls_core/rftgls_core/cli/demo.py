@@ -9,7 +9,8 @@ from __future__ import annotations
 import json
 import math
 import time
-from pathlib import Path
+
+from rftgls_conventions.safe_write import output_folder, write_text
 
 from ..charts.limit_surface import plot_limit_surface
 from ..predictor.live import RobotPredictor
@@ -37,8 +38,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_folder(args.out, '--out')
     robot = minirquad()
     predictor = RobotPredictor(robot, get_medium('m90_sand'), method=args.method)
     needs = {m: SLED_FRICTION * m * G for m in SLEDS_KG}
@@ -66,7 +66,7 @@ def run(args) -> int:
     print(f'({1e3 * (time.perf_counter() - t0):.0f} ms for 3 anchors x 2 tether angles)')
     plot = out / 'limit_surface_DH.png'
     plot_limit_surface(predictor, ANCHOR_MODES['DH'], Pull.BACKWARD, 0.0, plot)
-    (out / 'anchors.json').write_text(json.dumps({'sled_force_N': {str(k): v for k, v in
+    write_text(out / 'anchors.json', json.dumps({'sled_force_N': {str(k): v for k, v in
                                                                    needs.items()},
                                                   'anchors': rows}, indent=2))
     print(f'wrote {plot} and {out / "anchors.json"}')

@@ -3,11 +3,13 @@ from __future__ import annotations
 
 import math
 
+from ..charts.figure_io import figure_path
 from ..charts.limit_surface import plot_limit_surface
 from ..predictor import build_predictor
 from ..predictor.live import RobotPredictor
 from ..surfaces.registry import METHOD_NAMES
 from .capacity import CLI_NAMES, add_body_args, add_state_args, spec_from_args, state_from_args
+from .common import twist_count
 
 
 def add_parser(sub) -> None:
@@ -18,12 +20,13 @@ def add_parser(sub) -> None:
                    help='plot capacity against the tether yaw (-90..90 deg) and the limit '
                         'curve in the pull plane (implied by --mesh); numbers go to .json')
     p.add_argument('--method', choices=list(METHOD_NAMES), default='twist-mesh')
-    p.add_argument('--twists', type=int, default=None)
+    p.add_argument('--twists', type=twist_count, default=None)
     p.add_argument('--out', required=True, help='PNG file to write')
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
+    figure_path(args.out)     # what --out means is checked before any work
     if (args.anchor is not None or args.mesh is not None or args.against_yaw or args.yaw != 0.0
             or args.space != 'auto'):
         return run_posed(args)
@@ -40,6 +43,8 @@ def run_posed(args) -> int:
     import json
     from pathlib import Path
 
+    from rftgls_conventions.safe_write import write_text
+
     from ..charts.posed_capacity import plot_posed_capacity
     from ..posed import PosedAnchorSolver
     from ..predictor.spec import DEFAULT_ROBOT, ROBOT_MEDIUM
@@ -53,7 +58,7 @@ def run_posed(args) -> int:
                                n_twists=args.twists, space=args.space)
     data = plot_posed_capacity(solver, posed, math.radians(args.phi), math.radians(args.yaw),
                                args.out)
-    Path(args.out).with_suffix('.json').write_text(json.dumps(data, indent=2))
+    write_text(Path(args.out).with_suffix('.json'), json.dumps(data, indent=2))
     caps = [c for c in data['by_yaw']['capacity_N'] if c is not None]
     span = f'{min(caps):.3g}..{max(caps):.3g} N' if caps else 'no value'
     print(f'wrote {args.out} (and .json): capacity over yaw {span}')

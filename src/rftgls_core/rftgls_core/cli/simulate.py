@@ -2,14 +2,18 @@
 from __future__ import annotations
 
 import csv
+import io
 import math
 import sys
-from pathlib import Path
 
+from rftgls_conventions.safe_write import output_file, write_text
+
+from ..charts.figure_io import figure_path
 from ..predictor import Predictor, build_predictor
+from ..quantities import PULL_SPEED_M_S, SLIP_STEP_M, SLIP_TRAVEL_M
 from ..sim.trajectory import simulate_pull
 from .capacity import CLI_NAMES, add_body_args, add_state_args, spec_from_args, state_from_args
-from .common import finite_float, twist_count
+from .common import twist_count
 
 
 def add_parser(sub) -> None:
@@ -22,9 +26,9 @@ def add_parser(sub) -> None:
     q.add_argument('--map', help='HDF5 map (with --method map; default: the robot\'s shipped map)')
     q.add_argument('--twists', type=twist_count, default=None)
     q.add_argument('--integrator', choices=['euler', 'heun'], default='heun')
-    q.add_argument('--step', type=finite_float, default=0.001, help='path of p per step, m')
-    q.add_argument('--max-travel', type=finite_float, default=0.08, help='m')
-    q.add_argument('--speed', type=finite_float, default=0.001,
+    q.add_argument('--step', type=SLIP_STEP_M.arg, default=0.001, help='path of p per step, m')
+    q.add_argument('--max-travel', type=SLIP_TRAVEL_M.arg, default=0.08, help='m')
+    q.add_argument('--speed', type=PULL_SPEED_M_S.arg, default=0.001,
                    help='pull speed that turns path length into time, m/s (default 1 mm/s)')
     q.add_argument('--out', required=True, help='CSV file')
     q.add_argument('--plot', help='PNG file (force, z and thetaB against x, like Fig. 8)')
@@ -34,6 +38,12 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from tqdm import tqdm
 
+    out = output_file(args.out, '--out')     # both outputs checked before any work
+    if args.plot:
+        figure_path(args.plot, '--plot')
+    if args.anchor is not None:
+        raise ValueError('simulate pull follows --robot or --mesh; an --anchor description is '
+                         'simulated by the lab tools (rftgls_lab_synthetic --anchor)')
     body = None
     predictor: Predictor
     if args.mesh is not None:
@@ -75,14 +85,13 @@ def run(args) -> int:
     bar.close()
     if body is not None:
         traj.stop_reason = traj.stop_reason.replace('body plate', 'tether point')
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with open(out, 'w', newline='') as fh:
-        w = csv.writer(fh)
-        w.writerow(['t_s', 's_m', 'x_m', 'z_m', 'theta_b_rad', 'force_N', 'status'])
-        for p in traj.points:
-            w.writerow([p.s_m / args.speed, p.s_m, p.x_m, p.z_m, p.theta_b,
-                        '' if p.force_N is None else p.force_N, p.status])
+    text = io.StringIO(newline='')
+    w = csv.writer(text)
+    w.writerow(['t_s', 's_m', 'x_m', 'z_m', 'theta_b_rad', 'force_N', 'status'])
+    for p in traj.points:
+        w.writerow([p.s_m / args.speed, p.s_m, p.x_m, p.z_m, p.theta_b,
+                    '' if p.force_N is None else p.force_N, p.status])
+    write_text(out, text.getvalue())
     print(f'{len(traj.points)} points, stopped: {traj.stop_reason}; wrote {out}')
     if args.plot:
         from ..charts.trajectory import plot_trajectories

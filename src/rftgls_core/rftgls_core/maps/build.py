@@ -168,6 +168,30 @@ def _run_pool(spec, grid, chunks, workers, fn=solve_chunk) -> Iterator:
                 fut.cancel()
 
 
+def probe_scheduler(address: str, timeout_s: float = 3.0) -> None:
+    """Fail in seconds (OSError, one line) unless a TCP connection to the Dask scheduler at
+    `address` ('tcp://HOST:PORT') opens within timeout_s: Dask's client retries a refused or
+    silent address for its whole timeout. ValueError for an address that is not one."""
+    import socket
+    from urllib.parse import urlsplit
+    u = urlsplit(address if '://' in address else f'tcp://{address}')
+    if u.scheme == 'inproc':     # a scheduler in this process (tests): nothing to reach
+        return
+    try:
+        host, port = u.hostname, u.port
+    except ValueError:
+        host = port = None
+    if u.scheme not in ('tcp', 'tls') or not host or port is None:
+        raise ValueError(f'--scheduler {address!r}: want tcp://HOST:PORT')
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s):
+            pass
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise OSError(f'cannot reach Dask scheduler {address} ({reason}; waited at most '
+                      f'{timeout_s:g} s)') from None
+
+
 def _run_dask(spec, grid, chunks, address: str, timeout_s: float,
               fn=solve_chunk) -> Iterator:
     try:
@@ -203,7 +227,7 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
               method: str = DEFAULT_METHOD, model: str = 'agarwal',
               n_twists: int = DEFAULT_TWISTS, workers: int | None = None,
               scheduler: str | None = None, progress: bool = False, command: str = '',
-              backend: str = 'auto', scheduler_timeout_s: float = 30.0) -> MapData:
+              backend: str = 'auto', scheduler_timeout_s: float = 10.0) -> MapData:
     """Compute a map in memory (save it with hdf5.save_map).
 
     robot: preset name (robots.presets); medium: preset name or a Medium; grid: default_grid
@@ -217,6 +241,8 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
     spec = BuildSpec(robot=get_robot(robot).name, medium=med, model=model, method=method,
                      n_twists=int(n_twists), backend=backend)
     probe = spec.predictor()   # fail fast (unknown method/model) before any worker starts
+    if scheduler:
+        probe_scheduler(scheduler)   # an unreachable cluster fails now, in seconds
     workers = default_workers() if workers is None else int(workers)
     if workers < 1:
         raise ValueError(f'workers must be >= 1, got {workers}')

@@ -50,8 +50,9 @@ from ..rft.media import Medium
 from ..types import Status
 from .errors import MapFileError
 from .grid import DEFAULT_PHI_DEG, GridShape, check_axis, check_pulls
-from .hdf5 import STATUS_NAMES, ContentHash, NodeAnswers, empty_answers
+from .hdf5 import STATUS_NAMES, ContentHash, NodeAnswers, empty_answers, read_dataset
 from .interpolate import locate
+from .shipped import regular_map_file
 
 SCHEMA = 'rftgls.described_map'
 SCHEMA_VERSION = 1
@@ -277,9 +278,10 @@ def content_sha256(data: DescribedMapData) -> str:
 
 
 def save_described_map(path: str | Path, data: DescribedMapData) -> Path:
+    from rftgls_conventions.safe_write import atomic_write
     path = Path(path)
     comp = {'compression': 'gzip', 'compression_opts': 4, 'shuffle': True, 'track_times': False}
-    with h5py.File(path, 'w', track_order=True) as f:
+    with atomic_write(path) as tmp, h5py.File(tmp, 'w', track_order=True) as f:
         f.attrs['schema'] = SCHEMA
         f.attrs['schema_version'] = SCHEMA_VERSION
         for key in ANSWER_ATTRS + OTHER_ATTRS:
@@ -304,15 +306,15 @@ def save_described_map(path: str | Path, data: DescribedMapData) -> Path:
 
 def is_described_map(path: str | Path) -> bool:
     try:
-        with h5py.File(path, 'r') as f:
+        with h5py.File(regular_map_file(path), 'r') as f:
             return str(f.attrs.get('schema', '')) == SCHEMA
-    except OSError:
+    except (OSError, MapFileError):
         return False
 
 
 def load_described_map(path: str | Path) -> DescribedMapData:
     """Read and check a described map (MapFileError, one line, on any problem)."""
-    path = Path(path)
+    path = regular_map_file(path)
     try:
         with h5py.File(path, 'r') as f:
             if str(f.attrs.get('schema', '')) != SCHEMA:
@@ -325,15 +327,15 @@ def load_described_map(path: str | Path) -> DescribedMapData:
                      for k, v in f.attrs.items()}
             names = tuple(str(attrs['state_names']).split(','))
             units = tuple(str(f['axes'][n].attrs['human_unit']) for n in names)
-            grid = DescribedGrid(names, units, tuple(f['axes'][n][()] for n in names),
-                                 f['axes/phi'][()],
+            grid = DescribedGrid(names, units, tuple(read_dataset(f['axes'][n]) for n in names),
+                                 read_dataset(f['axes/phi']),
                                  tuple(str(p) for p in f['axes/pull'].asstr()[()]))
-            arrays = {n: f[n][()] for n in ('capacity_N', 'slip_twist_scaled', 'slip_twist',
-                                            'status', 'reason')}
+            arrays = {n: read_dataset(f[n]) for n in ('capacity_N', 'slip_twist_scaled',
+                                                      'slip_twist', 'status', 'reason')}
             if list(f['status'].attrs['status_names']) != list(STATUS_NAMES):
                 raise MapFileError(f'{path}: status table differs from this reader\'s')
             reason_names = tuple(str(x) for x in f['reason'].attrs['reason_names'])
-    except (OSError, KeyError, ValueError) as exc:
+    except (OSError, KeyError, ValueError, TypeError, AttributeError, IndexError) as exc:
         if isinstance(exc, MapFileError):
             raise
         raise MapFileError(f'{path}: bad described map ({" ".join(str(exc).split())})') \

@@ -35,10 +35,12 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
+from rftgls_core.cli.main import RftglsParser, cli_contract
+from rftgls_core.quantities import REPLAY_RATE, WAIT_S
 from rftgls_node_base.dds_loopback import during_init
 from rftgls_node_base.node_main import finish, program_args, release_ros, stop_on_signals
 
-from .bag_layout import KNOWN_TYPES, BagError, guard_bag_read
+from .bag_layout import KNOWN_TYPES, TOPICS, BagError, guard_bag_read, read_metadata
 from .predict import add_anchor_arguments
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -109,18 +111,20 @@ class BagReplayer:
                  skip_images: bool = False):
         from rosbags.rosbag2 import Reader
         self.node = node
+        read_metadata(bag)     # a bag that is not a lab pull test: BagError, nothing published
         self.reader = Reader(bag)
         guard_bag_read(bag, self.reader.open)
         conns = [c for c in self.reader.connections
                  if (topics is None or c.topic in topics)
                  and not (skip_images and 'image' in c.topic)]
-        # Topics of unknown types are not replayed (see message_class); say which.
+        # Only the lab layout's topics with their own types are replayed (see message_class);
+        # anything else a recorder added is skipped, and said.
         self.skipped = sorted({f'{c.topic} ({c.msgtype})' for c in conns
-                               if c.msgtype not in KNOWN_TYPES})
+                               if TOPICS.get(c.topic, ('',))[0] != c.msgtype})
         if self.skipped:
-            node.get_logger().warning('not replaying topics of unknown type: '
+            node.get_logger().warning('not replaying topics outside the lab layout: '
                                       + ', '.join(self.skipped))
-        conns = [c for c in conns if c.msgtype in KNOWN_TYPES]
+        conns = [c for c in conns if TOPICS.get(c.topic, ('',))[0] == c.msgtype]
         self.publishers = {}
         for c in conns:
             if c.topic not in self.publishers:
@@ -173,14 +177,14 @@ class BagReplayer:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog='rftgls_lab_replay',
-                                 description='publish a pull-test bag (recorded bytes)')
+    ap = RftglsParser(prog='rftgls_lab_replay',
+                      description='publish a pull-test bag (recorded bytes)')
     ap.add_argument('bag')
-    ap.add_argument('--rate', type=float, default=1.0,
+    ap.add_argument('--rate', type=REPLAY_RATE.arg, default=1.0,
                     help='speed factor (1 = original timing, 0 = as fast as possible)')
     ap.add_argument('--topics', nargs='*', help='only these topics')
     ap.add_argument('--skip-images', action='store_true')
-    ap.add_argument('--wait-subscribers', type=float, default=1.0,
+    ap.add_argument('--wait-subscribers', type=WAIT_S.arg, default=1.0,
                     help='s to wait for discovery before the first message')
     ap.add_argument('--no-description', action='store_true',
                     help='publish no /robot_description (another node does, e.g. '
@@ -203,11 +207,13 @@ def main(argv: list[str] | None = None) -> int:
     return code
 
 
+@cli_contract('replay')
 def _main(argv: list[str] | None) -> int:
     args = parse_args(argv)
     try:   # before ROS starts: a bad description or bag is one line, exit 2
         desc = None if args.no_description else bag_description(args.bag, args.anchor,
                                                                 args.anchor_state)
+        read_metadata(args.bag)   # only a lab pull test is replayed into the live graph
     except ValueError as exc:   # BagError is one
         print(f'replay: error: {" ".join(str(exc).split())}', file=sys.stderr)
         return 2
