@@ -239,7 +239,7 @@ def test_simulator_record(plant):
 
 # ------------------------------------------------------------------------- library writers
 def test_stl_and_robot_description_writers(plant):
-    from rftgls_core.description import write_robot_description
+    from rftgls_core.description_writer import write_robot_description
     from rftgls_core.geometry.shapes import c_leg
     from rftgls_core.geometry.stl import read_stl, write_stl
     p = plant(['leg.stl', 'desc/minirquad.urdf', 'desc/minirquad.yaml', 'desc/c_leg.stl'])
