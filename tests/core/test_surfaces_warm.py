@@ -16,7 +16,8 @@ from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
 from rftgls_core.surfaces.direct import DirectSurface
 from rftgls_core.surfaces.synthetic import folded_case
-from rftgls_core.surfaces.warm import WarmDirect, triangle_distances
+from rftgls_core.surfaces.warm import WarmDirect
+from rftgls_core.surfaces.warm_guards import triangle_distances
 from rftgls_core.types import AnchorState, Pull, Status
 
 RTOL = 1e-6
@@ -163,21 +164,22 @@ def test_the_bench_live_stream_is_answered_as_cold_and_mostly_warm():
 
 
 def test_scalar_kernels_agree_with_the_numpy_versions():
-    from rftgls_core.surfaces import warm as W
+    from rftgls_core.surfaces import warm_guards as G
+    from rftgls_core.surfaces import warm_kernels as K
     rng = np.random.default_rng(6)
     v = rng.normal(size=(40, 3))
     tri = np.array([rng.choice(40, 3, replace=False) for _ in range(30)])
     pts = rng.normal(size=(30, 3)) * 0.2
     w0 = v + rng.normal(size=v.shape) * 0.01
-    clear = W._distances(*(w0[tri[:, i]] - pts for i in range(3))) + 0.05
-    closed, median = W._guard_use_loop(v, w0, tri, pts, np.full(30, 0.01), clear, 0.0)
-    ref = W._distances(*(v[tri[:, i]] - pts for i in range(3))) - 0.01
+    clear = G._distances(*(w0[tri[:, i]] - pts for i in range(3))) + 0.05
+    closed, median = K.guard_use_loop(v, w0, tri, pts, np.full(30, 0.01), clear, 0.0)
+    ref = G._distances(*(v[tri[:, i]] - pts for i in range(3))) - 0.01
     # the loop and the vectorised distances: a handful of operations per triangle, a few eps
     assert closed == pytest.approx(float(((clear - ref) / clear).max()), rel=1e-12)
     assert median == pytest.approx(float(np.median(np.linalg.norm(v - w0, axis=1))))
     for d in unit_rows_of(rng.normal(size=(20, 3))):
-        s_ref, f_ref = W._ray_hits(v[tri], d)
-        n, s, f, u, w = W._ray_hits_loop(v, tri, d)
+        s_ref, f_ref = G.ray_hits(v[tri], d)
+        n, s, f, u, w = K.ray_hits_loop(v, tri, d)
         assert n == len(s_ref)
         if n:
             # loop against vectorised ray hit: a few eps relative on a unit-size triangle
@@ -188,17 +190,17 @@ def test_scalar_kernels_agree_with_the_numpy_versions():
 
 
 def test_scaled_evaluator_is_the_problems_scaled_map_bitwise():
-    # The warm step evaluates the map through _scaled_evaluator (the scaling's diagonal once,
+    # The warm step evaluates the map through scaled_evaluator (the scaling's diagonal once,
     # the normalisation in a small kernel); it must give the very numbers of the scaling's own
     # twist_from_scaled / wrench_to_scaled around problem.wrenches, or warm and cold would
     # see different maps. Twists of very different sizes and a few single ones.
-    from rftgls_core.surfaces import warm as W
+    from rftgls_core.surfaces.warm_newton import scaled_evaluator
     m = RobotPredictor(get_robot('minirquad'), get_medium('m90_sand'), method='direct')
     problem = m.pose(AnchorState(*DH), Pull.BACKWARD).problem
     sc = problem.scaling
     rng = np.random.default_rng(9)
     ts = rng.normal(size=(70, 3)) * np.logspace(-6, 6, 70)[:, None]
-    ev = W._scaled_evaluator(problem)
+    ev = scaled_evaluator(problem)
     ref = sc.wrench_to_scaled(problem.wrenches(sc.twist_from_scaled(ts)))
     assert np.array_equal(ev(ts), ref)
     for k in range(5):
@@ -210,8 +212,8 @@ def test_warm_patch_twists_are_the_closure_checks_patches():
     # must be closure.local_patches' twists (the cold check's own), to rounding, for twists
     # whose tangent basis takes each of the three helper axes (and a tie).
     from rftgls_core.surfaces import closure
-    from rftgls_core.surfaces import warm as W
-    if W.numba is None:
+    from rftgls_core.surfaces import warm_kernels as K
+    if not K.HAVE_NUMBA:
         pytest.skip('numba not installed: the warm step calls local_patches itself')
     rng = np.random.default_rng(4)
     twists = [*rng.normal(size=(20, 3)), (1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (1.0, 1.0, 0.0),
@@ -219,7 +221,7 @@ def test_warm_patch_twists_are_the_closure_checks_patches():
     for t in twists:
         t = np.asarray(t, dtype=float) / np.linalg.norm(t)
         ref = closure.local_patches(t)
-        got = W._patch_twists(t, closure._CU, closure._CV)
+        got = K.patch_twists(t, closure._CU, closure._CV)
         assert got.shape == ref.shape == (243, 3)
         assert np.abs(got - ref).max() < 1e-14
 
@@ -266,7 +268,7 @@ def test_newton_batch_is_the_cold_solves_newton():
     # convergence and iteration count, on a real MiniRQuad map from the cold solve's seeds
     # and from random twists (some of which do not converge in a few iterations).
     from rftgls_core.surfaces.newton import newton_on_sphere
-    from rftgls_core.surfaces.warm import newton_batch
+    from rftgls_core.surfaces.warm_newton import newton_batch
     m = RobotPredictor(get_robot('minirquad'), get_medium('m90_sand'), method='direct')
     problem = m.pose(AnchorState(*DH), Pull.BACKWARD).problem
     sc = problem.scaling

@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from rftgls_ros.lab.calibrate import PenetrationTrace, calibrate, main
+from rftgls_ros.lab.calibrate import main
+from rftgls_ros.lab.calibration import PenetrationTrace, calibrate
 
 XI_TRUE = 4.0e5
 AREA = 0.04 * 0.04

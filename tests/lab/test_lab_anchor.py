@@ -17,8 +17,8 @@ from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
 from rftgls_core.types import AnchorState
 from rftgls_ros.lab.bag_layout import read_pull_test
-from rftgls_ros.lab.calibrate import PullObservation, calibrate
 from rftgls_ros.lab.calibrate import main as calibrate_main
+from rftgls_ros.lab.calibration import PullObservation, calibrate
 from rftgls_ros.lab.evaluate import evaluate
 from rftgls_ros.lab.evaluate import main as evaluate_main
 from rftgls_ros.lab.predict import load_anchor, make_predictor

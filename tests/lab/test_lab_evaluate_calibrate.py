@@ -11,8 +11,8 @@ from _lab_common import TRUTH
 from rftgls_core.types import AnchorState
 from rftgls_core.uncertainty import capacity_band
 from rftgls_ros.lab.bag_layout import read_pull_test
-from rftgls_ros.lab.calibrate import PenetrationTrace, PullObservation, calibrate
 from rftgls_ros.lab.calibrate import main as calibrate_main
+from rftgls_ros.lab.calibration import PenetrationTrace, PullObservation, calibrate
 from rftgls_ros.lab.evaluate import main as evaluate_main
 from rftgls_ros.lab.predict import load_medium
 
