@@ -51,6 +51,9 @@ _prange = numba.prange if AVAILABLE else range
 LEADING_TOL = 1e-12
 # A facet is at rest when its speed is <= REST_TOL times the fastest facet's speed.
 REST_TOL = 1e-12
+# The upper bound of the fastest facet's speed, |v| + |w| max|r|, is widened by this factor so
+# that rounding (a few ulp; float32's 6e-8 included) cannot put it below the computed speeds.
+REST_MARGIN = 1.001
 # Twists per block: a multiple of the widest SIMD width (8 float64 / 16 float32 lanes on
 # AVX-512); the block's accumulators (6 x BLOCK) stay in L1.
 BLOCK = 64
@@ -77,39 +80,39 @@ def _jit(parallel: bool = False, inline: bool = False):
 
 
 @_jit(inline=True)
-def _stress(ux, uy, uz, nx, ny, nz, ndx, ndy, ndz, p, capped, mu, one):
-    """alpha / xi_n of one facet (n, n_d, ten-per-f_j cubic coefficients p) for unit u."""
+def _cubic(q, o, x1, x3, x3s):
+    """sum over the monomials x1^a x3^c (a + c <= 3, agarwal._MONOMIALS order) of
+    q[o + m] x1^a x3^c, as a tree of nine multiply-adds four deep (a left-to-right sum is
+    nine deep, and the loop's speed is bound by that depth)."""
+    c0 = (q[o] + q[o + 1] * x3) + (q[o + 2] + q[o + 3] * x3) * x3s
+    c1 = (q[o + 4] + q[o + 5] * x3) + q[o + 6] * x3s
+    c2 = (q[o + 7] + q[o + 8] * x3) + q[o + 9] * x1
+    return c0 + (c1 + c2 * x1) * x1
+
+
+@_jit(inline=True)
+def _alpha(x3, ux, uy, uz, ndx, ndy, ndz, p):
+    """alpha / xi_n of one facet before the friction cap, for unit u with x3 = n_d . u
+    (n_d, ten-per-f_j cubic coefficients p)."""
     x1 = -uz
-    x3 = ndx * ux + ndy * uy + ndz * uz
-    x1s = x1 * x1
     x3s = x3 * x3
-    # Monomial order of agarwal._MONOMIALS: (a, c) for a in 0..3, c in 0..3-a.
-    m5 = x1 * x3
-    m6 = x1 * x3s
-    m8 = x1s * x3
-    m3 = x3s * x3
-    m9 = x1s * x1
-    f1 = (p[0] + p[1] * x3 + p[2] * x3s + p[3] * m3 + p[4] * x1 + p[5] * m5 + p[6] * m6
-          + p[7] * x1s + p[8] * m8 + p[9] * m9)
-    f2 = (p[10] + p[11] * x3 + p[12] * x3s + p[13] * m3 + p[14] * x1 + p[15] * m5
-          + p[16] * m6 + p[17] * x1s + p[18] * m8 + p[19] * m9)
-    f3 = (p[20] + p[21] * x3 + p[22] * x3s + p[23] * m3 + p[24] * x1 + p[25] * m5
-          + p[26] * m6 + p[27] * x1s + p[28] * m8 + p[29] * m9)
-    ax = f1 * ndx + f2 * ux
-    ay = f1 * ndy + f2 * uy
-    az = f1 * ndz + f2 * uz - f3
-    if capped:
-        an = ax * nx + ay * ny + az * nz
-        tx = ax - an * nx
-        ty = ay - an * ny
-        tz = az - an * nz
-        tn = math.sqrt(tx * tx + ty * ty + tz * tz)
-        lim = mu * abs(an)
-        s = lim / tn if tn > lim else one
-        ax = an * nx + s * tx
-        ay = an * ny + s * ty
-        az = an * nz + s * tz
-    return ax, ay, az
+    f1 = _cubic(p, 0, x1, x3, x3s)
+    f2 = _cubic(p, 10, x1, x3, x3s)
+    f3 = _cubic(p, 20, x1, x3, x3s)
+    return f1 * ndx + f2 * ux, f1 * ndy + f2 * uy, f1 * ndz + f2 * uz - f3
+
+
+@_jit(inline=True)
+def _cap(ax, ay, az, nx, ny, nz, mu, one):
+    """The surface-friction cap: tangential stress at most mu x |normal stress|."""
+    an = ax * nx + ay * ny + az * nz
+    tx = ax - an * nx
+    ty = ay - an * ny
+    tz = az - an * nz
+    tn = math.sqrt(tx * tx + ty * ty + tz * tz)
+    lim = mu * abs(an)
+    s = lim / tn if tn > lim else one
+    return an * nx + s * tx, an * ny + s * ty, an * nz + s * tz
 
 
 @_jit(inline=True)
@@ -123,16 +126,11 @@ def _coefficients(poly, f):
 
 
 @_jit(inline=True)
-def _rest_tolerances(s2max, rest_tol):
-    """Per twist of a block: a facet is at rest below rest_tol x the fastest facet speed
-    (s2max: squared speeds, the tolerance floored at the dtype's tiny); in s2max's dtype."""
-    nb = s2max.shape[0]
-    tol = np.empty(nb, dtype=s2max.dtype)
-    tiny = np.finfo(s2max.dtype).tiny
-    # sqrt is monotone and correctly rounded: sqrt(max s^2) == max(sqrt(s^2)).
-    for i in range(nb):
-        tol[i] = rest_tol * max(math.sqrt(s2max[i]), tiny)
-    return tol
+def _rest_tolerance(s2max, rest_tol, tiny):
+    """A facet is at rest below rest_tol x the fastest facet's speed (s2max: its square; the
+    tolerance floored at the dtype's tiny). sqrt is monotone and correctly rounded, so this is
+    rest_tol x the largest computed speed."""
+    return rest_tol * max(math.sqrt(s2max), tiny)
 
 
 @_jit(inline=True)
@@ -163,45 +161,147 @@ def _load(tw, m0, m1):
     return loc, npad
 
 
-@_jit()
-def _spatial_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
-    """Wrenches of twists m0..m1 (tw (6, M), SoA) into out[m0:m1]; c = (0, 1, lead, rest)."""
-    nout = m1 - m0
-    tw, nb = _load(tw, m0, m1)
+@_jit(inline=True)
+def _side(nx, ny, nz, ndx, ndy, ndz, one):
+    """+1 when n_d is n, -1 when it is -n (agarwal.downward_normal gives one or the other)."""
+    return one if (ndx == nx and ndy == ny and ndz == nz) else -one
+
+
+@_jit(inline=True)
+def _spatial_speed2(tw, i, rx, ry, rz):
+    """Squared speed of twist i of tw (6, nb) at the point r."""
+    vx = tw[0, i] + tw[4, i] * rz - tw[5, i] * ry
+    vy = tw[1, i] + tw[5, i] * rx - tw[3, i] * rz
+    vz = tw[2, i] + tw[3, i] * ry - tw[4, i] * rx
+    return vx, vy, vz, vx * vx + vy * vy + vz * vz
+
+
+@_jit(inline=True)
+def _planar_speed2(tw, i, rx, rz):
+    """In-plane velocity and squared speed of planar twist i of tw (3, nb) at (rx, rz)."""
+    vx = tw[0, i] + tw[2, i] * rz
+    vz = tw[1, i] - tw[2, i] * rx
+    return vx, vz, vx * vx + vz * vz
+
+
+@_jit(inline=True)
+def _rest_bounds(planar, tw, nb, r, rest_tol, margin, exact):
+    """Per twist of a block, (lo, hi) with lo <= the rest tolerance <= hi.
+
+    The exact tolerance needs every facet's speed first, a pass over all pairs that cost a
+    sixth of the kernel. The bounds cost a pass over the facets: hi from |v| + |w| max|r|
+    (times `margin` for rounding), lo from the exact formula on four of the facets. A facet
+    below lo rests and one above hi moves, as with the exact tolerance; one in between sends
+    its block through `exact` (lo = hi = the tolerance), which on real bodies never happens:
+    it takes a facet within 1e-12 of the fastest one's speed of resting.
+    """
+    tiny = np.finfo(tw.dtype).tiny
     nf = r.shape[0]
-    zero, one, lead_tol, rest_tol = c[0], c[1], c[2], c[3]
-    capped = mu < np.inf
-    s2max = np.zeros(nb, dtype=tw.dtype)
+    lo = np.empty(nb, dtype=tw.dtype)
+    hi = np.empty(nb, dtype=tw.dtype)
+    if exact or nf == 0:
+        s2max = np.zeros(nb, dtype=tw.dtype)
+        for f in range(nf):
+            rx, ry, rz = r[f, 0], r[f, 1], r[f, 2]
+            for i in range(nb):
+                if planar:
+                    s2 = _planar_speed2(tw, i, rx, rz)[2]
+                else:
+                    s2 = _spatial_speed2(tw, i, rx, ry, rz)[3]
+                s2max[i] = max(s2max[i], s2)
+        for i in range(nb):
+            lo[i] = hi[i] = _rest_tolerance(s2max[i], rest_tol, tiny)
+        return lo, hi
+    rmax2 = tw.dtype.type(0)
     for f in range(nf):
         rx, ry, rz = r[f, 0], r[f, 1], r[f, 2]
-        for i in range(nb):
-            m = i
-            vx = tw[0, m] + tw[4, m] * rz - tw[5, m] * ry
-            vy = tw[1, m] + tw[5, m] * rx - tw[3, m] * rz
-            vz = tw[2, m] + tw[3, m] * ry - tw[4, m] * rx
-            s2max[i] = max(s2max[i], vx * vx + vy * vy + vz * vz)
-    tol = _rest_tolerances(s2max, rest_tol)
+        rmax2 = max(rmax2, rx * rx + rz * rz if planar else rx * rx + ry * ry + rz * rz)
+    rmax = math.sqrt(rmax2)
+    for i in range(nb):
+        if planar:
+            v2 = tw[0, i] * tw[0, i] + tw[1, i] * tw[1, i]
+            w2 = tw[2, i] * tw[2, i]
+        else:
+            v2 = tw[0, i] * tw[0, i] + tw[1, i] * tw[1, i] + tw[2, i] * tw[2, i]
+            w2 = tw[3, i] * tw[3, i] + tw[4, i] * tw[4, i] + tw[5, i] * tw[5, i]
+        hi[i] = rest_tol * max(margin * (math.sqrt(v2) + math.sqrt(w2) * rmax), tiny)
+        s2 = tw.dtype.type(0)
+        for f in (0, nf // 3, (2 * nf) // 3, nf - 1):
+            if planar:
+                s2 = max(s2, _planar_speed2(tw, i, r[f, 0], r[f, 2])[2])
+            else:
+                s2 = max(s2, _spatial_speed2(tw, i, r[f, 0], r[f, 1], r[f, 2])[3])
+        lo[i] = _rest_tolerance(s2, rest_tol, tiny)
+    return lo, hi
+
+
+@_jit(inline=True)
+def _moving(s, lo, hi, band, zero):
+    """(moving, band) for a facet of speed s: moving above hi; `band` keeps the largest speed
+    at most hi (the block is ambiguous when that exceeds lo, see `_rest_bounds`)."""
+    moving = s > hi
+    return moving, max(band, zero if moving else s)
+
+
+@_jit()
+def _spatial_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
+    """Wrenches of twists m0..m1 (tw (6, M), SoA) into out[m0:m1]; c = (0, 1, lead, rest,
+    margin); see `_spatial_pass`."""
+    tw, nb = _load(tw, m0, m1)
     acc = np.zeros((6, nb))
-    for f in range(nf):
+    lo, hi = _rest_bounds(False, tw, nb, r, c[3], c[4], False)
+    if _spatial_pass(tw, nb, lo, hi, r, n, nd, poly, w, mu, c, acc):
+        acc[:] = 0.0
+        lo, hi = _rest_bounds(False, tw, nb, r, c[3], c[4], True)
+        _spatial_pass(tw, nb, lo, hi, r, n, nd, poly, w, mu, c, acc)
+    _store(acc, m0, m1 - m0, out)
+
+
+@_jit(inline=True)
+def _spatial_pass(tw, nb, lo, hi, r, n, nd, poly, w, mu, c, acc):
+    """Sums of the block's twists tw (6, nb) into acc (6, nb); True when a facet's speed lies
+    between lo and hi (see `_rest_bounds`; acc is then to be recomputed).
+
+    Per facet the twist loop runs as three short loops through small arrays in L1: direction,
+    weight and x3; stress; cap and sums. In one long loop body the dependency chain (two
+    square roots, two divisions, the cubics) was ~200 cycles, more than the CPU's reorder
+    window overlaps from one iteration to the next; short bodies it overlaps.
+    """
+    zero, one, lead_tol = c[0], c[1], c[2]
+    capped = mu < np.inf
+    u = np.empty((4, nb), dtype=tw.dtype)      # ux, uy, uz, x3
+    a = np.empty((3, nb), dtype=tw.dtype)
+    kw = np.empty(nb, dtype=tw.dtype)
+    band = np.zeros(nb, dtype=tw.dtype)
+    for f in range(r.shape[0]):
         rx, ry, rz = r[f, 0], r[f, 1], r[f, 2]
         nx, ny, nz = n[f, 0], n[f, 1], n[f, 2]
         ndx, ndy, ndz = nd[f, 0], nd[f, 1], nd[f, 2]
+        side = _side(nx, ny, nz, ndx, ndy, ndz, one)
         wf = w[f]
-        p = _coefficients(poly, f)
         for i in range(nb):
-            m = i
-            vx = tw[0, m] + tw[4, m] * rz - tw[5, m] * ry
-            vy = tw[1, m] + tw[5, m] * rx - tw[3, m] * rz
-            vz = tw[2, m] + tw[3, m] * ry - tw[4, m] * rx
-            s = math.sqrt(vx * vx + vy * vy + vz * vz)
-            moving = s > tol[i]
+            vx, vy, vz, s2 = _spatial_speed2(tw, i, rx, ry, rz)
+            s = math.sqrt(s2)
+            moving, band[i] = _moving(s, lo[i], hi[i], band[i], zero)
             inv = one / s if moving else zero
             ux = vx * inv
             uy = vy * inv
             uz = vz * inv
-            lead = moving and (ux * nx + uy * ny + uz * nz >= -lead_tol)
-            ax, ay, az = _stress(ux, uy, uz, nx, ny, nz, ndx, ndy, ndz, p, capped, mu, one)
-            k = wf if lead else zero
+            un = ux * nx + uy * ny + uz * nz
+            kw[i] = wf if (moving and un >= -lead_tol) else zero
+            u[0, i] = ux
+            u[1, i] = uy
+            u[2, i] = uz
+            u[3, i] = side * un      # n_d . u, exactly: n_d is +-n
+        p = _coefficients(poly, f)
+        for i in range(nb):
+            a[0, i], a[1, i], a[2, i] = _alpha(u[3, i], u[0, i], u[1, i], u[2, i],
+                                               ndx, ndy, ndz, p)
+        for i in range(nb):
+            ax, ay, az = a[0, i], a[1, i], a[2, i]
+            if capped:
+                ax, ay, az = _cap(ax, ay, az, nx, ny, nz, mu, one)
+            k = kw[i]
             fx = k * ax
             fy = k * ay
             fz = k * az
@@ -211,51 +311,70 @@ def _spatial_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
             acc[3, i] += ry * fz - rz * fy
             acc[4, i] += rz * fx - rx * fz
             acc[5, i] += rx * fy - ry * fx
-    _store(acc, m0, nout, out)
+    for i in range(nb):
+        if band[i] > lo[i]:
+            return True
+    return False
 
 
 @_jit()
 def _planar_block(tw, m0, m1, r, n, nd, poly, w, mu, c, out):
     """Planar (Fx, Fz, My) of twists m0..m1 (tw (3, M) = vx, vz, wy) into out[m0:m1]."""
-    nout = m1 - m0
     tw, nb = _load(tw, m0, m1)
-    nf = r.shape[0]
-    zero, one, lead_tol, rest_tol = c[0], c[1], c[2], c[3]
-    capped = mu < np.inf
-    s2max = np.zeros(nb, dtype=tw.dtype)
-    for f in range(nf):
-        rx, rz = r[f, 0], r[f, 2]
-        for i in range(nb):
-            m = i
-            vx = tw[0, m] + tw[2, m] * rz
-            vz = tw[1, m] - tw[2, m] * rx
-            s2max[i] = max(s2max[i], vx * vx + vz * vz)
-    tol = _rest_tolerances(s2max, rest_tol)
     acc = np.zeros((3, nb))
-    for f in range(nf):
+    lo, hi = _rest_bounds(True, tw, nb, r, c[3], c[4], False)
+    if _planar_pass(tw, nb, lo, hi, r, n, nd, poly, w, mu, c, acc):
+        acc[:] = 0.0
+        lo, hi = _rest_bounds(True, tw, nb, r, c[3], c[4], True)
+        _planar_pass(tw, nb, lo, hi, r, n, nd, poly, w, mu, c, acc)
+    _store(acc, m0, m1 - m0, out)
+
+
+@_jit(inline=True)
+def _planar_pass(tw, nb, lo, hi, r, n, nd, poly, w, mu, c, acc):
+    """`_spatial_pass` for planar twists tw (3, nb) = (vx, vz, wy): (Fx, Fz, My) into acc."""
+    zero, one, lead_tol = c[0], c[1], c[2]
+    capped = mu < np.inf
+    u = np.empty((3, nb), dtype=tw.dtype)      # ux, uz, x3
+    a = np.empty((3, nb), dtype=tw.dtype)
+    kw = np.empty(nb, dtype=tw.dtype)
+    band = np.zeros(nb, dtype=tw.dtype)
+    for f in range(r.shape[0]):
         rx, rz = r[f, 0], r[f, 2]
         nx, ny, nz = n[f, 0], n[f, 1], n[f, 2]
         ndx, ndy, ndz = nd[f, 0], nd[f, 1], nd[f, 2]
+        side = _side(nx, ny, nz, ndx, ndy, ndz, one)
         wf = w[f]
-        p = _coefficients(poly, f)
         for i in range(nb):
-            m = i
-            vx = tw[0, m] + tw[2, m] * rz
-            vz = tw[1, m] - tw[2, m] * rx
-            s = math.sqrt(vx * vx + vz * vz)
-            moving = s > tol[i]
+            vx, vz, s2 = _planar_speed2(tw, i, rx, rz)
+            s = math.sqrt(s2)
+            moving, band[i] = _moving(s, lo[i], hi[i], band[i], zero)
             inv = one / s if moving else zero
             ux = vx * inv
             uz = vz * inv
-            lead = moving and (ux * nx + uz * nz >= -lead_tol)
-            ax, ay, az = _stress(ux, zero, uz, nx, ny, nz, ndx, ndy, ndz, p, capped, mu, one)
-            k = wf if lead else zero
+            un = ux * nx + uz * nz
+            kw[i] = wf if (moving and un >= -lead_tol) else zero
+            u[0, i] = ux
+            u[1, i] = uz
+            u[2, i] = side * un
+        p = _coefficients(poly, f)
+        for i in range(nb):
+            a[0, i], a[1, i], a[2, i] = _alpha(u[2, i], u[0, i], zero, u[1, i],
+                                               ndx, ndy, ndz, p)
+        for i in range(nb):
+            ax, ay, az = a[0, i], a[1, i], a[2, i]
+            if capped:
+                ax, ay, az = _cap(ax, ay, az, nx, ny, nz, mu, one)
+            k = kw[i]
             fx = k * ax
             fz = k * az
             acc[0, i] += fx
             acc[1, i] += fz
             acc[2, i] += rz * fx - rx * fz
-    _store(acc, m0, nout, out)
+    for i in range(nb):
+        if band[i] > lo[i]:
+            return True
+    return False
 
 
 @_jit(inline=True)
@@ -311,8 +430,8 @@ planar_parallel = functools.partial(blocks_parallel, True)
 
 
 def constants(dtype) -> np.ndarray:
-    """(0, 1, LEADING_TOL, REST_TOL) in the kernels' working dtype."""
-    return np.array([0.0, 1.0, LEADING_TOL, REST_TOL], dtype=dtype)
+    """(0, 1, LEADING_TOL, REST_TOL, REST_MARGIN) in the kernels' working dtype."""
+    return np.array([0.0, 1.0, LEADING_TOL, REST_TOL, REST_MARGIN], dtype=dtype)
 
 
 def threads() -> int:
