@@ -65,6 +65,26 @@ LANES = 8
 PARALLEL_MIN_PAIRS = 50_000
 _FASTMATH = {'contract'}
 
+# Floating-point operations per facet-twist pair, counted in the code below as a person would
+# count them (a multiply-add is two, a square root or a division one; sign flips, compares,
+# selects and max none), for `rftgls bench`'s share of the machine's peak:
+#
+#   step                                     spatial  planar
+#   velocity at the facet (v + w x r)             12       4
+#   squared speed, speed, its inverse            5+2     3+2
+#   unit direction u                               3       2
+#   n . u, and x3 = n_d . u = +-(n . u)          5+1     3+1
+#   x3^2 and the three cubics (9 FMA each)      1+54    1+54
+#   alpha before the cap: f1 n_d + f2 u - f3 z    10       8
+#   friction cap (two dot products, |t|, the
+#     ratio, the capped stress)                   28      28
+#   weight, force and moment sums                 18       8
+#   total                                        139     114
+#
+# Each block of twists also spends ~5 flops per facet on its rest-tolerance bounds (not
+# counted: 1/BLOCK of a pair).
+FLOPS_PER_PAIR = {'spatial': 139, 'planar': 114}
+
 
 def _jit(parallel: bool = False, inline: bool = False):
     def wrap(fn):
@@ -91,15 +111,12 @@ def _cubic(q, o, x1, x3, x3s):
 
 
 @_jit(inline=True)
-def _alpha(x3, ux, uy, uz, ndx, ndy, ndz, p):
-    """alpha / xi_n of one facet before the friction cap, for unit u with x3 = n_d . u
-    (n_d, ten-per-f_j cubic coefficients p)."""
+def _cubics(x3, uz, p):
+    """(f1, f2, f3) of one facet (ten-per-f_j cubic coefficients p) for x1 = -u.z and
+    x3 = n_d . u."""
     x1 = -uz
     x3s = x3 * x3
-    f1 = _cubic(p, 0, x1, x3, x3s)
-    f2 = _cubic(p, 10, x1, x3, x3s)
-    f3 = _cubic(p, 20, x1, x3, x3s)
-    return f1 * ndx + f2 * ux, f1 * ndy + f2 * uy, f1 * ndz + f2 * uz - f3
+    return _cubic(p, 0, x1, x3, x3s), _cubic(p, 10, x1, x3, x3s), _cubic(p, 20, x1, x3, x3s)
 
 
 @_jit(inline=True)
@@ -295,8 +312,11 @@ def _spatial_pass(tw, nb, lo, hi, r, n, nd, poly, w, mu, c, acc):
             u[3, i] = side * un      # n_d . u, exactly: n_d is +-n
         p = _coefficients(poly, f)
         for i in range(nb):
-            a[0, i], a[1, i], a[2, i] = _alpha(u[3, i], u[0, i], u[1, i], u[2, i],
-                                               ndx, ndy, ndz, p)
+            # alpha before the cap: f1 n_d + f2 u - f3 z
+            f1, f2, f3 = _cubics(u[3, i], u[2, i], p)
+            a[0, i] = f1 * ndx + f2 * u[0, i]
+            a[1, i] = f1 * ndy + f2 * u[1, i]
+            a[2, i] = f1 * ndz + f2 * u[2, i] - f3
         for i in range(nb):
             ax, ay, az = a[0, i], a[1, i], a[2, i]
             if capped:
@@ -359,8 +379,10 @@ def _planar_pass(tw, nb, lo, hi, r, n, nd, poly, w, mu, c, acc):
             u[2, i] = side * un
         p = _coefficients(poly, f)
         for i in range(nb):
-            a[0, i], a[1, i], a[2, i] = _alpha(u[2, i], u[0, i], zero, u[1, i],
-                                               ndx, ndy, ndz, p)
+            f1, f2, f3 = _cubics(u[2, i], u[1, i], p)
+            a[0, i] = f1 * ndx + f2 * u[0, i]
+            a[1, i] = f1 * ndy              # u.y = 0
+            a[2, i] = f1 * ndz + f2 * u[1, i] - f3
         for i in range(nb):
             ax, ay, az = a[0, i], a[1, i], a[2, i]
             if capped:

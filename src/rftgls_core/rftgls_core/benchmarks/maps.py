@@ -1,4 +1,4 @@
-"""Map benchmarks for `rftgls bench` (`bench_maps` is a section of rftgls_core.bench).
+"""Map figures: queries on the shipped prototype map, and the build of the paper grid.
 
 map_query_us: one CapacityMap.query on the shipped prototype map (paper grid) at random
     in-grid states and pull angles; best time per query over repeated batches.
@@ -8,26 +8,25 @@ map_build_s: the full prototype paper grid (750 states x 2 pulls x 5 angles, twi
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 
-from ..timing import Figure, best_time
+from ..maps.grid import prototype_grid
 from ..types import AnchorState
-from .grid import prototype_grid
-
-SHIPPED_PROTOTYPE = Path(__file__).resolve().parents[4] / 'maps' / 'prototype_glass_beads.h5'
+from .timing import Figure, best_time
 
 
 def _prototype_map():
-    from .query import CapacityMap
-    if SHIPPED_PROTOTYPE.exists():
-        return CapacityMap.load(SHIPPED_PROTOTYPE), 'shipped prototype map'
-    from .build import build_map
+    from ..maps.query import CapacityMap
+    from ..maps.shipped import SHIPPED, maps_dir
+    path = maps_dir() / SHIPPED['prototype']
+    if path.exists():
+        return CapacityMap.load(path), 'shipped prototype map'
+    from ..maps.build import build_map
     return CapacityMap(build_map('prototype', 'glass_beads', workers=2)), 'fresh prototype map'
 
 
-def bench_map_query(n: int = 200, seed: int = 0) -> list[Figure]:
+def map_query_figures(n: int = 200, seed: int = 0) -> list[Figure]:
     cmap, what = _prototype_map()
     g = cmap.grid
     rng = np.random.default_rng(seed)
@@ -45,8 +44,8 @@ def bench_map_query(n: int = 200, seed: int = 0) -> list[Figure]:
                    note=f'{what}, pure-Python 32-corner blend, random in-grid states')]
 
 
-def bench_map_build(workers: int = 2) -> list[Figure]:
-    from .build import build_map
+def map_build_figures(workers: int = 2) -> list[Figure]:
+    from ..maps.build import build_map
     grid = prototype_grid()
     t0 = time.perf_counter()
     build_map('prototype', 'glass_beads', grid, workers=workers)
@@ -57,5 +56,5 @@ def bench_map_build(workers: int = 2) -> list[Figure]:
                         f'{workers} processes incl. start-up')]
 
 
-def bench_maps() -> list[Figure]:
-    return bench_map_query() + bench_map_build()
+def map_figures() -> list[Figure]:
+    return map_query_figures() + map_build_figures()

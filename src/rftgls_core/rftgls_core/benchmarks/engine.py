@@ -1,0 +1,157 @@
+"""RFT engine figures: the fused kernels against this run's peak and against the numpy path.
+
+Workloads:
+- planar: the MiniRQuad DH pose of the paper's Table II, 1,000 unit planar twists, the whole
+  buried body (`rft_pairs_per_s`), and the GLS point cloud from scratch (`gls_cloud_ms`);
+- 6D: a 5,120-facet icosphere (4 subdivisions) of 5 cm radius, centre 10 cm deep (every facet
+  buried), 1,000 random spatial twists about its centre (`rft_pairs_per_s_1core`, `_2core`).
+
+Each pairs/s figure carries the kernel's flops per pair (rft/kernels.py, FLOPS_PER_PAIR), so
+the registry reports it as a share of the measured peak, and the numpy path's figure on the
+same work, so it reports the ratio. One and two threads are timed alternately.
+"""
+from __future__ import annotations
+
+from functools import partial
+
+import numpy as np
+
+from ..geometry.shapes import icosphere
+from ..rft import kernels
+from ..rft.engine import BuriedBody
+from ..rft.media import get_medium
+from ..rft.models import make_model
+from ..robots.presets import minirquad
+from ..surfaces.sampling import fibonacci_sphere
+from ..types import AnchorState, Pull
+from .timing import Figure, best_time, best_times_alternating
+
+# A typical buried MiniRQuad pose: the DH anchor of the paper's Table II.
+TYPICAL_STATE = AnchorState.from_degrees(0.034, 5.0, -40.0, 30.0)
+GLS_TWISTS = 1000
+SPHERE_SUBDIVISIONS = 4
+SPHERE_RADIUS_M = 0.05
+SPHERE_DEPTH_M = 0.10
+SPHERE_TWISTS = 1000
+
+
+def unit_twists(n: int, char_length: float) -> np.ndarray:
+    """n planar twists (vx, vz, wy) uniform on the unit sphere of the scaled metric."""
+    ts = fibonacci_sphere(n)
+    return np.column_stack([ts[:, 0], ts[:, 1], ts[:, 2] / char_length])
+
+
+def sphere_workload(precision: str = 'float64', backend: str = 'auto'
+                    ) -> tuple[BuriedBody, np.ndarray]:
+    """The generic 6D workload: the buried icosphere (Agarwal, M90 sand) and its twists."""
+    mesh = icosphere(SPHERE_RADIUS_M, SPHERE_SUBDIVISIONS)
+    centre = np.array([0.0, 0.0, -SPHERE_DEPTH_M])
+    facets = mesh.facets().transformed(np.eye(3), centre)
+    body = BuriedBody(facets, make_model('agarwal', get_medium('m90_sand')), ref=centre,
+                      precision=precision, backend=backend)
+    rng = np.random.default_rng(16)
+    # Angular rates scaled by 1/radius so rotation and translation move facets alike.
+    scale = np.r_[np.ones(3), np.full(3, 1.0 / SPHERE_RADIUS_M)]
+    twists = rng.normal(size=(SPHERE_TWISTS, 6)) * scale
+    return body, twists
+
+
+class threads:
+    """Run the kernels on n threads inside the block (restores the previous count)."""
+
+    def __init__(self, n: int):
+        self.n = n
+
+    def __enter__(self):
+        self.before = kernels.threads()
+        if kernels.AVAILABLE:
+            kernels.set_threads(self.n)
+
+    def __exit__(self, *exc):
+        if kernels.AVAILABLE:
+            kernels.set_threads(self.before)
+
+
+def planar_figures() -> list[Figure]:
+    """The planar kernel and the numpy path on the DH pose, one thread; the GLS cloud."""
+    robot = minirquad()
+    model = make_model('agarwal', get_medium('m90_sand'))
+    twists = unit_twists(GLS_TWISTS, robot.char_length)
+    posed = robot.pose(TYPICAL_STATE, Pull.BACKWARD)
+    bodies = {b: BuriedBody(posed.facets, model, ref=posed.ref, backend=b)
+              for b in ('auto', 'numpy')}
+    pairs = bodies['numpy'].facets_active * len(twists)
+    what = f"{bodies['numpy'].facets_active} buried facets x {len(twists)} twists, one thread"
+    figures = []
+    with threads(1):
+        t = best_times_alternating({b: partial(body.planar_wrench, twists, use_symmetry=False)
+                                    for b, body in bodies.items()}, rounds=5)
+    if bodies['auto'].fused:
+        figures.append(Figure('rft_pairs_per_s', pairs / t['auto'], 'pairs/s',
+                              note=f'fused planar kernel, MiniRQuad DH pose, {what}',
+                              flops=kernels.FLOPS_PER_PAIR['planar'],
+                              numpy_ref='rft_pairs_per_s_numpy'))
+    figures.append(Figure('rft_pairs_per_s_numpy', pairs / t['numpy'], 'pairs/s',
+                          note=f'numpy reference path, same work ({what})'))
+
+    def cloud():
+        p = robot.pose(TYPICAL_STATE, Pull.BACKWARD)
+        body = BuriedBody(p.facets, model, ref=p.ref, mirror_y=p.mirror_y)
+        return body.planar_wrench(twists)
+
+    figures.append(Figure('gls_cloud_ms', 1e3 * best_time(cloud), 'ms',
+                          budget='<= 20 (paper: 800)',
+                          note=f'MiniRQuad DH pose, {GLS_TWISTS} twists: pose + cull + mirror '
+                               f'+ wrenches; {robot.leg_mesh.faces.shape[0]} facets per leg'))
+    return figures
+
+
+def spatial_figures() -> list[Figure]:
+    """The 6D kernel on one and two threads, float32, and the numpy path, on the sphere."""
+    body, twists = sphere_workload()
+    pairs = body.facets_active * len(twists)
+    what = f'{body.facets_active}-facet sphere x {len(twists)} random 6D twists, Agarwal'
+    figures = []
+    if body.fused:
+        flops = kernels.FLOPS_PER_PAIR['spatial']
+        counts = sorted({1, min(2, kernels.max_threads())})
+        fns = {}
+        for n in counts:
+            def run(n=n):
+                with threads(n):
+                    body.wrench(twists)
+            fns[n] = run
+        t = best_times_alternating(fns, rounds=7)
+        figures.append(Figure('rft_pairs_per_s_1core', pairs / t[1], 'pairs/s',
+                              note=f'{what}, one thread', flops=flops,
+                              numpy_ref='rft_pairs_per_s_6d_numpy'))
+        if 2 in t:
+            figures += [
+                Figure('rft_pairs_per_s_2core', pairs / t[2], 'pairs/s', budget='>= 1e8',
+                       note=f'{what}, two threads', flops=flops, threads=2,
+                       numpy_ref='rft_pairs_per_s_6d_numpy'),
+                Figure('rft_2core_speedup', t[1] / t[2], 'x', budget='>= 1.8 (quiet machine)',
+                       note='two threads / one thread, timed alternately'),
+                Figure('rft_sphere5120_1000_ms', 1e3 * t[2], 'ms', budget='<= 55',
+                       note=f'{what}, two threads')]
+        b32, _ = sphere_workload('float32')
+        w64, w32 = body.wrench(twists), b32.wrench(twists)
+        with threads(1):
+            t32 = best_time(partial(b32.wrench, twists), repeats=5)
+        err = float(np.max(np.abs(w32 - w64) / np.abs(w64).max(axis=0)))
+        figures += [
+            Figure('rft_pairs_per_s_float32_1core', pairs / t32, 'pairs/s',
+                   note=f'{what}, float32 per pair (sums in float64), one thread',
+                   numpy_ref='rft_pairs_per_s_6d_numpy'),
+            Figure('rft_float32_rel_error', err, '', note='largest float32 - float64 '
+                   'difference over the 1,000 wrenches, per component, relative to that '
+                   "component's largest magnitude")]
+    ref, _ = sphere_workload(backend='numpy')
+    t_np = best_time(partial(ref.wrench, twists), repeats=2, min_total=0.0)
+    figures.append(Figure('rft_pairs_per_s_6d_numpy', pairs / t_np, 'pairs/s',
+                          note=f'numpy reference path, same work ({what})'))
+    return figures
+
+
+def engine_figures() -> list[Figure]:
+    return planar_figures() + spatial_figures()
