@@ -100,8 +100,8 @@ def main(argv=None) -> int:
     print(describe(machine_record()) + f'; target {args.cpu or "native"}')
     print(f'{"workload":<12} {"numba":>11} {"numpy":>11} {"ratio":>7}  answers apart (rel.)')
     for name, (fn, per) in workloads().items():
-        out = {}
-        best = _best_alternating({b: (lambda b=b: out.__setitem__(b, fn(b)))
+        out: dict = {}
+        best = _best_alternating({b: (lambda b=b, fn=fn, out=out: out.__setitem__(b, fn(b)))
                                   for b in ('auto', 'numpy')}, args.rounds)
         fast, ref = best['auto'] / per, best['numpy'] / per
         print(f'{name:<12} {_fmt(fast):>11} {_fmt(ref):>11} {ref / fast:>6.1f}x  '
