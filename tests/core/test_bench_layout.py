@@ -85,3 +85,39 @@ def test_markdown_table_is_written_between_the_markers_only(tmp_path):
     with pytest.raises(ValueError, match='markers'):
         write_markdown(other, run, 'c')
     assert other.read_text() == 'hand-written, no markers\n'
+
+
+def _makefile_env(name: str) -> dict[str, str]:
+    """The environment assignments of a `NAME := A=x B="y z" ...` line of the Makefile."""
+    import re
+    import shlex
+    text = (Path(rftgls_core.__file__).resolve().parents[3] / 'Makefile').read_text()
+    body = re.search(rf'^{name} := ((?:.*\\\n)*.*)$', text, re.M).group(1).replace('\\\n', ' ')
+    return dict(item.split('=', 1) for item in shlex.split(body))
+
+
+def test_make_test_cpus_and_bench_use_the_same_cpu_targets():
+    from rftgls_core.benchmarks.machine import CPU_TARGETS
+    assert _makefile_env('CPU_V3') == CPU_TARGETS['x86-64-v3']
+    assert _makefile_env('CPU_V2') == CPU_TARGETS['x86-64-v2']
+
+
+def test_the_x86_64_v3_target_compiles_without_avx512():
+    # numba keeps the host's features when only NUMBA_CPU_NAME is set (a Zen 4 then still gets
+    # AVX-512 code): the target must name the features too. Compiled in a fresh process with
+    # the target's environment, a vectorised loop uses 256-bit registers and no 512-bit ones.
+    import os
+    import subprocess
+    import sys
+
+    from rftgls_core.benchmarks.machine import CPU_TARGETS
+    code = ('import re, numpy as np, numba\n'
+            'f = numba.njit(lambda x: (x * 2.0 + 1.0).sum())\n'
+            'f(np.ones(64))\n'
+            'asm = list(f.inspect_asm().values())[0]\n'
+            'print(len(re.findall("zmm", asm)), len(re.findall("ymm", asm)))\n')
+    env = {**os.environ, **CPU_TARGETS['x86-64-v3'], 'NUMBA_CACHE_DIR': '/nonexistent'}
+    out = subprocess.run([sys.executable, '-c', code], env=env, capture_output=True, text=True,
+                         timeout=120, check=True).stdout.split()
+    zmm, ymm = int(out[0]), int(out[1])
+    assert zmm == 0 and ymm > 0
