@@ -4,6 +4,9 @@ map_query_us: one CapacityMap.query on the shipped prototype map (paper grid) at
     in-grid states and pull angles; best time per query over repeated batches.
 map_build_s: the full prototype paper grid (750 states x 2 pulls x 5 angles, twist-mesh,
     1000 twists) on 2 local worker processes, including pool start-up; one run.
+scaling (on request, `--only scaling`): the same build on 1 and on 2 workers, and a map of
+    the MiniRQuad description (81 states) on 1 and on 2 workers; each worker count's time and
+    the speed-up.
 """
 from __future__ import annotations
 
@@ -54,6 +57,40 @@ def map_build_figures(workers: int = 2) -> list[Figure]:
                    note=f'prototype paper grid, {grid.n_states} states x {len(grid.pulls)} '
                         f'pulls x {len(grid.phi)} angles, twist-mesh 1000 twists, '
                         f'{workers} processes incl. start-up')]
+
+
+def scaling_figures() -> list[Figure]:
+    """Map builds on 1 and 2 local workers: the robot map and a described map."""
+    from ..description import load_description, shipped_description
+    from ..maps.build import build_map
+    from ..maps.described import build_described_map, description_grid
+    from ..rft.media import get_medium
+    grid = prototype_grid()
+    t = {}
+    for w in (1, 2):
+        t0 = time.perf_counter()
+        build_map('prototype', 'glass_beads', grid, workers=w)
+        t[w] = time.perf_counter() - t0
+    desc = load_description(shipped_description('minirquad'))
+    dgrid = description_grid(desc, {'h': [0.030, 0.034, 0.038], 'theta_b': [0.0, 5.0, 10.0],
+                                    'theta_l1': [-50.0, -40.0, -30.0],
+                                    'theta_l2': [20.0, 30.0, 40.0]}, [-20.0, 0.0], ('backward',))
+    td = {}
+    for w in (1, 2):
+        t0 = time.perf_counter()
+        build_described_map(desc, get_medium('m90_sand'), dgrid, method='twist-mesh',
+                            workers=w)
+        td[w] = time.perf_counter() - t0
+    what = f'prototype paper grid ({grid.n_states} states), incl. pool start-up'
+    dwhat = f'MiniRQuad description, {dgrid.n_states} states x 2 angles, incl. pool start-up'
+    return [Figure('map_build_1worker_s', t[1], 's', note=f'{what}, in this process'),
+            Figure('map_build_2workers_s', t[2], 's', note=f'{what}, 2 processes'),
+            Figure('map_build_2worker_speedup', t[1] / t[2], 'x', budget='>= 1.7',
+                   note='1 worker / 2 workers, robot map'),
+            Figure('described_build_1worker_s', td[1], 's', note=dwhat),
+            Figure('described_build_2workers_s', td[2], 's', note=dwhat),
+            Figure('described_build_2worker_speedup', td[1] / td[2], 'x', budget='>= 1.7',
+                   note='1 worker / 2 workers, described map')]
 
 
 def map_figures() -> list[Figure]:

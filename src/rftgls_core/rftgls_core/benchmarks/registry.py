@@ -3,8 +3,9 @@
 A section is a function returning a list of `timing.Figure`s, named here as
 'module:function' (relative to this package, or absolute) and imported only when it runs.
 Adding figures is a small edit: write the function next to the code it measures and add one
-line to SECTIONS. A figure with `flops` (per unit) gets `<name>_share_of_peak`, one with
-`numpy_ref` gets `<name>_vs_numpy`, both computed here from the same run.
+line to SECTIONS (and to ON_REQUEST if it takes minutes). A figure with `flops` (per unit)
+gets `<name>_share_of_peak`, one with `numpy_ref` gets `<name>_vs_numpy`, both computed here
+from the same run.
 
 Every run first records the machine and measures its peak (machine.py), whatever sections
 are asked for: a figure means little without the CPU it came from and that CPU's limit.
@@ -25,7 +26,10 @@ SECTIONS: dict[str, str] = {
     'capacity': '.capacity:capacity_figures',
     'live': '.live:live_figures',
     'maps': '.maps:map_figures',
+    'scaling': '.maps:scaling_figures',
 }
+# Sections that run only when named (--only): minutes of work for one figure each.
+ON_REQUEST = frozenset({'scaling'})
 
 
 @dataclass
@@ -84,7 +88,7 @@ def run(only: list[str] | None = None, progress: Callable[[str], None] | None = 
         progress('machine')
     figures = machine.peak_figures()
     for name in SECTIONS:
-        if only and name not in only:
+        if (only and name not in only) or (not only and name in ON_REQUEST):
             continue
         if progress:
             progress(name)
