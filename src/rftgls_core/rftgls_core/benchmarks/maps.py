@@ -72,9 +72,10 @@ def scaling_figures() -> list[Figure]:
         build_map('prototype', 'glass_beads', grid, workers=w)
         t[w] = time.perf_counter() - t0
     desc = load_description(shipped_description('minirquad'))
-    dgrid = description_grid(desc, {'h': [0.030, 0.034, 0.038], 'theta_b': [0.0, 5.0, 10.0],
-                                    'theta_l1': [-50.0, -40.0, -30.0],
-                                    'theta_l2': [20.0, 30.0, 40.0]}, [-20.0, 0.0], ('backward',))
+    axes = {'h': [0.030, 0.034, 0.038], 'theta_b': [0.0, 5.0, 10.0],
+            'theta_l1': [-50.0, -40.0, -30.0], 'theta_l2': [20.0, 30.0, 40.0]}
+    dgrid = description_grid(desc, {k: np.array(v) for k, v in axes.items()}, [-20.0, 0.0],
+                             ('backward',))
     td = {}
     for w in (1, 2):
         t0 = time.perf_counter()
