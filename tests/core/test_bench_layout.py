@@ -70,7 +70,7 @@ def test_markdown_table_is_written_between_the_markers_only(tmp_path):
                         'date_utc': '2026-01-01T00:00+00:00', 'cpu_target': 'x86-64-v3'},
                        registry.derived([Figure('peak_gflops_1core', 50.0, 'GFLOP/s'),
                                          Figure('k', 2e8, 'pairs/s', flops=125.0)]))
-    doc = tmp_path / 'performance.md'
+    doc = tmp_path / 'perf_doc'
     doc.write_text(f'# Title\n\nprose before\n\n{BEGIN}\nold table\n{END}\n\nprose after\n')
     write_markdown(doc, run, 'rftgls bench --cpu x86-64-v3')
     text = doc.read_text()
@@ -80,7 +80,7 @@ def test_markdown_table_is_written_between_the_markers_only(tmp_path):
     assert '| `k` | 2.000e+08 | pairs/s | 0.50 |' in text   # the share in its own column
     assert '`k_share_of_peak`' not in text
     assert table(run, 'c') in text.replace('rftgls bench --cpu x86-64-v3', 'c')
-    other = tmp_path / 'notes.md'
+    other = tmp_path / 'notes'
     other.write_text('hand-written, no markers\n')
     with pytest.raises(ValueError, match='markers'):
         write_markdown(other, run, 'c')

@@ -14,9 +14,10 @@ Determinism: chunks are fixed by the grid and chunk size, results are placed by 
 same inputs give the same arrays on 1 worker, N local workers or a Dask cluster. Only the
 build_time_utc attribute differs between builds.
 
-Executors: workers == 1 runs in this process; workers > 1 uses a 'spawn' process pool (no
-fork of a parent that may hold threads: tqdm's monitor, Dask, ROS), `local_pool`; `scheduler`
-sends the same chunks to a Dask distributed scheduler at that address.
+Executors: workers == 1 runs in this process; workers > 1 uses this process and workers - 1
+'spawn' processes (no fork of a parent that may hold threads: tqdm's monitor, Dask, ROS),
+`local_workers`; `scheduler` sends the same chunks to a Dask distributed scheduler at that
+address.
 """
 from __future__ import annotations
 
@@ -26,8 +27,9 @@ import multiprocessing
 import os
 import sys
 import threading
+from collections import deque
 from collections.abc import Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import Future, ProcessPoolExecutor
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -171,23 +173,71 @@ def _run_inline(spec, grid, chunks, fn=solve_chunk) -> Iterator:
         yield fn(spec, grid, c)
 
 
+class LocalWorkers:
+    """`workers` workers for every pass of one build: this process and workers - 1 'spawn'
+    processes started once. A process's start (imports, cached kernels) costs ~1.5 s of CPU
+    and 3-10 s of wall time on a busy machine, so the process that has them already works
+    too (its kernels on one thread meanwhile, as the others' are), and when it runs out of
+    chunks it also takes the ones still queued at a process that has not finished them (the
+    same numbers, whoever computes them first): a pass never waits for a slow start."""
+
+    def __init__(self, pool: ProcessPoolExecutor, processes: int):
+        self.pool, self.processes = pool, processes
+
+    def run(self, spec, grid, chunks, fn=solve_chunk) -> Iterator:
+        """Results of fn on every chunk, each once, in completion order."""
+        todo = deque(chunks)
+        running: dict[Future, object] = {}
+        taken: set[Future] = set()      # chunks this process computed itself
+        try:
+            while todo or len(taken) < len(running):
+                while todo and len(running) - len(taken) < 2 * self.processes:
+                    c = todo.popleft()
+                    running[self.pool.submit(fn, spec, grid, c)] = c
+                for fut in [f for f in running if f.done()]:
+                    running.pop(fut)
+                    if fut in taken:
+                        taken.discard(fut)
+                    else:
+                        yield fut.result()
+                if todo:
+                    yield fn(spec, grid, todo.popleft())
+                    continue
+                left = [f for f in running if f not in taken]
+                if left:
+                    taken.add(left[0])
+                    yield fn(spec, grid, running[left[0]])
+        finally:
+            for fut in running:
+                fut.cancel()
+
+
 @contextmanager
-def local_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
-    """`workers` 'spawn' processes for every pass of one build (pending tasks are cancelled
-    when the block is left early)."""
+def local_workers(workers: int) -> Iterator[LocalWorkers]:
+    """LocalWorkers for a build on `workers` >= 2 workers (on leaving, chunks not started are
+    cancelled and a chunk still running elsewhere is not waited for)."""
     ctx = multiprocessing.get_context('spawn')
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-        yield pool
-
-
-def _run_pool(spec, grid, chunks, pool: ProcessPoolExecutor, fn=solve_chunk) -> Iterator:
-    futures = [pool.submit(fn, spec, grid, c) for c in chunks]
+    pool = ProcessPoolExecutor(max_workers=workers - 1, mp_context=ctx)
     try:
-        for fut in as_completed(futures):
-            yield fut.result()
+        with _one_thread():
+            yield LocalWorkers(pool, workers - 1)
     finally:
-        for fut in futures:
-            fut.cancel()
+        pool.shutdown(wait=False, cancel_futures=True)
+
+
+@contextmanager
+def _one_thread() -> Iterator[None]:
+    """The RFT kernels of this thread on one thread inside the block (the other workers take
+    the other cores)."""
+    from ..rft import kernels
+    before = kernels.threads()
+    if kernels.AVAILABLE:
+        kernels.set_threads(1)
+    try:
+        yield
+    finally:
+        if kernels.AVAILABLE:
+            kernels.set_threads(before)
 
 
 def _run_dask(spec, grid, chunks, address: str, timeout_s: float,
@@ -299,15 +349,15 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
     if workers < 1:
         raise ValueError(f'workers must be >= 1, got {workers}')
     with ExitStack() as stack:
-        pool = (stack.enter_context(local_pool(min(workers, grid.n_states)))
-                if workers > 1 and not scheduler else None)
+        local = (stack.enter_context(local_workers(min(workers, grid.n_states)))
+                 if workers > 1 and not scheduler else None)
 
         def run(chunks, fn=solve_chunk) -> Iterator:
             if scheduler:
                 return _run_dask(spec, grid, chunks, scheduler, scheduler_timeout_s, fn)
-            if pool is None or len(chunks) == 1:
+            if local is None or len(chunks) == 1:
                 return _run_inline(spec, grid, chunks, fn)
-            return _run_pool(spec, grid, chunks, pool, fn)
+            return local.run(spec, grid, chunks, fn)
 
         answers = _solve_states(run, spec, grid, 4 if scheduler else workers, progress)
         margin, grad = _edge_pass(run, grid, answers, 4 if scheduler else workers)

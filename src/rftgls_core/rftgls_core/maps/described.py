@@ -209,7 +209,7 @@ def build_described_map(desc, medium, grid: DescribedGrid | None = None, *,
     from tqdm import tqdm
 
     from ..scene import SceneModel
-    from .build import _run_inline, _run_pool, chunk_indices, local_pool
+    from .build import _run_inline, chunk_indices, local_workers
     grid = description_grid(desc) if grid is None else grid
     if grid.names != desc.state_names:
         raise ValueError(f'grid axes {grid.names} are not the state of {desc.name} '
@@ -233,9 +233,8 @@ def build_described_map(desc, medium, grid: DescribedGrid | None = None, *,
                                     dynamic_ncols=True) as bar:
         results = (_run_inline(spec, grid, chunks, solve_described_chunk)
                    if workers == 1 or len(chunks) == 1 else
-                   _run_pool(spec, grid, chunks,
-                             stack.enter_context(local_pool(min(workers, len(chunks)))),
-                             solve_described_chunk))
+                   stack.enter_context(local_workers(min(workers, len(chunks)))).run(
+                       spec, grid, chunks, solve_described_chunk))
         for ks, c, t, r, st, rs in results:
             # (n, P, K) -> (P, n, K): placed by state index, never by completion order
             cap[:, ks], ts[:, ks], tr[:, ks] = (np.swapaxes(c, 0, 1), np.swapaxes(t, 0, 1),
