@@ -85,7 +85,7 @@ def planar_figures() -> list[Figure]:
     figures = []
     with threads(1):
         t = best_times_alternating({b: partial(body.planar_wrench, twists, use_symmetry=False)
-                                    for b, body in bodies.items()}, rounds=5)
+                                    for b, body in bodies.items()}, rounds=9)
     if bodies['auto'].fused:
         figures.append(Figure('rft_pairs_per_s', pairs / t['auto'], 'pairs/s',
                               note=f'fused planar kernel, MiniRQuad DH pose, {what}',
@@ -121,7 +121,7 @@ def spatial_figures() -> list[Figure]:
                 with threads(n):
                     body.wrench(twists)
             fns[n] = run
-        t = best_times_alternating(fns, rounds=7)
+        t = best_times_alternating(fns, rounds=15)
         figures.append(Figure('rft_pairs_per_s_1core', pairs / t[1], 'pairs/s',
                               note=f'{what}, one thread', flops=flops,
                               numpy_ref='rft_pairs_per_s_6d_numpy'))
