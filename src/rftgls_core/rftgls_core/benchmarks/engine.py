@@ -5,7 +5,7 @@ Workloads:
   buried body (`rft_pairs_per_s`), and the GLS point cloud from scratch (`gls_cloud_ms`);
 - 6D: a 5,120-facet icosphere (4 subdivisions) of 5 cm radius, centre 10 cm deep (every facet
   buried), 1,000 random spatial twists about its centre (`rft_sphere5120_1000_ms`); the
-  throughput figures (`rft_pairs_per_s_1core`, `_2core`) time calls of the first 256.
+  throughput figures (`rft_pairs_per_s_1core`, `_2core`) time calls of the first 128.
 
 Each pairs/s figure carries the kernel's flops per pair (rft/kernels.py, FLOPS_PER_PAIR), so
 the registry reports it as a share of the measured peak, and the numpy path's figure on the
@@ -34,8 +34,8 @@ SPHERE_SUBDIVISIONS = 4
 SPHERE_RADIUS_M = 0.05
 SPHERE_DEPTH_M = 0.10
 SPHERE_TWISTS = 1000
-# Twists per timed call of the 6D throughput figures (four blocks of 64).
-SHORT_TWISTS = 256
+# Twists per timed call of the 6D throughput figures (two blocks of 64: one per thread).
+SHORT_TWISTS = 128
 
 
 def unit_twists(n: int, char_length: float) -> np.ndarray:
@@ -87,8 +87,11 @@ def planar_figures() -> list[Figure]:
     what = f"{bodies['numpy'].facets_active} buried facets x {len(twists)} twists, one thread"
     figures = []
     with threads(1):
-        t = best_times_alternating({b: partial(body.planar_wrench, twists, use_symmetry=False)
-                                    for b, body in bodies.items()}, rounds=9)
+        # the kernel's call takes ~1.5 ms, the numpy path's ~100: many of the first (a short
+        # call often runs undisturbed on a busy machine), a few of the second
+        t = {b: best_time(partial(body.planar_wrench, twists, use_symmetry=False),
+                          repeats=101 if b == 'auto' else 3, min_total=0.0)
+             for b, body in bodies.items()}
     if bodies['auto'].fused:
         figures.append(Figure('rft_pairs_per_s', pairs / t['auto'], 'pairs/s',
                               note=f'fused planar kernel, MiniRQuad DH pose, {what}',
@@ -112,7 +115,7 @@ def planar_figures() -> list[Figure]:
 def spatial_figures() -> list[Figure]:
     """The 6D kernel on one and two threads, float32, and the numpy path, on the sphere.
 
-    Throughput is timed on calls of SHORT_TWISTS twists (four blocks, a few ms on one
+    Throughput is timed on calls of SHORT_TWISTS twists (two blocks, ~3 ms on one
     thread), best of many, alternating one and two threads: on a shared machine a call that
     short often runs undisturbed, a 1,000-twist call (25 ms) rarely does at load 10. The
     1,000-twist call is timed too, as a figure of its own."""
@@ -129,9 +132,9 @@ def spatial_figures() -> list[Figure]:
                 with threads(n):
                     body.wrench(short)
             fns[n] = run
-        t = best_times_alternating(fns, rounds=41)
+        t = best_times_alternating(fns, rounds=101)
         pairs = body.facets_active * len(short)
-        calls = f'calls of {len(short)} twists, best of 41 alternating'
+        calls = f"calls of {len(short)} twists, best of 101 alternating"
         figures.append(Figure('rft_pairs_per_s_1core', pairs / t[1], 'pairs/s',
                               note=f'{what}, one thread, {calls}', flops=flops,
                               numpy_ref='rft_pairs_per_s_6d_numpy'))
