@@ -8,9 +8,12 @@ STAMP := $(VENV)/.installed-stamp
 WS := ros2_ws
 PKGS := rftgls_conventions rftgls_node_base rftgls_core minirquad_driver minirquad_sim rftgls_ros
 PKG_FILES := $(foreach p,$(PKGS),src/$(p)/setup.py src/$(p)/setup.cfg src/$(p)/package.xml)
-# Interface packages (ament_cmake + rosidl) built by colcon only; any change re-builds them.
-IFACE_PKGS := tf2_msgs rftgls_interfaces
-IFACE_FILES := $(shell find $(foreach p,$(IFACE_PKGS),src/$(p)) -type f 2>/dev/null)
+# Packages built by colcon only (interfaces: ament_cmake + rosidl; the robot description: data);
+# any change re-builds them.
+WS_PKGS := tf2_msgs rftgls_interfaces minirquad_description
+WS_FILES := $(shell find $(foreach p,$(WS_PKGS),src/$(p)) -type f 2>/dev/null)
+# Every package of the workspace, for `make colcon-test` (colcon here has no `list` verb).
+COLCON_PKGS := $(PKGS) $(WS_PKGS)
 # DDS stays on loopback for everything started from here (discovery and sockets).
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export FASTRTPS_DEFAULT_PROFILES_FILE := $(CURDIR)/ros2_ws/params/fastdds_localhost.xml
@@ -19,9 +22,20 @@ export MPLBACKEND := Agg
 ENV := source tools/env.sh
 PYTEST_ARGS ?= -n 2
 
-.PHONY: setup build demo test test-cpus lint bench lock clean
+.PHONY: setup build demo test test-cpus colcon-test lint bench lock clean firmware firmware-size
 
-setup: $(STAMP) $(BIN)/ros2 $(WS)/install/.built-stamp
+setup: $(STAMP) $(BIN)/ros2 $(WS)/install/.built-stamp firmware
+
+# The MiniRQuad firmware's host build (g++ with AddressSanitizer + UBSan): its unit tests, the
+# fuzz test and fw_sitl, the compiled firmware `minirquad_sim --mcu firmware` runs on the pty.
+FIRMWARE := src/minirquad_driver/firmware
+firmware:
+	$(MAKE) -s -C $(FIRMWARE) host
+
+# The firmware core cross-compiled for the robot's Cortex-M0+ (gcc-arm-none-eabi): flash and
+# RAM against the MKR WiFi 1010's 256 KB / 32 KB; fails if over or if heap use is linked in.
+firmware-size:
+	$(MAKE) -s -C $(FIRMWARE) size
 
 # The ros2 stand-in is re-installed when it changes (it applies the DDS loopback profile).
 $(BIN)/ros2: tools/ros2 $(STAMP)
@@ -41,9 +55,9 @@ $(STAMP): requirements/lock.txt $(PKG_FILES)
 # colcon gives the ament layout (lib/<pkg>/<exe>) that `ros2 run` looks up. The interface
 # packages find the rosidl generators and type supports through AMENT_PREFIX_PATH = the venv
 # (docs/design/ros2-from-pip.md, "Interface packages from pip").
-$(WS)/install/.built-stamp: $(STAMP) $(PKG_FILES) $(IFACE_FILES)
+$(WS)/install/.built-stamp: $(STAMP) $(PKG_FILES) $(WS_FILES)
 	source $(BIN)/activate && cd $(WS) && AMENT_PREFIX_PATH=$(CURDIR)/$(VENV) colcon build \
-	    --symlink-install --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE=$(CURDIR)/$(BIN)/python
+	    --symlink-install --cmake-args -DBUILD_TESTING=ON -DPython3_EXECUTABLE=$(CURDIR)/$(BIN)/python
 	touch $@
 
 build: setup
@@ -76,6 +90,14 @@ test-cpus: setup
 	$(ENV) && $(CPU_V3) python -m pytest $(NUMERIC_TESTS) $(PYTEST_ARGS) -m "not realtime" -q
 	$(ENV) && $(CPU_V2) python -m pytest $(NUMERIC_TESTS) $(PYTEST_ARGS) -m "not realtime" -q
 
+# `colcon test` as a ROS user runs it: each package alone (its test/ folder: its unit tests and
+# linters), then `colcon test-result`, which fails on any failed or erroring test.
+colcon-test: setup
+	$(ENV) && cd $(WS) && for p in $(COLCON_PKGS); do \
+	    AMENT_PREFIX_PATH=$(CURDIR)/$(VENV):$$AMENT_PREFIX_PATH colcon test --packages-select $$p \
+	        --return-code-on-test-failure --event-handlers console_direct- || exit 1; done \
+	    && colcon test-result --all
+
 # ruff (lint + import order) on every package and the tests; mypy on the core library.
 lint: setup
 	$(ENV) && ruff check src tests tools && mypy
@@ -96,4 +118,4 @@ lock:
 	$(LOCKENV)/bin/python tools/lock.py write
 
 clean:
-	rm -rf $(VENV) $(WS)/build $(WS)/install $(WS)/log out
+	rm -rf $(VENV) $(WS)/build $(WS)/install $(WS)/log out $(FIRMWARE)/build

@@ -126,6 +126,13 @@ def stop():
 
 
 @pytest.fixture(scope='session')
+def firmware_build():
+    """The firmware's host build folder (fw_sitl, unit tests, fuzz), made if out of date."""
+    from firmware_host import build_host
+    return build_host()
+
+
+@pytest.fixture(scope='session')
 def python_exe() -> str:
     return sys.executable
 

@@ -20,13 +20,14 @@ import pytest
 from repo_layout import PYTHON_PACKAGES, packages
 
 SRC = Path(__file__).resolve().parents[1] / 'src'
-PACKAGES = PYTHON_PACKAGES
+# The packages with Python modules (minirquad_description is data only).
+PACKAGES = tuple(p for p in PYTHON_PACKAGES if (SRC / p / p).is_dir())
 # Which of the repository's packages each Python package may import.
 ALLOWED = {
     'rftgls_conventions': set(),
     'rftgls_core': {'rftgls_conventions'},
     'rftgls_node_base': {'rftgls_conventions'},
-    'minirquad_driver': {'rftgls_conventions', 'rftgls_node_base'},
+    'minirquad_driver': {'rftgls_conventions', 'rftgls_node_base', 'rftgls_interfaces'},
     'minirquad_sim': {'rftgls_conventions', 'rftgls_node_base', 'rftgls_core',
                       'minirquad_driver'},
     'rftgls_ros': {'rftgls_conventions', 'rftgls_node_base', 'rftgls_core',

@@ -2,9 +2,11 @@
 
 Every module a package's files import (its Python package, setup.py and launch files; parsed
 with ast, so optional imports inside functions or try blocks count too) must be a dependency
-with its rosdep key, and every declared run dependency must be imported somewhere. The Python
-standard library, the package itself and setuptools (the ament_python build type brings it)
-are exempt. No ROS needed.
+with its rosdep key, and every declared run dependency must be imported somewhere; the files
+of its test/ folder (what `colcon test` runs) must find theirs among the run and test
+dependencies. The Python standard library, the package itself and setuptools (the
+ament_python build type brings it) are exempt, and so are OPTIONAL modules: imported only
+where a feature needs them, with no rosdep key, named in package.xml's comments. No ROS needed.
 """
 from __future__ import annotations
 
@@ -18,18 +20,21 @@ from repo_layout import PYTHON_PACKAGES
 
 REPO = Path(__file__).resolve().parents[1]
 PACKAGES = PYTHON_PACKAGES
-# import name -> rosdep key (the keys of rosdep's python.yaml; python3-numba, python3-dask and
-# python3-rosbags could not be checked against a rosdep database on these machines). ROS
-# packages (rclpy, *_msgs, *_interfaces, launch, ...) are their own key.
+# import name -> rosdep key (checked against rosdistro: requirements/rosdep_keys.yaml,
+# tests/test_rosdep_keys.py). ROS packages (rclpy, *_msgs, *_interfaces, launch, ...) are their
+# own key.
 ROSDEP = {
     'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'h5py': 'python3-h5py',
     'matplotlib': 'python3-matplotlib', 'numba': 'python3-numba', 'tqdm': 'python3-tqdm',
-    'dask': 'python3-dask', 'cv2': 'python3-opencv', 'serial': 'python3-serial',
-    'yaml': 'python3-yaml', 'rosbags': 'python3-rosbags',
+    'cv2': 'python3-opencv', 'serial': 'python3-serial', 'yaml': 'python3-yaml',
+    'rosbags': 'python3-rosbags-pip', 'pytest': 'python3-pytest',
+    'hypothesis': 'python3-hypothesis', 'urdf_parser_py': 'urdfdom_py',
 }
 ROS = {'rclpy', 'launch', 'launch_ros', 'ament_index_python', 'builtin_interfaces', 'xacro'}
 EXEMPT = {'setuptools'}
+OPTIONAL = {'dask'}      # distributed map builds only (rftgls_core/package.xml says so)
 RUN_TAGS = ('depend', 'exec_depend')
+TEST_TAGS = RUN_TAGS + ('test_depend',)
 
 
 def imports(files, root: Path = REPO) -> dict[str, set[str]]:
@@ -69,20 +74,37 @@ def key_of(module: str) -> str | None:
     return None
 
 
-def package_files(pkg: str) -> list[Path]:
+def package_files(pkg: str, tests: bool = False) -> list[Path]:
+    """The package's Python files outside (or, tests=True, inside) its test/ folder."""
     root = REPO / 'src' / pkg
-    return [f for f in root.rglob('*.py') if 'samples' not in f.parts]
+    return [f for f in root.rglob('*.py') if 'samples' not in f.parts
+            and (f.relative_to(root).parts[0] == 'test') == tests]
 
 
-def declared(pkg: str) -> set[str]:
+def declared(pkg: str, tags=RUN_TAGS) -> set[str]:
     tree = ET.parse(REPO / 'src' / pkg / 'package.xml')
-    return {e.text.strip() for tag in RUN_TAGS for e in tree.getroot().iter(tag) if e.text}
+    return {e.text.strip() for tag in tags for e in tree.getroot().iter(tag) if e.text}
+
+
+def _used(files, pkg: str) -> dict[str, set[str]]:
+    return {m: fs for m, fs in imports(files).items()
+            if m not in sys.stdlib_module_names and m != pkg and m not in EXEMPT | OPTIONAL}
+
+
+@pytest.mark.parametrize('pkg', PACKAGES)
+def test_test_folder_imports_are_declared(pkg):
+    used = _used(package_files(pkg, tests=True), pkg)
+    assert used or (REPO / 'src' / pkg / 'test').is_dir(), f'{pkg} has no test/ folder'
+    unknown = sorted(m for m in used if key_of(m) is None)
+    assert not unknown, f'{pkg}/test: no rosdep key known for {unknown}: add it to ROSDEP'
+    have = declared(pkg, TEST_TAGS)
+    missing = {key_of(m): sorted(fs)[0] for m, fs in used.items() if key_of(m) not in have}
+    assert not missing, f'{pkg}/package.xml lacks <test_depend> for {missing}'
 
 
 @pytest.mark.parametrize('pkg', PACKAGES)
 def test_package_xml_matches_imports(pkg):
-    used = {m: fs for m, fs in imports(package_files(pkg)).items()
-            if m not in sys.stdlib_module_names and m != pkg and m not in EXEMPT}
+    used = _used(package_files(pkg), pkg)
     unknown = sorted(m for m in used if key_of(m) is None)
     assert not unknown, f'{pkg}: no rosdep key known for {unknown}: add it to ROSDEP'
     keys = {key_of(m): m for m in used}

@@ -45,7 +45,7 @@ def prism(polygon: np.ndarray, length: float, n_len: int) -> TriMesh:
     """A closed prism: the star-shaped polygon (about its centre, counter-clockwise seen from
     +z) extruded from z = 0 down to z = -length, side walls split into n_len rings, caps
     fanned from the centre. Each wall quad is split into four triangles about its centre, so
-    a mirror symmetry of the polygon is a symmetry of the facets too (the scene's symmetry
+    a mirror symmetry of the polygon is a symmetry of the facets too (the posed anchor's symmetry
     check compares facets: docs/design/six-d.md). Outward winding."""
     k = len(polygon)
     rings = [np.column_stack([polygon, np.full(k, -length * i / n_len)])

@@ -12,6 +12,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
     ],
+    extras_require={'test': ['pytest']},
     install_requires=['setuptools', 'pyserial'],
     zip_safe=False,
     description='MiniRQuad serial protocol (COBS + CRC-16 frames) and the serial bridge node.',

@@ -11,6 +11,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
     ],
+    extras_require={'test': ['pytest']},
     install_requires=['setuptools'],
     zip_safe=False,
     description=('The simulated MiniRQuad: plant physics (legs, servos, sand, winch and sled, '

@@ -11,6 +11,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
     ],
+    extras_require={'test': ['pytest']},
     install_requires=['setuptools'],
     zip_safe=False,
     description=('The conventions every RFT-GLS package shares: joint names, leg angles, body '

@@ -18,6 +18,8 @@ setup(
         # maps.shipped.maps_dir() finds them.
         ('share/' + PACKAGE + '/maps', sorted(glob('shipped_maps/*.h5'))),
     ],
+    # dask: optional, only for distributed map builds (`rftgls map build --scheduler`).
+    extras_require={'test': ['pytest'], 'distributed': ['dask[distributed]']},
     install_requires=['setuptools'],
     zip_safe=False,
     description=('RFT-GLS core: granular RFT, limit surfaces, load capacity, slip twist, HDF5 '

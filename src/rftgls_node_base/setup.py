@@ -11,6 +11,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
     ],
+    extras_require={'test': ['pytest']},
     install_requires=['setuptools'],
     zip_safe=False,
     description=('What every rclpy node of the RFT-GLS stack shares: start-up, parameters, '

@@ -21,6 +21,7 @@ setup(
         (SHARE + '/params', sorted(glob('params/*.yaml'))),
         (SHARE + '/config', sorted(glob('config/*.rviz') + glob('config/*.json'))),
     ],
+    extras_require={'test': ['pytest']},
     install_requires=['setuptools'],
     zip_safe=False,
     description=('ROS 2 nodes of the RFT-GLS anchoring stack: capacity_node, behavior_node, '

@@ -1,11 +1,11 @@
-"""AnchorModel on the real robots: statuses every caller relies on, and the acceptance of the
+"""RobotPredictor on the real robots: statuses every caller relies on, and the acceptance of the
 default method against the `direct` reference over a small harness of random states."""
 import math
 
 import pytest
 
 from rftgls_core import accuracy as acc
-from rftgls_core.anchor import AnchorModel
+from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
 from rftgls_core.surfaces.registry import METHOD_NAMES
@@ -14,14 +14,14 @@ from rftgls_core.types import AnchorState, Status
 METHODS = list(METHOD_NAMES)
 
 
-def model(robot='prototype', method='twist-mesh', **kw):
+def predictor(robot='prototype', method='twist-mesh', **kw):
     medium = 'glass_beads' if robot == 'prototype' else 'm90_sand'
-    return AnchorModel(get_robot(robot), get_medium(medium), method=method, **kw)
+    return RobotPredictor(get_robot(robot), get_medium(medium), method=method, **kw)
 
 
 @pytest.mark.parametrize('method', METHODS)
 def test_no_buried_leg_is_unsupported(method):
-    r = model(method=method).predict(AnchorState.from_degrees(0.25, 0, 0, 0), 0.0, 'forward')
+    r = predictor(method=method).predict(AnchorState.from_degrees(0.25, 0, 0, 0), 0.0, 'forward')
     assert r.status is Status.UNSUPPORTED and r.reason == 'no_buried_leg'
     assert r.capacity_N is None and r.slip_twist is None
 
@@ -32,7 +32,7 @@ def test_weight_not_carried_is_unsupported(method):
     # the legs are too shallow to carry the prototype's weight (the origin is outside the GLS;
     # the 10^5-twist brute-force reference agrees). At h = 20 mm the same pose holds a little
     # through the closure of the RFT map (0.19 N), see test_surfaces_closure.py.
-    r = model(method=method).predict(AnchorState.from_degrees(0.03, 0, 40, 0), 0.0, 'forward')
+    r = predictor(method=method).predict(AnchorState.from_degrees(0.03, 0, 40, 0), 0.0, 'forward')
     assert r.status is Status.UNSUPPORTED and r.capacity_N is None
 
 
@@ -41,7 +41,7 @@ def test_paper_forward_40_40_is_marginal(n_twists):
     # The paper finds no balance at (40, 40) deg for forward pulls. In our model the origin
     # sits on the limit surface there: unsupported at some sampling densities, a capacity
     # below 10 % of a good pose's at others; never a healthy-looking number (README).
-    m = model(method='direct', n_twists=n_twists)
+    m = predictor(method='direct', n_twists=n_twists)
     weak = m.predict(AnchorState.from_degrees(0.02, 0, 40, 40), 0.0, 'forward')
     strong = m.predict(AnchorState.from_degrees(0.02, 0, -40, 0), 0.0, 'forward')
     assert (weak.status is Status.UNSUPPORTED and weak.capacity_N is None) or \
@@ -51,7 +51,7 @@ def test_paper_forward_40_40_is_marginal(n_twists):
 @pytest.mark.parametrize('bad_state', [AnchorState(math.nan, 0, 0, 0),
                                        AnchorState(0.02, 0, math.inf, 0)])
 def test_non_finite_state_is_invalid_input(bad_state):
-    r = model().predict(bad_state, 0.0, 'forward')
+    r = predictor().predict(bad_state, 0.0, 'forward')
     assert r.status is Status.INVALID_INPUT and r.capacity_N is None
 
 
@@ -64,7 +64,7 @@ def test_non_finite_state_is_invalid_input(bad_state):
     AnchorState.from_degrees(0.02, 0, 270, 0),   # unwrapped leg angle
     AnchorState.from_degrees(0.02, 0, 0, -200)])
 def test_state_outside_the_physical_range_has_no_value(robot, bad_state):
-    r = model(robot, method='direct').predict(bad_state, 0.0, 'backward')
+    r = predictor(robot, method='direct').predict(bad_state, 0.0, 'backward')
     assert r.status is Status.OUT_OF_RANGE and r.reason == 'outside_physical_range'
     assert r.capacity_N is None and r.slip_twist is None and not r.status.has_value
 
@@ -76,10 +76,10 @@ def test_status_list_has_no_extrapolated():
 
 
 def test_non_finite_phi_and_too_few_twists():
-    m = model()
+    m = predictor()
     r = m.predict(AnchorState.from_degrees(0.02, 0, -40, 0), math.nan, 'forward')
     assert r.status is Status.INVALID_INPUT
-    few = model(n_twists=5).predict(AnchorState.from_degrees(0.02, 0, -40, 0), 0.0, 'forward')
+    few = predictor(n_twists=5).predict(AnchorState.from_degrees(0.02, 0, -40, 0), 0.0, 'forward')
     assert few.status is Status.DEGENERATE and few.reason == 'too_few_twists'
 
 

@@ -70,7 +70,7 @@ def test_sphere_pulled_up_holds_its_rft_force_plus_weight(stl, capsys):
                  '0', str(-DEPTH), '--twist', '0', '0', '1', '0', '0', '0', '--json')
     expected = -w['force_N'][2] + MASS * G
     assert res['capacity_N'] == pytest.approx(expected, rel=0.01)
-    t = np.array(res['slip_twist'])
+    t = np.array(res['slip_twist_scaled'])
     assert t.shape == (6,) and t[2] > 0.999          # up, in the scaled metric
     assert 'sagittal reduction' in res['detail']       # a sphere is symmetric: checked
 
@@ -197,4 +197,4 @@ def test_a_box_pulled_up_on_the_6d_path(tmp_path, capsys, depth):
     w = cli_json(capsys, 'wrench', '--mesh', str(path), '--units', 'm', '--position', '0',
                  '0', str(-depth), '--twist', '0', '0', '1', '0', '0', '0', '--json')
     assert res['capacity_N'] == pytest.approx(-w['force_N'][2] + mass * G, rel=0.02)
-    assert res['slip_twist'][2] > 0.99
+    assert res['slip_twist_scaled'][2] > 0.99

@@ -10,14 +10,13 @@ import numpy as np
 import pytest
 from tolerances import INTERPOLATION_ATOL, INTERPOLATION_RTOL
 
-from rftgls_core.anchor import AnchorModel
 from rftgls_core.cli.main import main
 from rftgls_core.description import (
     load_description,
     shipped_description,
     state_values,
-    write_robot_description,
 )
+from rftgls_core.description_writer import write_robot_description
 from rftgls_core.geometry.shapes import ellipsoid
 from rftgls_core.geometry.stl import write_stl
 from rftgls_core.maps import CapacityMap, MapFileError, resolve_map
@@ -27,9 +26,10 @@ from rftgls_core.maps.described import (
     description_grid,
     save_described_map,
 )
+from rftgls_core.posed import PosedAnchorSolver
+from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
-from rftgls_core.scene import SceneModel
 from rftgls_core.types import AnchorState, Status
 
 BOX_URDF = """<?xml version="1.0"?>
@@ -83,10 +83,10 @@ def test_a_box_map_has_the_description_axes_and_the_live_answers(box_anchor, tmp
         assert f['axes/tilt'].attrs['human_unit'] == 'deg'
         assert np.allclose(f['axes/tilt'][()], [0.0, math.radians(10.0)])
     cmap = DescribedMap.load(out)
-    # A node of the map is the live answer of the same scene (float32 storage).
-    live = SceneModel(medium, space='sagittal')
+    # A node of the map is the live answer of the same posed anchor (float32 storage).
+    live = PosedAnchorSolver(medium, space='sagittal')
     node = {'depth': -0.04, 'tilt': math.radians(10.0)}
-    want = live.predict(desc.scene(node), math.radians(90.0), 0.0)
+    want = live.solve(desc.pose(node), math.radians(90.0), 0.0)
     got = cmap.query(node, math.radians(90.0), 'backward', desc.sha256)
     assert want.status is Status.OK and got.status is Status.OK
     assert got.capacity_N == pytest.approx(want.capacity_N, rel=1e-6)
@@ -129,7 +129,7 @@ def test_the_shipped_description_map_holds_the_robot_answers(tmp_path):
                                    'theta_l1': [-40.0, -20.0], 'theta_l2': [20.0, 30.0]},
                             [-20.0, 0.0], ('backward',))
     data = build_described_map(desc, medium, grid, method='twist-mesh')
-    robot = AnchorModel(get_robot('minirquad'), medium, method='twist-mesh')
+    robot = RobotPredictor(get_robot('minirquad'), medium, method='twist-mesh')
     dh = AnchorState.from_degrees(0.034, 5.0, -40.0, 30.0)   # Table II, DH
     for j, phi in enumerate(grid.phi):
         r = robot.predict(dh, float(phi), 'backward')
@@ -270,7 +270,7 @@ def test_accuracy_is_honest_next_to_nodes_without_a_value(box_anchor, tmp_path):
     """A grid reaching past the physical range (depth > 0: `not_a_pose`, no value): the map
     withholds its value in every cell that touches such a node, where the live reference
     still answers; it never answers where the reference does not."""
-    from rftgls_core.maps.described import described_accuracy
+    from rftgls_core.maps.described_accuracy import described_accuracy
     desc = load_description(box_anchor / 'box.yaml')
     grid = description_grid(desc, {'depth': [-0.03, -0.01, 0.01]}, [0.0, 90.0])
     data = build_described_map(desc, get_medium('glass_beads'), grid, method='twist-mesh')
@@ -323,15 +323,15 @@ def test_support_edge_rules_of_the_robot_maps(box_map):
 
 @pytest.mark.parametrize('space', ['sagittal', '6d'])
 def test_one_fit_per_node_gives_the_one_by_one_answers(box_anchor, space):
-    """SceneModel.predict_many (the map build's one fit per node and pull) equals predict at
+    """PosedAnchorSolver.predict_many (the map build's one fit per node and pull) equals predict at
     each angle, on the sagittal and the 6D path, with a non-finite angle answered alone."""
     desc = load_description(box_anchor / 'box.yaml')
-    scene = desc.scene({'depth': -0.04, 'tilt': math.radians(10.0)})
-    sm = SceneModel(get_medium('glass_beads'), method='twist-mesh', space=space)
+    posed = desc.pose({'depth': -0.04, 'tilt': math.radians(10.0)})
+    sm = PosedAnchorSolver(get_medium('glass_beads'), method='twist-mesh', space=space)
     phis = [math.radians(a) for a in (-30.0, 0.0, 45.0, 90.0)] + [math.nan]
-    many = sm.predict_many(scene, phis)
+    many = sm.solve_many(posed, phis)
     assert many[-1].status is Status.INVALID_INPUT and many[-1].reason == 'invalid_phi'
     for phi, r in zip(phis[:-1], many):
-        one = sm.predict(scene, phi)
+        one = sm.solve(posed, phi)
         assert r.status is one.status is Status.OK and r.space == one.space
         assert r.capacity_N == one.capacity_N and r.slip_twist == one.slip_twist

@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 from tolerances import TWO_SOLVES_RTOL, TWO_SOLVES_TWIST_ATOL
 
-from rftgls_core.anchor import AnchorModel
 from rftgls_core.cli.demo import ANCHOR_MODES
 from rftgls_core.cli.main import main
 from rftgls_core.description import (
@@ -19,11 +18,12 @@ from rftgls_core.description import (
     load_description,
     shipped_description,
     state_values,
-    write_robot_description,
 )
+from rftgls_core.description_writer import write_robot_description
+from rftgls_core.posed import PosedAnchorSolver
+from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
-from rftgls_core.scene import SceneModel
 from rftgls_core.types import AnchorState, Pull
 
 ROBOTS = ('prototype', 'minirquad')
@@ -41,7 +41,7 @@ def test_urdf_has_the_frames_of_a_tf_publisher(robot):
     root = ET.parse(DATA / f'{robot}.urdf').getroot()
     links = {el.get('name') for el in root.findall('link')}
     assert {'base_link', 'imu_link', 'winch_link'} <= links
-    hips = [j for j in root.findall('joint') if j.get('type') == 'revolute']
+    hips = [j for j in root.findall('joint') if j.get('type') == 'continuous']
     assert len(hips) == 4
     assert all(j.find('parent').get('link') == 'base_link' for j in hips)
     assert {j.find('child').get('link') for j in hips} == {
@@ -53,7 +53,7 @@ def test_urdf_parses_with_a_standard_library(robot):
     """ROS's own URDF parser (urdf_parser_py, PyPI urdf-parser-py) reads the shipped URDF; the
     leg transforms composed from what it reads (base pose, joint origin, rotation about the
     joint axis with scipy's Rotation, mesh scale) place the leg mesh exactly where the robot
-    preset's own posing (robots/model.py, written independently of the URDF) puts it."""
+    preset's own posing (robots/robot.py, written independently of the URDF) puts it."""
     from scipy.spatial.transform import Rotation
     from urdf_parser_py.urdf import URDF
 
@@ -66,15 +66,15 @@ def test_urdf_parses_with_a_standard_library(robot):
         'base_link', 'imu_link', 'winch_link', 'left_proximal_leg', 'left_distal_leg',
         'right_proximal_leg', 'right_distal_leg'}
     joints = {j.name: j for j in urdf.joints}
-    hips = ('left_proximal_hip', 'left_distal_hip', 'right_proximal_hip', 'right_distal_hip')
-    assert {n for n, j in joints.items() if j.type == 'revolute'} == set(hips)
+    hips = ('leg_proximal_left', 'leg_distal_left', 'leg_proximal_right', 'leg_distal_right')
+    assert {n for n, j in joints.items() if j.type == 'continuous'} == set(hips)
     assert {joints[n].type for n in ('imu_link_joint', 'winch_link_joint')} == {'fixed'}
     assert all(joints[h].parent == 'base_link' and joints[h].axis == [0.0, -1.0, 0.0]
                for h in hips)
     assert joints['winch_link_joint'].origin.xyz == [0.0, 0.0, 0.0]    # p is the tether point
     links = {ln.name: ln for ln in urdf.links}
     leg = read_stl(DATA / 'c_leg.stl', units='m')
-    model = get_robot(robot)
+    rob = get_robot(robot)
     for state in STATES:
         body = rot_y(-state.theta_b)
         p = np.array([0.0, 0.0, state.h])
@@ -89,8 +89,8 @@ def test_urdf_parses_with_a_standard_library(robot):
             mesh = type(leg)(leg.vertices * scale, leg.faces if np.prod(scale) > 0
                              else leg.faces[:, ::-1])
             posed[h] = mesh.facets().transformed(rot, hip)
-        # forward pulls use the leg mesh as it is (Pull.FORWARD, robots/model.py)
-        ref = model.pose(state, Pull.FORWARD).facets
+        # forward pulls use the leg mesh as it is (Pull.FORWARD, robots/robot.py)
+        ref = rob.pose(state, Pull.FORWARD).facets
         ours = [posed[h] for h in hips]
         cent = np.vstack([f.centroids for f in ours])
         norm = np.vstack([f.normals for f in ours])
@@ -112,13 +112,13 @@ STATES = list(ANCHOR_MODES.values()) + [AnchorState.from_degrees(0.02, 0.0, -40.
 def test_the_description_gives_the_numbers_of_the_robot(robot, method):
     desc = load_description(shipped_description(robot))
     medium = get_medium(desc.medium)
-    reference = AnchorModel(get_robot(robot), medium, method=method)
-    model = SceneModel(medium, method=method)
+    reference = RobotPredictor(get_robot(robot), medium, method=method)
+    solver = PosedAnchorSolver(medium, method=method)
     for state in STATES:
         for pull in Pull:
             for phi in (0.0, math.radians(-20.0)):
                 a = reference.predict(state, phi, pull)
-                b = model.predict(desc.scene(state_values(state), pull), phi)
+                b = solver.solve(desc.pose(state_values(state), pull), phi)
                 assert b.space == 'sagittal' and a.status == b.status
                 if a.capacity_N is None:
                     assert b.capacity_N is None
@@ -153,7 +153,7 @@ def broken(tmp_path):
                                                             'missing_mesh.urdf'))
     (tmp_path / 'no_range.yaml').write_text(yml.replace(
         '{name: theta_b, unit: deg, physical: [-90.0, 90.0],', '{name: theta_b, unit: deg,'))
-    (tmp_path / 'bad_joint.yaml').write_text(yml.replace('left_distal_hip, ', 'knee, '))
+    (tmp_path / 'bad_joint.yaml').write_text(yml.replace('leg_distal_left, ', 'knee, '))
     # One distal leg 1 mm further out than its mirror image: the claimed symmetry is false.
     (tmp_path / 'lopsided.urdf').write_text(urdf.replace('0.12 -0.055 0.01', '0.12 -0.056 0.01'))
     (tmp_path / 'lopsided.yaml').write_text(yml.replace('minirquad.urdf', 'lopsided.urdf'))

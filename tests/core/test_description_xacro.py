@@ -70,7 +70,7 @@ def test_a_xacro_description_is_its_plain_urdf(tmp_path, capsys):
     expanded = capacity(capsys, xacro_description(tmp_path / 'a'))
     assert plain['status'] == expanded['status'] == 'ok'
     assert expanded['capacity_N'] == pytest.approx(plain['capacity_N'], rel=1e-12)
-    assert expanded['slip_twist'] == pytest.approx(plain['slip_twist'], abs=1e-12)
+    assert expanded['slip_twist_scaled'] == pytest.approx(plain['slip_twist_scaled'], abs=1e-12)
     desc = load_description(tmp_path / 'a' / 'ellipsoid.yaml')
     assert '<mass value="0.04"/>' in desc.urdf_text()     # robot_description: expanded
     assert 'xacro:' not in desc.urdf_text()

@@ -1,4 +1,4 @@
-"""Building maps with the real AnchorModel: determinism across executors, CLI, shipped files."""
+"""Building maps with the real RobotPredictor: determinism across executors, CLI, shipped files."""
 import json
 import subprocess
 import sys

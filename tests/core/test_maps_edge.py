@@ -235,7 +235,7 @@ def test_shipped_edge_corners_carry_the_dense_sphere_margin():
 
     cmap = CapacityMap.load(shipped_map_path('minirquad'))
     data = cmap.data
-    model = spec_from_map(data).anchor_model()
+    predictor = spec_from_map(data).predictor()
     p = 1                                               # backward pull
     grad_ok = np.isfinite(data.support_margin_grad[p, ..., 0])
     marg_ok = np.isfinite(data.support_margin[p])
@@ -245,6 +245,6 @@ def test_shipped_edge_corners_carry_the_dense_sphere_margin():
     for node, n_twists, is_held in ((edge_node, EDGE_MARGIN_TWISTS, False),
                                     (plain_node, data.attrs['n_twists'], True)):
         k = int(np.ravel_multi_index(node, data.grid.state_shape))
-        m = node_support_margin(model, TwistSphere.build(int(n_twists)), data.grid.state(k),
+        m = node_support_margin(predictor, TwistSphere.build(int(n_twists)), data.grid.state(k),
                                 'backward', is_held)
         assert float(data.support_margin[p][node]) == pytest.approx(m, rel=1e-6, abs=1e-7)

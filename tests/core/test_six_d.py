@@ -1,4 +1,4 @@
-"""The 6D path (gls6d.py, scene.py): exact on a synthetic 6D surface, equal to the sagittal
+"""The 6D path (gls6d.py, posed.py): exact on a synthetic 6D surface, equal to the sagittal
 reduction where both apply, out of the plane where the pull is."""
 from __future__ import annotations
 
@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from rftgls_core.anchor import AnchorModel
 from rftgls_core.gls6d import Problem6, Scaling6, Surface6, complement_basis, sphere5
+from rftgls_core.posed import PosedAnchorSolver, pose_robot, pull_plane_symmetry, pull_vector
+from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import minirquad
-from rftgls_core.scene import SceneModel, pull_plane_symmetry, pull_vector, scene_from_robot
 from rftgls_core.types import AnchorState, Pull, Status
 
 DH = AnchorState.from_degrees(0.034, 5.0, -40.0, 30.0)   # paper Table II, the DH anchor
@@ -61,16 +61,16 @@ def test_a_weight_beyond_the_surface_is_unsupported():
 
 
 @pytest.fixture(scope='module')
-def dh_scene():
-    return scene_from_robot(minirquad(), DH, Pull.BACKWARD)
+def dh_posed():
+    return pose_robot(minirquad(), DH, Pull.BACKWARD)
 
 
 @pytest.mark.parametrize('phi_deg', [0.0, -20.0, 30.0])
-def test_6d_equals_the_sagittal_answer_at_yaw_0(dh_scene, phi_deg):
-    sagittal = AnchorModel(minirquad(), get_medium('m90_sand'), method='direct').predict(
+def test_6d_equals_the_sagittal_answer_at_yaw_0(dh_posed, phi_deg):
+    sagittal = RobotPredictor(minirquad(), get_medium('m90_sand'), method='direct').predict(
         DH, math.radians(phi_deg), Pull.BACKWARD)
-    full = SceneModel(get_medium('m90_sand'), space='6d').predict(dh_scene,
-                                                                  math.radians(phi_deg))
+    full = PosedAnchorSolver(get_medium('m90_sand'), space='6d').solve(dh_posed,
+                             math.radians(phi_deg))
     assert full.space == '6d' and full.status is Status.OK
     assert full.capacity_N == pytest.approx(sagittal.capacity_N, rel=1e-6)
     t6 = np.array(full.slip_twist_scaled)
@@ -78,21 +78,21 @@ def test_6d_equals_the_sagittal_answer_at_yaw_0(dh_scene, phi_deg):
     assert np.allclose(t6[[0, 2, 4]], t3, atol=1e-6) and np.allclose(t6[[1, 3, 5]], 0, atol=1e-6)
 
 
-def test_the_symmetry_is_checked_not_assumed(dh_scene):
-    assert pull_plane_symmetry(dh_scene, 0.0).symmetric
-    assert not pull_plane_symmetry(dh_scene, math.radians(30)).symmetric
-    auto = SceneModel(get_medium('m90_sand'))
-    assert auto.predict(dh_scene, 0.0).space == 'sagittal'
-    assert auto.predict(dh_scene, 0.0, math.radians(30)).space == '6d'
+def test_the_symmetry_is_checked_not_assumed(dh_posed):
+    assert pull_plane_symmetry(dh_posed, 0.0).symmetric
+    assert not pull_plane_symmetry(dh_posed, math.radians(30)).symmetric
+    auto = PosedAnchorSolver(get_medium('m90_sand'))
+    assert auto.solve(dh_posed, 0.0).space == 'sagittal'
+    assert auto.solve(dh_posed, 0.0, math.radians(30)).space == '6d'
 
 
-def test_a_yawed_pull_slips_out_of_the_plane(dh_scene):
-    r = SceneModel(get_medium('m90_sand')).predict(dh_scene, 0.0, math.radians(30))
+def test_a_yawed_pull_slips_out_of_the_plane(dh_posed):
+    r = PosedAnchorSolver(get_medium('m90_sand')).solve(dh_posed, 0.0, math.radians(30))
     assert r.status is Status.OK and r.space == '6d'
     t = np.array(r.slip_twist_scaled)
     # vy, wx, wz: the body slides sideways and turns about z and x.
     assert np.linalg.norm(t[[1, 3, 5]]) > 0.3
-    mirrored = SceneModel(get_medium('m90_sand')).predict(dh_scene, 0.0, math.radians(-30))
+    mirrored = PosedAnchorSolver(get_medium('m90_sand')).solve(dh_posed, 0.0, math.radians(-30))
     assert mirrored.capacity_N == pytest.approx(r.capacity_N, rel=1e-6)   # mirror image
     tm = np.array(mirrored.slip_twist_scaled)
     assert np.allclose(tm, t * np.array([1, -1, 1, -1, 1, -1]), atol=1e-5)
@@ -113,12 +113,12 @@ def test_plot_shows_capacity_against_yaw(tmp_path, capsys):
     assert spaces[0.0] == 'sagittal' and spaces[30.0] == '6d'
 
 
-def test_a_ray_through_a_jump_exits_on_the_closure(dh_scene):
+def test_a_ray_through_a_jump_exits_on_the_closure(dh_posed):
     # Yaw 70 deg: no twist maps onto the ray (Newton stalls at a jump); the patch search finds
     # the exit of the bridged closure. Reference: continuity in yaw, the neighbours 65 and 75 deg
     # are smooth Newton roots.
-    model = SceneModel(get_medium('m90_sand'))
-    caps = {y: model.predict(dh_scene, 0.0, math.radians(y)) for y in (65.0, 70.0, 75.0)}
+    solver = PosedAnchorSolver(get_medium('m90_sand'))
+    caps = {y: solver.solve(dh_posed, 0.0, math.radians(y)) for y in (65.0, 70.0, 75.0)}
     assert caps[70.0].status is Status.OK and 'on_jump' in caps[70.0].flags
     assert 'patch search' in caps[70.0].detail
     assert caps[75.0].capacity_N < caps[70.0].capacity_N < caps[65.0].capacity_N

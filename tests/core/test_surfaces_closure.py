@@ -11,8 +11,8 @@ import math
 import numpy as np
 import pytest
 
-from rftgls_core.anchor import AnchorModel
 from rftgls_core.cli.demo import ANCHOR_MODES
+from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
 from rftgls_core.surfaces import DirectSurface, GLSProblem, Scaling, TwistMeshSurface
@@ -97,14 +97,14 @@ def test_uniform_mesh_underestimates_a_small_capacity_next_to_a_jump():
                         -0.49621527415977335)
     phi, pull = math.radians(-11.402250958905148), Pull.FORWARD
     robot, medium = get_robot('prototype'), get_medium('glass_beads')
-    bare = AnchorModel(robot, medium, method='brute-force',
-                       surface_options={'refine': False}).predict(state, phi, pull)
-    model = AnchorModel(robot, medium, method='brute-force')
-    surface, _ = model.fit(state, pull)
+    bare = RobotPredictor(robot, medium, method='brute-force',
+                          surface_options={'refine': False}).predict(state, phi, pull)
+    predictor = RobotPredictor(robot, medium, method='brute-force')
+    surface, _ = predictor.fit(state, pull)
     assert isinstance(surface, BruteForceSurface)
     ref = surface.capacity(phi)
     bound = surface.errors_N_[0]
-    d = AnchorModel(robot, medium, method='direct').predict(state, phi, pull)
+    d = RobotPredictor(robot, medium, method='direct').predict(state, phi, pull)
     assert bare.capacity_N is not None and bare.capacity_N < 0.046
     assert bound is not None and bound < 1e-4
     assert ref.capacity_N == pytest.approx(d.capacity_N, abs=bound + 1e-5)
@@ -113,7 +113,7 @@ def test_uniform_mesh_underestimates_a_small_capacity_next_to_a_jump():
 
 @pytest.fixture(scope='module')
 def prototype_direct():
-    return AnchorModel(get_robot('prototype'), get_medium('glass_beads'), method='direct')
+    return RobotPredictor(get_robot('prototype'), get_medium('glass_beads'), method='direct')
 
 
 def test_direct_answers_every_state_of_the_fig9_grid(prototype_direct):
@@ -130,10 +130,10 @@ def test_direct_answers_every_state_of_the_fig9_grid(prototype_direct):
 
 
 def test_direct_answers_the_table2_poses():
-    model = AnchorModel(get_robot('minirquad'), get_medium('m90_sand'), method='direct')
+    predictor = RobotPredictor(get_robot('minirquad'), get_medium('m90_sand'), method='direct')
     for mode, state in ANCHOR_MODES.items():
         for phi_deg in (0.0, -20.0):
-            r = model.predict(state, math.radians(phi_deg), Pull.BACKWARD)
+            r = predictor.predict(state, math.radians(phi_deg), Pull.BACKWARD)
             assert r.status is Status.OK and r.capacity_N > 0, (mode, phi_deg, r.detail)
 
 
@@ -141,10 +141,10 @@ def test_grid_centre_matches_twist_mesh_and_brute_force(prototype_direct):
     # The state of the issue report: direct said `degenerate`, twist-mesh 4.35 N.
     state = AnchorState.from_degrees(0.02, 0, 0, 0)
     d = prototype_direct.predict(state, 0.0, Pull.BACKWARD)
-    tm = AnchorModel(get_robot('prototype'), get_medium('glass_beads')).predict(
+    tm = RobotPredictor(get_robot('prototype'), get_medium('glass_beads')).predict(
         state, 0.0, Pull.BACKWARD)
-    bf = AnchorModel(get_robot('prototype'), get_medium('glass_beads'), method='brute-force',
-                     n_twists=40_000).predict(state, 0.0, Pull.BACKWARD)
+    bf = RobotPredictor(get_robot('prototype'), get_medium('glass_beads'), method='brute-force',
+                        n_twists=40_000).predict(state, 0.0, Pull.BACKWARD)
     assert d.status is tm.status is bf.status is Status.OK
     assert d.capacity_N == pytest.approx(tm.capacity_N, rel=1e-6)
     assert d.capacity_N == pytest.approx(bf.capacity_N, rel=0.01)
@@ -158,8 +158,8 @@ def test_twist_mesh_finds_the_thin_fold_its_polish_stepped_over():
                         -0.5108521821067686)
     phi, pull = math.radians(-27.813277543926485), Pull.BACKWARD
     robot, medium = get_robot('prototype'), get_medium('glass_beads')
-    tm = AnchorModel(robot, medium).predict(state, phi, pull)
-    surface, _ = AnchorModel(robot, medium, method='brute-force').fit(state, pull)
+    tm = RobotPredictor(robot, medium).predict(state, phi, pull)
+    surface, _ = RobotPredictor(robot, medium, method='brute-force').fit(state, pull)
     assert isinstance(surface, BruteForceSurface)
     ref = surface.capacity(phi)
     assert tm.capacity_N is not None and ref.capacity_N is not None
@@ -178,18 +178,18 @@ def test_a_bridged_jump_in_front_of_a_converged_root_is_the_exit():
                         -0.21615652201508126)
     phi, pull = math.radians(-18.439385650570934), Pull.FORWARD
     robot, medium = get_robot('prototype'), get_medium('glass_beads')
-    surface, _ = AnchorModel(robot, medium, method='brute-force').fit(state, pull)
+    surface, _ = RobotPredictor(robot, medium, method='brute-force').fit(state, pull)
     assert isinstance(surface, BruteForceSurface)
     ref = surface.capacity(phi)
     assert ref.capacity_N is not None and surface.errors_N_[0] is not None
     assert ref.capacity_N == pytest.approx(0.01247, abs=1e-4)
     floor = 0.05 * robot.mass * 9.81
-    tm_off = AnchorModel(robot, medium, surface_options={'local_check': False}).predict(
+    tm_off = RobotPredictor(robot, medium, surface_options={'local_check': False}).predict(
         state, phi, pull)
     assert tm_off.capacity_N == pytest.approx(0.02223, abs=1e-4)   # without the check
     for method, options in (('direct', {}), ('twist-mesh', {})):
-        r = AnchorModel(robot, medium, method=method,
-                        surface_options=options).predict(state, phi, pull)
+        r = RobotPredictor(robot, medium, method=method,
+                           surface_options=options).predict(state, phi, pull)
         assert r.status is Status.OK and r.capacity_N is not None
         assert r.capacity_N - ref.capacity_N <= 0.02 * max(ref.capacity_N, floor), method
         assert 'on_jump' in r.flags, method
@@ -197,7 +197,7 @@ def test_a_bridged_jump_in_front_of_a_converged_root_is_the_exit():
 
 def _reference(robot, medium, state, pull, phi):
     """The refined brute-force reference (surfaces/brute_force.py) and its own error bound."""
-    surface, _ = AnchorModel(robot, medium, method='brute-force').fit(state, pull)
+    surface, _ = RobotPredictor(robot, medium, method='brute-force').fit(state, pull)
     assert isinstance(surface, BruteForceSurface)
     ref = surface.capacity(phi)
     assert ref.capacity_N is not None and surface.errors_N_[0] is not None
@@ -262,7 +262,7 @@ def test_states_that_were_above_the_reference_now_land_on_it(case):
     assert ref == pytest.approx(expected, abs=tol) and err < err_max
     floor = 0.05 * robot.mass * 9.81
     for method in ('direct', 'twist-mesh'):
-        r = AnchorModel(robot, medium, method=method).predict(state, phi, pull)
+        r = RobotPredictor(robot, medium, method=method).predict(state, phi, pull)
         assert r.status is Status.OK and r.capacity_N is not None
         assert abs(r.capacity_N - ref) <= 1e-3 * max(ref, floor), method
 
@@ -278,6 +278,6 @@ def test_twist_mesh_local_checks_do_not_skip_the_fold_check():
     robot, medium = get_robot('prototype'), get_medium('glass_beads')
     ref, err = _reference(robot, medium, state, pull, phi)
     assert ref == pytest.approx(5.1585, abs=1e-3) and err < 1e-4
-    r = AnchorModel(robot, medium, n_twists=1000).predict(state, phi, pull)   # the maps' setting
+    r = RobotPredictor(robot, medium, n_twists=1000).predict(state, phi, pull)   # the maps' setting
     assert r.capacity_N is not None
     assert abs(r.capacity_N - ref) <= 1e-3 * ref

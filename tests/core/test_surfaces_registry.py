@@ -55,7 +55,7 @@ def test_predictor_lists_come_from_the_registry():
     from rftgls_core.surfaces.registry import PREDICTOR_METHODS, REFERENCE_ONLY
     assert REFERENCE_ONLY == ('brute-force',)
     assert set(PREDICTOR_METHODS) == set(METHOD_NAMES) - {'brute-force'}
-    ros = pytest.importorskip('rftgls_ros.capacity.predictor')
+    ros = pytest.importorskip('rftgls_ros.capacity.node_predictor')
     lab = pytest.importorskip('rftgls_ros.lab.predict')
     assert ros.LIVE_METHODS == ('direct-warm', *PREDICTOR_METHODS)
     assert lab.METHODS == (*PREDICTOR_METHODS, 'map')

@@ -2,7 +2,7 @@
 solver answers what the cold `direct` answers (capacity within 1e-6 relative, same status),
 on streams that stay put (sensor noise), drift (slow burrowing), cross the support edge, cross
 jumps of the RFT map and grow a second exit (a fold). The reference is the cold solve itself,
-`AnchorModel(method='direct')` / `DirectSurface().fit(problem)`, run independently at every
+`RobotPredictor(method='direct')` / `DirectSurface().fit(problem)`, run independently at every
 step; fallback counts show the warm path is really taken where it should be."""
 from __future__ import annotations
 
@@ -11,12 +11,12 @@ import math
 import numpy as np
 import pytest
 
-from rftgls_core.anchor import AnchorModel
+from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
 from rftgls_core.surfaces.direct import DirectSurface
 from rftgls_core.surfaces.synthetic import folded_case
-from rftgls_core.surfaces.warm import WarmAnchorModel, WarmDirect, triangle_distances
+from rftgls_core.surfaces.warm import WarmDirect, triangle_distances
 from rftgls_core.types import AnchorState, Pull, Status
 
 RTOL = 1e-6
@@ -30,8 +30,8 @@ def _medium(robot: str) -> str:
 def run_stream(robot: str, states, phi: float, pull: Pull) -> dict:
     """Warm and cold answers at every state of the stream; asserts they agree."""
     rob, med = get_robot(robot), get_medium(_medium(robot))
-    cold = AnchorModel(rob, med, method='direct')
-    warm = WarmAnchorModel(rob, med)
+    cold = RobotPredictor(rob, med, method='direct')
+    warm = RobotPredictor(rob, med, method='direct-warm')
     statuses, flags, worst = [], [], 0.0
     for k, st in enumerate(states):
         rw = warm.predict(st, phi, pull)
@@ -193,7 +193,7 @@ def test_scaled_evaluator_is_the_problems_scaled_map_bitwise():
     # twist_from_scaled / wrench_to_scaled around problem.wrenches, or warm and cold would
     # see different maps. Twists of very different sizes and a few single ones.
     from rftgls_core.surfaces import warm as W
-    m = AnchorModel(get_robot('minirquad'), get_medium('m90_sand'), method='direct')
+    m = RobotPredictor(get_robot('minirquad'), get_medium('m90_sand'), method='direct')
     problem = m.pose(AnchorState(*DH), Pull.BACKWARD).problem
     sc = problem.scaling
     rng = np.random.default_rng(9)
@@ -267,7 +267,7 @@ def test_newton_batch_is_the_cold_solves_newton():
     # and from random twists (some of which do not converge in a few iterations).
     from rftgls_core.surfaces.newton import newton_on_sphere
     from rftgls_core.surfaces.warm import newton_batch
-    m = AnchorModel(get_robot('minirquad'), get_medium('m90_sand'), method='direct')
+    m = RobotPredictor(get_robot('minirquad'), get_medium('m90_sand'), method='direct')
     problem = m.pose(AnchorState(*DH), Pull.BACKWARD).problem
     sc = problem.scaling
 

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from rftgls_core.anchor import AnchorModel
+from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
 from rftgls_core.sim.trajectory import simulate_pull
@@ -47,7 +47,7 @@ def test_integrator_order_on_analytic_field(integrator, order):
 
 @pytest.fixture(scope='module')
 def prototype_model():
-    return AnchorModel(get_robot('prototype'), get_medium('glass_beads'), method='direct')
+    return RobotPredictor(get_robot('prototype'), get_medium('glass_beads'), method='direct')
 
 
 def test_real_trajectory_converges_with_step(prototype_model):

@@ -26,10 +26,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rftgls_core.anchor import AnchorModel
+from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
-from rftgls_core.surfaces.warm import WarmAnchorModel
 from rftgls_core.types import AnchorState, Pull
 
 RTOL = 1e-6
@@ -78,8 +77,8 @@ class StreamResult:
 def compare(stream: Stream, **warm_options) -> StreamResult:
     """Warm and cold answers at every state of the stream; mismatches are recorded."""
     rob, med = get_robot(stream.robot), get_medium(medium_of(stream.robot))
-    cold = AnchorModel(rob, med, method='direct')
-    warm = WarmAnchorModel(rob, med, **warm_options)
+    cold = RobotPredictor(rob, med, method='direct')
+    warm = RobotPredictor(rob, med, method='direct-warm', surface_options=warm_options)
     out = StreamResult()
     for k, st in enumerate(stream.states):
         rw = warm.predict(st, stream.phi, stream.pull)

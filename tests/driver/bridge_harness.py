@@ -5,6 +5,7 @@ import time
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import WrenchStamped
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -24,6 +25,7 @@ class Harness:
         overrides = [Parameter('port', value=port), Parameter('diagnostics_period_s', value=0.5)]
         overrides += [Parameter(k, value=v) for k, v in params.items()]
         self.node = BridgeNode(context=ctx, parameter_overrides=overrides)
+        self.node.bring_up()
         self.probe = rclpy.create_node('probe', context=ctx)
         self.joints: list[tuple[float, JointState]] = []
         self.joints_wall: list[float] = []      # wall time each joint state was received
@@ -32,11 +34,14 @@ class Harness:
         self.diag: list[DiagnosticArray] = []
         self.imu: list[Imu] = []
         self.power: list[BatteryState] = []
+        self.tension: list[WrenchStamped] = []
         sub = self.probe.create_subscription
         sub(JointState, 'joint_states', self._on_joints, 1000)
         sub(Float64, 'energy', lambda msg: self.energy.append(msg.data), 1000)
-        sub(Imu, 'imu', self.imu.append, 1000)
+        sub(Imu, 'imu/data', self.imu.append, 1000)
         sub(BatteryState, 'power', self.power.append, 1000)
+        sub(WrenchStamped, 'winch/tension', self.tension.append, 1000)
+        self.winch = self.probe.create_publisher(Float64, 'winch/speed', 10)
         sub(DiagnosticArray, 'diagnostics', self.diag.append, 10)
         # Depth 10: a busy probe must not lose a short-lived state under the next one.
         latched = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,

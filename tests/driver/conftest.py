@@ -11,10 +11,15 @@ import pytest
 sys.path.insert(0, str(Path(__file__).parent))   # strategies.py
 
 
-@pytest.fixture
-def sim(spawn, python_exe, tmp_path):
+@pytest.fixture(params=['python', 'firmware'])
+def sim(request, spawn, python_exe, tmp_path):
     """Start ``minirquad_sim`` (as ``python -m``) with extra args; returns a handle with the
-    symlink path, the record file and a reader for its telemetry records."""
+    symlink path, the record file and a reader for its telemetry records. Every test that
+    uses it runs twice: against the Python reference MCU and against the compiled firmware
+    (``--mcu firmware``: fw_sitl on the same pty, the Python plant behind it)."""
+    mcu = request.param
+    if mcu == 'firmware':
+        request.getfixturevalue('firmware_build')
 
     class Sim:
         def start(self, *args: str):
@@ -23,13 +28,15 @@ def sim(spawn, python_exe, tmp_path):
             self.record = tmp_path / 'record.jsonl'
             self.proc = spawn([python_exe, '-m', 'minirquad_sim.main',
                                '--symlink', str(self.link), '--link-file', str(self.path_file),
-                               '--record', str(self.record), *args])
-            deadline = time.monotonic() + 10.0
+                               '--record', str(self.record), '--mcu', mcu, *args])
+            deadline = time.monotonic() + 30.0   # the live ground warms up first (loaded host)
             while not self.path_file.exists():
                 assert self.proc.poll() is None, 'simulator exited'
                 assert time.monotonic() < deadline, 'simulator did not open its pty'
                 time.sleep(0.02)
             return self
+
+        mcu_kind = mcu
 
         def records(self) -> list[dict]:
             return [json.loads(line) for line in self.record.read_text().splitlines()

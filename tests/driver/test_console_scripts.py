@@ -11,13 +11,16 @@ from sensor_msgs.msg import JointState
 
 
 @pytest.mark.slow
-def test_ros2_run_bridge_node_and_sim(spawn, ros_context, tmp_path):
+@pytest.mark.parametrize('mcu', ['python', 'firmware'])
+def test_ros2_run_bridge_node_and_sim(spawn, ros_context, tmp_path, request, mcu):
     ros2 = shutil.which('ros2')
     if ros2 is None:
         pytest.skip('ros2 stand-in not on PATH (source tools/env.sh after make setup)')
+    if mcu == 'firmware':
+        request.getfixturevalue('firmware_build')
     link = tmp_path / 'tty'
-    spawn([ros2, 'run', 'minirquad_sim', 'minirquad_sim', '--symlink', str(link)])
-    deadline = time.monotonic() + 10
+    spawn([ros2, 'run', 'minirquad_sim', 'minirquad_sim', '--symlink', str(link), '--mcu', mcu])
+    deadline = time.monotonic() + 30
     while not link.exists():
         assert time.monotonic() < deadline
         time.sleep(0.02)

@@ -33,11 +33,11 @@ def _bad_field_message(kind: int):
     tel = m.Telemetry((0.0,) * 4, (0.0,) * 4, 0.0, 0.0, 0.0, 0.0, 0.0)
     return [
         m.Telemetry(**{**tel.__dict__, 'mode': 7 + kind % 200}),
-        m.Telemetry(**{**tel.__dict__, 'flags': 0x40 << (kind % 10)}),
+        m.Telemetry(**{**tel.__dict__, 'flags': 0x80 << (kind % 9)}),
         m.Ack(0, 0x17 + kind % 200, 0),
         m.Ack(0, m.MsgType.HEARTBEAT, 5 + kind % 200),
         m.Info(2 + kind % 200, 1, 0, 100, 50),
-        m.Error(6 + kind % 200, 0),
+        m.Error(9 + kind % 200, 0),
     ][kind % 6]
 
 

@@ -1,6 +1,6 @@
 """The lab tools take an anchor description: `--anchor FILE.yaml` of evaluate,
 calibrate and replay poses that description instead of the bag's robot. The reference is the
-preset path itself (AnchorModel and RobotModel.pose, robots/), which the shipped description is
+preset path itself (RobotPredictor and Robot.pose, robots/), which the shipped description is
 written from: the same bag analysed with the shipped description must give the preset's
 numbers. A description the bags cannot feed, or one that cannot be read, is one line, exit 2."""
 from __future__ import annotations
@@ -42,7 +42,7 @@ def renamed(tmp_path_factory):
 @pytest.mark.parametrize('robot', ['prototype', 'minirquad'])
 def test_surface_points_end_the_slip_where_the_body_plate_does(robot):
     """The shipped descriptions' surface_points are the body plate's ends: the stop height
-    equals RobotModel.pose(...).plate_min_z at any pose (pitch both ways)."""
+    equals Robot.pose(...).plate_min_z at any pose (pitch both ways)."""
     desc = load_anchor(shipped_description(robot)).description
     rb = get_robot(robot)
     for h, tb in ((0.03, 0.0), (0.01, math.radians(20)), (0.004, math.radians(-25)),
@@ -205,10 +205,11 @@ def test_synthetic_refuses_a_bad_description_in_one_line(renamed, tmp_path, caps
 def test_a_rigid_anchor_is_fed_by_anchor_state(tmp_path, capsys):
     """The example ellipsoid (state depth, tilt) is refused by name alone, and with
     --anchor-state depth=h,tilt=theta_b a synthetic pull of it starts at the description's
-    capacity (reference: rftgls_core's DescriptionModel at that pose, fed the same way)."""
+    capacity (reference: rftgls_core's DescriptionPredictor at that pose, fed the same way)."""
     from pathlib import Path
 
-    from rftgls_core.description import DescriptionModel, load_description
+    from rftgls_core.description import load_description
+    from rftgls_core.predictor.live import DescriptionPredictor
     from rftgls_ros.lab.synthetic import SensorModel, synthesize
     ell = Path(__file__).resolve().parents[2] / 'examples' / 'anchors' / 'ellipsoid.yaml'
     with pytest.raises(ValueError, match='--anchor-state'):
@@ -222,8 +223,8 @@ def test_a_rigid_anchor_is_fed_by_anchor_state(tmp_path, capsys):
     test = synthesize(state, 'backward', med, med, phi=math.radians(45.0), step=2e-3,
                       max_travel=0.004, integrator='euler', anchor=anchor,
                       sensors=SensorModel(tension_sigma_N=0.0))
-    ref = DescriptionModel(load_description(ell), med, method='twist-mesh',
-                           state_map={'depth': 'h', 'tilt': 'theta_b'})
+    ref = DescriptionPredictor(load_description(ell), med, method='twist-mesh',
+                               state_map={'depth': 'h', 'tilt': 'theta_b'})
     want = ref.predict(state, math.radians(45.0), 'backward').capacity_N
     assert test.meta.robot == 'ellipsoid_anchor'
     assert float(test.tension_N[np.searchsorted(test.force_t, 1.0)]) == pytest.approx(

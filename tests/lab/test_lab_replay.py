@@ -86,7 +86,8 @@ def test_replay_into_capacity_node(ros_context, synthetic_bags):
 
 def test_replay_resolves_only_the_layouts_types(ros_context, tmp_path):
     """A bag names its message types as text; replay must never import a module a bag
-    names. Unknown types are skipped and reported, never resolved."""
+    names. A bag that is not a lab pull test (no /lab/metadata) is refused before any
+    publisher exists; nothing it names is resolved."""
     import sys
 
     from rosbags.rosbag2 import StoragePlugin, Writer
@@ -104,10 +105,10 @@ def test_replay_resolves_only_the_layouts_types(ros_context, tmp_path):
         w.write(c, 1, b'\x00\x01\x00\x00\x05\x00\x00\x00')
     node = rclpy.create_node('hostile_replay', context=ros_context)
     try:
-        rep = BagReplayer(node, bag)
-        assert rep.skipped == ['/evil (h4_evil_pkg/msg/Payload)'] and not rep.publishers
-        assert rep.step() is None
-        rep.close()
+        with pytest.raises(BagError, match='not a lab pull-test bag'):
+            BagReplayer(node, bag)
+        topics = {t for t, _ in node.get_publisher_names_and_types_by_node('hostile_replay', '/')}
+        assert topics <= {'/parameter_events', '/rosout'}, topics    # rclpy's own only
     finally:
         node.destroy_node()
     assert 'h4_evil_pkg' not in sys.modules

@@ -117,3 +117,24 @@ def _camera_and_meta(folder, scene, test_id):
                         markers=scene.markers)
     (folder / 'meta.json').write_text(meta.to_json())
     return cam, meta
+
+
+def test_an_opencv_without_the_detector_api_is_one_clear_line(tmp_path, monkeypatch, capsys):
+    """Ubuntu 24.04's system OpenCV (4.6) has cv2.aruco without ArucoDetector: the tracker
+    stops with one line saying what is missing and what to install, exit status 2."""
+    scene = default_bench()
+    cam, _meta = _camera_and_meta(tmp_path, scene, 'old')
+    folder = tmp_path / 'frames'
+    folder.mkdir()
+    cv2.imwrite(str(folder / 'f000.png'), np.full((8, 8), 190, np.uint8))
+
+    class OldAruco:                      # the 4.6 module: functions, no detector object
+        getPredefinedDictionary = cv2.aruco.getPredefinedDictionary
+        DetectorParameters = cv2.aruco.DetectorParameters
+    monkeypatch.setattr(cv2, 'aruco', OldAruco)
+    rc = tracking_main(['--images', str(folder), '--camera', str(cam), '--meta',
+                        str(tmp_path / 'meta.json'), '--out', str(tmp_path / 'bag')])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and '\n' not in err
+    assert 'cv2.aruco.ArucoDetector' in err and 'OpenCV >= 4.7' in err
+    assert not (tmp_path / 'bag').exists()

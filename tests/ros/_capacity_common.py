@@ -29,7 +29,7 @@ class Probe:
         self.node = rclpy.create_node(name, context=context)
         n = self.node
         self.pub_joints = n.create_publisher(JointState, '/joint_states', 10)
-        self.pub_imu = n.create_publisher(Imu, '/imu', 10)
+        self.pub_imu = n.create_publisher(Imu, '/imu/data', 10)
         self.pub_tension = n.create_publisher(WrenchStamped, '/winch/tension', 10)
         self.pub_height = n.create_publisher(Float64, '/winch/height', 10)
         self.pub_phi = n.create_publisher(Float64, '/winch/phi', 10)

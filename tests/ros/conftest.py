@@ -7,8 +7,8 @@ import pytest
 @pytest.fixture(scope='session')
 def live_predictor():
     """One live twist-mesh predictor per worker (the twist sphere is built once)."""
-    from rftgls_ros.capacity.predictor import LivePredictor
-    return LivePredictor(method='twist-mesh')
+    from rftgls_ros.capacity.node_predictor import node_predictor
+    return node_predictor('', 'twist-mesh')
 
 
 @pytest.fixture(scope='session')

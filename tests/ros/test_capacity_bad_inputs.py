@@ -45,7 +45,7 @@ def est(live_predictor):
 
 def no_value(e):
     return (not e.has_value and e.capacity_N is None and e.margin_N is None
-            and e.slip_twist_raw is None and e.capacity_lower_N is None)
+            and e.slip_twist is None and e.capacity_lower_N is None)
 
 
 def test_the_good_case_answers_ok(est):
@@ -98,7 +98,7 @@ def test_a_full_turn_is_the_same_leg_angle(est, live_predictor):
     turned = legs(l1=DH.theta_l1 + 2 * math.pi, l2=DH.theta_l2 - 2 * math.pi)
     feed(est, joints=turned)
     e = est.estimate(NOW)
-    core = live_predictor.model.predict(DH, PHI, Pull.BACKWARD)
+    core = live_predictor.predict(DH, PHI, Pull.BACKWARD)
     assert e.status is Status.OK and e.state.theta_l1 == pytest.approx(DH.theta_l1)
     assert e.capacity_N == pytest.approx(core.capacity_N, rel=1e-9)
 
@@ -177,13 +177,13 @@ def test_height_from_the_parameter_is_assumed_never_ok(est, live_predictor):
     e = est.estimate(NOW)
     assert e.status is Status.ASSUMED and e.has_value
     assert e.reason_codes == ('assumed_input:height',) and e.assumed == ('height',)
-    core = live_predictor.model.predict(DH, PHI, Pull.BACKWARD)
+    core = live_predictor.predict(DH, PHI, Pull.BACKWARD)
     assert e.capacity_N == pytest.approx(core.capacity_N, rel=1e-12)
     # The lower bound covers the assumed range (height_m +- 10 mm): no capacity of the
     # reference model anywhere in it is below the bound.
     for dh in (-0.01, -0.005, 0.0, 0.005, 0.01):
         st = AnchorState(DH.h + dh, DH.theta_b, DH.theta_l1, DH.theta_l2)
-        ref = live_predictor.model.predict(st, PHI, Pull.BACKWARD)
+        ref = live_predictor.predict(st, PHI, Pull.BACKWARD)
         assert ref.status is Status.OK and e.capacity_lower_N <= ref.capacity_N + 1e-12
     assert 0.0 < e.capacity_lower_N < e.capacity_N
 
@@ -193,7 +193,7 @@ def test_assumed_phi_range_is_covered_too(est, live_predictor):
     e = est.estimate(NOW)
     assert e.status is Status.ASSUMED and e.reason_codes == ('assumed_input:phi',)
     for dphi in (-10 * DEG, 0.0, 10 * DEG):
-        ref = live_predictor.model.predict(DH, PHI + dphi, Pull.BACKWARD)
+        ref = live_predictor.predict(DH, PHI + dphi, Pull.BACKWARD)
         assert e.capacity_lower_N <= ref.capacity_N + 1e-12
 
 

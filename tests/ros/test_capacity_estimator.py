@@ -8,8 +8,9 @@ from _capacity_common import DH, IN_AIR, PHI
 
 from rftgls_conventions import quat_xyzw_to_pitch
 from rftgls_core.types import Pull, Status
+from rftgls_node_base.parameters import ConfigError
 from rftgls_ros.capacity.estimator import CapacityEstimator, EstimatorConfig
-from rftgls_ros.capacity.predictor import ConfigError, predictor_from_params
+from rftgls_ros.capacity.node_predictor import node_predictor
 
 
 def feed(est: CapacityEstimator, t: float, state=DH, tension=1.0, phi=PHI, spread=(0.0, 0.0)):
@@ -31,11 +32,11 @@ def est(live_predictor):
 def test_ok_matches_core_and_margin(est, live_predictor):
     feed(est, 10.0, tension=1.5)
     e = est.estimate(10.01)
-    core = live_predictor.model.predict(DH, PHI, Pull.BACKWARD)
+    core = live_predictor.predict(DH, PHI, Pull.BACKWARD)
     assert e.status is Status.OK and e.has_value
     assert e.capacity_N == pytest.approx(core.capacity_N, rel=1e-12)
     assert e.margin_N == pytest.approx(core.capacity_N - 1.5)
-    assert e.slip_twist_raw == pytest.approx(core.slip_twist)
+    assert e.slip_twist == pytest.approx(core.slip_twist)
     assert not e.slipping and e.warnings == ()
     assert e.state == DH and e.phi_rad == PHI
 
@@ -44,7 +45,7 @@ def test_tension_above_capacity_predicts_slip(est):
     feed(est, 0.0, tension=50.0)
     e = est.estimate(0.0)
     assert e.status is Status.OK and e.slipping and e.margin_N < 0
-    assert math.hypot(*e.slip_twist_raw) == pytest.approx(1.0)
+    assert math.hypot(*e.slip_twist) == pytest.approx(1.0)
 
 
 def test_new_tension_reuses_the_prediction(est):
@@ -68,7 +69,7 @@ def test_stale_input(est, late):
     e = est.estimate(2.0)
     assert e.status is Status.STALE and not e.has_value
     assert late in e.detail
-    assert e.capacity_N is None and e.margin_N is None and e.slip_twist_raw is None
+    assert e.capacity_N is None and e.margin_N is None and e.slip_twist is None
 
 
 def test_never_received_is_stale_and_parameter_inputs_are_assumed(live_predictor):
@@ -104,7 +105,7 @@ def test_invalid_scalar_input(est, name, value, code):
     est.update(name, 0.0, value)
     e = est.estimate(0.0)
     assert e.status is Status.INVALID_INPUT and e.reason_codes == (code,)
-    assert e.capacity_N is None and e.margin_N is None and e.slip_twist_raw is None
+    assert e.capacity_N is None and e.margin_N is None and e.slip_twist is None
 
 
 def test_invalid_joint_and_malformed(est):
@@ -137,7 +138,7 @@ def test_unsupported_reports_zero_capacity(est):
     e = est.estimate(0.0)
     assert e.status is Status.UNSUPPORTED and not e.has_value
     assert e.capacity_N == 0.0 and e.margin_N == -0.7 and e.slipping
-    assert e.slip_twist_raw is None
+    assert e.slip_twist is None
 
 
 @pytest.mark.parametrize('kwargs, words', [
@@ -154,11 +155,11 @@ def test_bad_config(live_predictor, kwargs, words):
         CapacityEstimator(live_predictor, EstimatorConfig(**kwargs))
 
 
-def test_predictor_from_params_errors(tmp_path):
+def test_node_predictor_errors(tmp_path):
     with pytest.raises(ConfigError, match='live_method'):
-        predictor_from_params('', live_method='bogus')
+        node_predictor('', live_method='bogus')
     with pytest.raises(ConfigError, match='not found|no CapacityMap'):
-        predictor_from_params(str(tmp_path / 'missing.h5'))
+        node_predictor(str(tmp_path / 'missing.h5'))
 
 
 def test_quat_xyzw_to_pitch_sign_and_yaw_invariance():
@@ -190,7 +191,7 @@ def test_outputs_value_holding_and_slipping(est, live_predictor):
     assert out.slip_twist == (0.0, 0.0, 0.0)            # holds: no predicted motion
     est.update('tension', 0.01, 50.0)
     out = est.outputs(est.estimate(0.01))
-    assert out.slip_twist == pytest.approx(live_predictor.model.predict(
+    assert out.slip_twist == pytest.approx(live_predictor.predict(
         DH, PHI, Pull.BACKWARD).slip_twist)             # slipping: the raw twist
 
 
@@ -225,7 +226,7 @@ def test_reconfigure_applies_from_the_next_estimate(est, live_predictor):
     before = est.estimate(0.0).capacity_N
     est.reconfigure(dataclasses.replace(est.config, phi_rad=0.0))
     after = est.estimate(0.0).capacity_N
-    assert after == pytest.approx(live_predictor.model.predict(DH, 0.0, Pull.BACKWARD)
+    assert after == pytest.approx(live_predictor.predict(DH, 0.0, Pull.BACKWARD)
                                   .capacity_N, rel=1e-12)
     assert after != before
     with pytest.raises(ConfigError):

@@ -80,10 +80,10 @@ def test_query_service_matches_cli(stack, state, phi):
     assert ref['status'] == 'ok' and res.status == 'ok' and res.has_value
     assert res.capacity_n == pytest.approx(ref['capacity_N'], rel=0, abs=1e-9)
     got = (res.slip_twist.linear.x, res.slip_twist.linear.z, res.slip_twist.angular.y)
-    assert got == pytest.approx(ref['slip_twist_raw'], abs=1e-9)
+    assert got == pytest.approx(ref['slip_twist'], abs=1e-9)
     scaled = (res.slip_twist_scaled.linear.x, res.slip_twist_scaled.linear.z,
               res.slip_twist_scaled.angular.y)
-    assert scaled == pytest.approx(ref['slip_twist'], abs=1e-9)
+    assert scaled == pytest.approx(ref['slip_twist_scaled'], abs=1e-9)
 
 
 def test_query_service_refuses_bad_requests(stack):
@@ -186,7 +186,7 @@ def test_behavior_asks_capacity_node(ros_context):
     import threading
 
     from rftgls_ros.behavior import ANCHOR_MODES
-    from rftgls_ros.capacity.predictor import MapPredictor
+    from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
     from rftgls_ros.capacity_query import ServicePredictor
     node = CapacityNode(context=ros_context, parameter_overrides=[
         Parameter(k, value=v) for k, v in PARAMS.items()])
@@ -197,7 +197,7 @@ def test_behavior_asks_capacity_node(ros_context):
     asker = rclpy.create_node('behavior_node', context=ros_context)
     pred = ServicePredictor(asker, '/capacity_node/query_capacity', timeout_s=5.0)
     try:
-        local = MapPredictor()
+        local = node_predictor(DEFAULT_MAP, robot=None, medium=None)
         for name, mode in ANCHOR_MODES.items():
             for phi in (0.0, PHI):
                 state = mode.expected_state()
@@ -239,8 +239,8 @@ def test_behavior_query_without_capacity_node_is_no_value(ros_context):
 def test_behavior_node_asks_the_service_unless_configured(ros_context):
     """capacity_source: service (default) -> ServicePredictor; local_map, or the explicit
     own_capacity_fallback, -> its own map; anything else refuses to start."""
+    from rftgls_core.predictor.maps import MapPredictor
     from rftgls_ros.behavior_node import BehaviorNode
-    from rftgls_ros.capacity.predictor import MapPredictor
     from rftgls_ros.capacity_query import ServicePredictor
 
     def chooser_predictor(**params):

@@ -5,12 +5,12 @@ from contextlib import contextmanager
 
 import pytest
 
-from rftgls_core.anchor import AnchorModel
+from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import minirquad
 from rftgls_core.types import AnchorState
+from rftgls_ros.capacity.node_predictor import LIVE_METHODS, node_predictor
 from rftgls_ros.capacity.params import PARAMETERS
-from rftgls_ros.capacity.predictor import LIVE_METHODS, predictor_from_params
 
 DH = AnchorState.from_degrees(0.034, 5.0, -40.0, 30.0)
 
@@ -20,8 +20,8 @@ def test_live_mode_defaults_to_the_warm_solver():
 
 
 def test_warm_live_predictor_answers_as_cold_direct_and_reports_stats():
-    p = predictor_from_params('', live_method='direct-warm')
-    cold = AnchorModel(minirquad(), get_medium('m90_sand'), method='direct')
+    p = node_predictor('', live_method='direct-warm')
+    cold = RobotPredictor(minirquad(), get_medium('m90_sand'), method='direct')
     phi = math.radians(-20.0)
     for dl in (0.0, 1e-4, 2e-4):
         st = AnchorState(DH.h, DH.theta_b, DH.theta_l1 + dl, DH.theta_l2)
@@ -70,7 +70,7 @@ def test_node_live_mode_answers_with_the_warm_solver_and_reports_it(ros_context)
         assert node.estimator.predictor.name == 'live:direct-warm'
         est = node.estimator
         cap = probe.output_for(probe.tension(1.0).header.stamp)
-        cold = AnchorModel(minirquad(), get_medium('m90_sand'), method='direct').predict(
+        cold = RobotPredictor(minirquad(), get_medium('m90_sand'), method='direct').predict(
             est.estimate(node.now_s()).state, PHI, 'backward')
         d = (-math.cos(PHI), math.sin(PHI))
         assert cap.wrench.force.x * d[0] + cap.wrench.force.z * d[1] == pytest.approx(

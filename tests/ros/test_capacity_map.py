@@ -8,21 +8,18 @@ import pytest
 from _capacity_common import DH, PHI, Probe
 
 from rftgls_core.maps import CapacityMap
+from rftgls_core.predictor.maps import FallbackPredictor, MapPredictor
 from rftgls_core.types import AnchorState, Status
+from rftgls_node_base.parameters import ConfigError
 from rftgls_ros.capacity.estimator import CapacityEstimator, EstimatorConfig
-from rftgls_ros.capacity.predictor import (
-    ConfigError,
-    LiveFallback,
-    MapPredictor,
-    predictor_from_params,
-)
+from rftgls_ros.capacity.node_predictor import node_predictor
 
 OUTSIDE = AnchorState(DH.h, math.radians(15.0), DH.theta_l1, DH.theta_l2)   # theta_b > 10 deg
 HIGH = AnchorState(0.10, DH.theta_b, DH.theta_l1, DH.theta_l2)             # cell touches 200 mm
 
 
 def estimator_for(path, state, tension=1.0, predictor=None):
-    est = CapacityEstimator(predictor or MapPredictor(path, 'minirquad', 'm90_sand', 'backward'),
+    est = CapacityEstimator(predictor or node_predictor(str(path), pull='backward'),
                             EstimatorConfig(pull='backward', phi_rad=PHI))
     est.update_joints(0.0, {'proximal_left': state.theta_l1, 'proximal_right': state.theta_l1,
                             'distal_left': state.theta_l2, 'distal_right': state.theta_l2})
@@ -38,11 +35,11 @@ def test_estimator_statuses_from_the_map(small_map, state, status):
     direct = CapacityMap.load(small_map).query(state, PHI, 'backward')
     assert e.status is status and direct.status is status
     if status is Status.OK:
-        assert e.capacity_N == direct.capacity_N and e.slip_twist_raw == direct.slip_twist
+        assert e.capacity_N == direct.capacity_N and e.slip_twist == direct.slip_twist
     elif status is Status.UNSUPPORTED:
-        assert e.capacity_N == 0.0 and e.margin_N == -1.0 and e.slip_twist_raw is None
+        assert e.capacity_N == 0.0 and e.margin_N == -1.0 and e.slip_twist is None
     else:   # no value at all off the grid
-        assert e.capacity_N is None and e.slip_twist_raw is None
+        assert e.capacity_N is None and e.slip_twist is None
 
 
 def test_off_grid_state_has_no_value(small_map):
@@ -52,15 +49,14 @@ def test_off_grid_state_has_no_value(small_map):
     assert direct.status is Status.OUT_OF_RANGE
     e = estimator_for(small_map, OUTSIDE)
     assert e.status is Status.OUT_OF_RANGE and not e.has_value
-    assert e.capacity_N is None and e.margin_N is None and e.slip_twist_raw is None
+    assert e.capacity_N is None and e.margin_N is None and e.slip_twist is None
     assert e.capacity_lower_N is None
 
 
 def test_off_grid_state_answered_by_the_live_solver_when_configured(small_map, live_predictor):
-    fb = LiveFallback(MapPredictor(small_map, 'minirquad', 'm90_sand', 'backward'),
-                      live_predictor)
+    fb = node_predictor(str(small_map), pull='backward', out_of_range_live_method='twist-mesh')
     e = estimator_for(small_map, OUTSIDE, predictor=fb)
-    live = live_predictor.model.predict(OUTSIDE, PHI, 'backward')
+    live = live_predictor.predict(OUTSIDE, PHI, 'backward')
     assert live.status is Status.OK  # the reference has a value there
     assert e.status is Status.OK and e.capacity_N == pytest.approx(live.capacity_N, rel=1e-12)
     assert 'live_fallback' in e.reason_codes
@@ -78,10 +74,8 @@ def test_edge_margin_answers_are_re_answered_by_the_live_solver():
     # the anchor holds take the live value.
     from rftgls_core.accuracy import agreement_states
     from rftgls_core.maps import shipped_map_path
-    from rftgls_ros.capacity.predictor import LivePredictor
-    mp = MapPredictor(shipped_map_path('minirquad'), 'minirquad', 'm90_sand')
-    live = LivePredictor(method='direct')
-    fb = LiveFallback(mp, edge=live)
+    fb = node_predictor(str(shipped_map_path('minirquad')), edge_live_method='direct')
+    mp, live = fb.primary, fb.edge
     edge = [(st, pull, phi) for st, pull, phi in agreement_states('minirquad', 300, 4)
             if 'edge_margin' in mp.predict(st, phi, pull).flags]
     assert len(edge) > 10
@@ -106,16 +100,16 @@ def test_edge_margin_answers_are_re_answered_by_the_live_solver():
 def test_capacity_node_checks_edge_answers_by_default_and_can_be_told_not_to(small_map):
     from rftgls_ros.capacity.params import PARAMETERS
     assert PARAMETERS['edge_live_method'].default == 'direct-warm'
-    p = predictor_from_params(str(small_map), edge_live_method='direct-warm')
-    assert isinstance(p, LiveFallback) and p.fallback is None and p.edge is not None
+    p = node_predictor(str(small_map), edge_live_method='direct-warm')
+    assert isinstance(p, FallbackPredictor) and p.fallback is None and p.edge is not None
     assert p.name.endswith('+live:direct-warm(edge check)')
-    both = predictor_from_params(str(small_map), out_of_range_live_method='direct',
-                                 edge_live_method='direct')
-    assert isinstance(both, LiveFallback) and both.edge is both.fallback   # one solver
-    assert isinstance(predictor_from_params(str(small_map), edge_live_method=''),
+    both = node_predictor(str(small_map), out_of_range_live_method='direct',
+                          edge_live_method='direct')
+    assert isinstance(both, FallbackPredictor) and both.edge is both.fallback   # one solver
+    assert isinstance(node_predictor(str(small_map), edge_live_method=''),
                       MapPredictor)
     with pytest.raises(ConfigError, match='edge_live_method'):
-        predictor_from_params(str(small_map), edge_live_method='bogus')
+        node_predictor(str(small_map), edge_live_method='bogus')
 
 
 def test_bad_map_files(tmp_path, small_map):
@@ -124,17 +118,17 @@ def test_bad_map_files(tmp_path, small_map):
     with h5py.File(wrong, 'w') as f:
         f['something'] = [1, 2, 3]
     with pytest.raises(ConfigError, match='bad map file'):
-        predictor_from_params(str(wrong))
+        node_predictor(str(wrong))
     text = tmp_path / 'not_hdf5.h5'
     text.write_text('hello\n')
     with pytest.raises(ConfigError, match='map file'):
-        predictor_from_params(str(text))
+        node_predictor(str(text))
     with pytest.raises(ConfigError, match='not found'):
-        predictor_from_params(str(tmp_path / 'missing.h5'))
+        node_predictor(str(tmp_path / 'missing.h5'))
     with pytest.raises(ConfigError, match="not 'forward'"):
-        predictor_from_params(str(small_map), pull='forward')
+        node_predictor(str(small_map), pull='forward')
     with pytest.raises(ConfigError, match='robot'):
-        predictor_from_params(str(small_map), robot='prototype')
+        node_predictor(str(small_map), robot='prototype')
 
 
 def test_node_with_map_out_of_range_and_ok(ros_context, small_map):

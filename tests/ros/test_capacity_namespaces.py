@@ -62,7 +62,7 @@ def test_two_namespaced_capacity_nodes_do_not_cross_talk(spawn, ros_context, tmp
     pubs, got = {}, {}
     for ns in ROBOTS:
         pubs[ns] = (node.create_publisher(JointState, f'/{ns}/joint_states', 10),
-                    node.create_publisher(Imu, f'/{ns}/imu', 10),
+                    node.create_publisher(Imu, f'/{ns}/imu/data', 10),
                     node.create_publisher(Float64, f'/{ns}/winch/height', 10),
                     node.create_publisher(WrenchStamped, f'/{ns}/winch/tension', 10))
         got[ns] = []

@@ -15,7 +15,7 @@ from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 
 from rftgls_core.types import Pull, pull_direction  # noqa: E402
-from rftgls_ros.capacity.predictor import ConfigError  # noqa: E402
+from rftgls_node_base.parameters import ConfigError  # noqa: E402
 from rftgls_ros.capacity_node import CapacityNode  # noqa: E402
 
 # Generous input timeouts: a lock-step test on a loaded machine may take a while between an
@@ -72,7 +72,7 @@ def f_along(w, phi=PHI):
 def test_ok_and_holding(make, live_predictor):
     node, probe = make()
     cap = send(probe, node, DH, 1.0)
-    core = live_predictor.model.predict(DH, PHI, Pull.BACKWARD)
+    core = live_predictor.predict(DH, PHI, Pull.BACKWARD)
     assert probe.wait_status('ok')
     assert cap.header.frame_id == 'anchor'
     assert f_along(cap) == pytest.approx(core.capacity_N, rel=1e-9)
@@ -92,7 +92,7 @@ def test_ok_and_holding(make, live_predictor):
 def test_slip_twist_when_tension_exceeds_capacity(make, live_predictor):
     node, probe = make()
     cap = send(probe, node, DH, 40.0)
-    core = live_predictor.model.predict(DH, PHI, Pull.BACKWARD)
+    core = live_predictor.predict(DH, PHI, Pull.BACKWARD)
     assert f_along(probe.output_for(cap.header.stamp, 'margin')) < 0
     tw = probe.output_for(cap.header.stamp, 'slip_twist').twist
     assert (tw.linear.x, tw.linear.z, tw.angular.y) == pytest.approx(core.slip_twist)
@@ -285,7 +285,7 @@ def test_phi_rad_at_run_time_changes_the_published_capacity(make, live_predictor
     cap = send(probe, node, DH, 0.5)
     assert probe.wait_status('assumed')
     before = f_along(cap, PHI)
-    assert before == pytest.approx(live_predictor.model.predict(DH, PHI, 'backward').capacity_N,
+    assert before == pytest.approx(live_predictor.predict(DH, PHI, 'backward').capacity_N,
                                    rel=1e-9)
     new_phi = 0.0
     res = _set_remote(probe, 'phi_rad', new_phi)
@@ -294,7 +294,7 @@ def test_phi_rad_at_run_time_changes_the_published_capacity(make, live_predictor
     cap = send(probe, node, DH, 0.5)
     after = f_along(cap, new_phi)
     # Reference: the core's live model at the new angle (independent of the node).
-    assert after == pytest.approx(live_predictor.model.predict(DH, new_phi, 'backward')
+    assert after == pytest.approx(live_predictor.predict(DH, new_phi, 'backward')
                                   .capacity_N, rel=1e-9)
     assert abs(after - before) > 1e-3
 
@@ -323,7 +323,7 @@ def test_topics_are_relative_so_namespaces_apply(ros_context):
             'capacity_node', '/robot2')}
     finally:
         node.destroy_node()
-    assert {'/robot2/joint_states', '/robot2/imu', '/robot2/winch/tension',
+    assert {'/robot2/joint_states', '/robot2/imu/data', '/robot2/winch/tension',
             '/robot2/winch/height'} <= subs
     assert {'/robot2/capacity_node/capacity', '/robot2/capacity_node/status',
             '/diagnostics'} <= pubs

@@ -1,5 +1,5 @@
 """A recorded sequence (rosbag2, written with rosbags) replayed lock-step into capacity_node:
-every published capacity equals rftgls_core's AnchorModel called directly on the same values."""
+every published capacity equals rftgls_core's RobotPredictor called directly on the same values."""
 from __future__ import annotations
 
 import math
@@ -21,7 +21,7 @@ from rftgls_core.types import AnchorState, Pull, Status, pull_direction  # noqa:
 from rftgls_ros.capacity_node import CapacityNode  # noqa: E402
 
 STEPS = 12
-TOPICS = {'/joint_states': 'sensor_msgs/msg/JointState', '/imu': 'sensor_msgs/msg/Imu',
+TOPICS = {'/joint_states': 'sensor_msgs/msg/JointState', '/imu/data': 'sensor_msgs/msg/Imu',
           '/winch/height': 'std_msgs/msg/Float64',
           '/winch/tension': 'geometry_msgs/msg/WrenchStamped'}
 
@@ -56,7 +56,7 @@ def record(path):
             f = T['geometry_msgs/msg/Vector3'](x=0.5 + 0.6 * k, y=0.0, z=0.0)
             ws = T['geometry_msgs/msg/WrenchStamped'](
                 header=hdr, wrench=T['geometry_msgs/msg/Wrench'](force=f, torque=v0))
-            for topic, msg in (('/joint_states', js), ('/imu', imu), ('/winch/height', h),
+            for topic, msg in (('/joint_states', js), ('/imu/data', imu), ('/winch/height', h),
                                ('/winch/tension', ws)):
                 w.write(conns[topic], t_ns, ts.serialize_cdr(msg, TOPICS[topic]))
 
@@ -74,12 +74,12 @@ def test_lock_step_replay_matches_core(ros_context, tmp_path, live_predictor):
     probe = Probe(ros_context, ex)
     ex.add_node(node)
     ex.add_node(probe.node)
-    pubs = {'/joint_states': probe.pub_joints, '/imu': probe.pub_imu,
+    pubs = {'/joint_states': probe.pub_joints, '/imu/data': probe.pub_imu,
             '/winch/height': probe.pub_height, '/winch/tension': probe.pub_tension}
     est = node.estimator
     seen = {'/joint_states': lambda m: est._joints.get('distal_right') is not None
             and est._joints['distal_right'].value == m.position[3],
-            '/imu': lambda m: 'pitch' in est._inputs and est._inputs['pitch'].value
+            '/imu/data': lambda m: 'pitch' in est._inputs and est._inputs['pitch'].value
             == quat_xyzw_to_pitch(m.orientation.x, m.orientation.y, m.orientation.z,
                                      m.orientation.w),
             '/winch/height': lambda m: 'height' in est._inputs
@@ -98,14 +98,14 @@ def test_lock_step_replay_matches_core(ros_context, tmp_path, live_predictor):
                     continue
                 stamp = msg.header.stamp
                 out = probe.output_for(_ros_time(stamp))
-                js, imu, h = (current['/joint_states'], current['/imu'],
+                js, imu, h = (current['/joint_states'], current['/imu/data'],
                               current['/winch/height'])
                 state = AnchorState(
                     h.data, quat_xyzw_to_pitch(imu.orientation.x, imu.orientation.y,
                                                   imu.orientation.z, imu.orientation.w),
                     0.5 * (js.position[0] + js.position[1]),
                     0.5 * (js.position[2] + js.position[3]))
-                core = live_predictor.model.predict(state, PHI, Pull.BACKWARD)
+                core = live_predictor.predict(state, PHI, Pull.BACKWARD)
                 d = pull_direction(PHI)
                 got = out.wrench.force.x * d[0] + out.wrench.force.z * d[1]
                 if core.status.has_value:

@@ -9,27 +9,25 @@ import math
 import pytest
 from tolerances import TWO_SOLVES_RTOL, TWO_SOLVES_TWIST_ATOL
 
-from minirquad_sim.ground import LiveGround
+from minirquad_sim.ground import LiveGround, slip_per_m
 from minirquad_sim.main import build_parser
 from rftgls_core.cli.demo import ANCHOR_MODES
-from rftgls_core.description import shipped_description, write_robot_description
+from rftgls_core.description import shipped_description
+from rftgls_core.description_writer import write_robot_description
+from rftgls_core.predictor.live import DescriptionPredictor, RobotPredictor
+from rftgls_node_base.parameters import ConfigError
+from rftgls_ros.capacity.node_predictor import node_predictor
 from rftgls_ros.capacity.params import DEFAULTS
-from rftgls_ros.capacity.predictor import (
-    ConfigError,
-    DescriptionPredictor,
-    LivePredictor,
-    predictor_from_params,
-)
 
 MINIRQUAD = str(shipped_description('minirquad'))
 
 
 @pytest.mark.parametrize('method', ['direct', 'twist-mesh'])
 def test_the_shipped_description_gives_the_live_predictor_numbers(method):
-    ref = predictor_from_params('', method, 'minirquad', 'm90_sand', 0, 'backward')
-    desc = predictor_from_params('', method, 'minirquad', 'm90_sand', 0, 'backward',
-                                 anchor_description_file=MINIRQUAD)
-    assert isinstance(ref, LivePredictor) and isinstance(desc, DescriptionPredictor)
+    ref = node_predictor('', method, 'minirquad', 'm90_sand', 0, 'backward')
+    desc = node_predictor('', method, 'minirquad', 'm90_sand', 0, 'backward',
+                          anchor_description_file=MINIRQUAD)
+    assert isinstance(ref, RobotPredictor) and isinstance(desc, DescriptionPredictor)
     for state in ANCHOR_MODES.values():          # Table II: DH, DL, SH
         for pull in ('backward', 'forward'):
             for phi in (0.0, math.radians(-20.0)):
@@ -51,11 +49,11 @@ def test_the_default_parameter_keeps_the_robot_shortcut():
 def test_a_map_for_another_description_is_refused():
     proto = str(shipped_description('prototype'))
     with pytest.raises(ConfigError, match='does not answer for anchor_description_file'):
-        predictor_from_params('minirquad', robot='minirquad', medium='m90_sand',
-                              anchor_description_file=proto)
+        node_predictor('minirquad', robot='minirquad', medium='m90_sand',
+                       anchor_description_file=proto)
     # the robot's own description is accepted with its shipped map
-    predictor_from_params('minirquad', robot='minirquad', medium='m90_sand',
-                          anchor_description_file=MINIRQUAD)
+    node_predictor('minirquad', robot='minirquad', medium='m90_sand',
+                   anchor_description_file=MINIRQUAD)
 
 
 def test_a_description_the_node_cannot_estimate_is_one_line(tmp_path):
@@ -63,10 +61,10 @@ def test_a_description_the_node_cannot_estimate_is_one_line(tmp_path):
     yml = (tmp_path / 'minirquad.yaml').read_text().replace('name: theta_b,', 'name: pitch,')
     (tmp_path / 'renamed.yaml').write_text(yml.replace('pitch: theta_b', 'pitch: pitch'))
     with pytest.raises(ConfigError, match='estimates h, theta_b') as err:
-        predictor_from_params('', anchor_description_file=str(tmp_path / 'renamed.yaml'))
+        node_predictor('', anchor_description_file=str(tmp_path / 'renamed.yaml'))
     assert '\n' not in str(err.value)
     with pytest.raises(ConfigError, match='anchor_description_file: .*cannot read'):
-        predictor_from_params('', anchor_description_file=str(tmp_path / 'missing.yaml'))
+        node_predictor('', anchor_description_file=str(tmp_path / 'missing.yaml'))
 
 
 def test_the_sim_ground_on_the_shipped_description_is_the_preset_ground():
@@ -77,27 +75,27 @@ def test_the_sim_ground_on_the_shipped_description_is_the_preset_ground():
     assert 'anchor description' in described.describe()
     for state in ANCHOR_MODES.values():
         for phi in (0.0, math.radians(-20.0)):
-            a, b = preset.predict(state, phi), described.predict(state, phi)
+            a = preset.predict(state, phi, 'backward')
+            b = described.predict(state, phi, 'backward')
             assert a.status == b.status
-            if a.capacity is not None:
-                assert b.capacity == pytest.approx(a.capacity, rel=TWO_SOLVES_RTOL)
+            if a.capacity_N is not None:
+                assert b.capacity_N == pytest.approx(a.capacity_N, rel=TWO_SOLVES_RTOL)
                 # per metre of travel: the unit twist over |(vx, vz)|, near 1 for these pulls
-                assert b.slip_twist_per_m == pytest.approx(a.slip_twist_per_m,
-                                                           abs=TWO_SOLVES_TWIST_ATOL)
+                assert slip_per_m(b) == pytest.approx(slip_per_m(a), abs=TWO_SOLVES_TWIST_ATOL)
     # the mass scale reaches the described ground too (a heavier robot holds more)
     heavy = LiveGround(method='twist-mesh', fallback_method=None, anchor=MINIRQUAD,
                        mass_scale=1.5)
     dh = ANCHOR_MODES['DH']
-    light = described.predict(dh, 0.0).capacity
-    assert light is not None and heavy.predict(dh, 0.0).capacity > light
+    light = described.predict(dh, 0.0, 'backward').capacity_N
+    assert light is not None and heavy.predict(dh, 0.0, 'backward').capacity_N > light
 
 
 def test_the_warm_live_method_name_gives_the_cold_direct_on_a_description():
     # integ's default live_method is 'direct-warm' (the cold direct's answers, warm-started)
-    p = predictor_from_params('', 'direct', anchor_description_file=MINIRQUAD)
-    q = DescriptionPredictor(MINIRQUAD, 'm90_sand', 'direct-warm')
+    p = node_predictor('', 'direct', anchor_description_file=MINIRQUAD)
+    q = node_predictor('', 'direct-warm', medium='m90_sand', anchor_description_file=MINIRQUAD)
     dh = ANCHOR_MODES['DH']
-    assert q.model.method == 'direct'
+    assert q.method == 'direct'
     assert q.predict(dh, 0.0, 'backward').capacity_N == p.predict(dh, 0.0, 'backward').capacity_N
 
 
@@ -120,19 +118,19 @@ def test_other_variable_names_are_fed_by_anchor_state_variables(tmp_path):
     anchor_state_variables it answers the shipped description's numbers exactly."""
     path = renamed_minirquad(tmp_path)
     with pytest.raises(ConfigError) as err:
-        predictor_from_params('', 'twist-mesh', anchor_description_file=path)
+        node_predictor('', 'twist-mesh', anchor_description_file=path)
     msg = str(err.value)
     assert '\n' not in msg and 'h <- height_topic' in msg and 'theta_l1 <- joint_states' in msg
     assert 'height, pitch, hip_a, hip_b' in msg
-    mapped = predictor_from_params(
+    mapped = node_predictor(
         '', 'twist-mesh', anchor_description_file=path,
         anchor_state_variables='height=h, pitch=theta_b, hip_a=theta_l1, hip_b=theta_l2')
-    ref = predictor_from_params('', 'twist-mesh', anchor_description_file=MINIRQUAD)
+    ref = node_predictor('', 'twist-mesh', anchor_description_file=MINIRQUAD)
     for state in ANCHOR_MODES.values():
         a, b = ref.predict(state, 0.0, 'backward'), mapped.predict(state, 0.0, 'backward')
         assert a.status == b.status and a.capacity_N == b.capacity_N
     # swapping the legs is a different robot: the answers must change (the map is used)
-    swapped = predictor_from_params(
+    swapped = node_predictor(
         '', 'twist-mesh', anchor_description_file=path,
         anchor_state_variables='height=h, pitch=theta_b, hip_a=theta_l2, hip_b=theta_l1')
     dh = ANCHOR_MODES['DH']
@@ -149,23 +147,23 @@ def test_other_variable_names_are_fed_by_anchor_state_variables(tmp_path):
 ])
 def test_a_bad_state_variable_map_is_one_line(text, must, tmp_path):
     with pytest.raises(ConfigError) as err:
-        predictor_from_params('', 'twist-mesh', anchor_description_file=renamed_minirquad(
+        node_predictor('', 'twist-mesh', anchor_description_file=renamed_minirquad(
             tmp_path), anchor_state_variables=text)
     assert '\n' not in str(err.value) and must in str(err.value), str(err.value)
     with pytest.raises(ConfigError, match='needs anchor_description_file'):
-        predictor_from_params('', 'twist-mesh', anchor_state_variables='h=h')
+        node_predictor('', 'twist-mesh', anchor_state_variables='h=h')
 
 
 def test_a_two_variable_body_uses_h_and_theta_b_only(tmp_path):
     """An ellipsoid anchor with state (depth, tilt), mapped depth=h, tilt=theta_b: the node's
     leg estimates are left out (any leg angles, the same answer), and the answer is the one of
-    rftgls_core's SceneModel on the posed description (the reference path of `rftgls
+    rftgls_core's PosedAnchorSolver on the posed description (the reference path of `rftgls
     capacity --anchor`)."""
     from rftgls_core.description import load_description
     from rftgls_core.geometry.shapes import ellipsoid
     from rftgls_core.geometry.stl import write_stl
+    from rftgls_core.posed import PosedAnchorSolver
     from rftgls_core.rft.media import get_medium
-    from rftgls_core.scene import SceneModel
     from rftgls_core.types import AnchorState
     write_stl(tmp_path / 'egg.stl', ellipsoid(0.02, 0.015, 0.01, subdivisions=2), units='m')
     (tmp_path / 'egg.urdf').write_text(
@@ -178,15 +176,15 @@ def test_a_two_variable_body_uses_h_and_theta_b_only(tmp_path):
         'base_pose: {height: depth, pitch: tilt}\nstate:\n'
         '  - {name: depth, unit: m, physical: [-0.2, 0.0]}\n'
         '  - {name: tilt, unit: deg, physical: [-45, 45]}\n')
-    p = predictor_from_params('', 'twist-mesh', medium='glass_beads',
-                              anchor_description_file=str(tmp_path / 'egg.yaml'),
-                              anchor_state_variables='depth=h,tilt=theta_b')
+    p = node_predictor('', 'twist-mesh', medium='glass_beads',
+                       anchor_description_file=str(tmp_path / 'egg.yaml'),
+                       anchor_state_variables='depth=h,tilt=theta_b')
     a = p.predict(AnchorState(-0.04, math.radians(10), 0.3, -0.2), 0.5, 'backward')
     b = p.predict(AnchorState(-0.04, math.radians(10), -1.0, 1.0), 0.5, 'backward')
     assert a.status.has_value and a.capacity_N == b.capacity_N
     desc = load_description(tmp_path / 'egg.yaml')
-    ref = SceneModel(get_medium('glass_beads'), method='twist-mesh', space='sagittal').predict(
-        desc.scene({'depth': -0.04, 'tilt': math.radians(10)}), 0.5)
+    solver = PosedAnchorSolver(get_medium('glass_beads'), method='twist-mesh', space='sagittal')
+    ref = solver.solve(desc.pose({'depth': -0.04, 'tilt': math.radians(10)}), 0.5)
     assert a.capacity_N == pytest.approx(ref.capacity_N, rel=TWO_SOLVES_RTOL)  # two solves
 
 
@@ -212,11 +210,11 @@ def dh_described_map(tmp_path_factory):
 def test_capacity_node_serves_a_described_map_for_its_description(dh_described_map):
     """map_file = a described map + anchor_description_file = its description: at a node the
     answer is the live description solver's (float32 storage), twist in the sagittal form."""
-    from rftgls_ros.capacity.predictor import DescribedMapPredictor
-    p = predictor_from_params(str(dh_described_map), medium='m90_sand', pull='backward',
-                              anchor_description_file=MINIRQUAD)
+    from rftgls_core.predictor.maps import DescribedMapPredictor
+    p = node_predictor(str(dh_described_map), medium='m90_sand', pull='backward',
+                       anchor_description_file=MINIRQUAD)
     assert isinstance(p, DescribedMapPredictor)
-    live = predictor_from_params('', 'twist-mesh', anchor_description_file=MINIRQUAD)
+    live = node_predictor('', 'twist-mesh', anchor_description_file=MINIRQUAD)
     dh = ANCHOR_MODES['DH']
     for phi in (0.0, math.radians(-20.0)):
         a, b = live.predict(dh, phi, 'backward'), p.predict(dh, phi, 'backward')
@@ -238,5 +236,5 @@ def test_capacity_node_serves_a_described_map_for_its_description(dh_described_m
 def test_a_described_map_the_node_cannot_use_is_one_line(dh_described_map, kw, must):
     args = {'medium': 'm90_sand', 'pull': 'backward', **kw}
     with pytest.raises(ConfigError) as err:
-        predictor_from_params(str(dh_described_map), **args)
+        node_predictor(str(dh_described_map), **args)
     assert '\n' not in str(err.value) and must in str(err.value), str(err.value)

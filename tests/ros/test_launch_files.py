@@ -1,17 +1,21 @@
 """Every launch file of rftgls_ros, as installed by colcon, is checked without ROS 2's launch
-(rftgls_ros.launch_check): executables exist where `ros2 run` looks, each parameter is declared
-by its node and accepted, remappings name topics the node uses. The checker itself must catch
-each kind of mistake (a file with one of each)."""
+(rftgls_ros.launch_check): executables exist where `ros2 run` looks, each program's own
+argument parsing accepts the command line launch_ros builds for it (`--ros-args -r
+__node:=... --params-file <temporary YAML> ...`, rules read from launch_ros 0.26, Jazzy), each
+parameter is declared by its node and accepted with its type, remappings name topics the node
+uses. The checker itself must catch each kind of mistake (a file with one of each), and the
+command lines must be launch_ros's."""
 from __future__ import annotations
 
 import textwrap
 from pathlib import Path
 
 import pytest
+import yaml
 
 pytest.importorskip('rclpy')
 
-from rftgls_ros import launch_check  # noqa: E402
+from rftgls_ros import launch_check, launch_model  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 SOURCES = sorted((REPO / 'src' / 'rftgls_ros' / 'launch').glob('*.launch.py'))
@@ -36,6 +40,9 @@ def test_every_launch_file_is_installed():
         assert (share / f).is_file(), f
     core = launch_check.share_dir('rftgls_core')
     assert (core / 'maps' / 'minirquad_m90_sand.h5').is_file()
+    desc = launch_check.share_dir('minirquad_description')
+    for f in ('urdf/minirquad.urdf', 'urdf/prototype.urdf', 'meshes/c_leg.stl'):
+        assert (desc / f).is_file(), f
 
 
 @pytest.mark.parametrize('src', SOURCES, ids=lambda p: p.name)
@@ -47,24 +54,85 @@ def test_launch_file_is_sound(src):
 
 def test_sim_launch_starts_the_whole_stack():
     nodes = launch_check.parse(installed('sim.launch.py'), {'sled_mass_kg': '0.6'}).nodes
-    exes = [(n.package, n.executable) for n in nodes]
-    assert exes == [('minirquad_sim', 'minirquad_sim'), ('minirquad_driver', 'bridge_node'),
-                    ('rftgls_ros', 'capacity_node'), ('rftgls_ros', 'state_publisher'),
-                    ('rftgls_ros', 'behavior_node')]
-    sim, bridge, _cap, _tf, behavior = nodes
+    exes = [(n.kind, n.package, n.executable) for n in nodes]
+    assert exes == [('process', 'minirquad_sim', 'minirquad_sim'),   # not a ROS node
+                    ('node', 'minirquad_driver', 'bridge_node'),
+                    ('node', 'rftgls_ros', 'capacity_node'),
+                    ('node', 'rftgls_ros', 'state_publisher'),
+                    ('node', 'rftgls_ros', 'behavior_node')]
+    sim, bridge, _cap, tf, behavior = nodes
     # The simulator's pty symlink is the port the bridge opens; the sled mass reaches both.
     port = sim.arguments[sim.arguments.index('--symlink') + 1]
     assert bridge.parameters == [{'port': port}]
     assert sim.arguments[sim.arguments.index('--sled-mass') + 1] == '0.6'
     assert behavior.parameters[1]['sled_mass_kg'] == 0.6
+    assert behavior.remappings == [('imu', 'imu/data')]
+    desc = launch_check.share_dir('minirquad_description') / 'urdf' / 'minirquad.urdf'
+    assert tf.parameters == [{'robot_description': desc.read_text()}]
+
+
+def test_an_integer_sled_mass_arrives_as_a_float(tmp_path):
+    """`sled_mass_kg:=1`: launch reads a substituted value as YAML (the integer 1), which
+    behavior_node's float parameter refuses; the launch file converts it (ParameterValue)."""
+    path = installed('sim.launch.py')
+    behavior = launch_check.parse(path, {'sled_mass_kg': '1'}).nodes[-1]
+    value = behavior.parameters[1]['sled_mass_kg']
+    assert value == 1.0 and isinstance(value, float)
+    assert launch_check.check(path, {'sled_mass_kg': '1', 'port': str(tmp_path / 'tty')}) == []
+    # Without the conversion the node refuses it, and the checker says so.
+    bare = tmp_path / 'bare.launch.py'
+    bare.write_text(textwrap.dedent('''
+        from launch import LaunchDescription
+        from launch.actions import DeclareLaunchArgument
+        from launch.substitutions import LaunchConfiguration
+        from launch_ros.actions import Node
+
+        def generate_launch_description():
+            return LaunchDescription([
+                DeclareLaunchArgument('m', default_value='0.4'),
+                Node(package='rftgls_ros', executable='behavior_node',
+                     parameters=[{'sled_mass_kg': LaunchConfiguration('m')}]),
+            ])
+    '''))
+    assert launch_check.check(bare, {'m': '0.4'}) == []
+    problems = launch_check.check(bare, {'m': '1'})
+    assert len(problems) == 1 and 'sled_mass_kg' in problems[0] and 'INTEGER' in problems[0]
+
+
+def test_command_lines_are_launch_ros(tmp_path):
+    """launch_ros's Node: executable, arguments, --ros-args, -r __node:=, -r __ns:=, one
+    --params-file per entry (a dict as {'/**' or the full name: {ros__parameters: ...}}),
+    then -r per remapping. ExecuteProcess: the command as given."""
+    params = tmp_path / 'given.yaml'
+    params.write_text('/**:\n  ros__parameters: {cycles: 2}\n')
+    p = launch_model.Process(source='x', kind='node', package='rftgls_ros',
+                             executable='behavior_node', name='behavior_node',
+                             parameters=[params, {'sled_mass_kg': 1.0}],
+                             remappings=[('imu', 'imu/data')], arguments=['--flag'])
+    exe = str(launch_model.executable_path('rftgls_ros', 'behavior_node'))
+    cmd = launch_model.argv(p, tmp_path)
+    assert cmd[:8] == [exe, '--flag', '--ros-args', '-r', '__node:=behavior_node',
+                       '--params-file', str(params), '--params-file']
+    assert cmd[9:] == ['-r', 'imu:=imu/data']
+    assert yaml.safe_load(Path(cmd[8]).read_text()) == \
+        {'/**': {'ros__parameters': {'sled_mass_kg': 1.0}}}
+    p.namespace = 'robot1'
+    cmd = launch_model.argv(p, tmp_path)
+    assert cmd[3:7] == ['-r', '__node:=behavior_node', '-r', '__ns:=/robot1']
+    assert list(yaml.safe_load(Path(cmd[10]).read_text())) == ['/robot1/behavior_node']
+    sim = launch_model.Process(source='x', kind='process', package='minirquad_sim',
+                               executable='minirquad_sim', arguments=['--symlink', 't'])
+    assert launch_model.argv(sim, tmp_path)[1:] == ['--symlink', 't']
 
 
 def test_checker_finds_mistakes(tmp_path):
     bad = tmp_path / 'bad.launch.py'
     bad.write_text(textwrap.dedent('''
         from launch import LaunchDescription
+        from launch.actions import ExecuteProcess
         from launch.substitutions import LaunchConfiguration
         from launch_ros.actions import Node
+        from launch_ros.substitutions import ExecutableInPackage
 
         def generate_launch_description():
             return LaunchDescription([
@@ -76,6 +144,9 @@ def test_checker_finds_mistakes(tmp_path):
                      parameters=[{'publish_rate_hz': -1.0}]),
                 Node(package='minirquad_sim', executable='minirquad_sim',
                      parameters=[{'port': 'x'}]),
+                ExecuteProcess(cmd=[ExecutableInPackage(executable='minirquad_sim',
+                                                        package='minirquad_sim'),
+                                    '--no-such-option']),
                 Node(package='rftgls_ros', executable='behavior_node',
                      parameters=[{'sled_mass_kg': LaunchConfiguration('undeclared')}]),
             ])
@@ -88,6 +159,7 @@ def test_checker_finds_mistakes(tmp_path):
     assert "remapping source '/not_a_topic'" in text
     assert "'/joint_states'" not in text                      # a real input is fine
     assert 'refuses its launch parameters' in text and 'publish_rate_hz' in text
-    assert 'minirquad_sim: not an rclpy node' in text
+    assert 'minirquad_sim: not an rclpy node class; it takes no parameters' in text
+    assert 'refuses its command line' in text and '--no-such-option' in text
     assert "launch argument 'undeclared' has no value" in text
-    assert len(problems) == 7, text
+    assert len(problems) == 8, text

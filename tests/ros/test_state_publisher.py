@@ -46,7 +46,7 @@ class Rig:
         self.probe.create_subscription(TFMessage, '/tf_static', self.static.append, LATCHED)
         self.probe.create_subscription(TFMessage, '/tf', self.tf.append, 100)
         self.js = self.probe.create_publisher(JointState, 'joint_states', 10)
-        self.imu = self.probe.create_publisher(Imu, 'imu', 10)
+        self.imu = self.probe.create_publisher(Imu, 'imu/data', 10)
         self.height = self.probe.create_publisher(Float64, 'winch/height', 10)
 
     def spin(self, seconds, until=None):
@@ -132,7 +132,7 @@ def test_urdf_text_and_frame_prefix(rig):
 @pytest.mark.parametrize('params, words', [
     ({'robot_description': '<robot><joint name="j" type="hinge"><parent link="a"/>'
       '<child link="b"/></joint></robot>'}, 'unknown type'),
-    ({'robot': 'walker'}, 'no shipped URDF'),
+    ({'robot': 'walker'}, 'no URDF in minirquad_description'),
 ])
 def test_bad_description_is_a_config_error(ros_context, params, words):
     with pytest.raises(ConfigError, match=words):

@@ -10,9 +10,11 @@ import math
 import numpy as np
 import pytest
 
+from rftgls_conventions import LEG_JOINT_NAMES
 from rftgls_core.description import load_description, shipped_description
 from rftgls_core.types import AnchorState
 from rftgls_ros.tf_tree import (
+    MOVING,
     TfTree,
     Transform,
     UrdfError,
@@ -24,7 +26,6 @@ from rftgls_ros.tf_tree import (
     quat_to_matrix,
     static_transforms,
     tree_from,
-    urdf_joint_name,
 )
 
 URDF = shipped_description('minirquad').with_suffix('.urdf')
@@ -85,26 +86,26 @@ def test_matches_the_core_forward_kinematics(joints):
     d = load_description(shipped_description('minirquad'))
     st = AnchorState(h=0.035, theta_b=math.radians(7.0), theta_l1=math.radians(-25.0),
                      theta_l2=math.radians(15.0))
-    scene = d.scene({'h': st.h, 'theta_b': st.theta_b, 'theta_l1': st.theta_l1,
+    posed = d.pose({'h': st.h, 'theta_b': st.theta_b, 'theta_l1': st.theta_l1,
                      'theta_l2': st.theta_l2})
     names = ['leg_proximal_left', 'leg_proximal_right', 'leg_distal_left', 'leg_distal_right']
     tree = tree_from(static_transforms(joints),
                      [odom_to_base(st.h, st.theta_b),
                       *moving_transforms(joints, names, [st.theta_l1, st.theta_l1,
                                                          st.theta_l2, st.theta_l2])])
-    assert tree.to_root('winch_link')[:3, 3] == pytest.approx(scene.ref, abs=1e-12)
+    assert tree.to_root('winch_link')[:3, 3] == pytest.approx(posed.ref, abs=1e-12)
     com_b = d.links['base_link'].com
-    assert point(tree.to_root('base_link'), com_b) == pytest.approx(scene.com, abs=1e-12)
+    assert point(tree.to_root('base_link'), com_b) == pytest.approx(posed.com, abs=1e-12)
     # The legs' meshes (forward pull: the C-legs as in the URDF, no mirror): the core's posed
     # facets are the URDF leg facets moved by the TF tree's transforms.
-    scene = d.scene({'h': st.h, 'theta_b': st.theta_b, 'theta_l1': st.theta_l1,
+    posed = d.pose({'h': st.h, 'theta_b': st.theta_b, 'theta_l1': st.theta_l1,
                      'theta_l2': st.theta_l2}, pull='forward')
     parts = []
     for link in ('left_proximal_leg', 'left_distal_leg', 'right_proximal_leg',
                  'right_distal_leg'):
         m = tree.to_root(link)
         parts.append(d.links[link].mesh.facets().centroids @ m[:3, :3].T + m[:3, 3])
-    assert np.concatenate(parts) == pytest.approx(scene.facets.centroids, abs=1e-12)
+    assert np.concatenate(parts) == pytest.approx(posed.facets.centroids, abs=1e-12)
 
 
 def test_quaternion_round_trip_including_half_turns():
@@ -119,12 +120,12 @@ def test_quaternion_round_trip_including_half_turns():
 
 
 def test_joint_state_names(joints):
-    assert urdf_joint_name('leg_proximal_left') == 'left_proximal_hip'
-    assert urdf_joint_name('leg_distal_right') == 'right_distal_hip'
-    assert urdf_joint_name('left_distal_hip') == 'left_distal_hip'
+    # The URDF's moving joints are the driver's JointState names (robot_state_publisher
+    # matches by name).
+    assert {j.name for j in joints if j.kind in MOVING} == set(LEG_JOINT_NAMES)
     # The winch rope is not in the URDF; a NaN position gives no transform, never a guess.
     ts = moving_transforms(joints, ['leg_proximal_left', 'winch_rope', 'leg_distal_left',
-                                    'right_proximal_hip'], [0.1, 0.2, float('nan'), 0.3])
+                                    'leg_proximal_right'], [0.1, 0.2, float('nan'), 0.3])
     assert [t.child for t in ts] == ['left_proximal_leg', 'right_proximal_leg']
 
 

@@ -8,7 +8,7 @@ from minirquad_driver.protocol.codec import FrameDecoder, encode_frame
 from minirquad_sim.burrow import TABLE_II
 from minirquad_sim.calibration import RATIOS, burrow_energy
 from minirquad_sim.gait import BuehlerClock, wrap_angle
-from minirquad_sim.ground import TableGround
+from minirquad_sim.ground import TableGround, slip_per_m
 from minirquad_sim.mcu import McuConfig, SimMcu
 from minirquad_sim.robot import SimRobot
 from minirquad_sim.servo import Servo
@@ -118,9 +118,10 @@ def test_sh_tugs_a_400_g_sled():
 
 def test_placeholder_ground_statuses():
     g = TableGround()
-    bad = g.predict(AnchorState(float('nan'), 0, 0, 0), 0.0)
-    assert bad.status == Status.INVALID_INPUT and bad.capacity is None
-    cap, twist, status = g.predict(AnchorState(0.034, 0.087, -0.698, 0.524), 0.0)
+    bad = g.predict(AnchorState(float('nan'), 0, 0, 0), 0.0, 'backward')
+    assert bad.status == Status.INVALID_INPUT and bad.capacity_N is None
+    r = g.predict(AnchorState(0.034, 0.087, -0.698, 0.524), 0.0, 'backward')
+    cap, twist, status = r.capacity_N, slip_per_m(r), r.status
     assert status == Status.OK and cap == pytest.approx(4.6, rel=0.05)
     assert math.hypot(twist[0], twist[1]) == pytest.approx(1.0)
 

@@ -6,6 +6,7 @@ reeled in ``--heavier-at`` metres (mid-tug), and which reports how far the ancho
 """
 from __future__ import annotations
 
+import json
 import re
 import sys
 import time
@@ -79,6 +80,21 @@ def test_e2e_400g_chooses_sh_and_tugs(tmp_path, spawn):
     assert 'cycle 1 (400 g sled): SH ok' in log, log
     assert (tmp_path / 'report' / 'cycle_report.csv').exists()
     assert (tmp_path / 'report' / 'cycle_report.png').exists()
+
+
+@pytest.mark.slow
+def test_e2e_400g_walk_burrow_tug_with_the_firmware_mcu(tmp_path, spawn, stop, firmware_build):
+    """The same cycle with the compiled firmware as the robot's MCU (minirquad_sim --mcu
+    firmware): the real bridge, capacity_node and behavior_node on the other end of the pty."""
+    log = run_stack(tmp_path, spawn, 0.4, sim_args=['--mcu', 'firmware'])
+    assert _decisions(log)[:1] == ['SH'], log
+    assert 'check SH at the measured pose' in log and 'sufficient' in log
+    assert re.search(r'\[live\] tug SH: T [\d.]+ N, C [\d.]+ N', log), log
+    assert 'cycle 1 (400 g sled): SH ok' in log, log
+    stop(run_stack.sim_proc)   # SIGINT: the simulator reports which MCU ran, and how
+    report = json.loads((tmp_path / 'sim.log').read_text().strip().splitlines()[-1])
+    assert report['mcu'] == 'firmware' and report['resets'] == 0
+    assert report['exchanges'] > 1000
 
 
 @pytest.mark.slow

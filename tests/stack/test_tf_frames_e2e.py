@@ -7,7 +7,8 @@ resolver (rftgls_ros.tf_tree.TfTree) that every frame_id found reaches one root,
 through the transforms received on /tf and /tf_static.
 
 Empty frame_ids are allowed only on types that are not spatial (JointState: positions of
-named joints; BatteryState; DiagnosticArray): REP-103/tf2 give them no frame.
+named joints; BatteryState; DiagnosticArray; the driver's LinkState): REP-103/tf2 give them no
+frame.
 """
 from __future__ import annotations
 
@@ -34,9 +35,11 @@ pytestmark = pytest.mark.realtime
 REPO = Path(__file__).resolve().parents[2]
 NODES = ('bridge_node', 'capacity_node', 'state_publisher')
 NON_SPATIAL = {'sensor_msgs/msg/JointState', 'sensor_msgs/msg/BatteryState',
-               'diagnostic_msgs/msg/DiagnosticArray'}
+               'diagnostic_msgs/msg/DiagnosticArray', 'rftgls_interfaces/msg/LinkState'}
+# Published once (and on change) as reliable + transient local: only such a subscriber gets them.
+LATCHED = ('/tf_static', '/minirquad/link')
 # What must be among the collected topics (a discovery that finds too little fails here).
-MUST = {'/joint_states', '/imu', '/winch/tension', '/tf', '/tf_static',
+MUST = {'/joint_states', '/imu/data', '/winch/tension', '/tf', '/tf_static',
         '/capacity_node/capacity', '/capacity_node/estimate', '/capacity_node/markers'}
 
 
@@ -111,7 +114,7 @@ def collect(ros_context, nodes, must, log_text=lambda: ''):
                 if has_header(cls):
                     got[topic] = []
                     probe.create_subscription(
-                        cls, topic, got[topic].append, static if topic == '/tf_static'
+                        cls, topic, got[topic].append, static if topic in LATCHED
                         else any_qos)
 
     def complete():
@@ -182,7 +185,7 @@ def test_every_frame_id_resolves(tmp_path, spawn, ros_context):
     assert EXTRA_PARAMETERS['marker_frame_id'][0] == 'winch_link'
     assert '/capacity_node/capacity' in frames['anchor']
     assert '/capacity_node/markers' in frames['winch_link']
-    assert '/imu' in frames['imu_link'] and '/winch/tension' in frames['winch_link']
+    assert '/imu/data' in frames['imu_link'] and '/winch/tension' in frames['winch_link']
     # Every leg link is in the tree (from the bridge's joint states through the URDF).
     for leg in ('left_proximal_leg', 'left_distal_leg', 'right_proximal_leg',
                 'right_distal_leg'):

@@ -338,6 +338,12 @@ class BridgeCore:
             self.counters.commands_sent += 1
             return frame
 
+    def awaiting_ack(self, msg_type: int) -> bool:
+        """True while a command of this type (m.MsgType) is sent and not yet acknowledged
+        (nor given up on)."""
+        with self._lock:
+            return any(p.type == int(msg_type) for p in self._pending.values())
+
     def due_retries(self) -> tuple[list[bytes], list[CommandResult]]:
         """Frames to resend now, and commands given up on (result None)."""
         resend, failed = [], []

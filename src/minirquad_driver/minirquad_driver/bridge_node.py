@@ -1,33 +1,51 @@
-"""``bridge_node``: ROS 2 bridge between the MiniRQuad microcontroller and the stack.
+"""``bridge_node``: ROS 2 bridge between the MiniRQuad microcontroller and the stack, a managed
+(lifecycle) node.
 
 Thin by design: ``SerialTransport`` moves bytes, ``BridgeCore`` decodes and keeps state,
 this node converts samples to messages and commands from messages. Topics, types, units
 and frames are tabulated in the package README.
 
-Published (SystemDefaults QoS, depth 10, except /minirquad/link_state: transient local):
-  /joint_states (sensor_msgs/JointState), /imu (sensor_msgs/Imu),
-  /winch/tension (geometry_msgs/WrenchStamped), /power (sensor_msgs/BatteryState),
-  /power/watts (std_msgs/Float64), /energy (std_msgs/Float64),
-  /minirquad/link_state (std_msgs/String: ok|stale), /diagnostics.
+Lifecycle (rclpy.lifecycle; the standard ~/change_state and ~/get_state services):
+  configure   opens the serial port (a reader thread that retries until the port appears)
+              and starts the heartbeats that feed the MCU's link watchdog;
+  activate    starts streaming: samples are published, commands forwarded to the MCU;
+  deactivate  commands the winch to 0 and the legs to hold where they are, then stops
+              publishing and forwarding (the heartbeats go on: link up, motion stopped);
+  cleanup     closes the port; shutdown (also SIGINT/SIGTERM): deactivate, then cleanup.
+With `autostart` (default true) the node configures and activates itself, so it runs without
+a lifecycle manager (`ros2 run`, `make demo`); false leaves it unconfigured for a manager.
+
+Published (SystemDefaults QoS, depth 10; "latched": reliable + transient local, depth 1):
+  joint_states (sensor_msgs/JointState), imu/data (sensor_msgs/Imu, REP-145),
+  winch/tension (geometry_msgs/WrenchStamped), power (sensor_msgs/BatteryState),
+  power/watts, energy (std_msgs/Float64), minirquad/link (rftgls_interfaces/LinkState,
+  latched), /diagnostics (also while inactive).
+  Deprecated, kept one release (CHANGELOG.md): imu (= imu/data) and minirquad/link_state
+  (std_msgs/String ok|stale, latched).
 Every header.stamp is the host-clock time of the MCU sample (see bridge.py and
 docs/design/serial-time.md), never the time it was received.
-Subscribed: /leg_targets (JointState), /gait (String), /burrow (String),
-  /winch/speed (Float64, m/s), /estop (Bool).
+Subscribed (forwarded only while active): winch/command (rftgls_interfaces/WinchCommand),
+  gait/command (GaitCommand), burrow/command (BurrowCommand), leg_targets (JointState),
+  estop (std_msgs/Bool; an engage is forwarded in every configured state).
+  Deprecated, one release: winch/speed (std_msgs/Float64, m/s), gait and burrow
+  (std_msgs/String names).
 """
 from __future__ import annotations
 
 import math
 import sys
+import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import WrenchStamped
-from rclpy.node import Node
+from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
 from sensor_msgs.msg import BatteryState, Imu, JointState
 from std_msgs.msg import Bool, Float64, String
 
-from rftgls_conventions import JOINT_NAMES, LEG_KEYS, pitch_to_quat_xyzw
+from rftgls_conventions import JOINT_NAMES, LEG_KEYS, pitch_to_quat_xyzw, wrap_angle
+from rftgls_interfaces.msg import BurrowCommand, GaitCommand, LinkState, WinchCommand
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import declare
 
@@ -39,20 +57,29 @@ from .transport import SerialTransport
 # The JointState names of rftgls_conventions, in the MCU's leg order (protocol LEG_NAMES).
 assert LEG_KEYS == m.LEG_NAMES, 'protocol leg order must match the shared conventions'
 _UNKNOWN_VAR = (math.pi ** 2)    # variance for a quantity the robot does not measure
+# GaitCommand's constants -> the named gaits of gaits.py (tests check both ways).
+GAIT_OF = {GaitCommand.STAND: 'stand', GaitCommand.WALK: 'walk',
+           GaitCommand.REVERSE: 'reverse', GaitCommand.BOUND: 'bound'}
+SUCCESS = TransitionCallbackReturn.SUCCESS
+STOP_ACK_WAIT_S = 0.3     # on shutdown, how long the winch stop may take to be acknowledged
 
 
-class BridgeNode(Node):
+class BridgeNode(LifecycleNode):
     def __init__(self, **kwargs):
         super().__init__('bridge_node', **kwargs)
         def p(name, default, text, lo=None, hi=None):
             return declare(self, name, default, text, lo=lo, hi=hi)
         self.port = p('port', '/dev/ttyACM0', 'serial device or pyserial URL of the MCU')
         baud = p('baud', 115200, 'serial baud rate', 1200, 4_000_000)
+        self.autostart = p('autostart', True, 'configure and activate at start (false: wait '
+                           'for a lifecycle manager)')
+        self.legacy = p('legacy_topics', True, 'also serve the deprecated topics (imu, '
+                        'minirquad/link_state, winch/speed, gait, burrow) for one release')
         self.heartbeat_period_s = p('heartbeat_period_s', 0.1, 'heartbeat period to the MCU '
                                     'watchdog (500 ms on the MCU)', 0.01, 0.45)
         self.pitch_variance = p('pitch_variance_rad2', math.radians(0.5) ** 2,
                                 'variance of the IMU pitch', 0.0, 10.0)
-        self.imu_frame = p('imu_frame', 'imu_link', 'frame_id of /imu')
+        self.imu_frame = p('imu_frame', 'imu_link', 'frame_id of imu/data')
         self.winch_frame = p('winch_frame', 'winch_link', 'frame_id of /winch/tension')
         cfg = BridgeConfig(r_shunt=p('shunt_ohm', 0.1, 'INA219 shunt resistance', 1e-4, 100.0),
                            stale_timeout=p('stale_timeout_s', 0.25, 'newest telemetry older '
@@ -74,25 +101,7 @@ class BridgeNode(Node):
                            loss_error=p('loss_error', 0.10, 'frame loss fraction that is an '
                                         'error', 0.0, 1.0))
         self.core = BridgeCore(cfg)
-
-        self.pub_joints = self.create_publisher(JointState, 'joint_states', 10)
-        self.pub_imu = self.create_publisher(Imu, 'imu', 10)
-        self.pub_tension = self.create_publisher(WrenchStamped, 'winch/tension', 10)
-        self.pub_power = self.create_publisher(BatteryState, 'power', 10)
-        self.pub_watts = self.create_publisher(Float64, 'power/watts', 10)
-        self.pub_energy = self.create_publisher(Float64, 'energy', 10)
-        self.pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)  # global
-        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self.pub_state = self.create_publisher(String, 'minirquad/link_state', latched)
-
-        self.create_subscription(JointState, 'leg_targets', self._on_leg_targets, 10)
-        self.create_subscription(String, 'gait', self._on_gait, 10)
-        self.create_subscription(String, 'burrow', self._on_burrow, 10)
-        self.create_subscription(Float64, 'winch/speed', self._on_winch, 10)
-        self.create_subscription(Bool, 'estop', self._on_estop, 10)
-
-        self._state = None
+        self.baud = baud
         self.transport = SerialTransport(
             self.port, baud, self._on_bytes, self._on_connection,
             reconnect_period=p('reconnect_period_s', 0.25, 'retry period of a failed or lost '
@@ -100,18 +109,107 @@ class BridgeNode(Node):
             silence_timeout=p('silence_timeout_s', 1.0, 'silence after which the port is '
                               'reopened', 0.05, 600.0),
             on_open_error=self._on_open_error)
-        # These timers also keep the executor waking up, so SIGINT/SIGTERM are never missed.
-        self.create_timer(self.heartbeat_period_s, self._on_heartbeat)
-        self.create_timer(0.05, self._on_watch)
+        self.active = False
+        self.configured = False
+
+        # Data publishers are managed: they publish only while the node is active.
+        pub = self.create_lifecycle_publisher
+        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.pub_joints = pub(JointState, 'joint_states', 10)
+        self.pub_imu = [pub(Imu, 'imu/data', 10)] + ([pub(Imu, 'imu', 10)] if self.legacy
+                                                      else [])
+        self.pub_tension = pub(WrenchStamped, 'winch/tension', 10)
+        self.pub_power = pub(BatteryState, 'power', 10)
+        self.pub_watts = pub(Float64, 'power/watts', 10)
+        self.pub_energy = pub(Float64, 'energy', 10)
+        self.pub_link = pub(LinkState, 'minirquad/link', latched)
+        self.pub_state = pub(String, 'minirquad/link_state', latched) if self.legacy else None
+        self.pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)  # global
+
+        sub = self.create_subscription
+        sub(WinchCommand, 'winch/command', lambda msg: self._motion(m.Winch(msg.speed_mps)), 10)
+        sub(GaitCommand, 'gait/command', self._on_gait_command, 10)
+        sub(BurrowCommand, 'burrow/command', self._on_burrow_command, 10)
+        sub(JointState, 'leg_targets', self._on_leg_targets, 10)
+        sub(Bool, 'estop', self._on_estop, 10)
+        if self.legacy:
+            sub(Float64, 'winch/speed', lambda msg: self._motion(m.Winch(msg.data)), 10)
+            sub(String, 'gait', lambda msg: self._gait(msg.data.strip().lower()), 10)
+            sub(String, 'burrow', self._on_burrow_name, 10)
+
+        self._state: int | None = None
+        self._link_timers: list = []
+        # Keeps the executor waking up in every state, so SIGINT/SIGTERM are never missed.
         self.create_timer(p('diagnostics_period_s', 1.0, 'period of /diagnostics', 0.01, 3600.0),
                           self._on_diagnostics)
-        self._publish_state()
+
+    def bring_up(self) -> None:
+        """configure + activate (what `autostart` does at start)."""
+        self.trigger_configure()
+        self.trigger_activate()
+
+    # ------------------------------------------------------------------ lifecycle
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._link_timers = [self.create_timer(self.heartbeat_period_s, self._on_heartbeat),
+                        self.create_timer(0.05, self._on_watch)]
         self.transport.start()
-        self.get_logger().info(f'bridging {self.port} at {baud} baud')
+        self.configured = True
+        self.get_logger().info(f'bridging {self.port} at {self.baud} baud (inactive)')
+        return SUCCESS
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        ret = super().on_activate(state)       # enables the managed publishers
+        self.active = True
+        self._state = None                    # re-publish the link state
+        self._publish_state()
+        self.get_logger().info('active: streaming and forwarding commands')
+        return ret
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self.active = False
+        self.stop_motion()
+        self.get_logger().info('inactive: winch stopped, legs held, commands ignored')
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._close()
+        return SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        if self.active:
+            self.active = False
+            self.stop_motion(wait_s=STOP_ACK_WAIT_S)
+            super().on_deactivate(state)
+        self._close()
+        return SUCCESS
+
+    def _close(self) -> None:
+        self.transport.stop()              # joins the reader thread: nothing publishes after
+        self.core.on_connection(False)
+        for t in self._link_timers:
+            self.destroy_timer(t)
+        self._link_timers = []
+        self.configured = False
 
     def destroy_node(self):
         self.transport.stop()
         return super().destroy_node()
+
+    def stop_motion(self, wait_s: float = 0.0) -> bool:
+        """The winch to 0 first, then every leg held at its measured angle. With wait_s > 0,
+        wait that long for the MCU to acknowledge the winch stop; True when it did (or no wait
+        was asked)."""
+        self._send(m.Winch(0.0))
+        tel = self.core.last_telemetry
+        if tel is not None:
+            self._send(m.SetLegs(tuple(wrap_angle(a) for a in tel.leg_angles)))
+        end = time.monotonic() + wait_s
+        while self.core.awaiting_ack(m.MsgType.WINCH) and self.transport.connected:
+            if time.monotonic() >= end:
+                return False
+            time.sleep(0.01)
+        return True
 
     # ------------------------------------------------------------------ MCU -> ROS
     def _on_connection(self, connected: bool) -> None:
@@ -163,8 +261,11 @@ class BridgeNode(Node):
         imu.angular_velocity_covariance = [_UNKNOWN_VAR, 0.0, 0.0, 0.0, 1e-4, 0.0,
                                            0.0, 0.0, _UNKNOWN_VAR]
         imu.linear_acceleration_covariance[0] = -1.0   # REP-145: not provided
-        self.pub_imu.publish(imu)
+        for pub in self.pub_imu:
+            pub.publish(imu)
 
+        if t.flags & m.Flag.TENSION_INVALID:
+            return    # no fresh load-cell reading: publish no tension rather than an old one
         w = WrenchStamped()
         w.header.stamp = stamp
         w.header.frame_id = self.winch_frame
@@ -202,10 +303,14 @@ class BridgeNode(Node):
         self._publish_state()
 
     def _publish_state(self) -> None:
-        state = 'stale' if self.core.is_stale() else 'ok'
-        if state != self._state:
+        state = LinkState.STALE if self.core.is_stale() else LinkState.OK
+        if state != self._state and self.active:
             self._state = state
-            self.pub_state.publish(String(data=state))
+            msg = LinkState(state=state)
+            msg.header.stamp = self.get_clock().now().to_msg()
+            self.pub_link.publish(msg)
+            if self.pub_state is not None:
+                self.pub_state.publish(String(data='ok' if state == LinkState.OK else 'stale'))
 
     def _on_diagnostics(self) -> None:
         arr = DiagnosticArray()
@@ -228,6 +333,14 @@ class BridgeNode(Node):
         if not self.transport.write(frame):
             self.get_logger().warning(f'{type(msg).__name__} not sent: link down')
 
+    def _motion(self, msg) -> None:
+        """A motion command: forwarded only while active."""
+        if not self.active:
+            self.get_logger().warning(f'{type(msg).__name__} ignored: bridge_node is not '
+                                      'active', throttle_duration_sec=5.0)
+            return
+        self._send(msg)
+
     def _on_leg_targets(self, msg: JointState) -> None:
         targets = [0.0] * 4
         mask = 0
@@ -238,37 +351,62 @@ class BridgeNode(Node):
                 targets[i] = pos
                 mask |= 1 << i
         if not mask:
-            self.get_logger().error('invalid_input: /leg_targets names no known leg')
+            self.get_logger().error('invalid_input: leg_targets names no known leg')
             return
-        self._send(m.SetLegs(tuple(targets), mask))
+        self._motion(m.SetLegs(tuple(targets), mask))
 
-    def _on_gait(self, msg: String) -> None:
-        gait = GAITS.get(msg.data.strip().lower())
+    def _on_gait_command(self, msg: GaitCommand) -> None:
+        name = GAIT_OF.get(msg.gait)
+        if name is None:
+            self.get_logger().error(f'invalid_input: unknown GaitCommand.gait {msg.gait}')
+            return
+        self._gait(name)
+
+    def _gait(self, name: str) -> None:
+        gait = GAITS.get(name)
         if gait is None:
-            self.get_logger().error(f'invalid_input: unknown gait {msg.data!r} '
+            self.get_logger().error(f'invalid_input: unknown gait {name!r} '
                                     f'(known: {", ".join(sorted(GAITS))})')
             return
-        self._send(gait)
+        self._motion(gait)
 
-    def _on_burrow(self, msg: String) -> None:
+    def _on_burrow_command(self, msg: BurrowCommand) -> None:
+        if msg.mode not in tuple(m.BurrowMode):
+            self.get_logger().error(f'invalid_input: unknown BurrowCommand.mode {msg.mode}')
+            return
+        self._motion(m.Burrow(m.BurrowMode(msg.mode)))
+
+    def _on_burrow_name(self, msg: String) -> None:
         name = msg.data.strip().upper()
         if name not in m.BurrowMode.__members__:
             self.get_logger().error(f'invalid_input: unknown burrow mode {msg.data!r}')
             return
-        self._send(m.Burrow(m.BurrowMode[name]))
-
-    def _on_winch(self, msg: Float64) -> None:
-        self._send(m.Winch(msg.data))
+        self._motion(m.Burrow(m.BurrowMode[name]))
 
     def _on_estop(self, msg: Bool) -> None:
-        self._send(m.EStop(bool(msg.data)))
+        # Engaging only stops motion: honoured in every configured state.
+        if msg.data and self.configured:
+            self._send(m.EStop(True))
+        else:
+            self._motion(m.EStop(bool(msg.data)))
 
 
 def main(args=None) -> int:
     if wants_help(args):
         print(usage('bridge_node', 'minirquad_driver', __doc__))
         return 0
-    return run_node(BridgeNode, 'bridge_node', args=args)
+
+    def make() -> BridgeNode:
+        node = BridgeNode()
+        if node.autostart:
+            node.bring_up()
+        return node
+
+    def safe_stop(node: BridgeNode) -> None:
+        # The lifecycle's own shutdown: winch 0 and legs held (acknowledged), port closed.
+        node.trigger_shutdown()
+
+    return run_node(make, 'bridge_node', on_exit=safe_stop, args=args)
 
 
 if __name__ == '__main__':

@@ -63,6 +63,10 @@ class SerialTransport:
         return self._port is not None
 
     def start(self) -> None:
+        """Start the reader thread (again after stop(): a lifecycle node reconfigures)."""
+        if self._thread is not None and self._thread.is_alive():
+            return
+        self._stop.clear()
         self._thread = threading.Thread(target=self._run, name='serial-reader', daemon=True)
         self._thread.start()
 

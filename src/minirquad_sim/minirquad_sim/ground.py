@@ -1,47 +1,44 @@
 """The ground as the simulator sees it: anchor capacity and slip direction for a pose.
 
-``LiveGround`` (default) is the simulator's own truth: the live RFT-GLS solver of
-rftgls_core (``direct``, the reference method) on a settable "true" robot and medium, by
-default the stack's preset (MiniRQuad in M90 sand) and optionally scaled (``medium_scale``
-0.7 = sand 30 % weaker than the stack believes). It never reads the shipped map that
-capacity_node and behavior_node predict with, so a test can make the prediction wrong.
-Answers are cached per quantised state (1 mm, 1 deg) so the simulator stays real time.
-``MapGround`` answers from an rftgls_core state-space map (the prediction itself, ~20 us
-per query). ``TableGround`` is a clearly labelled PLACEHOLDER kept for tests that want
-hand-set capacities: per-mode values chosen to reproduce the paper's Fig. 10(b) outcome.
+Every ground is an rftgls_core Predictor, predict(state, phi, pull) -> CapacityResult, built with
+rftgls_core.predictor.build_predictor; it is the simulator's truth, not the stack's prediction.
+``LiveGround`` (default) is the live RFT-GLS solver of rftgls_core (``direct``, the reference
+method) on a settable "true" robot and medium, by default the stack's preset (MiniRQuad in M90
+sand) and optionally scaled (``medium_scale`` 0.7 = sand 30 % weaker than the stack believes).
+It never reads the shipped map that capacity_node and behavior_node predict with, so a test can
+make the prediction wrong. Answers are cached per quantised state (1 mm, 1 deg) so the simulator
+stays real time. ``MapGround`` answers from an rftgls_core state-space map (the prediction
+itself, ~20 us per query). ``TableGround`` is a clearly labelled PLACEHOLDER kept for tests that
+want hand-set capacities: per-mode values chosen to reproduce the paper's Fig. 10(b) outcome.
 
-Slip twists here follow rftgls_core: (vx, vz, wy) at p in world axes, wy about +y (so the
-body pitch thetaB changes by -wy per unit of travel), scaled so |(vx, vz)| = 1.
+Slip twists follow rftgls_core: (vx, vz, wy) at p in world axes, wy about +y (so the body pitch
+thetaB changes by -wy per unit of travel), a unit vector; ``slip_per_m`` rescales one so
+|(vx, vz)| = 1, the motion of p per metre of travel.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
 from collections import OrderedDict
-from typing import NamedTuple, Protocol
 
 from rftgls_conventions import G
-from rftgls_core.types import AnchorState, Status
+from rftgls_core.predictor import InputNames, Predictor, PredictorSpec, build_predictor
+from rftgls_core.surfaces.base import CapacityResult
+from rftgls_core.types import AnchorState, Pull, Status
 
 from .burrow import TABLE_II
 
-
-class AnchorPrediction(NamedTuple):
-    """capacity: largest tension T (N) the anchor holds along d(phi), None without a value.
-    slip_twist_per_m: direction of motion of p when it fails, (vx, vz, wy) in world axes with
-    |(vx, vz)| = 1 (wy in rad per m of travel). status: see docs/design/architecture.md#statuses."""
-
-    capacity: float | None
-    slip_twist_per_m: tuple[float, float, float]
-    status: Status
+# The simulator's option for each input of a predictor specification (errors name these).
+SIM_NAMES = InputNames(map='--ground map', robot='--true-robot', description='--anchor',
+                       medium='--true-medium', live_method='method', n_twists='n_twists')
 
 
-class Ground(Protocol):
-    """What the simulated robot asks the ground (the simulator's truth, not a prediction)."""
-
-    def predict(self, state: AnchorState, phi: float) -> AnchorPrediction:
-        """Capacity and slip twist for anchor state ``state`` under pull angle ``phi`` (rad)."""
-        ...
+def slip_per_m(result: CapacityResult) -> tuple[float, float, float]:
+    """How p moves per metre of travel when the anchor fails: (vx, vz, wy) of the slip twist
+    rescaled so |(vx, vz)| = 1 (world axes, wy in rad per m); (0, 0, 0) without a value."""
+    if not result.status.has_value or result.slip_twist is None:
+        return (0.0, 0.0, 0.0)
+    return _unit_twist(result.slip_twist, result.phi)
 
 
 class TableGround:
@@ -54,6 +51,7 @@ class TableGround:
     """
 
     CAPACITY_N = {'DH': 4.6, 'DL': 2.6, 'SH': 2.7}   # at phi = 0, placeholder values
+    METHOD = 'table'
 
     def __init__(self, mass_kg: float = 0.296, mu_body: float = 0.4, h_free: float = 0.060,
                  k_down: float = 0.8, pose_window: float = math.radians(15.0)):
@@ -63,22 +61,28 @@ class TableGround:
         self.k_down = k_down
         self.pose_window = pose_window
 
-    def predict(self, state: AnchorState, phi: float) -> AnchorPrediction:
+    def predict(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD
+                ) -> CapacityResult:
+        """The placeholder's capacity (the pull orientation is not modelled)."""
         if not (state.is_finite() and math.isfinite(phi)):
-            return AnchorPrediction(None, (0.0, 0.0, 0.0), Status.INVALID_INPUT)
-        slip = _unit_slip(phi)
+            return CapacityResult(phi=phi, status=Status.INVALID_INPUT, method=self.METHOD,
+                                  reason='invalid_state')
         friction = self.mu_body * self.mass_kg * G
         best, dist = None, float('inf')
         for name, seq in TABLE_II.items():
             d = math.hypot(state.theta_l1 - seq.final[0], state.theta_l2 - seq.final[1])
             if d < dist:
                 best, dist = name, d
-        if dist > self.pose_window or state.h >= self.h_free:
-            return AnchorPrediction(friction, slip, Status.OK)
-        h_final = TABLE_II[best].h
-        depth = min(1.0, max(0.0, (self.h_free - state.h) / (self.h_free - h_final)))
-        cap = self.CAPACITY_N[best] * depth * (1.0 + self.k_down * max(0.0, -phi))
-        return AnchorPrediction(max(friction, cap), slip, Status.OK)
+        cap = friction
+        if dist <= self.pose_window and state.h < self.h_free:
+            h_final = TABLE_II[best].h
+            depth = min(1.0, max(0.0, (self.h_free - state.h) / (self.h_free - h_final)))
+            cap = max(friction,
+                      self.CAPACITY_N[best] * depth * (1.0 + self.k_down * max(0.0, -phi)))
+        vx, vz, wy = _unit_slip(phi)
+        n = math.sqrt(vx * vx + vz * vz + wy * wy)
+        return CapacityResult(phi=phi, status=Status.OK, method=self.METHOD, capacity_N=cap,
+                              slip_twist=(vx / n, vz / n, wy / n))
 
 
 def _unit_slip(phi: float) -> tuple[float, float, float]:
@@ -89,29 +93,28 @@ def _unit_slip(phi: float) -> tuple[float, float, float]:
 
 
 class MapGround:
-    """RFT-GLS ground from an rftgls_core capacity map (backward pulls: the winch is on the
-    MiniRQuad's back). The map answers out_of_range off its grid; the simulated world needs
-    an answer everywhere, so its truth there is the nearest grid edge's (the state clamped
-    into the grid). Where the map has no value the simulator falls back to body friction."""
+    """RFT-GLS ground from an rftgls_core capacity map (default: the shipped MiniRQuad map).
+    The map answers out_of_range off its grid; the simulated world needs an answer
+    everywhere, so its truth there is the nearest grid edge's (the state clamped into the
+    grid). Where the map has no value the simulator falls back to body friction."""
 
-    def __init__(self, path=None, pull: str = 'backward'):
-        from rftgls_core.maps import CapacityMap, shipped_map_path
-        self.path = str(path) if path else str(shipped_map_path('minirquad'))
-        self.map = CapacityMap.load(self.path)   # an rftgls_core Predictor, with its grid axes
-        self.pull = pull
+    def __init__(self, path=None):
+        self.predictor = build_predictor(PredictorSpec(map=str(path or 'minirquad'),
+                                                       robot=None), SIM_NAMES)
+        self.path = str(self.predictor.path)
+        self.map = self.predictor.map      # its grid axes
 
-    def predict(self, state: AnchorState, phi: float) -> AnchorPrediction:
-        res = self.map.predict(state, phi, self.pull)
+    def predict(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD
+                ) -> CapacityResult:
+        res = self.predictor.predict(state, phi, pull)
         if res.status.value == 'out_of_range':
             ax = self.map.axes
             state = AnchorState(*(min(max(v, float(ax[n][0])), float(ax[n][-1])) for n, v in
                                   zip(('h', 'theta_b', 'theta_l1', 'theta_l2'),
                                       state.as_tuple())))
             phi = min(max(phi, float(self.map.phis[0])), float(self.map.phis[-1]))
-            res = self.map.predict(state, phi, self.pull)
-        if not res.status.has_value or res.slip_twist is None:
-            return AnchorPrediction(None, (0.0, 0.0, 0.0), res.status)
-        return AnchorPrediction(res.capacity_N, _unit_twist(res.slip_twist, phi), res.status)
+            res = self.predictor.predict(state, phi, pull)
+        return res
 
 
 def _unit_twist(raw, phi: float) -> tuple[float, float, float]:
@@ -140,13 +143,11 @@ class LiveGround:
 
     def __init__(self, robot: str = 'minirquad', medium: str = 'm90_sand',
                  medium_scale: float = 1.0, mass_scale: float = 1.0, method: str = 'direct',
-                 fallback_method: str | None = 'twist-mesh', pull: str = 'backward',
+                 fallback_method: str | None = 'twist-mesh',
                  h_step: float = 1e-3, angle_step: float = math.radians(1.0),
                  phi_step: float = math.radians(1.0), cache_size: int = 512,
                  anchor: str = ''):
-        from rftgls_core.anchor import AnchorModel
         from rftgls_core.rft.media import load_medium
-        from rftgls_core.robots.presets import get_robot
         if not (math.isfinite(medium_scale) and medium_scale > 0.0):
             raise ValueError(f'medium_scale must be a positive number, got {medium_scale}')
         if not (math.isfinite(mass_scale) and mass_scale > 0.0):
@@ -155,86 +156,77 @@ class LiveGround:
         self.medium = dataclasses.replace(
             base, name=f'{base.name} x{medium_scale:g}' if medium_scale != 1.0 else base.name,
             xi_n=base.xi_n * medium_scale, zeta=base.zeta * medium_scale)
-        body = get_robot(robot)
-        self.robot = dataclasses.replace(body, mass=body.mass * mass_scale) \
-            if mass_scale != 1.0 else body
         self.anchor = anchor
-        if anchor:
-            # An anchor description instead of the preset (same four state variables; the
-            # shipped descriptions give the preset's numbers): its mass scaled the same way.
-            from rftgls_core.description import DescriptionModel, load_description
-            desc = load_description(anchor)
-            self.models = [DescriptionModel(desc, self.medium, method=m, mass_scale=mass_scale)
+        # The preset or an anchor description (same four state variables; the shipped
+        # descriptions give the preset's numbers), its mass scaled either way.
+        spec = PredictorSpec(robot=robot, description=anchor or None, medium=self.medium,
+                             mass_scale=mass_scale)
+        self.predictors = [build_predictor(dataclasses.replace(spec, live_method=m), SIM_NAMES)
                            for m in dict.fromkeys((method, fallback_method)) if m]
-        else:
-            self.models = [AnchorModel(self.robot, self.medium, method=method)]
-            if fallback_method and fallback_method != method:
-                self.models.append(AnchorModel(self.robot, self.medium, method=fallback_method))
-        self.pull = pull
         self.steps = (h_step, angle_step, phi_step)
         self.cache_size = cache_size
-        self._fits: OrderedDict = OrderedDict()      # state key -> [(surface|None, failure)]
-        self._answers: dict = {}                      # (state key, phi key) -> prediction
+        self._fits: OrderedDict = OrderedDict()      # (state key, pull) -> [(surface, failure)]
+        self._answers: dict = {}                      # (state key, pull, phi key) -> answer
         self.fits = 0                                 # count of states fitted (for tests)
 
     def describe(self) -> str:
+        first = self.predictors[0]
         body = f'anchor description {self.anchor}' if self.anchor else \
-            f'robot {self.robot.name} ({self.robot.mass:.3f} kg)'
-        return (f'live {self.models[0].method} solver, {body}, medium {self.medium.name} '
+            f'robot {first.robot.name} ({first.robot.mass:.3f} kg)'
+        return (f'live {first.method} solver, {body}, medium {self.medium.name} '
                 f'(xi_n {self.medium.xi_n:.3g} N/m^3)')
 
-    def warm_up(self) -> None:
+    def warm_up(self, pull: Pull | str = Pull.BACKWARD) -> None:
         """Answer each Table II final pose once (JIT compilation, twist-sphere build, and the
         poses a tug starts from), so the first tug does not stall a real-time loop."""
         for seq in TABLE_II.values():
-            self.predict(AnchorState(seq.h, seq.theta_b, *seq.final), 0.0)
+            self.predict(AnchorState(seq.h, seq.theta_b, *seq.final), 0.0, pull)
 
     def _key(self, state: AnchorState) -> tuple[int, int, int, int]:
         h, a, _ = self.steps
         return (round(state.h / h), round(state.theta_b / a), round(state.theta_l1 / a),
                 round(state.theta_l2 / a))
 
-    def _fit(self, key):
-        fits = self._fits.get(key)
+    def _fit(self, key, pull: str):
+        fits = self._fits.get((key, pull))
         if fits is not None:
-            self._fits.move_to_end(key)
+            self._fits.move_to_end((key, pull))
             return fits
         h, a, _ = self.steps
         state = AnchorState(key[0] * h, key[1] * a, key[2] * a, key[3] * a)
-        fits = [m.fit(state, self.pull) for m in self.models]
+        fits = [p.fit(state, pull) for p in self.predictors]
         self.fits += 1
-        self._fits[key] = fits
+        self._fits[(key, pull)] = fits
         if len(self._fits) > self.cache_size:
             old, _ = self._fits.popitem(last=False)
-            self._answers = {k: v for k, v in self._answers.items() if k[0] != old}
+            self._answers = {k: v for k, v in self._answers.items() if k[:2] != old}
         return fits
 
-    def predict(self, state: AnchorState, phi: float) -> AnchorPrediction:
+    def predict(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD
+                ) -> CapacityResult:
         if not (state.is_finite() and math.isfinite(phi)):
-            return AnchorPrediction(None, (0.0, 0.0, 0.0), Status.INVALID_INPUT)
+            return CapacityResult(phi=phi, status=Status.INVALID_INPUT, method='live',
+                                  reason='invalid_state')
+        pull = Pull(pull).value
         key = self._key(state)
         pk = round(phi / self.steps[2])
-        hit = self._answers.get((key, pk))
+        hit = self._answers.get((key, pull, pk))
         if hit is not None:
             return hit
         phi_q = pk * self.steps[2]
-        status = Status.UNSUPPORTED
-        pred = None
-        for surface, failure in self._fit(key):
+        answer = None
+        for surface, failure in self._fit(key, pull):
             res = surface.capacity_many([phi_q])[0] if surface is not None else failure
+            answer = res
             if res.status.has_value and res.capacity_N is not None \
                     and res.slip_twist is not None:
-                pred = AnchorPrediction(res.capacity_N, _unit_twist(res.slip_twist, phi_q),
-                                        res.status)
                 break
-            status = res.status
-        if pred is None:
-            pred = AnchorPrediction(None, (0.0, 0.0, 0.0), status)
-        self._answers[(key, pk)] = pred
-        return pred
+        assert answer is not None
+        self._answers[(key, pull, pk)] = answer
+        return answer
 
 
-def make_ground(kind: str = 'live', **options) -> Ground:
+def make_ground(kind: str = 'live', **options) -> Predictor:
     """'live' (default: rftgls_core's live solver, options as LiveGround), 'map'
     (options: path) or 'table' (the placeholder)."""
     if kind == 'live':
@@ -246,7 +238,7 @@ def make_ground(kind: str = 'live', **options) -> Ground:
     raise ValueError(f'unknown ground {kind!r}; known: live, map, table')
 
 
-def default_ground() -> Ground:
+def default_ground() -> Predictor:
     """The simulator's own truth: the live RFT-GLS solver on the stack's preset robot and
     medium (not the map the stack predicts with)."""
     return LiveGround()

@@ -1,9 +1,15 @@
 """``minirquad_sim``: a simulated MiniRQuad microcontroller on a pseudo-terminal.
 
     minirquad_sim --link-file /tmp/mcu.path --symlink /tmp/minirquad_tty [faults...]
+    minirquad_sim --mcu firmware ...      # the compiled firmware instead of the Python MCU
 
 prints the slave path it opened (first line on stdout, then flushes) and speaks the protocol
 of src/minirquad_driver/PROTOCOL.md on it until SIGINT/SIGTERM. Fault options: ``--help``.
+ROS arguments (`--ros-args ...`, as `ros2 run` and launch_ros append them) are ignored.
+
+On SIGINT/SIGTERM it keeps serving the link for ``--linger`` seconds (0.5 s) before it closes
+the pty: a launch file stops every process at once, and a real MCU outlives its host, so the
+bridge's last commands (the winch to 0) still land and are acted on.
 """
 from __future__ import annotations
 
@@ -16,11 +22,15 @@ from collections import deque
 
 from minirquad_driver.protocol import messages as m
 from minirquad_driver.protocol.codec import encode_frame
-from rftgls_node_base.node_main import stop_on_signals
+from rftgls_conventions.safe_write import open_fresh
+from rftgls_node_base.node_main import finish, program_args, stop_on_signals
 
 from .faults import FaultConfig, FaultInjector
+from .firmware_link import FirmwareLinkError
+from .firmware_mcu import FirmwareMcu
 from .ground import make_ground
 from .mcu import McuConfig, SimMcu
+from .plant import MotorWinch, PlantRobot
 from .pty_link import LinkPathError, PtyLink
 from .robot import SimRobot
 from .winch import WinchSled
@@ -28,17 +38,30 @@ from .winch import WinchSled
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog='minirquad_sim', description=__doc__.split('\n\n')[0])
+    p.add_argument('--mcu', choices=('python', 'firmware'), default='python',
+                   help='python: the reference MCU in this process (default); firmware: the '
+                        'compiled C++ firmware (fw_sitl, built by `make setup`) runs the '
+                        'protocol and the control, this process the physics')
+    p.add_argument('--firmware', metavar='PATH',
+                   help='fw_sitl binary for --mcu firmware (default: the one make setup built)')
     p.add_argument('--link-file', help='write the slave pty path to this file')
     p.add_argument('--symlink', help='keep this symlink pointing at the current slave pty')
     p.add_argument('--telemetry-hz', type=int, default=100)
     p.add_argument('--power-hz', type=int, default=50)
     p.add_argument('--watchdog', type=float, default=0.5, help='host watchdog timeout, s')
+    p.add_argument('--winch-deadman', type=float, default=0.1,
+                   help='winch deadman, s (0: off, to test the host watchdog alone)')
     p.add_argument('--clock-start-ms', type=lambda s: int(s, 0), default=0,
                    help='initial MCU clock (e.g. 0xFFFFF000 to cross the uint32 wrap)')
     p.add_argument('--sled-mass', type=float, default=0.400, help='kg')
     p.add_argument('--pace-baud', type=int, default=0,
                    help='emulate a UART: write at most baud/10 bytes per second (0: off)')
-    p.add_argument('--record', help='append one JSON line per telemetry frame built')
+    p.add_argument('--record', help='write one JSON line per telemetry frame built (a new '
+                   'file)')
+    p.add_argument('--command-log', help='write one JSON line per host command handled '
+                   '(the Python MCU; a new file)')
+    p.add_argument('--linger', type=float, default=0.5,
+                   help='s the link keeps being served after SIGINT/SIGTERM')
     p.add_argument('--duration', type=float, default=0.0, help='exit after this many s')
     t = p.add_argument_group('true ground (what the sand really holds; the stack never sees it)')
     t.add_argument('--ground', choices=('live', 'map', 'table'), default='live',
@@ -71,7 +94,8 @@ class _Recorder:
     """JSON lines of what each telemetry frame carried, in wire integers, plus its fate."""
 
     def __init__(self, path: str | None):
-        self.file = open(path, 'a', buffering=1) if path else None
+        # A new file (safe_write.open_fresh): a planted link is replaced, never written through.
+        self.file = open_fresh(path, 'a', buffering=1) if path else None
 
     def telemetry(self, seq: int, t_ms: int, tel: m.Telemetry, fault: str | None,
                   host_s: float | None = None) -> None:
@@ -82,7 +106,30 @@ class _Recorder:
             'host_s': host_s,     # host wall time of the sample instant: tests' truth
             'legs': [round(a * m.MICRORAD) for a in tel.leg_angles],
             'pitch': round(tel.pitch * m.MICRORAD),
-            'tension': round(tel.tension * m.MILLINEWTON)}) + '\n')
+            'tension': round(tel.tension * m.MILLINEWTON),
+            'vel': [round(v * m.MILLIRAD_S) for v in tel.leg_velocities],
+            'spool': round(tel.spool_position * m.MICROMETRE),
+            'spool_v': round(tel.spool_velocity * m.MICROMETRE_S),
+            'mode': int(tel.mode), 'flags': int(tel.flags)}) + '\n')
+
+    def close(self) -> None:
+        if self.file:
+            self.file.close()
+
+
+class _CommandLog:
+    """JSON lines of the host commands the MCU handled: host wall time, type, fields, ack."""
+
+    def __init__(self, path: str | None, wall_minus_mono: float):
+        self.file = open_fresh(path, 'a', buffering=1) if path else None
+        self.offset = wall_minus_mono
+
+    def command(self, now: float, msg, result: int) -> None:
+        if not self.file:
+            return
+        fields = {k: v for k, v in vars(msg).items() if not k.startswith('_')}
+        self.file.write(json.dumps({'host_s': now + self.offset, 'command': msg.TYPE.name,
+                                    'result': result, **fields}) + '\n')
 
     def close(self) -> None:
         if self.file:
@@ -109,11 +156,18 @@ def run(args: argparse.Namespace) -> int:
 
     start = time.monotonic()
     wall_minus_mono = time.time() - start    # the simulator owns both clocks: exact truth
-    mcu = SimMcu(robot_factory=lambda: SimRobot(ground=ground,
-                                                winch=WinchSled(sled_mass=args.sled_mass)),
-                 config=McuConfig(telemetry_hz=args.telemetry_hz, power_hz=args.power_hz,
-                                  watchdog_s=args.watchdog, clock_start_ms=args.clock_start_ms),
-                 on_telemetry=lambda s, t, tel: pending_tel.append((s, t, tel)), now=start)
+    config = McuConfig(telemetry_hz=args.telemetry_hz, power_hz=args.power_hz,
+                       watchdog_s=args.watchdog, winch_deadman_s=args.winch_deadman,
+                       clock_start_ms=args.clock_start_ms)
+    commands = _CommandLog(args.command_log, wall_minus_mono)
+    try:
+        mcu = _make_mcu(args, ground, config, start,
+                        on_telemetry=lambda s, t, tel: pending_tel.append((s, t, tel)),
+                        on_command=commands.command)
+    except FirmwareLinkError:
+        link.close()
+        link.remove_links()
+        raise
     queue: deque[tuple[float, bytes]] = deque()    # (release time, bytes), in order
     line_free_at = 0.0                             # UART pacing
     byte_time = 10.0 / args.pace_baud if args.pace_baud else 0.0
@@ -126,68 +180,93 @@ def run(args: argparse.Namespace) -> int:
             queue.append((release, wire))
         return fault
 
-    emit(mcu.notice(start), start)
-    while not stop.is_set():
-        now = time.monotonic()
-        t = now - start
-        if args.duration and t >= args.duration:
-            break
-        # Scheduled faults.
-        if (args.disconnect_at is not None and reconnect_at is None and link.master is not None
-                and t >= args.disconnect_at):
-            link.close()
-            queue.clear()
-            reconnect_at = now + args.disconnect_for
-            faults.counts['disconnect'] += 1
-        if reconnect_at is not None and now >= reconnect_at and link.master is None:
-            link.open()
-            args.disconnect_at = None
-        if args.reset_at is not None and not reset_done and t >= args.reset_at:
-            reset_done = True
-            # A reset cuts the frame in flight: half a frame with no closing delimiter.
-            cut = encode_frame(mcu.telemetry(), mcu.seq, mcu.clock_ms(now))
-            queue.append((now, cut[:len(cut) // 2]))
-            queue.append((now, mcu.reset(now, m.ResetCause.WATCHDOG)))
-            faults.counts['reset'] += 1
-        # Host bytes.
-        data = link.read()
-        if data:
-            for frame_bytes in _split(mcu.receive(data, now)):
-                emit(frame_bytes, now)
-        # MCU loop.
-        for kind, frame_bytes, _tel in mcu.tick(now):
-            fault = emit(frame_bytes, now)
-            if kind == 'telemetry':
-                for s, tm, tel in pending_tel:
-                    recorder.telemetry(s, tm, tel, fault if link.master is not None
-                                       else 'disconnected', now + wall_minus_mono)
-                pending_tel.clear()
-        # Release due bytes, paced like a UART if asked.
-        while queue and queue[0][0] <= now and now >= line_free_at:
-            _, wire = queue.popleft()
+    try:
+        emit(mcu.notice(start), start)
+        stop_at: float | None = None
+        while True:
+            now = time.monotonic()
+            t = now - start
+            if args.duration and t >= args.duration:
+                break
+            if stop.is_set():
+                stop_at = now + max(0.0, args.linger) if stop_at is None else stop_at
+                if now >= stop_at:
+                    break
+            # Scheduled faults.
+            if (args.disconnect_at is not None and reconnect_at is None and link.master is not None
+                    and t >= args.disconnect_at):
+                link.close()
+                queue.clear()
+                reconnect_at = now + args.disconnect_for
+                faults.counts['disconnect'] += 1
+            if reconnect_at is not None and now >= reconnect_at and link.master is None:
+                link.open()
+                args.disconnect_at = None
+            if args.reset_at is not None and not reset_done and t >= args.reset_at:
+                reset_done = True
+                # A reset cuts the frame in flight: half a frame with no closing delimiter.
+                cut = encode_frame(mcu.telemetry(), mcu.seq, mcu.clock_ms(now))
+                queue.append((now, cut[:len(cut) // 2]))
+                queue.append((now, mcu.reset(now, m.ResetCause.WATCHDOG)))
+                faults.counts['reset'] += 1
+            # Host bytes.
+            data = link.read()
+            if data:
+                for frame_bytes in _split(mcu.receive(data, now)):
+                    emit(frame_bytes, now)
+            # MCU loop.
+            for kind, frame_bytes, _tel in mcu.tick(now):
+                fault = emit(frame_bytes, now)
+                if kind == 'telemetry':
+                    for s, tm, tel in pending_tel:
+                        recorder.telemetry(s, tm, tel, fault if link.master is not None
+                                           else 'disconnected', now + wall_minus_mono)
+                    pending_tel.clear()
+            # Release due bytes, paced like a UART if asked.
+            while queue and queue[0][0] <= now and now >= line_free_at:
+                _, wire = queue.popleft()
+                if link.master is not None:
+                    link.write(wire)
+                if byte_time:
+                    line_free_at = max(now, line_free_at) + len(wire) * byte_time
+            wake = mcu.next_due()
+            if queue:
+                wake = min(wake, max(queue[0][0], line_free_at))
+            if reconnect_at is not None and link.master is None:
+                wake = min(wake, reconnect_at)
+            timeout = max(0.0, min(wake - time.monotonic(), 0.05))
             if link.master is not None:
-                link.write(wire)
-            if byte_time:
-                line_free_at = max(now, line_free_at) + len(wire) * byte_time
-        wake = mcu.next_due()
-        if queue:
-            wake = min(wake, max(queue[0][0], line_free_at))
-        if reconnect_at is not None and link.master is None:
-            wake = min(wake, reconnect_at)
-        timeout = max(0.0, min(wake - time.monotonic(), 0.05))
-        if link.master is not None:
-            try:
-                select.select([link.master], [], [], timeout)
-            except (OSError, ValueError):
+                try:
+                    select.select([link.master], [], [], timeout)
+                except (OSError, ValueError):
+                    time.sleep(timeout)
+            else:
                 time.sleep(timeout)
-        else:
-            time.sleep(timeout)
-    link.close()
-    link.remove_links()
-    recorder.close()
-    print(json.dumps({'faults': dict(faults.counts), 'resets': mcu.resets,
-                      'rx_crc_errors': mcu.rx_crc_errors}), flush=True)
+    finally:                      # also when the firmware dies: no pty or link left behind
+        link.close()
+        link.remove_links()
+        recorder.close()
+        commands.close()
+        mcu.close()
+    report = {'mcu': args.mcu, 'faults': dict(faults.counts), 'resets': mcu.resets,
+              'rx_crc_errors': mcu.rx_crc_errors}
+    if isinstance(mcu, FirmwareMcu):     # how well the firmware kept up with the wall clock
+        report.update(exchanges=mcu.exchanges, late_exchanges=mcu.late)
+    print(json.dumps(report), flush=True)
     return 0
+
+
+def _make_mcu(args: argparse.Namespace, ground, config: McuConfig, start: float,
+              on_telemetry, on_command=None) -> SimMcu | FirmwareMcu:
+    """The Python reference MCU, or the compiled firmware driving the plant (which handles
+    the host's commands itself: no command log)."""
+    if args.mcu == 'firmware':
+        return FirmwareMcu(robot_factory=lambda: PlantRobot(
+            ground=ground, winch=MotorWinch(sled_mass=args.sled_mass)),
+            config=config, on_telemetry=on_telemetry, now=start, binary=args.firmware)
+    return SimMcu(robot_factory=lambda: SimRobot(ground=ground,
+                                                 winch=WinchSled(sled_mass=args.sled_mass)),
+                  config=config, on_telemetry=on_telemetry, now=start, on_command=on_command)
 
 
 def _ground(args: argparse.Namespace):
@@ -210,13 +289,23 @@ def _split(data: bytes) -> list[bytes]:
     return parts
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The simulator's options from argv (default sys.argv[1:]), ROS arguments stripped."""
+    return build_parser().parse_args(program_args(argv, 'minirquad_sim'))
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    """Run the simulator; as the program (argv None) the process ends right after the pty is
+    closed (node_main.finish: no slow native teardown)."""
+    args = parse_args(argv)
     try:
-        return run(args)
-    except LinkPathError as exc:
+        code = run(args)
+    except (LinkPathError, FirmwareLinkError) as exc:
         print(f'minirquad_sim: error: {exc}', file=sys.stderr)
-        return 2
+        code = 2
+    if argv is None:
+        finish(code)
+    return code
 
 
 if __name__ == '__main__':

@@ -7,8 +7,9 @@ pty, the loop timing and the fault injection live in ``main.py`` and ``faults.py
 Firmware behaviour it models:
 - one sequence counter for every frame the MCU sends (the host counts gaps in it);
 - a uint32 millisecond clock (``clock_start_ms`` lets tests start it just before the wrap);
-- every host command is acked with its own seq; a repeated (seq, type) is re-acked but not
-  executed again, so the host may retry;
+- every host command is acked with its own seq; a repeated (seq, type) is re-acked with its
+  first answer but not executed again, so the host may retry; a frame of an MCU -> host type
+  is not acked (no ACK can name it);
 - the watchdog: no valid host frame for ``watchdog_s`` stops legs and winch, sends an ERROR
   once; a later heartbeat clears the flag but does not restart motion;
 - the winch deadman: a non-zero winch speed not refreshed by a WINCH command for
@@ -44,16 +45,19 @@ class McuConfig:
 
 class SimMcu:
     """Frames in, frames out. ``on_telemetry(seq, t_ms, Telemetry)`` is called for every
-    telemetry frame built (before any fault injection), for test records."""
+    telemetry frame built (before any fault injection), ``on_command(now, message, result)``
+    for every host command handled (not heartbeats or retries), for test records."""
 
     def __init__(self, robot_factory: Callable[[], SimRobot] = SimRobot,
                  config: McuConfig | None = None,
                  on_telemetry: Callable[[int, int, m.Telemetry], None] | None = None,
-                 now: float = 0.0):
+                 now: float = 0.0,
+                 on_command: Callable[[float, object, int], None] | None = None):
         """``now``: the caller's clock (s) at power-on; all later times use the same clock."""
         self.robot_factory = robot_factory
         self.config = config or McuConfig()
         self.on_telemetry = on_telemetry
+        self.on_command = on_command
         self.resets = 0
         self._boot(now, self.config.clock_start_ms)
 
@@ -68,7 +72,7 @@ class SimMcu:
         self._last_host_frame = now
         self._next_tel = now
         self._next_pow = now
-        self._last_cmd: tuple[int, int] | None = None
+        self._last_cmd: tuple[tuple[int, int], int] | None = None   # (seq, type), result
         self._winch_cmd_t = now
         self._watchdog_reported = False
         self.rx_crc_errors = 0
@@ -78,6 +82,9 @@ class SimMcu:
         self.resets += 1
         self._boot(now, 0)
         return self.notice(now, cause)
+
+    def close(self) -> None:
+        """Nothing to release (the firmware MCU stops its process here)."""
 
     def notice(self, now: float, cause: int = m.ResetCause.POWER_ON) -> bytes:
         return self._frame(m.ResetNotice(m.PROTOCOL_VERSION, FIRMWARE_VERSION, int(cause),
@@ -110,16 +117,16 @@ class SimMcu:
                 robot.set_watchdog(False)
                 self._watchdog_reported = False
             return self._frame(m.Ack(frame.seq, msg.TYPE, m.AckResult.OK), now)
+        if int(msg.TYPE) not in m.HOST_TYPES:
+            return b''   # an MCU -> host type sent the wrong way: no ack could name it
         key = (frame.seq, int(msg.TYPE))
-        if key == self._last_cmd:     # a host retry of a command already executed
-            return self._frame(m.Ack(frame.seq, msg.TYPE, m.AckResult.OK), now)
+        if self._last_cmd is not None and key == self._last_cmd[0]:
+            # A host retry of a command already executed: the same answer, no second run.
+            return self._answer(frame.seq, msg, self._last_cmd[1], now)
         result = m.AckResult.OK
         if isinstance(msg, m.GetInfo):
-            self._last_cmd = key
-            info = m.Info(m.PROTOCOL_VERSION, FIRMWARE_VERSION, m.ResetCause.UNKNOWN,
-                          self.config.telemetry_hz, self.config.power_hz)
-            return self._frame(m.Ack(frame.seq, msg.TYPE), now) + self._frame(info, now)
-        if isinstance(msg, m.EStop):
+            pass
+        elif isinstance(msg, m.EStop):
             robot.set_estop(msg.engage)
         elif robot.estop and isinstance(msg, (m.SetLegs, m.SetGait, m.Burrow, m.Winch)):
             result = m.AckResult.ESTOPPED
@@ -133,13 +140,23 @@ class SimMcu:
         elif isinstance(msg, m.Winch):
             robot.set_winch(msg.speed)
             self._winch_cmd_t = now
-        else:
-            result = m.AckResult.UNSUPPORTED   # an MCU -> host type sent the wrong way
-        if result == m.AckResult.OK and robot.watchdog and not isinstance(msg, m.EStop):
+        if (result == m.AckResult.OK and robot.watchdog
+                and not isinstance(msg, (m.EStop, m.GetInfo))):
             robot.set_watchdog(False)
             self._watchdog_reported = False
-        self._last_cmd = key
-        return self._frame(m.Ack(frame.seq, msg.TYPE, result), now)
+        self._last_cmd = (key, result)
+        if self.on_command is not None:
+            self.on_command(now, msg, int(result))
+        return self._answer(frame.seq, msg, result, now)
+
+    def _answer(self, seq: int, msg, result: int, now: float) -> bytes:
+        """The ACK of a command, and for GET_INFO the INFO after it."""
+        out = self._frame(m.Ack(seq, msg.TYPE, result), now)
+        if isinstance(msg, m.GetInfo):
+            out += self._frame(m.Info(m.PROTOCOL_VERSION, FIRMWARE_VERSION,
+                                      m.ResetCause.UNKNOWN, self.config.telemetry_hz,
+                                      self.config.power_hz), now)
+        return out
 
     # ------------------------------------------------------------------ MCU loop
     def tick(self, now: float) -> list[tuple[str, bytes, m.Telemetry | None]]:

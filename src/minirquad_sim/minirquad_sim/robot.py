@@ -14,11 +14,12 @@ from dataclasses import dataclass, field
 
 from minirquad_driver.protocol.messages import BurrowMode, Flag, GaitKind, Mode
 from rftgls_conventions import G, tether_direction_xz
-from rftgls_core.types import AnchorState, Status
+from rftgls_core.predictor import Predictor
+from rftgls_core.types import AnchorState
 
 from .burrow import TABLE_II
 from .gait import BuehlerClock, wrap_angle
-from .ground import AnchorPrediction, Ground, default_ground
+from .ground import default_ground, slip_per_m
 from .power import PowerModel
 from .servo import Servo
 from .winch import WinchSled
@@ -55,8 +56,12 @@ class Geometry:
 class SimRobot:
     """State and one ``step(dt)`` of the simulated robot. Commands arrive as method calls."""
 
+    #: rad: legs this close to their targets have arrived (the unburrow move's end)
+    leg_arrived = 1e-3
+
     geometry: Geometry = field(default_factory=Geometry)
-    ground: Ground = field(default_factory=default_ground)
+    ground: Predictor = field(default_factory=default_ground)   # the true sand
+    pull: str = 'backward'      # C-leg orientation to the pull: the winch is on the back
     power_model: PowerModel = field(default_factory=PowerModel)
     winch: WinchSled = field(default_factory=WinchSled)
     mass: float = 0.296
@@ -215,7 +220,7 @@ class SimRobot:
     def _move_body(self, dt: float) -> None:
         g = self.geometry
         if self.mode == Mode.WALKING:
-            self.x_p += g.walk_speed * dt * (self.clocks[0].direction if self.clocks else 1)
+            self.x_p += g.walk_speed * dt * self._walk_direction()
             self._relax(g.h_walk, 0.0, dt)
         elif self.mode in (Mode.BURROW_RETRACT, Mode.BURROW_FINAL) and self._burrow:
             seq = TABLE_II[self._burrow]
@@ -230,9 +235,13 @@ class SimRobot:
             self.theta_b = b0 + (b1 - b0) * k
         elif self._unburrowing:
             self._relax(g.h_walk, 0.0, dt)
-            if abs(self.h - g.h_walk) < 1e-4 and all(abs(s.target - s.angle) < 1e-3
+            if abs(self.h - g.h_walk) < 1e-4 and all(abs(s.target - s.angle) < self.leg_arrived
                                                      for s in self.servos):
                 self._unburrowing = False
+
+    def _walk_direction(self) -> int:
+        """+1 while the gait walks forward, -1 in reverse."""
+        return self.clocks[0].direction if self.clocks else 1
 
     def _relax(self, h: float, theta_b: float, dt: float, rate: float = 2.0) -> None:
         a = min(1.0, rate * dt)
@@ -257,12 +266,14 @@ class SimRobot:
                 or self._unburrowing:
             # Legs in motion: no settled anchor, the body drags on its friction. (This also
             # keeps the live ground's fits to settled poses, so the simulator stays real time.)
-            pred = AnchorPrediction(friction, _drag_twist(phi), Status.OK)
+            self.last_prediction = None
+            cap, slip = friction, _drag_twist(phi)
         else:
-            pred = self.ground.predict(self.anchor_state(), phi)
-        self.last_prediction = pred
-        cap = pred.capacity if (pred.status.has_value and pred.capacity is not None) \
-            else friction
+            pred = self.ground.predict(self.anchor_state(), phi, self.pull)
+            self.last_prediction = pred
+            cap = pred.capacity_N if (pred.status.has_value and pred.capacity_N is not None) \
+                else friction
+            slip = slip_per_m(pred)
         if demand <= min(cap, w.sled_friction):
             w.tension = demand
         elif w.sled_friction <= cap:
@@ -274,7 +285,7 @@ class SimRobot:
             w.sled_moving = True
         else:
             # The anchor fails first: p slips along the predicted twist; the sled stays.
-            vx, vz, wy = pred.slip_twist_per_m
+            vx, vz, wy = slip
             ux, uz = tether_direction_xz(phi)               # unit pull direction on p
             along = max(vx * ux + vz * uz, 0.2)
             s = (demand - cap) / w.rope_k / along

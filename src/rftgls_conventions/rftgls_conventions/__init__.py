@@ -23,6 +23,9 @@ Messages: an error or warning for a person is one line (`one_line`), whatever th
 that raised it printed.
 Units: SI inside (m, rad, N, s). Degrees and millimetres appear only at the edges (CLI, ROS
 parameters meant for people, logs); convert there with `deg_to_rad` and `mm_to_m`.
+Files: every file a person names is read through `safe_read` (regular files, a size limit per
+kind, bounded JSON/YAML) and every output written through `safe_write` (a fresh name in the
+target folder, fsync, rename over the target; never through a link): docs/design/safe-io.md.
 """
 from __future__ import annotations
 

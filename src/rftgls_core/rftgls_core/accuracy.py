@@ -16,8 +16,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .anchor import AnchorModel
-from .predictor import Predictor
+from .predictor.live import RobotPredictor
+from .predictor.protocol import Predictor
 from .rft.media import get_medium
 from .robots.presets import LEG_ARC_SEGMENTS, get_robot
 from .surfaces.brute_force import BruteForceSurface
@@ -98,21 +98,21 @@ class Record:
 
 
 def run_config(robot: str, config: Config, states, phis_deg=PHIS_DEG) -> list[Record]:
-    model: Predictor
+    predictor: Predictor
     if config.method == 'map':
-        from .maps import CapacityMap, shipped_map_path
-        model = CapacityMap.load(shipped_map_path(robot))
+        from .predictor import PredictorSpec, build_predictor
+        predictor = build_predictor(PredictorSpec(map=robot, robot=robot))   # the shipped map
     else:
-        model = AnchorModel(get_robot(robot, config.n_arc), get_medium(MEDIUM[robot]),
-                            method=config.method, n_twists=config.n_twists,
-                            surface_options=config.options)
-    model.predict(states[0], 0.0, Pull.BACKWARD)  # warm caches (JIT, twist sphere)
+        predictor = RobotPredictor(get_robot(robot, config.n_arc), get_medium(MEDIUM[robot]),
+                                   method=config.method, n_twists=config.n_twists,
+                                   surface_options=config.options)
+    predictor.predict(states[0], 0.0, Pull.BACKWARD)  # warm caches (JIT, twist sphere)
     out = []
     for state in states:
         for pull in Pull:
             for phi in phis_deg:
                 t0 = time.perf_counter()
-                res = model.predict(state, math.radians(phi), pull)
+                res = predictor.predict(state, math.radians(phi), pull)
                 dt = time.perf_counter() - t0
                 out.append(Record(robot, config.label, config.method, config.n_twists,
                                   config.n_arc, state.as_tuple(), pull.value, phi,
@@ -228,16 +228,15 @@ def agreement(robot: str, n_states: int, seed: int = 0, reference_twists: int = 
     methods' errors, `reference_err_pct_worst`): an overestimate is only meaningful where it
     exceeds that bound.
     """
-    robot_model = get_robot(robot)
+    rob = get_robot(robot)
     medium = get_medium(MEDIUM[robot])
-    models = {m: AnchorModel(robot_model, medium, method=m) for m in AGREEMENT_METHODS}
-    ref_model = AnchorModel(robot_model, medium, method='brute-force',
-                            n_twists=reference_twists)
-    floor = 0.05 * robot_model.mass * 9.81
+    predictors = {m: RobotPredictor(rob, medium, method=m) for m in AGREEMENT_METHODS}
+    reference = RobotPredictor(rob, medium, method='brute-force', n_twists=reference_twists)
+    floor = 0.05 * rob.mass * 9.81
     rows = []
     jobs = agreement_states(robot, n_states, seed)
     for state, pull, phi in (progress(jobs) if progress else jobs):
-        ref_surface, failure = ref_model.fit(state, pull)
+        ref_surface, failure = reference.fit(state, pull)
         ref = failure if ref_surface is None else ref_surface.capacity(phi)
         assert ref is not None
         ref_err = (ref_surface.errors_N_[0] if isinstance(ref_surface, BruteForceSurface)
@@ -245,9 +244,9 @@ def agreement(robot: str, n_states: int, seed: int = 0, reference_twists: int = 
         row = {'state': state.as_tuple(), 'pull': pull.value, 'phi_deg': math.degrees(phi),
                'brute-force': {'status': ref.status.value, 'capacity_N': ref.capacity_N,
                                'error_N': ref_err}}
-        for m, model in models.items():
+        for m, predictor in predictors.items():
             t0 = time.perf_counter()
-            r = model.predict(state, phi, pull)
+            r = predictor.predict(state, phi, pull)
             row[m] = {'status': r.status.value, 'reason': r.reason, 'capacity_N': r.capacity_N,
                       'flags': list(r.flags), 'ms': 1e3 * (time.perf_counter() - t0)}
         rows.append(row)

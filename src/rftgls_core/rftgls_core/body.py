@@ -1,4 +1,4 @@
-"""A single rigid body from an STL file, posed in the world with a tether point: a Scene.
+"""A single rigid body from an STL file, posed in the world with a tether point: a PosedAnchor.
 
 The command-line form (`rftgls capacity --mesh ...`) places the mesh like `rftgls wrench`: the
 mesh origin at `position` (m, world, free surface z = 0), turned by roll-pitch-yaw (rad here,
@@ -24,7 +24,7 @@ from .geometry.mesh import TriMesh
 from .geometry.stl import MeshError, read_stl
 from .geometry.transforms import rpy_matrix
 from .geometry.validate import MeshWarning, clean_mesh
-from .scene import Scene
+from .posed import PosedAnchor
 from .surfaces.raycast import winding_number
 
 # Winding number above which a point is inside the body: 1 strictly inside, 1/2 on a flat
@@ -88,7 +88,7 @@ class RigidBody:
         if not (math.isfinite(self.mass) and self.mass >= 0.0):
             raise ValueError(f'mass must be a finite number >= 0 kg, got {self.mass!r}')
 
-    def scene(self, position, rpy_rad, tether, com_world=None) -> Scene:
+    def pose(self, position, rpy_rad, tether, com_world=None) -> PosedAnchor:
         """Posed in the world with its tether point (m); com_world overrides the centre of
         mass (m, world). ValueError when the tether point is inside the body."""
         rot = rpy_matrix(*np.asarray(rpy_rad, dtype=float))
@@ -109,5 +109,5 @@ class RigidBody:
         f = posed.facets()
         # L_c: the RMS facet distance from p, area-weighted (the body's lever arm about p).
         lc = float(np.sqrt(np.average(np.sum((f.centroids - p) ** 2, axis=1), weights=f.areas)))
-        return Scene(name=self.name, facets=f, ref=p, mass=self.mass, com=com,
-                     char_length=max(lc, 1e-6))
+        return PosedAnchor(name=self.name, facets=f, ref=p, mass=self.mass, com=com,
+                           char_length=max(lc, 1e-6))

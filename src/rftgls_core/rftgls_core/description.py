@@ -3,7 +3,7 @@ has no place for: the tether link, which joints are state variables, their units
 the base pose, the C-leg orientation of a pull, media defaults). docs/design/six-d.md,
 "Anchor descriptions".
 
-    description YAML + URDF --(state values)--> forward kinematics --> Scene (scene.py)
+    description YAML + URDF --(state values)--> forward kinematics --> PosedAnchor (posed.py)
 
 The URDF is read with the standard library's XML parser (URDF is plain XML); a file named
 `*.xacro` is expanded first with the `xacro` package, as ROS's own tools do. Frames: base_link
@@ -14,8 +14,10 @@ Mesh scales in the URDF are applied in the link frame; a negative determinant (a
 reverses the winding so normals stay outward.
 
 The shipped descriptions (rftgls_core/data/<robot>.urdf and .yaml, leg mesh c_leg.stl) are
-written by `write_robot_description` from robots/presets.py, so `--anchor` and `--robot` give
-the same numbers (tests/core/test_description.py).
+written by `description_writer.write_robot_description` from robots/presets.py, so `--anchor`
+and `--robot` give the same numbers (tests/core/test_description.py). Mesh file names may be
+relative to the URDF, `file://` paths or `package://PKG/...` URIs (resolved through
+AMENT_PREFIX_PATH, as ROS tools do, without importing ROS).
 """
 from __future__ import annotations
 
@@ -26,10 +28,14 @@ from pathlib import Path
 
 import numpy as np
 
+from rftgls_conventions.safe_read import load_yaml, parse_yaml, read_bytes
+
+from . import description_input as source
 from .geometry.mesh import Facets, TriMesh
-from .geometry.stl import MeshError, read_stl, write_stl
+from .geometry.stl import MeshError, read_stl
 from .geometry.transforms import parse_vector, rot_y, rpy_matrix
-from .scene import Scene
+from .posed import PosedAnchor
+from .quantities import MASS_KG, MESH_SCALE, POSITION_M
 from .types import AnchorState, Pull
 
 DATA = Path(__file__).resolve().parent / 'data'
@@ -69,34 +75,24 @@ def _transform(origin) -> np.ndarray:
     return t
 
 
-def urdf_bytes(path: str | Path) -> bytes:
-    """The URDF XML of `path`: the file's bytes, or for a `*.xacro` file the document xacro
-    expands it to (the root element only: xacro's banner comment names the file, which would
-    make a copy elsewhere a different description)."""
-    path = Path(path)
-    if path.suffix != '.xacro':
-        try:
-            return path.read_bytes()
-        except OSError as exc:
-            raise DescriptionError(f'{path}: cannot read URDF ({exc})') from None
+def urdf_bytes(path: str | Path, roots: tuple[Path, ...] | None = None) -> bytes:
+    """The URDF XML of `path`, a `*.xacro` expanded in the sandbox, every file inside the
+    allow-list `roots` (description_input.py; default: the file's folder and the installed
+    packages). DescriptionError (one line) otherwise."""
     try:
-        import xacro
-    except ImportError:  # pragma: no cover - a dependency of rftgls_core
-        raise DescriptionError(f'{path}: expanding xacro needs the xacro package') from None
-    try:
-        doc = xacro.process_file(str(path))
-    except Exception as exc:  # noqa: BLE001 - xacro raises its own and parser errors
-        raise DescriptionError(f'{path}: xacro cannot expand it ({type(exc).__name__}: '
-                               f'{str(exc).strip() or "no message"})') from None
-    return doc.documentElement.toxml().encode('utf-8')
+        return source.urdf_bytes(path, roots)
+    except source.SourceError as exc:
+        raise DescriptionError(str(exc)) from None
 
 
-def read_urdf(path: str | Path) -> tuple[dict[str, Link], list[Joint]]:
+def read_urdf(path: str | Path, roots: tuple[Path, ...] | None = None
+              ) -> tuple[dict[str, Link], list[Joint]]:
     """Links (meshes loaded, in URDF order) and joints of a URDF file (or a `*.xacro` file,
-    expanded first)."""
+    expanded first); files only inside the allow-list `roots` (urdf_bytes)."""
     path = Path(path)
+    roots = source.allowed_roots(path.parent) if roots is None else roots
     try:
-        root = ET.fromstring(urdf_bytes(path))
+        root = ET.fromstring(urdf_bytes(path, roots))
     except ET.ParseError as exc:
         raise DescriptionError(f'{path}: cannot read URDF ({exc})') from None
     if root.tag != 'robot':
@@ -112,13 +108,13 @@ def read_urdf(path: str | Path) -> tuple[dict[str, Link], list[Joint]]:
             coll = el.find('collision') if el.find('collision/geometry/mesh') is not None \
                 else el.find('visual')
             t = _transform(coll.find('origin') if coll is not None else None)
-            fname = (geo.get('filename') or '').replace('file://', '')
-            file = (path.parent / fname) if not Path(fname).is_absolute() else Path(fname)
+            _in_range(path, POSITION_M, t[:3, 3], f'link {name} origin xyz')
             try:
-                m = read_stl(file, units='m')
-            except (MeshError, OSError) as exc:
+                m = read_stl(source.mesh_path(geo.get('filename') or '', path, roots), units='m')
+            except (MeshError, OSError, source.SourceError) as exc:
                 raise DescriptionError(f'{path}: link {name!r}: {exc}') from None
             scale = _floats(geo.get('scale'), (1, 1, 1), f'link {name} mesh scale')
+            _in_range(path, MESH_SCALE, np.abs(scale), f'link {name} mesh scale')
             m = TriMesh(m.vertices * scale, m.faces if np.prod(scale) > 0 else m.faces[:, ::-1])
             mesh = m.transformed(t[:3, :3], t[:3, 3])
         mass, com = 0.0, np.zeros(3)
@@ -128,6 +124,8 @@ def read_urdf(path: str | Path) -> tuple[dict[str, Link], list[Joint]]:
             mass = float(_floats(mel.get('value') if mel is not None else None, (0.0,),
                                  f'link {name} mass')[0])
             com = _transform(inertial.find('origin'))[:3, 3]
+            _in_range(path, MASS_KG, [mass], f'link {name} mass')
+            _in_range(path, POSITION_M, com, f'link {name} inertial origin')
         links[name] = Link(name, mesh, mass, com)
     joints = []
     for el in root.findall('joint'):
@@ -137,10 +135,18 @@ def read_urdf(path: str | Path) -> tuple[dict[str, Link], list[Joint]]:
         axis_el = el.find('axis')
         ax = _floats(axis_el.get('xyz') if axis_el is not None else None, (1, 0, 0),
                      f'joint {el.get("name")} axis')
+        if not np.linalg.norm(ax) > 1e-9:
+            raise DescriptionError(f'{path}: joint {el.get("name")!r} axis has no direction')
+        origin = _transform(el.find('origin'))
+        _in_range(path, POSITION_M, origin[:3, 3], f'joint {el.get("name")} origin xyz')
         joints.append(Joint(el.get('name') or '', el.get('type') or 'fixed',
                             parent.get('link') or '', child.get('link') or '',
-                            _transform(el.find('origin')), ax / np.linalg.norm(ax)))
+                            origin, ax / np.linalg.norm(ax)))
     return links, joints
+
+
+def _in_range(path: Path, quantity, values, what: str) -> None:
+    source.check_range(path, quantity, values, what, DescriptionError)
 
 
 def _axis_rotation(axis: np.ndarray, q: float) -> np.ndarray:
@@ -187,7 +193,9 @@ class AnchorDescription:
     def urdf_text(self) -> str:
         """The URDF as read, xacro expanded (what a ROS `robot_description` carries); '' when
         unknown."""
-        return urdf_bytes(self.urdf_path).decode('utf-8') if self.urdf_path is not None else ''
+        if self.urdf_path is None:
+            return ''
+        return urdf_bytes(self.urdf_path, source.allowed_roots(self.source.parent)).decode()
 
     @property
     def state_names(self) -> tuple[str, ...]:
@@ -217,19 +225,19 @@ class AnchorDescription:
         if len(self.surface_points):
             base = self.base_pose(values)
             return float(np.min(self.surface_points @ base[:3, :3].T[:, 2] + base[2, 3]))
-        return float(self.scene(values).ref[2])
+        return float(self.pose(values).ref[2])
 
-    def scene(self, values: dict[str, float], pull: Pull | str = Pull.BACKWARD) -> Scene:
-        """The posed description for state values (SI, by name) and a pull orientation."""
-        missing = [n for n in self.state_names if n not in values]
-        if missing:
-            raise ValueError(f'{self.source}: state variables without a value: '
-                             f'{", ".join(missing)}')
-        pull = Pull(pull)
+    def link_poses(self, values: dict[str, float],
+                   joints: dict[str, float] | None = None) -> dict[str, np.ndarray]:
+        """(4, 4) world pose of every link for state values (SI, by name): base_link from
+        base_pose, each joint origin then rotation about its axis (translation along it for
+        prismatic) by its value. The state variables drive their joints; `joints` (joint name
+        -> rad or m) sets joints one by one on top (e.g. four measured leg angles)."""
         q: dict[str, float] = {}
         for v in self.state:
             for j in v.joints:
                 q[j] = values[v.name]
+        q.update(joints or {})
         world = {'base_link': self.base_pose(values)}
         pending = list(self.joints)
         while pending:
@@ -251,6 +259,16 @@ class AnchorDescription:
             if not progressed:
                 raise ValueError(f'{self.source}: joints not connected to base_link: '
                                  f'{", ".join(j.name for j in pending)}')
+        return world
+
+    def pose(self, values: dict[str, float], pull: Pull | str = Pull.BACKWARD) -> PosedAnchor:
+        """The posed description for state values (SI, by name) and a pull orientation."""
+        missing = [n for n in self.state_names if n not in values]
+        if missing:
+            raise ValueError(f'{self.source}: state variables without a value: '
+                             f'{", ".join(missing)}')
+        pull = Pull(pull)
+        world = self.link_poses(values)
         parts, mass, moment = [], 0.0, np.zeros(3)
         scale = self.pull_scale.get(pull.value, np.ones(3))
         for link in self.links.values():
@@ -265,25 +283,20 @@ class AnchorDescription:
             moment += link.mass * (t[:3, :3] @ link.com + t[:3, 3])
         ref = world[self.tether_link][:3, 3].copy()
         com = moment / mass if mass > 0 else ref
-        return Scene(name=self.name, facets=Facets.concatenate(parts), ref=ref, mass=mass,
-                     com=com, char_length=self.char_length)
+        return PosedAnchor(name=self.name, facets=Facets.concatenate(parts), ref=ref, mass=mass,
+                           com=com, char_length=self.char_length)
 
 
 def load_description(path: str | Path) -> AnchorDescription:
     """Read a description YAML (and the URDF it names); DescriptionError on bad input."""
-    import yaml
-
     path = Path(path)
+    roots = source.allowed_roots(path.parent)
     try:
-        doc = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise DescriptionError(f'{path}: cannot read ({exc.strerror or exc})') from None
-    except yaml.YAMLError as exc:
-        raise DescriptionError(f'{path}: not YAML ({" ".join(str(exc).split())})') from None
-    if not isinstance(doc, dict) or 'urdf' not in doc:
-        raise DescriptionError(f'{path}: a description needs at least `urdf:` and `state:`')
+        doc = source.check_document(path, load_yaml(path, 'description', 'description'))
+    except ValueError as exc:   # safe_read.InputFileError, source.SourceError
+        raise DescriptionError(str(exc)) from None
     urdf_path = path.parent / str(doc['urdf'])
-    links, joints = read_urdf(urdf_path)
+    links, joints = read_urdf(urdf_path, roots)
     tether = str(doc.get('tether_link', 'winch_link'))
     if tether not in links or 'base_link' not in links:
         raise DescriptionError(f'{path}: the URDF needs base_link and the tether link '
@@ -345,29 +358,27 @@ def description_sha256(path: str | Path) -> str:
     files elsewhere has the same identity). A map records it and answers only for it."""
     import hashlib
 
-    import yaml
-
     path = Path(path)
+    roots = source.allowed_roots(path.parent)
     h = hashlib.sha256(b'rftgls.anchor_description/1\0')
 
     def feed(data: bytes) -> None:
         h.update(len(data).to_bytes(8, 'little') + data)
     try:
-        text = path.read_bytes()
+        text = read_bytes(path, 'description', 'description')
         feed(text)
-        doc = yaml.safe_load(text)
+        doc = source.check_document(path, parse_yaml(text, path))
         urdf = path.parent / str(doc['urdf'])
-        xml = urdf_bytes(urdf)
+        xml = urdf_bytes(urdf, roots)
         feed(xml)
         root = ET.fromstring(xml)
         seen: list[Path] = []
         for el in root.iter('mesh'):
-            fname = (el.get('filename') or '').replace('file://', '')
-            file = (urdf.parent / fname) if not Path(fname).is_absolute() else Path(fname)
+            file = source.mesh_path(el.get('filename') or '', urdf, roots)
             if file not in seen:
                 seen.append(file)
-                feed(file.read_bytes())
-    except (OSError, KeyError, TypeError, ET.ParseError, yaml.YAMLError) as exc:
+                feed(read_bytes(file, 'mesh', 'mesh'))
+    except (ValueError, ET.ParseError) as exc:   # DescriptionError, safe_read, SourceError
         raise DescriptionError(f'{path}: cannot hash the description ({exc})') from None
     return h.hexdigest()
 
@@ -452,190 +463,3 @@ def parse_state_map(text: str) -> dict[str, str] | None:
                                    f'{item.strip()!r}')
         out[name] = q
     return out
-
-
-class DescriptionModel:
-    """AnchorModel's interface (fit / predict_many / predict on an AnchorState, sagittal
-    (vx, vz, wy) answers) on a description whose state variables the AnchorState feeds, for the
-    consumers that speak AnchorState (capacity_node's live solver, the simulator ground).
-    The sagittal reduction is used only where the posed facets pass the mirror check
-    (scene.pull_plane_symmetry); elsewhere the answer is `invalid_input` `not_symmetric`
-    (these consumers cannot carry a 6D twist; `rftgls capacity --anchor` can). For a shipped
-    robot it gives AnchorModel's numbers (tests/core/test_description.py).
-
-    mass_scale multiplies the described mass (the simulator's heavier or lighter true robot).
-    state_map: description variable -> AnchorState quantity (robot_state_map; default: the
-    variables are named h, theta_b, theta_l1, theta_l2 or a subset of them).
-    """
-
-    def __init__(self, desc: AnchorDescription, medium, model: str = 'agarwal',
-                 method: str | None = None, n_twists: int | None = None,
-                 backend: str = 'auto', mass_scale: float = 1.0, state_map=None):
-        from .anchor import DEFAULT_METHOD, DEFAULT_TWISTS, DEFAULT_TWISTS_BY_METHOD
-        from .rft.models import make_model
-        from .surfaces.registry import surface_class
-        self.state_map = robot_state_map(desc, state_map)
-        self.description = desc
-        self.medium = medium
-        self.stress_model = make_model(model, medium)
-        self.method = method or DEFAULT_METHOD
-        self.surface_cls = surface_class(self.method)
-        self.n_twists = int(n_twists if n_twists is not None
-                            else DEFAULT_TWISTS_BY_METHOD.get(self.method, DEFAULT_TWISTS))
-        self.backend = backend
-        self.mass_scale = float(mass_scale)
-
-    def _fail(self, status, reason: str, detail: str):
-        from .surfaces.base import CapacityResult
-        return CapacityResult(phi=math.nan, status=status, method=self.method, reason=reason,
-                              detail=detail)
-
-    def fit(self, state: AnchorState, pull: Pull | str):
-        """(fitted surface, None) or (None, failure result), as AnchorModel.fit."""
-        import dataclasses
-
-        from .rft.engine import BuriedBody
-        from .scene import pull_plane_symmetry
-        from .surfaces.base import GLSProblem
-        from .surfaces.scaling import Scaling
-        from .types import Status
-        if not isinstance(state, AnchorState) or not state.is_finite():
-            return None, self._fail(Status.INVALID_INPUT, 'invalid_state',
-                                    f'anchor state must be finite, got {state!r}')
-        robot = state_values(state)
-        values = {n: robot[q] for n, q in self.state_map.items()}
-        outside = self.violations(values)
-        if outside:
-            return None, self._fail(Status.OUT_OF_RANGE, 'outside_physical_range',
-                                    f'not a {self.description.name} pose: ' + '; '.join(outside))
-        scene = self.description.scene(values, pull)
-        if self.mass_scale != 1.0:
-            scene = dataclasses.replace(scene, mass=scene.mass * self.mass_scale)
-        if len(scene.buried()) == 0:
-            return None, self._fail(Status.UNSUPPORTED, 'no_buried_leg',
-                                    f'no facet is below the surface (h = {state.h:.4f} m)')
-        sym = pull_plane_symmetry(scene, 0.0)
-        if not sym.symmetric:
-            return None, self._fail(Status.INVALID_INPUT, 'not_symmetric',
-                                    'sagittal answers need mirror symmetry: ' + sym.detail)
-        p = np.asarray(scene.ref, dtype=float)
-        body = BuriedBody(scene.facets, self.stress_model, ref=p, mirror_y=float(p[1]),
-                          backend=self.backend)
-        w = scene.weight
-        gravity = np.array([0.0, -w, w * (scene.com[0] - p[0])])
-
-        def wrench_fn(twists: np.ndarray) -> np.ndarray:
-            return -body.planar_wrench(twists) - gravity
-        scaling = Scaling(w if w > 0.0 else 1.0, scene.char_length)
-        return self.surface_cls(n_twists=self.n_twists).fit(GLSProblem(wrench_fn, scaling)), None
-
-    def violations(self, values: dict[str, float]) -> list[str]:
-        return self.description.violations(values)
-
-    def predict_many(self, state: AnchorState, phis, pull: Pull | str) -> list:
-        from .surfaces.base import CapacityResult
-        phis = np.atleast_1d(np.asarray(phis, dtype=float))
-        surface, failure = self.fit(state, pull)
-        if surface is None:
-            return [CapacityResult(**{**failure.__dict__, 'phi': float(p)}) for p in phis]
-        return surface.capacity_many(phis)
-
-    def predict(self, state: AnchorState, phi: float, pull: Pull | str):
-        return self.predict_many(state, [phi], pull)[0]
-
-
-# ----------------------------------------------------------------- writing the shipped ones
-# Default map ranges (start, stop, count; m and deg), those of maps/grid.py's default grids.
-MAP_RANGES = {
-    'prototype': {'h': (0.005, 0.030, 6), 'theta_b': (-20, 20, 5), 'theta_l1': (-40, 40, 5),
-                  'theta_l2': (-40, 40, 5)},
-    'minirquad': {'h': (0.025, 0.055, 7), 'theta_b': (-5, 15, 5), 'theta_l1': (-60, 0, 4),
-                  'theta_l2': (-20, 40, 7)},
-}
-LEGS = (('left_proximal', 0, +1), ('left_distal', 1, +1), ('right_proximal', 0, -1),
-        ('right_distal', 1, -1))
-
-
-def write_robot_description(name: str, folder: str | Path) -> Path:
-    """Write <name>.urdf, <name>.yaml and the leg mesh (ASCII STL, full precision) for a robot
-    preset into folder; returns the YAML path. Frames: base_link = body frame B (origin at the
-    winch point p), one link per leg on its hip joint (axis -y_B, so the joint value is the
-    paper's leg angle), imu_link (fixed, at the body's centre) and winch_link (fixed, at p)."""
-    from .robots.presets import get_robot
-    robot = get_robot(name)
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    leg_file = 'c_leg.stl'
-    write_stl(folder / leg_file, robot.leg_mesh, units='m', ascii=True, name='c_leg')
-    r = repr
-
-    def origin(x, y, z):
-        return f'<origin xyz="{r(x)} {r(y)} {r(z)}" rpy="0 0 0"/>'
-    lines = ['<?xml version="1.0"?>',
-             f'<!-- {name}: written by rftgls_core.description.write_robot_description from '
-             'robots/presets.py; the numbers the paper does not give are assumptions there -->',
-             f'<robot name="{name}">',
-             '  <link name="base_link">',
-             f'    <inertial>{origin(robot.com[0], 0.0, robot.com[1])}'
-             f'<mass value="{r(robot.mass)}"/>'
-             '<inertia ixx="1e-4" ixy="0" ixz="0" iyy="1e-4" iyz="0" izz="1e-4"/></inertial>',
-             '  </link>']
-    for leg, axle, side in LEGS:
-        scale = '1 1 1' if side > 0 else '1 -1 1'
-        lines += [f'  <link name="{leg}_leg">',
-                  f'    <visual><geometry><mesh filename="{leg_file}" scale="{scale}"/>'
-                  '</geometry></visual>',
-                  f'    <collision><geometry><mesh filename="{leg_file}" scale="{scale}"/>'
-                  '</geometry></collision>',
-                  '  </link>',
-                  f'  <joint name="{leg}_hip" type="revolute">',
-                  '    <parent link="base_link"/>',
-                  f'    <child link="{leg}_leg"/>',
-                  f'    {origin(robot.axle_x[axle], side * robot.leg_y[axle], robot.axle_z)}',
-                  '    <axis xyz="0 -1 0"/>',
-                  f'    <limit lower="{r(-math.pi)}" upper="{r(math.pi)}" effort="1" '
-                  'velocity="10"/>',
-                  '  </joint>']
-    for link, xyz in (('imu_link', (0.5 * sum(robot.axle_x), 0.0, robot.axle_z)),
-                      ('winch_link', (0.0, 0.0, 0.0))):
-        lines += [f'  <link name="{link}"/>',
-                  f'  <joint name="{link}_joint" type="fixed">',
-                  '    <parent link="base_link"/>',
-                  f'    <child link="{link}"/>',
-                  f'    {origin(*xyz)}',
-                  '  </joint>']
-    lines.append('</robot>')
-    (folder / f'{name}.urdf').write_text('\n'.join(lines) + '\n')
-    sr = robot.state_range
-    deg = 180.0 / math.pi
-    mr = MAP_RANGES[name]
-
-    def rng(lo, hi):
-        return f'[{r(lo)}, {r(hi)}]'
-    yaml_text = f"""# Anchor description of {name} (docs/design/six-d.md, "Anchor descriptions").
-# Written by rftgls_core.description.write_robot_description; the URDF holds links, meshes,
-# joints and inertials, this file what URDF has no place for.
-name: {name}
-urdf: {name}.urdf
-tether_link: winch_link
-char_length_m: {r(robot.char_length)}
-medium: {'glass_beads' if name == 'prototype' else 'm90_sand'}
-symmetry: sagittal    # claimed mirror symmetry about x-z of base_link: checked at every pose
-base_pose:            # base_link origin at height h, turned by rot_y(-theta_b)
-  height: h
-  pitch: theta_b
-surface_points:       # the body plate's ends in base_link, m: a slip stops when one reaches z = 0
-  - [0.0, 0.0, 0.0]
-  - [{r(robot.plate_length)}, 0.0, 0.0]
-pull_scale:           # the paper's C-leg orientation (types.Pull), in the leg frames
-  forward: [1.0, 1.0, 1.0]
-  backward: [-1.0, 1.0, 1.0]
-  links: [{', '.join(f'{leg}_leg' for leg, _, _ in LEGS)}]
-state:                # physical: the range a pose can be in; map: start, stop, count
-  - {{name: h, unit: m, physical: {rng(*sr.h)}, map: {list(mr['h'])}}}
-  - {{name: theta_b, unit: deg, physical: {rng(sr.theta_b[0] * deg, sr.theta_b[1] * deg)}, map: {list(mr['theta_b'])}}}
-  - {{name: theta_l1, unit: deg, joints: [left_proximal_hip, right_proximal_hip], physical: {rng(sr.theta_leg[0] * deg, sr.theta_leg[1] * deg)}, map: {list(mr['theta_l1'])}}}
-  - {{name: theta_l2, unit: deg, joints: [left_distal_hip, right_distal_hip], physical: {rng(sr.theta_leg[0] * deg, sr.theta_leg[1] * deg)}, map: {list(mr['theta_l2'])}}}
-"""  # noqa: E501
-    (folder / f'{name}.yaml').write_text(yaml_text)
-    return folder / f'{name}.yaml'

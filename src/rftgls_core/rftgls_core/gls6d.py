@@ -1,6 +1,6 @@
 """The full 6D path: limit surface over 6D twists, capacity along a 6D load ray, 6D slip twist.
 
-Used when a scene is not mirror-symmetric about the pull plane (a yawed tether, an asymmetric
+Used when a posed anchor is not mirror-symmetric about the pull plane (a yawed tether, an asymmetric
 body), where the sagittal reduction of surfaces/ (3D wrench space) would be wrong
 (docs/design/six-d.md). Spaces (world axes, reference point = the tether point p):
 
@@ -26,7 +26,7 @@ method in 6D: no surface is stored.
 4. Candidates free Newton cannot reach (docs/design/six-d.md, "Folded surfaces"): seeds that
    stalled short of the first converged root try the switching set (a plate sliding edge-on);
    extra seeds (a mirror plane's in-plane slip) start a patch search on the closure; and a
-   checked in-plane answer (`InPlane6`) of a scene symmetric about the pull plane is kept
+   checked in-plane answer (`InPlane6`) of a posed anchor symmetric about the pull plane is kept
    unless the search finds an exact root before it.
 
 Limits: a crossing none of the seeds reaches is missed (raise n_twists / n_seeds); where the
@@ -111,8 +111,9 @@ class Result6:
     """Capacity along a 6D load direction and the 6D slip twist at the first exit.
 
     capacity_N: tether force at the first exit, N; None unless status.has_value.
-    slip_twist_scaled: unit (vx, vy, vz, wx L_c, wy L_c, wz L_c); slip_twist: raw direction
-    (m/s, rad/s) with unit Euclidean norm. Both None without a value.
+    slip_twist: the slip twist (vx, vy, vz, wx, wy, wz) of the tether point, world axes, m/s and
+    rad/s, unit Euclidean norm; slip_twist_scaled: the same direction as a unit vector
+    (vx, vy, vz, wx L_c, wy L_c, wz L_c). Both None without a value.
     """
 
     status: Status
@@ -496,8 +497,8 @@ class Surface6:
         """Capacity along the unit force direction (3,) (the tether's pull, world), no moment
         about p.
 
-        in_plane: the sagittal answer lifted into 6D, when the scene is mirror-symmetric about
-        the pull plane (scene.py checks it). Its twist maps onto the ray in 6D too (planar
+        in_plane: the sagittal answer lifted into 6D, when the posed anchor is mirror-symmetric
+        about the pull plane (posed.py checks it). Its twist maps onto the ray in 6D too (planar
         twists give planar wrenches there), so it is a crossing of the 6D ray; it is checked on
         the 6D map and kept as a candidate. The sagittal root often lies on the switching set
         of the edge-on facets, where free Newton from the cloud cannot land, and on folded

@@ -40,19 +40,19 @@ def capacity_band(robot: str, xi_n: float, mu_surf: float, cov: np.ndarray,
                   method: str = 'twist-mesh', mode: str = 'linear', level: float = 0.95,
                   n_samples: int = 64, seed: int = 0) -> CapacityBand:
     """Capacity (N) along d(phi) with a one-sided `level` lower bound and the symmetric upper."""
-    from .anchor import AnchorModel
+    from .predictor.live import RobotPredictor
     from .rft.media import custom_medium
     from .robots.presets import get_robot
 
-    models: dict = {}
+    predictors: dict = {}
     rob = get_robot(robot)
 
     def cap(xi: float, mu: float, h: float, tb: float) -> float:
         key = (round(xi, 3), round(mu, 6))
-        if key not in models:
+        if key not in predictors:
             medium = custom_medium(xi_n=max(xi, 1.0), mu_surf=max(mu, 0.0))
-            models[key] = AnchorModel(rob, medium, method=method)
-        r = models[key].predict(AnchorState(h, tb, state.theta_l1, state.theta_l2), phi, pull)
+            predictors[key] = RobotPredictor(rob, medium, method=method)
+        r = predictors[key].predict(AnchorState(h, tb, state.theta_l1, state.theta_l2), phi, pull)
         return float(r.capacity_N) if r.status.has_value and r.capacity_N is not None else 0.0
 
     sigma = np.zeros((4, 4))

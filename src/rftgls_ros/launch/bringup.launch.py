@@ -1,12 +1,15 @@
-"""Bring up MiniRQuad's stack on a robot: serial bridge, capacity_node, state_publisher (TF),
-behavior_node.
+"""Bring up MiniRQuad's stack on a robot: serial bridge, capacity_node, state_publisher
+(/robot_description and TF), behavior_node.
 
     ros2 launch rftgls_ros bringup.launch.py port:=/dev/ttyACM0 sled_mass_kg:=0.4
 
 Parameters come from the installed YAML files (share/rftgls_ros/params); capacity_node reads the
-tether angle behavior_node estimates (/winch/phi), as `make demo` does. Needs a ROS 2 Jazzy
-install with launch_ros; on the pip-wheel machines `make demo` starts the same stack, and
-tests/ros/test_launch_files.py checks this file without running it.
+tether angle behavior_node estimates (/winch/phi), as `make demo` does. The robot model is the
+URDF of minirquad_description (share/minirquad_description/urdf). Launch arguments are
+converted to their parameters' declared types (ParameterValue), so `sled_mass_kg:=1` is the
+float 1.0, not the integer YAML would make of it. Needs a ROS 2 Jazzy install with launch_ros;
+on the pip-wheel machines `python -m rftgls_ros.launch_run` starts the same command lines
+(tests/ros/test_launch_run.py).
 """
 import os
 
@@ -15,11 +18,16 @@ from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
+from launch_ros.parameter_descriptions import ParameterValue
 
 
 def generate_launch_description():
     params = os.path.join(get_package_share_directory('rftgls_ros'), 'params')
-    port = LaunchConfiguration('port')
+    urdf = os.path.join(get_package_share_directory('minirquad_description'), 'urdf',
+                        'minirquad.urdf')
+    with open(urdf) as f:
+        robot_description = f.read()
+    port = ParameterValue(LaunchConfiguration('port'), value_type=str)
     return LaunchDescription([
         DeclareLaunchArgument('port', default_value='/dev/ttyACM0',
                               description='serial port of the MiniRQuad MCU'),
@@ -33,12 +41,16 @@ def generate_launch_description():
              parameters=[os.path.join(params, 'capacity_node.yaml'),
                          {'phi_topic': '/winch/phi'}],
              output='screen'),
-        # /tf_static and /tf from the URDF, the joint states, the IMU pitch and the height.
+        # /robot_description, /tf_static and /tf from the URDF, the joint states, the IMU
+        # pitch and the height (robot_state_publisher's topics, plus the body pose).
         Node(package='rftgls_ros', executable='state_publisher', name='state_publisher',
-             parameters=[{'robot': 'minirquad'}], output='screen'),
+             parameters=[{'robot_description': robot_description}], output='screen'),
         Node(package='rftgls_ros', executable='behavior_node', name='behavior_node',
              parameters=[os.path.join(params, 'behavior_node.yaml'),
-                         {'sled_mass_kg': LaunchConfiguration('sled_mass_kg'),
-                          'cycles': LaunchConfiguration('cycles')}],
+                         {'sled_mass_kg': ParameterValue(LaunchConfiguration('sled_mass_kg'),
+                                                         value_type=float),
+                          'cycles': ParameterValue(LaunchConfiguration('cycles'),
+                                                   value_type=int)}],
+             remappings=[('imu', 'imu/data')],   # REP-145's topic (the bridge has both)
              output='screen'),
     ])

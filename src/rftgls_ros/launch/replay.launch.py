@@ -13,24 +13,32 @@ from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
+from launch_ros.parameter_descriptions import ParameterValue
 
 
 def generate_launch_description():
     params = os.path.join(get_package_share_directory('rftgls_ros'), 'params')
+    urdf = os.path.join(get_package_share_directory('minirquad_description'), 'urdf',
+                        'prototype.urdf')
+    with open(urdf) as f:
+        robot_description = f.read()
     return LaunchDescription([
         DeclareLaunchArgument('bag', description='lab bag directory (metadata.yaml + .mcap)'),
         DeclareLaunchArgument('rate', default_value='1.0',
                               description='replay speed factor (0 = as fast as possible)'),
         DeclareLaunchArgument('pull', default_value='backward',
                               description='pull direction of the bag (forward | backward)'),
+        # The replay publishes /robot_description only for --anchor (state_publisher has the
+        # prototype's URDF here).
         Node(package='rftgls_ros', executable='rftgls_lab_replay',
-             arguments=[LaunchConfiguration('bag'), '--rate', LaunchConfiguration('rate')],
+             arguments=[LaunchConfiguration('bag'), '--rate', LaunchConfiguration('rate'),
+                        '--no-description'],
              output='screen'),
         Node(package='rftgls_ros', executable='capacity_node', name='capacity_node',
              parameters=[os.path.join(params, 'capacity_node.yaml'),
                          {'robot': 'prototype', 'medium': 'glass_beads',
                           'map_file': 'maps/prototype_glass_beads.h5',
-                          'pull': LaunchConfiguration('pull'),
+                          'pull': ParameterValue(LaunchConfiguration('pull'), value_type=str),
                           'pitch_topic': '/lab/theta_b', 'phi_topic': '/winch/phi',
                           'tension_component': 'tether',
                           'freshness_source': 'receipt_time'}],
@@ -40,7 +48,7 @@ def generate_launch_description():
         # winch_link and `anchor` (capacity_node's frame). Its x, y of p are not taken from the
         # tracker (state_publisher assumes 0), pitch and height are the replayed ones.
         Node(package='rftgls_ros', executable='state_publisher', name='state_publisher',
-             parameters=[{'robot': 'prototype', 'odom_frame': 'lab_world',
+             parameters=[{'robot_description': robot_description, 'odom_frame': 'lab_world',
                           'pitch_topic': '/lab/theta_b'}],
              output='screen'),
     ])

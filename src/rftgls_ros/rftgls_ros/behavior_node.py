@@ -49,7 +49,7 @@ from .behavior import (
     write_report,
 )
 from .behavior.tug_series import write_tug_series
-from .capacity.predictor import DEFAULT_MAP, MapPredictor, predictor_from_params
+from .capacity.node_predictor import DEFAULT_MAP, node_predictor
 from .capacity_query import CAPACITY_SOURCES, ServicePredictor, record_tug
 
 WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's deadman (0.1 s)
@@ -123,10 +123,9 @@ class BehaviorNode(Node):
                              "own_capacity_fallback); with the service, set them on "
                              "capacity_node")
         if own_map:
-            predictor = (predictor_from_params(self.map_file or DEFAULT_MAP, robot=None,
-                                               anchor_description_file=desc,
-                                               anchor_state_variables=desc_vars)
-                         if desc else MapPredictor(self.map_file or DEFAULT_MAP))
+            predictor = node_predictor(self.map_file or DEFAULT_MAP, robot=None, medium=None,
+                                       anchor_description_file=desc,
+                                       anchor_state_variables=desc_vars)
         else:
             predictor = ServicePredictor(self, f'{cap_ns}/query_capacity')
         self.machine = BehaviorMachine(

@@ -52,9 +52,11 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
 
 from rftgls_conventions import LEG_JOINT_NAMES, pitch_to_quat_xyzw
+from rftgls_core.maps import resolve_map
 from rftgls_node_base.dds_loopback import during_init
+from rftgls_node_base.node_main import program_args
 
-from .capacity.predictor import DEFAULT_MAP, resolve_map_path
+from .capacity.node_predictor import DEFAULT_MAP
 from .capacity_node import CapacityNode
 
 # The DH anchor of the paper's Table II; the bench wiggles theta_L1 around it.
@@ -104,7 +106,7 @@ class Rig:
                 Parameter(k, value=v) for k, v in params.items()])
         self.probe = rclpy.create_node('capacity_bench_probe', context=context)
         self.pub_joints = self.probe.create_publisher(JointState, '/joint_states', 100)
-        self.pub_imu = self.probe.create_publisher(Imu, '/imu', 10)
+        self.pub_imu = self.probe.create_publisher(Imu, '/imu/data', 10)
         self.pub_tension = self.probe.create_publisher(WrenchStamped, '/winch/tension', 10)
         self.pub_height = self.probe.create_publisher(Float64, '/winch/height', 10)
         self.pub_phi = self.probe.create_publisher(Float64, '/winch/phi', 10)
@@ -337,7 +339,7 @@ def percentile(sorted_values: list[float], q: float) -> float:
 
 def _default_map_installed() -> bool:
     try:
-        resolve_map_path(DEFAULT_MAP)
+        resolve_map(DEFAULT_MAP)
     except ValueError:   # rftgls_core.maps.MapFileError
         return False
     return True
@@ -355,7 +357,7 @@ def main(args=None) -> int:
                          'interpreter lock with the probe and the sender)')
     ap.add_argument('--n', type=int, default=1000, help='lock-step messages (default 1000)')
     ap.add_argument('--json', action='store_true', help='print JSON')
-    ns = ap.parse_args(args if args is not None else sys.argv[1:])
+    ns = ap.parse_args(program_args(args, ap.prog))
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     import rftgls_core  # src/rftgls_core/rftgls_core/__init__.py -> repository root
     profile = (Path(rftgls_core.__file__).resolve().parents[3] / 'ros2_ws' / 'params'

@@ -30,6 +30,7 @@ from geometry_msgs.msg import Point, Twist
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
+from rftgls_core.predictor.maps import MapPredictor
 from rftgls_core.types import AnchorState, Pull, Status
 from rftgls_interfaces.msg import AnchorEstimate
 from rftgls_interfaces.srv import QueryCapacity
@@ -37,7 +38,6 @@ from rftgls_node_base.parameters import declare
 
 from .capacity.estimator import Estimate
 from .capacity.markers import CurveSample, MarkerStyle, estimate_markers, limit_curve
-from .capacity.predictor import MapPredictor
 
 NAN = float('nan')
 # name -> (default, description, lo, hi); start-up only (read-only: a run-time change is
@@ -70,7 +70,7 @@ def estimate_msg(est: Estimate, header: Header, pull: str) -> AnchorEstimate:
         has_value=est.has_value, capacity_n=_num(est.capacity_N),
         capacity_lower_n=_num(est.capacity_lower_N), tension_n=_num(est.tension_N),
         margin_n=_num(est.margin_N), slipping=bool(est.slipping),
-        slip_twist=_twist(est.slip_twist_raw), phi_rad=_num(est.phi_rad),
+        slip_twist=_twist(est.slip_twist), phi_rad=_num(est.phi_rad),
         h_m=_num(st.h if st else None), theta_b_rad=_num(st.theta_b if st else None),
         theta_l1_rad=_num(st.theta_l1 if st else None),
         theta_l2_rad=_num(st.theta_l2 if st else None),
@@ -146,7 +146,7 @@ class CapacityExtras:
         self.pub_markers = node.create_publisher(MarkerArray, '~/markers', 2)
         node.create_service(QueryCapacity, '~/query_capacity', self.on_query)
         pred = node.estimator.predictor
-        primary = getattr(pred, 'primary', pred)     # LiveFallback: its map
+        primary = getattr(pred, 'primary', pred)     # FallbackPredictor: its map
         self.curve_map = primary if isinstance(primary, MapPredictor) else None
         self._curve_key: tuple | None = None
         self._curve: CurveSample | None = None
@@ -167,24 +167,24 @@ class CapacityExtras:
         st = est.state
         geoms = estimate_markers(
             str(est.status), st.theta_b if st else None, est.phi_rad, est.capacity_N,
-            est.tension_N, est.margin_N, est.slip_twist_raw, est.slipping, self.curve(est),
+            est.tension_N, est.margin_N, est.slip_twist, est.slipping, self.curve(est),
             self.style, st.h if st else None, self.buried(est))
         mheader = Header(stamp=header.stamp, frame_id=self.frame_id)
         self.pub_markers.publish(marker_array(geoms, mheader, 3.0 * self.period_s))
 
     def buried(self, est: Estimate):
         """Buried leg facet centroids relative to p, world axes (m), cached per state; None
-        when the robot model is unknown here."""
+        when the robot is unknown here."""
         if est.state is None:
             return None
         key = est.state.as_tuple()
         if key != self._buried_key:
             from rftgls_core.robots.presets import get_robot
             try:
-                model = self._robot = self._robot or get_robot(self.node.params['robot'])
+                robot = self._robot = self._robot or get_robot(self.node.params['robot'])
             except (KeyError, ValueError):
                 return None
-            c = model.pose(est.state, self.pull).facets.centroids
+            c = robot.pose(est.state, self.pull).facets.centroids
             self._buried = c[c[:, 2] < 0.0] - np.array([0.0, 0.0, est.state.h])
             self._buried_key = key
         return self._buried
@@ -197,10 +197,10 @@ class CapacityExtras:
         if key != self._curve_key:
             cmap, state, pull = self.curve_map, est.state, self.pull
 
-            def predict(phi: float) -> float | None:
+            def capacity_at(phi: float) -> float | None:
                 r = cmap.predict(state, phi, pull)
                 return r.capacity_N if r.status.has_value else None
 
-            self._curve = limit_curve(predict, self.style.curve_phis_rad)
+            self._curve = limit_curve(capacity_at, self.style.curve_phis_rad)
             self._curve_key = key
         return self._curve

@@ -28,14 +28,15 @@ from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, String
 
 from rftgls_conventions import one_line
+from rftgls_core.predictor import predictor_name
 from rftgls_core.types import pull_direction
 from rftgls_node_base.node_main import run_node, usage, wants_help
-from rftgls_node_base.parameters import declare
+from rftgls_node_base.parameters import ConfigError, declare
 
 from .capacity.estimator import JOINTS, CapacityEstimator, Estimate
 from .capacity.inputs import gravity_problem, quat_xyzw_to_pitch
+from .capacity.node_predictor import node_predictor
 from .capacity.params import PARAMETERS, RUNTIME, configs
-from .capacity.predictor import ConfigError, predictor_from_params, predictor_name
 from .capacity_extras import CapacityExtras
 
 
@@ -55,12 +56,12 @@ class CapacityNode(Node):
             raise ConfigError(str(exc)) from exc
         self.params = p
         est_cfg, self.config = configs(p)
-        predictor = predictor_from_params(p['map_file'], p['live_method'], p['robot'],
-                                          p['medium'], p['live_n_twists'], p['pull'],
-                                          p['out_of_range_live_method'],
-                                          anchor_description_file=p['anchor_description_file'],
-                                          anchor_state_variables=p['anchor_state_variables'],
-                                          edge_live_method=p['edge_live_method'])
+        predictor = node_predictor(p['map_file'], p['live_method'], p['robot'], p['medium'],
+                                   p['live_n_twists'], p['pull'],
+                                   p['out_of_range_live_method'],
+                                   anchor_description_file=p['anchor_description_file'],
+                                   anchor_state_variables=p['anchor_state_variables'],
+                                   edge_live_method=p['edge_live_method'])
         self.estimator = CapacityEstimator(predictor, est_cfg)
         self.frame_id = p['frame_id']
         self.tension_component = self.config.tension_component

@@ -18,7 +18,6 @@ report (behavior_node did not finish); 130 on Ctrl-C.
 """
 from __future__ import annotations
 
-import argparse
 import os
 import shutil
 import signal
@@ -30,7 +29,11 @@ import threading
 import time
 from pathlib import Path
 
-from rftgls_node_base.node_main import stop_on_signals
+from rftgls_conventions.safe_read import check_regular
+from rftgls_conventions.safe_write import open_fresh, output_folder
+from rftgls_core.cli.main import RftglsParser, cli_contract
+from rftgls_core.quantities import MASS_KG, RUN_TIMEOUT_S, bounded_int
+from rftgls_node_base.node_main import program_args, stop_on_signals
 
 from .behavior.report import read_csv, write_report
 
@@ -91,7 +94,7 @@ class Stack:
         self._files = []
 
     def start(self, name: str, argv: list[str], echo: bool = False) -> subprocess.Popen:
-        log = open(self.log_dir / f'{name}.log', 'w')
+        log = open_fresh(self.log_dir / f'{name}.log')    # a planted link is replaced
         self._files.append(log)
         if echo:
             proc = subprocess.Popen(argv, env=self.env, stdout=subprocess.PIPE,
@@ -154,7 +157,8 @@ def run_set(args, sled: float, env: dict, out: Path, params: Path | None) -> Pat
         if params:
             beh += ['--params-file', str(params)]
         beh += ['-p', f'sled_mass_kg:={sled}', '-p', f'cycles:={args.cycles}',
-                '-p', f'report_dir:={out / tag}', '-p', 'exit_when_done:=true']
+                '-p', f'report_dir:={out / tag}', '-p', 'exit_when_done:=true',
+                '-r', 'imu:=imu/data']          # REP-145's topic, as bringup.launch.py
         for kv in args.param or []:
             beh += ['-p', kv]
         print(f'\n=== {1e3 * sled:.0f} g sled: {args.cycles} walk-burrow-tug cycles '
@@ -173,21 +177,22 @@ def run_set(args, sled: float, env: dict, out: Path, params: Path | None) -> Pat
     return csv_path if csv_path.exists() else None
 
 
+@cli_contract('behavior_demo')
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog='behavior_demo', description=__doc__.split('\n\n')[0])
+    p = RftglsParser(prog='behavior_demo', description=__doc__.split('\n\n')[0])
     p.add_argument('--out', default='out/demo', help='report folder (default %(default)s)')
-    p.add_argument('--sleds', type=float, nargs='+', default=[0.4, 0.6], help='kg')
-    p.add_argument('--cycles', type=int, default=3)
+    p.add_argument('--sleds', type=MASS_KG.arg, nargs='+', default=[0.4, 0.6], help='kg')
+    p.add_argument('--cycles', type=bounded_int(1, 1000, 'cycle count'), default=3)
     p.add_argument('--params', default='ros2_ws/params/behavior_node.yaml',
                    help='behavior_node parameter file (skipped if missing)')
     p.add_argument('--param', action='append', metavar='NAME:=VALUE',
                    help='extra behavior_node parameter (repeatable)')
     p.add_argument('--port', help='serial port of a real MiniRQuad (no simulator)')
     p.add_argument('--sim-arg', action='append', help='extra minirquad_sim argument')
-    p.add_argument('--timeout', type=float, default=75.0, help='per sled, s')
+    p.add_argument('--timeout', type=RUN_TIMEOUT_S.arg, default=75.0, help='per sled, s')
     p.add_argument('--allow-aborts', action='store_true',
                    help='exit 0 even if a tug was aborted (fault-injection runs)')
-    args = p.parse_args(argv)
+    args = p.parse_args(program_args(argv, p.prog))
 
     env = dict(os.environ)
     env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
@@ -199,9 +204,10 @@ def main(argv: list[str] | None = None) -> int:
     env.setdefault('RCUTILS_CONSOLE_OUTPUT_FORMAT', '[{name}] {message}')
     env.setdefault('MPLBACKEND', 'Agg')
     env['PYTHONUNBUFFERED'] = '1'
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    params = Path(args.params) if args.params and Path(args.params).exists() else None
+    out = output_folder(args.out, '--out')     # a folder, checked before anything starts
+    params = None
+    if args.params and os.path.lexists(args.params):   # a FIFO would hang behavior_node
+        params = check_regular(args.params, 'params', 'parameter file')
 
     stop_on_signals(_stop)
 

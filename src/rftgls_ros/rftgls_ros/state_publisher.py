@@ -1,10 +1,14 @@
-"""state_publisher: /tf_static and /tf of the robot from its URDF, joint states and body pose.
+"""state_publisher: /robot_description, /tf_static and /tf of the robot from its URDF, joint
+states and body pose.
 
-robot_state_publisher's job (it has no wheel here), plus the body pose a legged anchor has:
-/tf_static (tf2_msgs/TFMessage, transient local) holds the URDF's fixed joints (imu_link,
-winch_link); /tf holds the leg joints from /joint_states (the bridge's names
-leg_proximal_left ... or the URDF's left_proximal_hip ...), and odom -> base_link and
-odom -> anchor at every pitch sample (none before the first: the body has no pose yet).
+robot_state_publisher's job (it has no wheel here), with its topics and its
+`robot_description` parameter, plus the body pose a legged anchor has: /robot_description
+(std_msgs/String, reliable + transient local: the URDF text, for RViz's RobotModel and
+Foxglove); /tf_static (tf2_msgs/TFMessage, transient local) holds the URDF's fixed joints
+(imu_link, winch_link); /tf holds the leg joints from /joint_states (the URDF's joints carry
+the driver's names, leg_proximal_left ...), and odom -> base_link and odom -> anchor at every
+pitch sample (none before the first: the body has no pose yet). With `robot_description`
+empty, the URDF of `robot` in minirquad_description (share/minirquad_description/urdf).
 
 ESTIMATED: the body pitch theta_B (from the IMU orientation, or from `pitch_topic`) and the
 height h of the winch point p above the free surface (`height_topic`, behavior_node's estimate
@@ -15,15 +19,16 @@ model), odom's z = 0 is the free surface. The math is in rftgls_ros.tf_tree (ROS
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 from geometry_msgs.msg import TransformStamped
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import Imu, JointState
-from std_msgs.msg import Float64
+from std_msgs.msg import Float64, String
 
 from rftgls_conventions import quat_xyzw_to_pitch
-from rftgls_core.description import DATA
+from rftgls_conventions.safe_read import InputFileError, read_text
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import ConfigError, declare
 from tf2_msgs.msg import TFMessage
@@ -39,18 +44,36 @@ from .tf_tree import (
 )
 
 PARAMETERS = {
-    'robot_description': ('', 'URDF text; empty = the shipped URDF of `robot`'),
-    'robot': ('minirquad', "shipped URDF when robot_description is empty: 'minirquad' or "
-              "'prototype'"),
+    'robot_description': ('', 'URDF text; empty = the URDF of `robot` in minirquad_description'),
+    'robot': ('minirquad', "URDF of minirquad_description when robot_description is empty: "
+              "'minirquad' or 'prototype'"),
     'frame_prefix': ('', 'put in front of every frame name (several robots on one /tf)'),
     'odom_frame': ('odom', 'world frame: x, y of p not observed (0), z = 0 on the free surface'),
     'anchor_frame': ('anchor', "world-aligned frame at p (capacity_node's frame_id); '' = none"),
     'joint_states_topic': ('joint_states', 'sensor_msgs/JointState topic'),
-    'imu_topic': ('imu', 'sensor_msgs/Imu topic (orientation -> body pitch)'),
+    'imu_topic': ('imu/data', 'sensor_msgs/Imu topic (REP-145; orientation -> body pitch)'),
     'pitch_topic': ('', "std_msgs/Float64 body pitch in rad; replaces the IMU if set"),
     'height_topic': ('winch/height', "std_msgs/Float64 height of p in m; '' = height_m only"),
     'height_m': (0.03, 'height of p above the free surface until a height sample'),
 }
+
+
+def description_urdf(robot: str) -> str:
+    """The URDF text of `robot` in minirquad_description (ConfigError when there is none)."""
+    from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+    try:
+        share = Path(get_package_share_directory('minirquad_description'))
+    except PackageNotFoundError:
+        raise ConfigError('minirquad_description is not installed (source the workspace) '
+                          'and robot_description is empty') from None
+    path = share / 'urdf' / f'{robot}.urdf'
+    if not path.is_file():
+        raise ConfigError(f'robot {robot!r} has no URDF in minirquad_description '
+                          f'({path.name})')
+    try:
+        return read_text(path, 'urdf', 'URDF')
+    except InputFileError as exc:
+        raise ConfigError(str(exc)) from None
 
 
 class StatePublisher(Node):
@@ -62,12 +85,7 @@ class StatePublisher(Node):
         for name, (default, text) in PARAMETERS.items():
             lo, hi = (-1.0, 10.0) if name == 'height_m' else (None, None)
             p[name] = declare(self, name, default, text, lo=lo, hi=hi)
-        urdf = p['robot_description']
-        if not urdf:
-            path = DATA / f'{p["robot"]}.urdf'
-            if not path.is_file():
-                raise ConfigError(f'robot {p["robot"]!r} has no shipped URDF ({path.name})')
-            urdf = path.read_text()
+        urdf = p['robot_description'] or description_urdf(p['robot'])
         try:
             self.joints = parse_urdf_joints(urdf)
         except UrdfError as exc:
@@ -85,6 +103,8 @@ class StatePublisher(Node):
         # /tf and /tf_static are global by ROS convention (tf2 listens there); several robots
         # share them through frame_prefix.
         self.pub_static = self.create_publisher(TFMessage, '/tf_static', latched)
+        self.pub_description = self.create_publisher(String, 'robot_description', latched)
+        self.pub_description.publish(String(data=urdf))
         self.pub_tf = self.create_publisher(TFMessage, '/tf', 100)
         sensor = qos_profile_sensor_data
         self.create_subscription(JointState, p['joint_states_topic'], self.on_joints, sensor)

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rftgls_conventions import LEG_KEYS, pitch_to_quat_xyzw
+from rftgls_conventions import pitch_to_quat_xyzw
 from rftgls_core.geometry.transforms import matrix_to_quat, parse_vector, quat_to_matrix, rpy_matrix
 
 MOVING = ('revolute', 'continuous', 'prismatic')
@@ -134,26 +134,16 @@ def static_transforms(joints: Iterable[UrdfJoint], prefix: str = '') -> list[Tra
     return [joint_transform(j, 0.0, prefix) for j in joints if j.kind == 'fixed']
 
 
-def urdf_joint_name(joint_state_name: str) -> str:
-    """URDF joint of a sensor_msgs/JointState name of the stack: 'leg_proximal_left' (the
-    bridge's, rftgls_conventions) -> 'left_proximal_hip' (the shipped URDFs'). Other
-    names are returned unchanged (a JointState may also use the URDF names directly)."""
-    key = joint_state_name[len('leg_'):] if joint_state_name.startswith('leg_') else ''
-    if key in LEG_KEYS:
-        axle, side = key.split('_')
-        return f'{side}_{axle}_hip'
-    return joint_state_name
-
-
 def moving_transforms(joints: Iterable[UrdfJoint], names: Sequence[str],
                       positions: Sequence[float], prefix: str = '') -> list[Transform]:
     """/tf of a JointState (names, positions): one transform per moving URDF joint the message
-    names (by its URDF name or the stack's JointState name); other names are ignored, and a
-    name without a finite position gives no transform (never a made-up angle)."""
+    names (the URDF's joints carry the driver's JointState names, as robot_state_publisher
+    requires); other names are ignored, and a name without a finite position gives no
+    transform (never a made-up angle)."""
     by_name = {j.name: j for j in joints if j.kind in MOVING}
     out = []
     for name, pos in zip(names, positions, strict=False):
-        j = by_name.get(urdf_joint_name(name))
+        j = by_name.get(name)
         if j is not None and math.isfinite(pos):
             out.append(joint_transform(j, float(pos), prefix))
     return out

@@ -81,9 +81,10 @@ class Flag(enum.IntFlag):
     ANCHOR_SLIPPING = 0x0008
     VELOCITY_SATURATED = 0x0010   # a reported rate hit the int16 limit
     SLED_MOVING = 0x0020
+    TENSION_INVALID = 0x0040      # the tension field holds no fresh load-cell reading
 
 
-ALL_FLAGS = 0x003F    # every bit Flag defines; the others are reserved (must be 0)
+ALL_FLAGS = 0x007F    # every bit Flag defines; the others are reserved (must be 0)
 
 
 class BurrowMode(enum.IntEnum):
@@ -123,6 +124,8 @@ class ErrorCode(enum.IntEnum):
     SERVO_OVERLOAD = 4
     ANCHOR_SLIP = 5
     WINCH_DEADMAN = 6      # winch speed not refreshed in time; winch stopped (detail = ms)
+    WINCH_OVERTENSION = 7  # tension above the rope/anchor limit; winch braked (detail = mN)
+    WINCH_SENSOR = 8       # load cell silent; reel-in refused (detail = ms without a reading)
 
 
 class FieldRangeError(ValueError):

@@ -7,10 +7,9 @@ import time
 
 import numpy as np
 
-from ..anchor import AnchorModel
+from ..predictor.live import RobotPredictor
 from ..rft.media import get_medium
 from ..robots.presets import minirquad
-from ..surfaces.warm import WarmAnchorModel
 from ..types import AnchorState, Pull
 from .engine import TYPICAL_STATE
 from .timing import Figure
@@ -37,10 +36,10 @@ def live_figures() -> list[Figure]:
     calls, not best-of), against the cold direct on a sample of the same states."""
     robot, medium = minirquad(), get_medium('m90_sand')
     states = live_stream()
-    warm = WarmAnchorModel(robot, medium)
-    cold = AnchorModel(robot, medium, method='direct')
+    warm = RobotPredictor(robot, medium, method='direct-warm')
+    cold = RobotPredictor(robot, medium, method='direct')
     warm.predict(states[0], LIVE_PHI, Pull.BACKWARD)   # compile and cache, then start afresh
-    warm = WarmAnchorModel(robot, medium)
+    warm = RobotPredictor(robot, medium, method='direct-warm')
     times, cpu = [], []
     for st in states:
         c0, t0 = time.thread_time(), time.perf_counter()

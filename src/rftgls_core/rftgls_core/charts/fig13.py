@@ -24,8 +24,8 @@ import numpy as np
 
 from ..body import RigidBody
 from ..geometry.shapes import ellipsoid
+from ..posed import PosedAnchorSolver
 from ..rft.media import get_medium
-from ..scene import SceneModel
 from ..sim.body_pull import BodyAnchor, BodyPredictor
 from ..sim.trajectory import simulate_pull
 from ..types import AnchorState, Pull
@@ -59,8 +59,8 @@ def fig13_data(method: str = 'twist-mesh', step: float = 0.002, max_travel: floa
                progress=None) -> tuple[dict, dict]:
     """(numbers for the JSON, trajectories by tether angle) of the figure."""
     anchor = ellipsoid_anchor()
-    model = SceneModel(get_medium(MEDIUM), method=method)
-    predictor = BodyPredictor(anchor, model)
+    solver = PosedAnchorSolver(get_medium(MEDIUM), method=method)
+    predictor = BodyPredictor(anchor, solver)
     state0 = initial_state()
     caps = {}
     for phi in CAPACITY_PHIS_DEG:

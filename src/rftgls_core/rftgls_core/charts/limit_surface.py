@@ -7,26 +7,26 @@ from pathlib import Path
 
 import numpy as np
 
-from ..anchor import AnchorModel
+from ..predictor.live import RobotPredictor
 from ..types import AnchorState, Pull, pull_direction
 from .figure_io import pyplot, save
 
 
-def limit_curve(model: AnchorModel, state: AnchorState, pull: Pull | str, n: int = 181):
+def limit_curve(predictor: RobotPredictor, state: AnchorState, pull: Pull | str, n: int = 181):
     """Capacity over all tether angles: the GLS cut by the plane My = 0 (the paper's F)."""
     phis = np.linspace(-math.pi, math.pi, n)
-    results = model.predict_many(state, phis, pull)
+    results = predictor.predict_many(state, phis, pull)
     caps = np.array([np.nan if r.capacity_N is None else r.capacity_N for r in results])
     dirs = np.array([pull_direction(p)[:2] for p in phis])
     return phis, caps, dirs * caps[:, None]
 
 
-def plot_limit_surface(model: AnchorModel, state: AnchorState, pull: Pull | str, phi: float,
+def plot_limit_surface(predictor: RobotPredictor, state: AnchorState, pull: Pull | str, phi: float,
                        out: str | Path, title: str = '') -> dict:
     """Write a two-panel PNG; returns the capacity result at phi for captions and logs."""
     plt = pyplot()
 
-    surface, failure = model.fit(state, pull)
+    surface, failure = predictor.fit(state, pull)
     result = surface.capacity(phi) if surface is not None else failure
     assert result is not None  # fit() returns a surface or a failure result
     fig = plt.figure(figsize=(13, 6))
@@ -34,13 +34,13 @@ def plot_limit_surface(model: AnchorModel, state: AnchorState, pull: Pull | str,
     ax2 = fig.add_subplot(1, 2, 2)
     cloud = getattr(surface, 'wrenches_scaled', None)   # twist-mesh keeps its wrench cloud
     if cloud is not None:
-        w = model.scaling.wrench_from_scaled(cloud)
+        w = predictor.scaling.wrench_from_scaled(cloud)
         ax3.scatter(w[:, 0], w[:, 1], w[:, 2], s=2, c='0.4', alpha=0.35, label='RFT wrench cloud')
         faces = getattr(getattr(surface, 'sphere', None), 'faces', None)
         if faces is not None:
             ax3.plot_trisurf(w[:, 0], w[:, 1], w[:, 2], triangles=faces, color='tab:blue',
                              alpha=0.12, linewidth=0)
-    _, _, curve = limit_curve(model, state, pull)
+    _, _, curve = limit_curve(predictor, state, pull)
     ax3.plot(curve[:, 0], curve[:, 1], 0 * curve[:, 0], color='tab:orange', lw=2,
              label='limit curve (My = 0)')
     ax2.plot(curve[:, 0], curve[:, 1], color='tab:orange', lw=2, label='limit curve (My = 0)')
@@ -75,9 +75,10 @@ def plot_limit_surface(model: AnchorModel, state: AnchorState, pull: Pull | str,
     status = result.status.value + (f' ({result.reason})' if result.reason else '')
     ax2.set_title(f'limit curve and load capacity: {status}')
     deg = [math.degrees(a) for a in state.as_tuple()[1:]]
-    fig.suptitle(title or (f'{model.robot.name}, {model.medium.name}, {Pull(pull).value} pull, '
+    robot, medium = predictor.robot.name, predictor.medium.name
+    fig.suptitle(title or (f'{robot}, {medium}, {Pull(pull).value} pull, '
                            f'h = {1e3 * state.h:.0f} mm, thetaB = {deg[0]:.1f}, '
                            f'thetaL1 = {deg[1]:.0f}, thetaL2 = {deg[2]:.0f} deg, '
-                           f'method {model.method}'))
+                           f'method {predictor.method}'))
     save(fig, out)
     return {'capacity_N': cap, 'status': result.status.value, 'reason': result.reason}

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..anchor import AnchorModel
+from ..predictor.live import RobotPredictor
 from ..sim.trajectory import Trajectory, simulate_pull
 from ..types import AnchorState, Pull
 from .figure_io import pyplot, save
@@ -30,10 +30,10 @@ class SlipSummary:
     stop_reason: str
 
 
-def slip_summary(model: AnchorModel, state: AnchorState, pull: Pull | str, phi: float = 0.0,
+def slip_summary(predictor: RobotPredictor, state: AnchorState, pull: Pull | str, phi: float = 0.0,
                  travel: float = 0.02, step: float = 0.002) -> tuple[SlipSummary, Trajectory]:
-    plate = lambda st: model.robot.pose(st, pull).plate_min_z
-    traj = simulate_pull(model, state, phi, pull, plate, step=step, max_travel=travel)
+    plate = lambda st: predictor.robot.pose(st, pull).plate_min_z
+    traj = simulate_pull(predictor, state, phi, pull, plate, step=step, max_travel=travel)
     a = traj.as_array()
     forces = a[:, 4]
     if len(a) < 2 or not np.any(np.isfinite(forces)):
@@ -45,7 +45,7 @@ def slip_summary(model: AnchorModel, state: AnchorState, pull: Pull | str, phi: 
                        dtb / (1e3 * abs(dx)) if dx != 0 else math.nan, traj.stop_reason), traj
 
 
-def leg_angle_maps(model: AnchorModel, h: float = 0.02, theta_b: float = 0.0,
+def leg_angle_maps(predictor: RobotPredictor, h: float = 0.02, theta_b: float = 0.0,
                    progress=None) -> dict:
     """Fig. 9 data: {pull: {'peak': (5, 5), 'dz_dx': ..., 'dtb': ...}}, rows thetaL1, cols L2."""
     out = {}
@@ -54,7 +54,7 @@ def leg_angle_maps(model: AnchorModel, h: float = 0.02, theta_b: float = 0.0,
         for i, l1 in enumerate(LEG_ANGLES_DEG):
             for j, l2 in enumerate(LEG_ANGLES_DEG):
                 st = AnchorState(h, theta_b, math.radians(l1), math.radians(l2))
-                s, _ = slip_summary(model, st, pull)
+                s, _ = slip_summary(predictor, st, pull)
                 grids['peak'][i, j] = s.peak_force_N
                 grids['dz_dx'][i, j] = s.dz_dx
                 grids['dtb'][i, j] = s.dthetab_deg_per_mm

@@ -4,26 +4,32 @@ from __future__ import annotations
 import math
 import time
 
-from ..anchor import DEFAULT_TWISTS, AnchorModel
+from ..predictor import InputNames, PredictorSpec, build_predictor
+from ..predictor.spec import DEFAULT_ROBOT, ROBOT_MEDIUM
+from ..quantities import (
+    ANGLE_DEG,
+    MASS_KG,
+    POSITION_M,
+    TETHER_PHI_DEG,
+    TETHER_YAW_DEG,
+)
 from ..robots.presets import ROBOTS, get_robot
-from ..surfaces.registry import METHOD_NAMES
+from ..surfaces.registry import DEFAULT_TWISTS, METHOD_NAMES
 from ..types import AnchorState, Pull
 from .common import add_medium_args, finite_float, medium_from_args, print_json, twist_count
-
-DEFAULT_MEDIUM = {'prototype': 'glass_beads', 'minirquad': 'm90_sand'}
 
 
 def add_state_args(p) -> None:
     p.add_argument('--robot', choices=sorted(ROBOTS), default=None,
                    help='robot (default minirquad); give its state with --h and the angles')
     # Required for a robot, refused with --mesh (state_from_args says so in one line).
-    p.add_argument('--h', type=finite_float,
+    p.add_argument('--h', type=POSITION_M.arg,
                    help='height of the winch point p above the free surface, m')
-    p.add_argument('--theta-b', type=finite_float, help='body pitch, deg')
-    p.add_argument('--theta-l1', type=finite_float, help='proximal legs, deg')
-    p.add_argument('--theta-l2', type=finite_float, help='distal legs, deg')
-    p.add_argument('--phi', type=finite_float, default=0.0,
-                   help='tether angle, deg (0 horizontal, negative pulls down)')
+    p.add_argument('--theta-b', type=ANGLE_DEG.arg, help='body pitch, deg')
+    p.add_argument('--theta-l1', type=ANGLE_DEG.arg, help='proximal legs, deg')
+    p.add_argument('--theta-l2', type=ANGLE_DEG.arg, help='distal legs, deg')
+    p.add_argument('--phi', type=TETHER_PHI_DEG.arg, default=0.0,
+                   help='tether angle, deg (0 horizontal, negative pulls down; -90..90)')
     p.add_argument('--pull', choices=[x.value for x in Pull], default='backward')
     add_medium_args(p)
 
@@ -33,7 +39,10 @@ STATE_OPTIONS = ('h', 'theta_b', 'theta_l1', 'theta_l2')
 
 def state_from_args(args) -> AnchorState:
     """The state of the command line, refused (ValueError, one line) when the robot cannot be
-    in it (robots.model.StateRange): no capacity is computed for an impossible pose."""
+    in it (robots.robot.StateRange): no capacity is computed for an impossible pose."""
+    if getattr(args, 'state', None):
+        raise ValueError('--state NAME=VALUE sets a variable of --anchor FILE.yaml; a robot '
+                         'takes --h/--theta-b/--theta-l1/--theta-l2')
     args.robot = args.robot or 'minirquad'
     missing = [f'--{k.replace("_", "-")}' for k in STATE_OPTIONS if getattr(args, k) is None]
     if missing:
@@ -47,39 +56,36 @@ def state_from_args(args) -> AnchorState:
     return state
 
 
-def map_from_args(args):
-    """The map of --map (or the robot's shipped map), refused when it was built for another
-    robot or medium than the command line's: a map answers only for what it was built for."""
-    from ..maps import CapacityMap, resolve_map
-    args.robot = args.robot or 'minirquad'
-    cmap = CapacityMap.load(resolve_map(args.map, robot=args.robot))
-    if cmap.robot_name != args.robot:
-        raise ValueError(f'{cmap.source}: map is for robot {cmap.robot_name!r}, not '
-                         f'--robot {args.robot}')
-    if any(v is not None for v in (args.xi_n, args.mu_surf, args.zeta)):
-        raise ValueError('--method map answers for the medium the map was built for; drop '
-                         '--xi-n/--mu-surf/--zeta or use a live method')
-    want = (args.medium or DEFAULT_MEDIUM[args.robot]).strip()
-    if want.lower().endswith('.json') or want.lower() != cmap.medium_name.lower():
-        raise ValueError(f'{cmap.source}: map is for medium {cmap.medium_name!r}, not '
-                         f'{want!r}')
-    return cmap
+# The command line's flag for each input of a predictor specification (errors name these).
+CLI_NAMES = InputNames(map='--map', robot='--robot', description='--anchor', state_map='--state',
+                       medium='--medium', pull='--pull', live_method='--method',
+                       n_twists='--twists', verb='give')
 
 
-def model_from_args(args, method: str | None = None) -> AnchorModel:
-    args.robot = args.robot or 'minirquad'
-    args.default_medium = DEFAULT_MEDIUM[args.robot]
-    return AnchorModel(get_robot(args.robot), medium_from_args(args), model=args.model,
-                       method=method or args.method, n_twists=args.twists)
+def spec_from_args(args) -> PredictorSpec:
+    """The predictor of a robot command line (--robot, --method, --twists, the medium options):
+    the live solver, or with --method map the map (--map, default the robot's shipped map),
+    which must have been built for the command line's robot and medium."""
+    args.robot = args.robot or DEFAULT_ROBOT
+    if args.method == 'map':
+        if any(v is not None for v in (args.xi_n, args.mu_surf, args.zeta)):
+            raise ValueError('--method map answers for the medium the map was built for; drop '
+                             '--xi-n/--mu-surf/--zeta or use a live method')
+        return PredictorSpec(map=args.map or args.robot, robot=args.robot,
+                             medium=(args.medium or ROBOT_MEDIUM[args.robot]).strip())
+    args.default_medium = ROBOT_MEDIUM[args.robot]
+    return PredictorSpec(robot=args.robot, medium=medium_from_args(args), model=args.model,
+                         live_method=args.method, n_twists=args.twists)
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser('capacity', help='load capacity and slip twist of one anchor state',
                        description='Load capacity along the tether and slip twist beyond it. '
-                       'JSON: slip_twist_scaled is a unit vector in the scaled metric (vx, vz, '
-                       'wy*L_c), L_c = char_length_m of the robot; slip_twist_raw is (vx, vz, '
-                       'wy) in m/s and rad/s scaled to unit Euclidean norm. slip_twist is the '
-                       'old name of slip_twist_scaled, kept for one release (deprecated).')
+                       'JSON: slip_twist is the direction of the slip at the tether point, '
+                       '(vx, vz, wy) in world axes, m/s and rad/s, scaled to unit Euclidean '
+                       'norm; slip_twist_scaled is the same direction as a unit vector in the '
+                       'scaled metric (vx, vz, wy*L_c), L_c = char_length_m. slip_twist_raw is '
+                       'the old name of slip_twist, kept for one release (deprecated).')
     add_state_args(p)
     add_body_args(p)
     p.add_argument('--method', choices=list(METHOD_NAMES) + ['map'], default='twist-mesh')
@@ -93,22 +99,18 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     if args.anchor is not None or args.mesh is not None or args.yaw != 0.0 or args.space != 'auto':
-        return run_scene(args)
+        return run_posed(args)
     state = state_from_args(args)
     phi = math.radians(args.phi)
     t0 = time.perf_counter()
     if args.map and args.method != 'map':
         raise ValueError('--map is used only with --method map')
+    predictor = build_predictor(spec_from_args(args), CLI_NAMES)
     if args.method == 'map':
-        cmap = map_from_args(args)
-        t0 = time.perf_counter()
-        result = cmap.query(state, phi, args.pull)
-        char_length = get_robot(cmap.robot_name).char_length
-    else:
-        model = model_from_args(args)
-        result = model.predict(state, phi, args.pull)
-        char_length = model.robot.char_length
-    return report(args, result, time.perf_counter() - t0, char_length, cap_format='.3f')
+        t0 = time.perf_counter()     # a map's answer, without loading the file
+    result = predictor.predict(state, phi, args.pull)
+    return report(args, result, time.perf_counter() - t0, get_robot(args.robot).char_length,
+                  cap_format='.3f')
 
 
 # --------------------------------------------------------------------- single bodies, 6D
@@ -123,33 +125,36 @@ def add_body_args(p) -> None:
                    help='a state variable of --anchor (may repeat)')
     g.add_argument('--mesh', help='STL file of the body (binary or ASCII), closed')
     g.add_argument('--units', choices=('mm', 'm'), default='mm', help='STL units (default mm)')
-    g.add_argument('--position', nargs=3, type=finite_float, metavar=('X', 'Y', 'Z'),
+    g.add_argument('--position', nargs=3, type=POSITION_M.arg, metavar=('X', 'Y', 'Z'),
                    help='mesh origin in the world, m (free surface z = 0)')
-    g.add_argument('--rpy', nargs=3, type=finite_float, default=(0.0, 0.0, 0.0),
+    g.add_argument('--rpy', nargs=3, type=ANGLE_DEG.arg, default=(0.0, 0.0, 0.0),
                    metavar=('R', 'P', 'Y'),
                    help='roll, pitch, yaw in degrees about the mesh origin (extrinsic x, y, z)')
-    g.add_argument('--tether', nargs=3, type=finite_float, metavar=('X', 'Y', 'Z'),
+    g.add_argument('--tether', nargs=3, type=POSITION_M.arg, metavar=('X', 'Y', 'Z'),
                    help='tether point on the body, m (world); twists and moments refer to it')
-    g.add_argument('--mass', type=finite_float, help='body mass, kg')
-    g.add_argument('--com', nargs=3, type=finite_float, metavar=('X', 'Y', 'Z'),
+    g.add_argument('--mass', type=MASS_KG.arg, help='body mass, kg')
+    g.add_argument('--com', nargs=3, type=POSITION_M.arg, metavar=('X', 'Y', 'Z'),
                    help='centre of mass, m (world; default: centroid of the volume)')
-    p.add_argument('--yaw', type=finite_float, default=0.0,
+    p.add_argument('--yaw', type=TETHER_YAW_DEG.arg, default=0.0,
                    help='tether yaw about z, deg: the pull is Rz(yaw) (-cos phi, 0, sin phi); '
                         'a yawed pull on a robot needs the 6D path')
     p.add_argument('--space', choices=('auto', 'sagittal', '6d'), default='auto',
-                   help='auto: the sagittal reduction when the scene is checked to be '
+                   help='auto: the sagittal reduction when the posed anchor is checked to be '
                         'mirror-symmetric about the pull plane, else full 6D (default)')
 
 
-def scene_from_args(args):
-    """(Scene, char_length) of the command line: a rigid body (--mesh) or a robot state."""
+def posed_from_args(args):
+    """(PosedAnchor, char_length) of the command line: a rigid body (--mesh) or a robot state."""
     from ..body import RigidBody, load_body_mesh
-    from ..scene import scene_from_robot
+    from ..posed import pose_robot
     if args.anchor is not None:
-        return _anchor_scene(args)
+        return _posed_description(args)
     if args.mesh is None:
         state = state_from_args(args)
-        return scene_from_robot(get_robot(args.robot), state, args.pull)
+        return pose_robot(get_robot(args.robot), state, args.pull)
+    if args.state:
+        raise ValueError('--state NAME=VALUE sets a variable of --anchor FILE.yaml, not of '
+                         '--mesh')
     given = [f'--{k.replace("_", "-")}' for k in STATE_OPTIONS if getattr(args, k) is not None]
     if args.robot is not None or given:
         raise ValueError(f'--mesh describes the whole body: drop {", ".join(given or ["--robot"])}')
@@ -160,12 +165,12 @@ def scene_from_args(args):
         raise ValueError(f'--mass must be >= 0 kg, got {args.mass:g}')
     mesh = load_body_mesh(args.mesh, units=args.units)
     body = RigidBody(name=str(args.mesh), mesh=mesh, mass=args.mass)
-    return body.scene(args.position, [math.radians(a) for a in args.rpy], args.tether,
+    return body.pose(args.position, [math.radians(a) for a in args.rpy], args.tether,
                       com_world=args.com)
 
 
-def _anchor_scene(args):
-    """The scene of an anchor description at the command line's state values."""
+def _posed_description(args):
+    """The posed anchor of an anchor description at the command line's state values."""
     from ..description import load_description
     if args.mesh is not None or args.robot is not None:
         raise ValueError('--anchor describes the whole anchor: drop --mesh/--robot')
@@ -196,18 +201,18 @@ def _anchor_scene(args):
         raise ValueError(f'not a {desc.name} pose: {"; ".join(outside)}')
     args.description_medium = desc.medium
     args.description_symmetry = desc.symmetry
-    return desc.scene(values, args.pull)
+    return desc.pose(values, args.pull)
 
 
-def run_scene(args) -> int:
+def run_posed(args) -> int:
     """Capacity of a rigid body or of a robot under a yawed pull (6D world twists)."""
-    from ..scene import SceneModel
+    from ..posed import PosedAnchorSolver
     if args.method == 'map' or args.map:
         raise ValueError('--method map answers sagittal robot pulls only: use a live method '
                          'with --mesh, --yaw or --space')
-    args.default_medium = (DEFAULT_MEDIUM[args.robot or 'minirquad'] if args.mesh is None
+    args.default_medium = (ROBOT_MEDIUM[args.robot or DEFAULT_ROBOT] if args.mesh is None
                            else 'glass_beads')
-    scene = scene_from_args(args)
+    posed = posed_from_args(args)
     args.default_medium = getattr(args, 'description_medium', args.default_medium)
     if (getattr(args, 'description_symmetry', '') == 'sagittal' and args.space == 'auto'
             and args.yaw == 0.0):
@@ -215,10 +220,10 @@ def run_scene(args) -> int:
         # invalid_input, not_symmetric, when the posed facets or the centre of mass lack it).
         args.space = 'sagittal'
     t0 = time.perf_counter()
-    model = SceneModel(medium_from_args(args), model=args.model, method=args.method,
-                       n_twists=args.twists, space=args.space)
-    result = model.predict(scene, math.radians(args.phi), math.radians(args.yaw))
-    return report(args, result, time.perf_counter() - t0, scene.char_length, cap_format='.4g',
+    solver = PosedAnchorSolver(medium_from_args(args), model=args.model, method=args.method,
+                               n_twists=args.twists, space=args.space)
+    result = solver.solve(posed, math.radians(args.phi), math.radians(args.yaw))
+    return report(args, result, time.perf_counter() - t0, posed.char_length, cap_format='.4g',
                   space=result.space, always_detail=True)
 
 
@@ -252,12 +257,15 @@ def report(args, result, elapsed_s: float, char_length_m: float, *, cap_format: 
 
 def result_json(result, elapsed_s: float, char_length_m: float) -> dict:
     """The JSON of every `rftgls capacity` answer (robot, anchor or single body): capacity N,
-    slip twists (scaled metric and raw, 3 or 6 components), status, timing and flags."""
+    the slip twist (3 or 6 components, world axes at the tether point: (vx, vz, wy) or (vx, vy,
+    vz, wx, wy, wz), m/s and rad/s, unit Euclidean norm) and the same direction in the scaled
+    metric, status, timing and flags. slip_twist_raw: slip_twist's old name, one release."""
     scaled = list(result.slip_twist_scaled) if result.slip_twist_scaled else None
+    raw = list(result.slip_twist) if result.slip_twist else None
     return {'capacity_N': result.capacity_N,
             'slip_twist_scaled': scaled,
-            'slip_twist': scaled,   # deprecated: the old key of slip_twist_scaled, one release
-            'slip_twist_raw': list(result.slip_twist) if result.slip_twist else None,
+            'slip_twist': raw,
+            'slip_twist_raw': raw,   # deprecated: the old key of slip_twist, one release
             'status': result.status.value, 'method': result.method, 'elapsed_s': elapsed_s,
             'reason': result.reason, 'detail': result.detail, 'char_length_m': char_length_m,
             'flags': list(result.flags), 'twist_spread_rad': result.twist_spread_rad}

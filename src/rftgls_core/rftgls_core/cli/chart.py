@@ -2,12 +2,18 @@
 from __future__ import annotations
 
 import csv
+import io
 import json
 import sys
 from pathlib import Path
 
+from rftgls_conventions.safe_write import output_file, write_text
+
 from .. import accuracy as acc
+from ..charts.figure_io import figure_path
 from ..charts.speed_accuracy import plot_speed_accuracy
+from ..quantities import SEED, bounded_int
+from .common import twist_count
 
 
 def add_parser(sub) -> None:
@@ -18,12 +24,13 @@ def add_parser(sub) -> None:
                         'brute-force closure reference (statuses and capacities)')
     p.add_argument('--out', required=True, help='PNG file (agreement: JSON file); the numbers '
                                                  'go next to it (.csv, .json)')
-    p.add_argument('--states', type=int, default=10, help='random states per robot')
+    p.add_argument('--states', type=bounded_int(1, 10_000, 'state count'), default=10,
+                   help='random states per robot')
     p.add_argument('--robots', nargs='+', default=['prototype', 'minirquad'],
                    choices=sorted(acc.STATE_RANGES))
-    p.add_argument('--seed', type=int, default=0)
+    p.add_argument('--seed', type=SEED, default=0)
     p.add_argument('--quick', action='store_true', help='fewer configurations (for tests)')
-    p.add_argument('--reference-twists', type=int, default=100_000,
+    p.add_argument('--reference-twists', type=twist_count, default=100_000,
                    help='agreement: twists of the brute-force reference')
     p.add_argument('--json', action='store_true', help='also print the numbers as JSON')
     p.set_defaults(run=run)
@@ -32,6 +39,9 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from tqdm import tqdm
 
+    # What --out means is checked before any work (never a folder; the numbers go beside it).
+    args.out = (output_file(args.out, '--out', ('.json',)) if args.kind == 'agreement'
+                else figure_path(args.out))
     if args.kind == 'agreement':
         return _agreement(args, tqdm)
     configs = list(acc.DEFAULT_CONFIGS)
@@ -58,13 +68,15 @@ def run(args) -> int:
                                        if k.startswith(('cap_', 'twist_', 'status_', 'compared'))}})
     out = Path(args.out)
     plot_speed_accuracy(summaries, out)
-    with open(out.with_suffix('.csv'), 'w', newline='') as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    out.with_suffix('.json').write_text(json.dumps(
-        {'states_per_robot': args.states, 'robots': args.robots, 'seed': args.seed,
-         'reference': reference_cfg.label, 'rows': rows}, indent=2))
+    text = io.StringIO(newline='')
+    w = csv.DictWriter(text, fieldnames=list(rows[0]))
+    w.writeheader()
+    w.writerows(rows)
+    write_text(out.with_suffix('.csv'), text.getvalue())
+    numbers = json.dumps({'states_per_robot': args.states, 'robots': args.robots,
+                          'seed': args.seed, 'reference': reference_cfg.label, 'rows': rows},
+                         indent=2)
+    write_text(out.with_suffix('.json'), numbers)
     print(f'{"configuration":<34}{"ms":>8}{"cap p95 %":>11}{"cap worst %":>12}'
           f'{"over %":>8}{"twist p95":>10}{"worst":>8}{"n/mis":>8}')
     for r in rows:
@@ -74,7 +86,7 @@ def run(args) -> int:
               f'{r["compared"]:>5}/{r["status_mismatch"]}')
     print(f'wrote {out}, {out.with_suffix(".csv")}, {out.with_suffix(".json")}')
     if args.json:
-        print(out.with_suffix('.json').read_text())
+        print(numbers)
     return 0
 
 
@@ -86,7 +98,7 @@ def _agreement(args, tqdm) -> int:
         result[robot] = acc.agreement(robot, args.states, args.seed, args.reference_twists,
                                       progress=bar)
     out = Path(args.out)
-    out.write_text(json.dumps(result, indent=1))
+    write_text(out, json.dumps(result, indent=1))
     for robot, r in result.items():
         for m, s in r['summary'].items():
             print(f'{robot:<10}{m:<11} status agree {s["status_agree_pct"]:6.2f} %  degenerate '

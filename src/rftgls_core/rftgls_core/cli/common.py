@@ -5,6 +5,7 @@ import argparse
 import json
 import math
 
+from ..quantities import MU_SURF, XI_N, ZETA, bounded_int
 from ..rft.media import Medium, custom_medium, load_medium
 from ..rft.models import DEFAULT_MODEL, MODELS
 
@@ -19,34 +20,10 @@ def finite_float(text: str) -> float:
     return value
 
 
-def bounded_int(lo: int, hi: int, what: str = 'value'):
-    """An argparse type: an integer in [lo, hi] (a clear one-line message otherwise)."""
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f'not an integer: {text!r}') from None
-        if not lo <= value <= hi:
-            raise argparse.ArgumentTypeError(f'{what} must be in {lo}..{hi}, got {value}')
-        return value
-    return parse
-
-
 # Twists sampled per state: below 8 no surface can be fitted; 100 000 already takes minutes
 # per state (the brute-force reference of the tests), more only exhausts memory.
 MIN_TWISTS, MAX_TWISTS = 8, 100_000
 twist_count = bounded_int(MIN_TWISTS, MAX_TWISTS, 'twist count')
-
-
-def nonneg_float_or_inf(text: str) -> float:
-    """A number >= 0; inf allowed (a fully rough surface), NaN not."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'not a number: {text!r}') from None
-    if not value >= 0.0:
-        raise argparse.ArgumentTypeError(f'must be >= 0, got {text!r}')
-    return value
 
 
 def add_medium_args(p: argparse.ArgumentParser, default: str | None = None) -> None:
@@ -57,10 +34,13 @@ def add_medium_args(p: argparse.ArgumentParser, default: str | None = None) -> N
                    help='preset (glass_beads, m90_sand, poppy_lp, poppy_cp) or a medium JSON '
                         'file written by `rftgls calibrate`'
                         + (f' (default: {default})' if default else ''))
-    g.add_argument('--xi-n', type=finite_float, help='Agarwal stress scale xi_n, N/m^3')
-    g.add_argument('--mu-surf', type=nonneg_float_or_inf,
-                   help='Agarwal intruder-surface friction (inf allowed)')
-    g.add_argument('--zeta', type=finite_float, help='Li scale zeta, N/m^3 (1 N/cm^3 = 1e6)')
+    g.add_argument('--xi-n', type=XI_N.arg, help='Agarwal stress scale xi_n, N/m^3 '
+                   f'({XI_N.lo:g}..{XI_N.hi:g})')
+    g.add_argument('--mu-surf', type=MU_SURF.arg,
+                   help=f'Agarwal intruder-surface friction ({MU_SURF.lo:g}..{MU_SURF.hi:g}, '
+                        'or inf: fully rough)')
+    g.add_argument('--zeta', type=ZETA.arg, help='Li scale zeta, N/m^3 (1 N/cm^3 = 1e6; '
+                   f'{ZETA.lo:g}..{ZETA.hi:g})')
     p.set_defaults(default_medium=default)
 
 

@@ -9,13 +9,14 @@ from __future__ import annotations
 import json
 import math
 import time
-from pathlib import Path
 
-from ..anchor import AnchorModel
+from rftgls_conventions.safe_write import output_folder, write_text
+
 from ..charts.limit_surface import plot_limit_surface
+from ..predictor.live import RobotPredictor
 from ..rft.media import get_medium
-from ..robots.model import G
 from ..robots.presets import minirquad
+from ..robots.robot import G
 from ..types import AnchorState, Pull
 
 # Paper Table II: final leg angles (deg) and the measured mean thetaB (deg) and h (mm).
@@ -37,10 +38,9 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_folder(args.out, '--out')
     robot = minirquad()
-    model = AnchorModel(robot, get_medium('m90_sand'), method=args.method)
+    predictor = RobotPredictor(robot, get_medium('m90_sand'), method=args.method)
     needs = {m: SLED_FRICTION * m * G for m in SLEDS_KG}
     print(f'MiniRQuad ({robot.mass * 1e3:.0f} g) in M90 sand, backward pulls (winch on its '
           f'back), method {args.method}')
@@ -51,7 +51,7 @@ def run(args) -> int:
     rows = []
     t0 = time.perf_counter()
     for name, state in ANCHOR_MODES.items():
-        res = model.predict_many(state, [0.0, math.radians(-20.0)], Pull.BACKWARD)
+        res = predictor.predict_many(state, [0.0, math.radians(-20.0)], Pull.BACKWARD)
         caps = [r.capacity_N for r in res]
         weakest = min((c for c in caps if c is not None), default=None)
         holds = [f'{1e3 * m:.0f} g' for m, f in needs.items()
@@ -65,8 +65,8 @@ def run(args) -> int:
                      'status': [r.status.value for r in res], 'holds': holds})
     print(f'({1e3 * (time.perf_counter() - t0):.0f} ms for 3 anchors x 2 tether angles)')
     plot = out / 'limit_surface_DH.png'
-    plot_limit_surface(model, ANCHOR_MODES['DH'], Pull.BACKWARD, 0.0, plot)
-    (out / 'anchors.json').write_text(json.dumps({'sled_force_N': {str(k): v for k, v in
+    plot_limit_surface(predictor, ANCHOR_MODES['DH'], Pull.BACKWARD, 0.0, plot)
+    write_text(out / 'anchors.json', json.dumps({'sled_force_N': {str(k): v for k, v in
                                                                    needs.items()},
                                                   'anchors': rows}, indent=2))
     print(f'wrote {plot} and {out / "anchors.json"}')

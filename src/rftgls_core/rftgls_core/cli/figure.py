@@ -6,10 +6,14 @@ import math
 import sys
 from pathlib import Path
 
-from ..anchor import AnchorModel
+from rftgls_conventions.safe_write import write_text
+
+from ..charts.figure_io import figure_path
+from ..predictor.live import RobotPredictor
+from ..quantities import ANGLE_DEG, FRICTION_SIGMA, RELATIVE_SIGMA, SLED_FRICTION
 from ..rft.media import get_medium
-from ..robots.model import G
 from ..robots.presets import get_robot
+from ..robots.robot import G
 from ..types import AnchorState, Pull
 
 
@@ -21,17 +25,17 @@ def add_parser(sub) -> None:
     p.add_argument('--method', default='twist-mesh',
                    help='limit-surface method for fig9/fig10b (default twist-mesh: it keeps a '
                         'conservative value where the RFT map jumps and direct has no root)')
-    p.add_argument('--sled-friction', type=float, default=0.5,
+    p.add_argument('--sled-friction', type=SLED_FRICTION.arg, default=0.5,
                    help='fig10b: sled force = mu * m * g (assumed mu, default 0.5)')
     p.add_argument('--medium', default=None,
                    help='fig10b: medium preset or a `rftgls calibrate` JSON; its covariance '
                         'gives the uncertainty band')
-    p.add_argument('--xi-rel-sigma', type=float, default=0.10,
+    p.add_argument('--xi-rel-sigma', type=RELATIVE_SIGMA.arg, default=0.10,
                    help='fig10b without a calibration: relative 1-sigma of xi_n (assumed 10 %%)')
-    p.add_argument('--mu-sigma', type=float, default=0.1,
+    p.add_argument('--mu-sigma', type=FRICTION_SIGMA.arg, default=0.1,
                    help='fig10b without a calibration: 1-sigma of mu_surf (assumed 0.1)')
-    p.add_argument('--l1', type=float, default=-40.0, help='fig8: thetaL1, deg')
-    p.add_argument('--l2', type=float, default=0.0, help='fig8: thetaL2, deg')
+    p.add_argument('--l1', type=ANGLE_DEG.arg, default=-40.0, help='fig8: thetaL1, deg')
+    p.add_argument('--l2', type=ANGLE_DEG.arg, default=0.0, help='fig8: thetaL2, deg')
     p.set_defaults(run=run)
 
 
@@ -39,13 +43,14 @@ def run(args) -> int:
     from tqdm import tqdm
 
     from ..charts import paper_figures as pf
-    out = Path(args.out)
+    out = figure_path(args.out)      # checked before any work: a figure file, not a folder
     if args.which == 'fig13':
         return _fig13(args, out)
     if args.which == 'fig9':
-        model = AnchorModel(get_robot('prototype'), get_medium('glass_beads'), method=args.method)
+        predictor = RobotPredictor(get_robot('prototype'), get_medium('glass_beads'),
+                                   method=args.method)
         bar = tqdm(total=50, desc='fig9 poses', file=sys.stderr)
-        maps = pf.leg_angle_maps(model, progress=bar.update)
+        maps = pf.leg_angle_maps(predictor, progress=bar.update)
         bar.close()
         pf.plot_leg_angle_maps(maps, out, f'prototype in glass beads, h = 20 mm, thetaB = 0, '
                                           f'phi = 0, method {args.method}')
@@ -58,8 +63,8 @@ def run(args) -> int:
         for pull in Pull:
             runs = {}
             for method in ('direct', 'twist-mesh', 'alpha', 'ellipsoid'):
-                model = AnchorModel(robot, medium, method=method)
-                summary, traj = pf.slip_summary(model, state, pull, travel=0.04, step=0.001)
+                predictor = RobotPredictor(robot, medium, method=method)
+                summary, traj = pf.slip_summary(predictor, state, pull, travel=0.04, step=0.001)
                 runs[method] = traj
                 data[f'{pull.value}/{method}'] = summary.__dict__
             plot_trajectories(runs, out.with_name(f'{out.stem}_{pull.value}{out.suffix}'),
@@ -73,7 +78,7 @@ def run(args) -> int:
         from .demo import ANCHOR_MODES
         medium = load_medium(args.medium or 'm90_sand')
         cov = _medium_covariance(args)
-        model = AnchorModel(get_robot('minirquad'), medium, method=args.method)
+        predictor = RobotPredictor(get_robot('minirquad'), medium, method=args.method)
         caps: dict[str, dict] = {}
         lows: dict[str, dict] = {}
         for mode, state in ANCHOR_MODES.items():
@@ -81,7 +86,7 @@ def run(args) -> int:
             for phi in (0.0, -20.0):
                 band = capacity_band('minirquad', medium.xi_n, medium.mu_surf, cov, state,
                                      math.radians(phi), 'backward', method=args.method)
-                res = model.predict(state, math.radians(phi), Pull.BACKWARD)
+                res = predictor.predict(state, math.radians(phi), Pull.BACKWARD)
                 caps[mode][phi] = res.capacity_N
                 lows[mode][phi] = band.lower_N if res.capacity_N is not None else None
         needs = {f'{int(m * 1e3)} g': args.sled_friction * m * G for m in (0.4, 0.6)}
@@ -91,7 +96,7 @@ def run(args) -> int:
         data = {'capacity_N': {m: {str(k): v for k, v in c.items()} for m, c in caps.items()},
                 'lower_95_N': {m: {str(k): v for k, v in c.items()} for m, c in lows.items()},
                 'covariance_xi_mu': np.asarray(cov).tolist(), 'sled_force_N': needs}
-    out.with_suffix('.json').write_text(json.dumps(data, indent=2, default=float))
+    write_text(out.with_suffix('.json'), json.dumps(data, indent=2, default=float))
     print(f'wrote {out} (and .json)')
     return 0
 
@@ -105,21 +110,30 @@ def _fig13(args, out: Path) -> int:
     data, trajs = fig13_data(method=args.method, progress=lambda k: bar.update(1))
     bar.close()
     plot_fig13(data, trajs, out)
-    out.with_suffix('.json').write_text(json.dumps(data, indent=2))
+    write_text(out.with_suffix('.json'), json.dumps(data, indent=2))
     print(f'wrote {out} (and .json)')
     return 0
 
 
 def _medium_covariance(args):
     """(xi_n, mu_surf) covariance: from a calibration file, else the assumed sigmas."""
-    import json
-
     import numpy as np
+
+    from rftgls_conventions.safe_read import load_json
 
     from ..rft.media import load_medium
     if args.medium and args.medium.endswith('.json'):
-        cal = json.loads(open(args.medium).read()).get('calibration', {})
-        if 'covariance' in cal:
-            return np.asarray(cal['covariance'], dtype=float)
+        doc = load_json(args.medium, 'medium', 'medium file')
+        cal = doc.get('calibration', {}) if isinstance(doc, dict) else {}
+        cov = cal.get('covariance') if isinstance(cal, dict) else None
+        if cov is not None:
+            try:
+                cov = np.asarray(cov, dtype=float)
+            except (TypeError, ValueError):
+                cov = None
+            if cov is None or cov.shape != (2, 2) or not np.all(np.isfinite(cov)):
+                raise ValueError(f'{args.medium}: calibration covariance must be a 2 x 2 '
+                                 'matrix of finite numbers')
+            return cov
     xi = load_medium(args.medium or 'm90_sand').xi_n
     return np.diag([(args.xi_rel_sigma * xi) ** 2, args.mu_sigma ** 2])

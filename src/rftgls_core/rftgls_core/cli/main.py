@@ -93,15 +93,63 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def cli_contract(prog: str):
+    """Decorator giving a program's `main(argv) -> int` the CLI contract of this module: a
+    ValueError or OSError (bad input: the project's own errors, unreadable files) is one
+    line `PROG: error: ...` and exit 2; anything else one line `internal error` and exit 3
+    (the traceback with RFTGLS_DEBUG=1); Ctrl-C exit 130. For the lab tools and
+    behavior_demo, whose parsers are RftglsParser (one-line usage errors)."""
+    import functools
+
+    def wrap(main):
+        @functools.wraps(main)
+        def run(*args, **kwargs) -> int:
+            debug = bool(os.environ.get('RFTGLS_DEBUG'))
+            try:
+                return main(*args, **kwargs)
+            except KeyboardInterrupt:
+                print(f'{prog}: interrupted', file=sys.stderr)
+                return 130
+            except (ValueError, OSError) as exc:
+                if debug:
+                    raise
+                print(f'{prog}: error: {one_line(exc)}', file=sys.stderr)
+                return EXIT_USAGE
+            except Exception as exc:  # noqa: BLE001 -- a bug, still no traceback by default
+                if debug:
+                    raise
+                print(f'{prog}: internal error ({type(exc).__name__}): {one_line(exc)}; '
+                      'RFTGLS_DEBUG=1 shows the traceback', file=sys.stderr)
+                return EXIT_INTERNAL
+        return run
+    return wrap
+
+
 def _print_warnings(prefix: str, caught) -> None:
     for w in caught:
         print(f'{prefix}: warning: {one_line(w.message)}', file=sys.stderr)
 
 
+def without_ros_args(argv: list[str]) -> list[str]:
+    """argv without the ROS arguments `ros2 run rftgls_core rftgls ... --ros-args ...` appends:
+    from `--ros-args` up to a closing `--` or the end, the grammar rcl documents. The core
+    stays ROS-free, so this is the one place that does not ask rclpy's parser: it has no ROS
+    argument to apply, only to ignore."""
+    out, in_ros = [], False
+    for a in argv:
+        if a == '--ros-args':
+            in_ros = True
+        elif in_ros and a == '--':
+            in_ros = False
+        elif not in_ros:
+            out.append(a)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
+        args = parser.parse_args(without_ros_args(sys.argv[1:] if argv is None else argv))
     except SystemExit as exc:       # --help (0) and argparse errors (2, one line)
         return int(exc.code or 0) if not isinstance(exc.code, str) else EXIT_USAGE
     prefix = f'rftgls {args.command}'

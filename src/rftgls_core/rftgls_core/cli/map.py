@@ -21,11 +21,26 @@ import shlex
 
 import numpy as np
 
-from ..anchor import DEFAULT_METHOD, DEFAULT_TWISTS
-from ..robots.presets import ROBOTS
-from ..surfaces.registry import METHOD_NAMES
-from .common import add_medium_args, medium_from_args, print_json
+from rftgls_conventions.safe_write import output_file
 
+from ..quantities import (
+    ANGLE_DEG,
+    PERCENT,
+    POSITION_MM,
+    SEED,
+    TETHER_PHI_DEG,
+    WORKERS,
+    Quantity,
+    bounded_int,
+)
+from ..robots.presets import ROBOTS
+from ..surfaces.registry import DEFAULT_METHOD, DEFAULT_TWISTS, METHOD_NAMES
+from .common import add_medium_args, medium_from_args, print_json, twist_count
+
+MAP_SUFFIXES = ('.h5', '.hdf5')
+GRID_QUANTITY: dict[str, Quantity] = {'h': POSITION_MM, 'theta_b': ANGLE_DEG,
+                                      'theta_l1': ANGLE_DEG, 'theta_l2': ANGLE_DEG,
+                                      'phi': TETHER_PHI_DEG}
 GRID_FLAGS = (('h', 'h_mm', 'MM'), ('theta_b', 'theta_b_deg', 'DEG'),
               ('theta_l1', 'theta_l1_deg', 'DEG'), ('theta_l2', 'theta_l2_deg', 'DEG'),
               ('phi', 'phi_deg', 'DEG'))
@@ -49,7 +64,7 @@ def add_parser(sub) -> None:
     add_medium_args(b)
     b.add_argument('--method', default=DEFAULT_METHOD, choices=sorted(METHOD_NAMES),
                    help='limit-surface method (default: %(default)s)')
-    b.add_argument('--n-twists', type=int, default=DEFAULT_TWISTS,
+    b.add_argument('--n-twists', type=twist_count, default=DEFAULT_TWISTS,
                    help='twists sampled per state (default: %(default)s)')
     b.add_argument('--out', required=True, help='output .h5 file (overwritten)')
     g = b.add_argument_group('grid (mm and degrees; default: the robot\'s grid)')
@@ -63,7 +78,7 @@ def add_parser(sub) -> None:
     g.add_argument('--pulls', default='forward,backward',
                    help='pull orientations, comma separated (default: %(default)s)')
     r = b.add_argument_group('execution (does not change the result)')
-    r.add_argument('--workers', type=int, default=None,
+    r.add_argument('--workers', type=WORKERS, default=None,
                    help='local worker processes (default: all cores; 1 = no pool)')
     r.add_argument('--scheduler', default=None, metavar='ADDRESS',
                    help='Dask distributed scheduler, e.g. tcp://127.0.0.1:8786')
@@ -77,14 +92,15 @@ def add_parser(sub) -> None:
 
     a = msub.add_parser('accuracy', help='map vs. the direct method between nodes')
     a.add_argument('file')
-    a.add_argument('--samples', type=int, default=20,
+    a.add_argument('--samples', type=bounded_int(1, 10_000, 'sample count'), default=20,
                    help='cell centres and as many random states (default: %(default)s)')
     a.add_argument('--reference', default='direct', choices=sorted(METHOD_NAMES),
                    help='reference method (default: %(default)s)')
-    a.add_argument('--seed', type=int, default=0)
+    a.add_argument('--seed', type=SEED, default=0)
     a.add_argument('--support-edge', action='store_true',
                    help='query with the opt-in support-edge rule (maps/README.md)')
-    a.add_argument('--random', type=int, default=0, metavar='N',
+    a.add_argument('--random', type=bounded_int(0, 100_000, 'state count'), default=0,
+                   metavar='N',
                    help='instead: coverage and overestimate against the live reference at N '
                         'random states of the robot (both pulls, phi -30..10 deg)')
     a.add_argument('--json', action='store_true', help='print JSON')
@@ -96,11 +112,12 @@ def add_parser(sub) -> None:
     f = msub.add_parser('refine', help='add grid nodes where the map error exceeds a tolerance')
     f.add_argument('file')
     f.add_argument('--out', required=True, help='refined map (.h5)')
-    f.add_argument('--tol', type=float, default=5.0,
+    f.add_argument('--tol', type=PERCENT.arg, default=5.0,
                    help='p95 capacity error per axis interval, %% (default: %(default)s)')
-    f.add_argument('--samples', type=int, default=6, help='states per interval')
-    f.add_argument('--seed', type=int, default=0)
-    f.add_argument('--workers', type=int, default=None)
+    f.add_argument('--samples', type=bounded_int(1, 1000, 'sample count'), default=6,
+                   help='states per interval')
+    f.add_argument('--seed', type=SEED, default=0)
+    f.add_argument('--workers', type=WORKERS, default=None)
     f.add_argument('--dry-run', action='store_true', help='report intervals, build nothing')
     f.add_argument('--quiet', action='store_true', help='no progress bar')
     f.add_argument('--anchor', metavar='FILE.yaml', help='a described map\'s description')
@@ -116,6 +133,10 @@ def grid_from_args(args):
     base = default_grid(args.robot)
     given = {a: parse_range(getattr(args, d)) for a, d, _ in GRID_FLAGS
              if getattr(args, d) is not None}
+    for a, values in given.items():
+        q = GRID_QUANTITY[a]
+        for v in values:
+            q.check(v, f'--{a.replace("_", "-")}')
     # mm and degrees -> SI only for the given axes; default axes stay bit-exact.
     conv = {a: (v * 1e-3 if a == 'h' else np.radians(v)) for a, v in given.items()}
     pulls = tuple(p.strip() for p in args.pulls.split(',') if p.strip())
@@ -165,10 +186,16 @@ def run_build_anchor(args) -> int:
     phi = parse_range(args.phi_deg) if args.phi_deg is not None else DEFAULT_PHI_DEG
     pulls = None if args.pulls == 'forward,backward' else tuple(
         p.strip() for p in args.pulls.split(',') if p.strip())
+    for v in desc.state:
+        lo, hi = v.physical
+        for x in overrides.get(v.name, ()):
+            if not lo <= v.to_si(x) <= hi:
+                raise ValueError(f'--axis {v.name}: {x:g} {v.unit} lies outside its physical '
+                                 f'range in {args.anchor}')
+    for x in phi:
+        TETHER_PHI_DEG.check(x, '--phi')
     grid = description_grid(desc, overrides, phi, pulls)
     out = os.fspath(args.out)
-    if not out.endswith(('.h5', '.hdf5')):
-        raise ValueError(f'--out must end with .h5 or .hdf5, got {out!r}')
     if args.n_twists < 8:
         raise ValueError(f'--n-twists must be >= 8, got {args.n_twists}')
     # As for robot maps: --n-twists (default DEFAULT_TWISTS) for every method.
@@ -197,6 +224,10 @@ def _anchor_command(args, medium_name: str) -> str:
 
 
 def run_build(args) -> int:
+    output_file(args.out, '--out', MAP_SUFFIXES)   # checked before any work
+    if args.scheduler:
+        from ..maps.build import probe_scheduler
+        probe_scheduler(args.scheduler)
     if args.anchor is not None:
         return run_build_anchor(args)
     if args.axis:
@@ -208,8 +239,6 @@ def run_build(args) -> int:
         raise ValueError(f'--n-twists must be >= 8, got {args.n_twists}')
     grid = grid_from_args(args)
     out = os.fspath(args.out)
-    if not out.endswith(('.h5', '.hdf5')):
-        raise ValueError(f'--out must end with .h5 or .hdf5, got {out!r}')
     data = build_map(args.robot, medium, grid, method=args.method, model=args.model,
                      n_twists=args.n_twists, workers=args.workers, scheduler=args.scheduler,
                      progress=not args.quiet, command=canonical_command(args, medium.name))
@@ -403,6 +432,7 @@ def run_refine(args) -> int:
     from ..maps.query import CapacityMap
     from ..maps.refine import interval_errors, refined_grid
     from ..maps.shipped import resolve_map
+    output_file(args.out, '--out', MAP_SUFFIXES)   # checked before any work
     if is_described_map(args.file):
         from .map_described import refine as described_refine
         return described_refine(args)

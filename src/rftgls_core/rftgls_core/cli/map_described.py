@@ -41,7 +41,7 @@ def _load(args, support_edge: bool = False):
 
 def accuracy(args):
     """The AccuracyReport of `map accuracy` for a described map."""
-    from ..maps.described import described_accuracy
+    from ..maps.described_accuracy import described_accuracy
     if args.random:
         raise ValueError('--random samples a robot\'s ranges; for a described map use '
                          '--samples')
@@ -55,13 +55,8 @@ def refine(args) -> int:
     same description, medium, method and twist count."""
     import shlex
 
-    from ..maps.described import (
-        build_described_map,
-        described_interval_errors,
-        map_medium,
-        refined_described_grid,
-        save_described_map,
-    )
+    from ..maps.described import build_described_map, map_medium, save_described_map
+    from ..maps.described_accuracy import described_interval_errors, refined_described_grid
     cmap, desc = _load(args)
     errors = described_interval_errors(cmap, desc, samples=args.samples, seed=args.seed,
                                        progress=not args.quiet)

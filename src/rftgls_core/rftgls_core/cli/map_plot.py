@@ -18,6 +18,8 @@ import math
 
 import numpy as np
 
+from ..quantities import ANGLE_DEG, POSITION_MM, TETHER_PHI_DEG, bounded_int
+
 AXES = ('h', 'theta_b', 'theta_l1', 'theta_l2')
 FLAG = {'h': 'h_mm', 'theta_b': 'theta_b_deg', 'theta_l1': 'theta_l1_deg',
         'theta_l2': 'theta_l2_deg'}
@@ -33,13 +35,17 @@ def add_plot_parser(msub) -> None:
     p.add_argument('--y', default='theta_l2', help='vertical axis')
     p.add_argument('--at', action='append', metavar='NAME=VALUE',
                    help="a described map's fixed state variable, in its unit (may repeat)")
-    p.add_argument('--h', dest='h_mm', type=float, help='fixed h, mm')
-    p.add_argument('--theta-b', dest='theta_b_deg', type=float, help='fixed thetaB, deg')
-    p.add_argument('--theta-l1', dest='theta_l1_deg', type=float, help='fixed thetaL1, deg')
-    p.add_argument('--theta-l2', dest='theta_l2_deg', type=float, help='fixed thetaL2, deg')
-    p.add_argument('--phi', dest='phi_deg', type=float, help='tether angle, deg')
+    p.add_argument('--h', dest='h_mm', type=POSITION_MM.arg, help='fixed h, mm')
+    p.add_argument('--theta-b', dest='theta_b_deg', type=ANGLE_DEG.arg,
+                   help='fixed thetaB, deg')
+    p.add_argument('--theta-l1', dest='theta_l1_deg', type=ANGLE_DEG.arg,
+                   help='fixed thetaL1, deg')
+    p.add_argument('--theta-l2', dest='theta_l2_deg', type=ANGLE_DEG.arg,
+                   help='fixed thetaL2, deg')
+    p.add_argument('--phi', dest='phi_deg', type=TETHER_PHI_DEG.arg, help='tether angle, deg')
     p.add_argument('--pull', default=None, help='forward | backward (default: the first)')
-    p.add_argument('--n', type=int, default=121, help='pixels per axis (default: %(default)s)')
+    p.add_argument('--n', type=bounded_int(8, 1000, '--n'), default=121,
+                   help='pixels per axis (default: %(default)s)')
     p.add_argument('--out', required=True, help='output PNG')
     p.set_defaults(run=run_plot)
 

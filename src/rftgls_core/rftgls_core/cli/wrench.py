@@ -6,6 +6,7 @@ import numpy as np
 from ..geometry.stl import MeshError, read_stl
 from ..geometry.transforms import rpy_matrix
 from ..geometry.validate import clean_mesh
+from ..quantities import ANGLE_DEG, ANGULAR_SPEED_RAD_S, LINEAR_SPEED_M_S, POSITION_M
 from ..rft.engine import BuriedBody
 from ..rft.models import make_model
 from .common import add_medium_args, finite_float, medium_from_args, print_json
@@ -20,15 +21,17 @@ def add_parser(sub) -> None:
                        'surface z = 0, world z up) for one twist.')
     p.add_argument('--mesh', required=True, help='STL file (binary or ASCII)')
     p.add_argument('--units', choices=('mm', 'm'), default='mm', help='STL units (default mm)')
-    p.add_argument('--position', nargs=3, type=finite_float, default=(0.0, 0.0, 0.0),
+    p.add_argument('--position', nargs=3, type=POSITION_M.arg, default=(0.0, 0.0, 0.0),
                    metavar=('X', 'Y', 'Z'), help='mesh origin in the world, m')
-    p.add_argument('--rpy', nargs=3, type=finite_float, default=(0.0, 0.0, 0.0),
+    p.add_argument('--rpy', nargs=3, type=ANGLE_DEG.arg, default=(0.0, 0.0, 0.0),
                    metavar=('R', 'P', 'Y'),
                    help='roll, pitch, yaw in degrees about the mesh origin (extrinsic x, y, z)')
     p.add_argument('--twist', nargs=6, type=finite_float, required=True,
                    metavar=('VX', 'VY', 'VZ', 'WX', 'WY', 'WZ'),
-                   help='world-frame twist at the reference point: m/s and rad/s')
-    p.add_argument('--ref', nargs=3, type=finite_float, default=None, metavar=('X', 'Y', 'Z'),
+                   help='world-frame twist at the reference point: m/s and rad/s (RFT is '
+                        f'quasi-static: |v| <= {LINEAR_SPEED_M_S.hi:g} m/s, |w| <= '
+                        f'{ANGULAR_SPEED_RAD_S.hi:g} rad/s)')
+    p.add_argument('--ref', nargs=3, type=POSITION_M.arg, default=None, metavar=('X', 'Y', 'Z'),
                    help='reference point of twist and moment, m (default: placed mesh origin)')
     add_medium_args(p, default='glass_beads')
     p.add_argument('--json', action='store_true', help='print JSON')
@@ -38,6 +41,9 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     medium = medium_from_args(args)
     model = make_model(args.model, medium)
+    for i, v in enumerate(args.twist):
+        q = LINEAR_SPEED_M_S if i < 3 else ANGULAR_SPEED_RAD_S
+        q.check(v, f'--twist {"VX VY VZ WX WY WZ".split()[i]}')
     twist = np.asarray(args.twist, dtype=float)
     norm = float(np.linalg.norm(twist))
     if not norm >= MIN_TWIST_NORM:

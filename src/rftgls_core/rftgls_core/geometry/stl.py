@@ -20,6 +20,9 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from rftgls_conventions.safe_read import InputFileError, read_bytes
+from rftgls_conventions.safe_write import write_bytes
+
 from .mesh import TriMesh
 
 # Metres per file unit.
@@ -35,8 +38,8 @@ WELD_RTOL = 1e-6
 WELD_FEATURE_RTOL = 1e-3
 # A leg or body mesh needs ~1e2..1e4 facets; beyond this a file is a scan or a mistake, and
 # RFT on it would only exhaust memory.
+# The file size is bounded before reading (safe_read.MAX_BYTES['mesh']: 1e6 ASCII triangles).
 MAX_TRIANGLES = 1_000_000
-MAX_FILE_BYTES = 300 * MAX_TRIANGLES      # ASCII STL: ~250 bytes per triangle
 
 _HEADER_BYTES = 80
 _RECORD = np.dtype([('normal', '<f4', (3,)), ('vertices', '<f4', (3, 3)), ('attr', '<u2')])
@@ -108,14 +111,9 @@ def read_stl(path: str | os.PathLike, units: str = 'mm', weld_rtol: float = WELD
     scale = _scale(units)
     path = Path(path)
     try:
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise MeshError(f'{path}: {size / 1e6:.0f} MB is larger than the '
-                            f'{MAX_FILE_BYTES / 1e6:.0f} MB this tool reads (at most '
-                            f'{MAX_TRIANGLES} triangles)')
-        data = path.read_bytes()
-    except OSError as exc:
-        raise MeshError(f'{path}: cannot read STL file ({exc.strerror or exc})') from None
+        data = read_bytes(path, 'mesh', 'STL mesh')
+    except InputFileError as exc:
+        raise MeshError(str(exc)) from None
     if not data:
         raise MeshError(f'{path}: empty file, not an STL')
     tri = _parse_stl(data, path)
@@ -210,13 +208,11 @@ def write_stl(path: str | os.PathLike, mesh: TriMesh, units: str = 'mm', ascii: 
                  + '    vertex %.17g %.17g %.17g\n' * 3 + '  endloop\nendfacet\n')
         rows = np.concatenate([normals, tri.reshape(-1, 9)], axis=1)
         body = (block * len(rows)) % tuple(rows.ravel().tolist())
-        path.write_text(f'solid {label}\n{body}endsolid {label}\n', encoding='ascii')
+        write_bytes(path, f'solid {label}\n{body}endsolid {label}\n'.encode('ascii'))
         return
     header = f'RFT-GLS binary STL, units={units}, name={name}'.encode('ascii', 'replace')
     records = np.zeros(len(tri), dtype=_RECORD)
     records['normal'] = normals
     records['vertices'] = tri
-    with open(path, 'wb') as fh:
-        fh.write(header[:_HEADER_BYTES].ljust(_HEADER_BYTES, b' '))
-        fh.write(np.uint32(len(tri)).astype('<u4').tobytes())
-        fh.write(records.tobytes())
+    write_bytes(path, header[:_HEADER_BYTES].ljust(_HEADER_BYTES, b' ')
+                + np.uint32(len(tri)).astype('<u4').tobytes() + records.tobytes())

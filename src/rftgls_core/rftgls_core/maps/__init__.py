@@ -5,7 +5,7 @@
     hdf5.py         file schema, save_map, load_map (validation), MapFileError
     interpolate.py  cell location and multilinear corner weights (pure functions)
     query.py        CapacityMap: load, query (onboard hot path), query_batch
-    build.py        build_map: AnchorModel at every node; local processes or Dask
+    build.py        build_map: RobotPredictor at every node; local processes or Dask
     accuracy.py     map vs. a reference method at cell centres and random states
     shipped.py      resolve_map: the one resolver of map names and paths; shipped hashes
 

@@ -3,7 +3,7 @@
 Sample states (SI): `samples` cell centres (chosen at random, seeded, among all cells) and
 `samples` uniformly random states inside the grid; pull angles are the midpoints between the
 stored angles (the worst place for linear interpolation in phi). Each state is solved by the
-reference AnchorModel for every pull orientation of the map.
+reference RobotPredictor for every pull orientation of the map.
 
 Reference: 'direct' (root-finding, the project's ground truth). If that method cannot be
 built (not finished yet), the report falls back to the map's own method at the map's twist
@@ -22,7 +22,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from tqdm import tqdm
 
-from ..anchor import AnchorModel
+from ..predictor.live import RobotPredictor
 from ..robots.presets import get_robot
 from ..types import AnchorState, Status
 from .build import spec_from_map
@@ -120,23 +120,23 @@ def sample_states(grid, samples: int, seed: int = 0) -> np.ndarray:
     return np.vstack([centres, randoms])
 
 
-def reference_model(cmap: CapacityMap, reference: str = 'direct') -> tuple[AnchorModel, str]:
+def reference_predictor(cmap: CapacityMap, reference: str = 'direct') -> tuple[RobotPredictor, str]:
     spec = spec_from_map(cmap.data)
     kwargs: dict = dict(model=spec.model, n_twists=spec.n_twists, backend=spec.backend)
     robot = get_robot(spec.robot)
     try:
-        return AnchorModel(robot, spec.medium, method=reference, **kwargs), ''
+        return RobotPredictor(robot, spec.medium, method=reference, **kwargs), ''
     except (ImportError, AttributeError, ValueError) as exc:
         note = (f'reference method {reference!r} unavailable ({type(exc).__name__}: {exc}); '
                 f'compared against {spec.method!r} at n_twists={spec.n_twists} instead '
                 '(interpolation error only)')
-        return AnchorModel(robot, spec.medium, method=spec.method, **kwargs), note
+        return RobotPredictor(robot, spec.medium, method=spec.method, **kwargs), note
 
 
 def accuracy_report(cmap: CapacityMap, samples: int = 20, seed: int = 0,
                     reference: str = 'direct', progress: bool = False) -> AccuracyReport:
     """Compare `cmap` with a reference method at 2 x `samples` states (see module doc)."""
-    model, note = reference_model(cmap, reference)
+    predictor, note = reference_predictor(cmap, reference)
     states = sample_states(cmap.grid, samples, seed)
     ph = cmap.phis
     phis = 0.5 * (ph[:-1] + ph[1:])
@@ -144,10 +144,10 @@ def accuracy_report(cmap: CapacityMap, samples: int = 20, seed: int = 0,
     for s in tqdm(states, unit='state', file=sys.stderr, desc='accuracy', disable=not progress):
         state = AnchorState(*map(float, s))
         for pull in cmap.pulls:
-            refs = model.predict_many(state, phis, pull)
+            refs = predictor.predict_many(state, phis, pull)
             for phi, r in zip(phis, refs):
                 comp.add(cmap.query(state, float(phi), pull), r)
-    return comp.report(model.method, len(states), note)
+    return comp.report(predictor.method, len(states), note)
 
 
 @dataclass(frozen=True)
@@ -188,7 +188,8 @@ def coverage_report(cmap: CapacityMap, n: int = 300, seed: int = 0,
     The reference is the live solver at its defaults (capacity_node's live fallback)."""
     from ..accuracy import agreement_states
     spec = spec_from_map(cmap.data)
-    model = AnchorModel(get_robot(spec.robot), spec.medium, model=spec.model, method=reference)
+    predictor = RobotPredictor(get_robot(spec.robot), spec.medium, model=spec.model,
+                               method=reference)
     jobs = agreement_states(spec.robot, n, seed)
     ref_n = ans = only = 0
     over: list[float] = []
@@ -196,7 +197,7 @@ def coverage_report(cmap: CapacityMap, n: int = 300, seed: int = 0,
     flags: dict[str, int] = {}
     for state, pull, phi in tqdm(jobs, unit='state', file=sys.stderr, desc='coverage',
                                  disable=not progress):
-        r = model.predict(state, phi, pull)
+        r = predictor.predict(state, phi, pull)
         m = cmap.query(state, phi, pull)
         if m.capacity_N is not None:
             key = ','.join(m.flags)

@@ -1,11 +1,11 @@
-"""Building a capacity map: run the AnchorModel at every grid node, in parallel, deterministically.
+"""Building a capacity map: RobotPredictor at every grid node, in parallel, deterministically.
 
 Work unit: a chunk of flat state indices (grid.py order), every n-th state of the grid
 (neighbouring states cost alike, a strided chunk mixes cheap and dear ones, so the workers
 finish together). For each state, each pull orientation is fitted once and queried at every
 stored pull angle, and the node's support margin is taken on the fit's own wrenches, so a
-node costs P surface fits. Each worker process (or Dask worker thread) builds its AnchorModel
-once and keeps it (`_anchor_model` cache), because the twist sphere and the numba kernels are
+node costs P surface fits. Each worker process (or Dask worker thread) builds its RobotPredictor
+once and keeps it (`_predictor` cache), because the twist sphere and the numba kernels are
 the expensive part to set up; the local pool is started once for both passes of a build
 (a worker's start, imports and cached kernels, costs ~1.5 s of CPU).
 
@@ -37,9 +37,10 @@ from datetime import UTC, datetime
 import numpy as np
 
 from .. import __version__
-from ..anchor import DEFAULT_METHOD, DEFAULT_TWISTS, AnchorModel
+from ..predictor.live import RobotPredictor
 from ..rft.media import Medium, get_medium
 from ..robots.presets import get_robot
+from ..surfaces.registry import DEFAULT_METHOD, DEFAULT_TWISTS
 from ..surfaces.twist_sphere import TwistSphere
 from ..types import Status
 from .edge import (
@@ -55,7 +56,7 @@ from .hdf5 import STATUS_NAMES, MapData, empty_answers
 
 @dataclass(frozen=True)
 class BuildSpec:
-    """What a worker needs to rebuild the AnchorModel: names and settings only (picklable)."""
+    """What a worker needs to rebuild the RobotPredictor: names and settings only (picklable)."""
 
     robot: str
     medium: Medium
@@ -64,9 +65,9 @@ class BuildSpec:
     n_twists: int = DEFAULT_TWISTS
     backend: str = 'auto'
 
-    def anchor_model(self) -> AnchorModel:
-        return AnchorModel(get_robot(self.robot), self.medium, model=self.model,
-                           method=self.method, n_twists=self.n_twists, backend=self.backend)
+    def predictor(self) -> RobotPredictor:
+        return RobotPredictor(get_robot(self.robot), self.medium, model=self.model,
+                              method=self.method, n_twists=self.n_twists, backend=self.backend)
 
 
 @dataclass(frozen=True)
@@ -85,18 +86,18 @@ class ChunkResult:
 _local = threading.local()   # per thread (Dask runs tasks on threads), per process
 
 
-def _anchor_model(spec: BuildSpec) -> AnchorModel:
-    cache = getattr(_local, 'models', None)
+def _predictor(spec: BuildSpec) -> RobotPredictor:
+    cache = getattr(_local, 'predictors', None)
     if cache is None:
-        cache = _local.models = {}
+        cache = _local.predictors = {}
     if spec not in cache:
-        cache[spec] = spec.anchor_model()
+        cache[spec] = spec.predictor()
     return cache[spec]
 
 
 def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResult:
-    """Run the AnchorModel at the flat state indices ks for every pull and pull angle."""
-    model = _anchor_model(spec)
+    """Run the RobotPredictor at the flat state indices ks for every pull and pull angle."""
+    predictor = _predictor(spec)
     sphere = TwistSphere.build(spec.n_twists)
     idx = np.asarray(ks, dtype=np.intp)
     n, P, K = len(idx), len(grid.pulls), len(grid.phi)
@@ -109,8 +110,8 @@ def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResul
     for a, k in enumerate(idx.tolist()):
         state = grid.state(k)
         for p, pull in enumerate(grid.pulls):
-            surface, failure = model.fit(state, pull)
-            for j, r in enumerate(model.answers(surface, failure, grid.phi)):
+            surface, failure = predictor.fit(state, pull)
+            for j, r in enumerate(predictor.answers(surface, failure, grid.phi)):
                 status[a, p, j] = STATUS_NAMES.index(r.status.value)
                 reason[a][p][j] = r.reason
                 if r.status.has_value:
@@ -119,7 +120,7 @@ def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResul
                     tr[a, p, j] = r.slip_twist
             held = bool(np.isfinite(cap[a, p]).any())
             ws = fitted_wrenches(surface, sphere)
-            margin[a, p] = (node_support_margin(model, sphere, state, pull, held) if ws is None
+            margin[a, p] = (node_support_margin(predictor, sphere, state, pull, held) if ws is None
                             else signed_margin(ws, sphere, held))
     return ChunkResult(idx, cap, ts, tr, status, reason, margin)
 
@@ -129,13 +130,13 @@ def solve_grad_chunk(spec: BuildSpec, grid: MapGrid, jobs: np.ndarray
     """Edge-cell corners: support margin and its gradient on the dense EDGE_MARGIN_TWISTS
     sphere (edge.py), for jobs (M, 3) = (flat state index, pull index, held 0/1):
     (jobs, margins (M,), gradients (M, 4))."""
-    model = _anchor_model(spec)
+    predictor = _predictor(spec)
     sphere = TwistSphere.build(max(EDGE_MARGIN_TWISTS, spec.n_twists))
     out = np.full((len(jobs), 4), np.nan)
     marg = np.full(len(jobs), np.nan)
     for a, (k, p, held) in enumerate(np.asarray(jobs, dtype=np.intp).tolist()):
-        marg[a] = node_support_margin(model, sphere, grid.state(k), grid.pulls[p], bool(held))
-        out[a] = node_margin_gradient(model, sphere, grid, k, grid.pulls[p])
+        marg[a] = node_support_margin(predictor, sphere, grid.state(k), grid.pulls[p], bool(held))
+        out[a] = node_margin_gradient(predictor, sphere, grid, k, grid.pulls[p])
     return np.asarray(jobs), marg, out
 
 
@@ -240,13 +241,38 @@ def _one_thread() -> Iterator[None]:
             kernels.set_threads(before)
 
 
+def probe_scheduler(address: str, timeout_s: float = 3.0) -> None:
+    """Fail in seconds (OSError, one line) unless a TCP connection to the Dask scheduler at
+    `address` ('tcp://HOST:PORT') opens within timeout_s: Dask's client retries a refused or
+    silent address for its whole timeout. ValueError for an address that is not one."""
+    import socket
+    from urllib.parse import urlsplit
+    u = urlsplit(address if '://' in address else f'tcp://{address}')
+    if u.scheme == 'inproc':     # a scheduler in this process (tests): nothing to reach
+        return
+    try:
+        host, port = u.hostname, u.port
+    except ValueError:
+        host = port = None
+    if u.scheme not in ('tcp', 'tls') or not host or port is None:
+        raise ValueError(f'--scheduler {address!r}: want tcp://HOST:PORT')
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s):
+            pass
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise OSError(f'cannot reach Dask scheduler {address} ({reason}; waited at most '
+                      f'{timeout_s:g} s)') from None
+
+
 def _run_dask(spec, grid, chunks, address: str, timeout_s: float,
               fn=solve_chunk) -> Iterator:
     try:
         from dask.distributed import Client
         from dask.distributed import as_completed as dask_completed
     except ImportError as exc:  # pragma: no cover - dask is in the venv
-        raise ValueError(f'--scheduler needs dask[distributed]: {exc}') from None
+        raise ValueError(f'--scheduler needs the optional dask[distributed] (pip install '
+                         f'"dask[distributed]"): {exc}') from None
     try:
         client = Client(address, timeout=timeout_s, set_as_default=False)
     except (OSError, TimeoutError) as exc:
@@ -331,11 +357,11 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
               method: str = DEFAULT_METHOD, model: str = 'agarwal',
               n_twists: int = DEFAULT_TWISTS, workers: int | None = None,
               scheduler: str | None = None, progress: bool = False, command: str = '',
-              backend: str = 'auto', scheduler_timeout_s: float = 30.0) -> MapData:
+              backend: str = 'auto', scheduler_timeout_s: float = 10.0) -> MapData:
     """Compute a map in memory (save it with hdf5.save_map).
 
     robot: preset name (robots.presets); medium: preset name or a Medium; grid: default_grid
-    for the robot when None; method/model/n_twists/backend: AnchorModel settings;
+    for the robot when None; method/model/n_twists/backend: RobotPredictor settings;
     workers: local processes (default: all usable cores; 1 = in this process);
     scheduler: Dask scheduler address ('tcp://host:port'), overrides workers;
     progress: tqdm bar on stderr; command: recorded in the file's build_command.
@@ -344,7 +370,9 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
     grid = default_grid(robot) if grid is None else grid
     spec = BuildSpec(robot=get_robot(robot).name, medium=med, model=model, method=method,
                      n_twists=int(n_twists), backend=backend)
-    probe = spec.anchor_model()   # fail fast (unknown method/model) before any worker starts
+    probe = spec.predictor()   # fail fast (unknown method/model) before any worker starts
+    if scheduler:
+        probe_scheduler(scheduler)   # an unreachable cluster fails now, in seconds
     workers = default_workers() if workers is None else int(workers)
     if workers < 1:
         raise ValueError(f'workers must be >= 1, got {workers}')

@@ -19,7 +19,7 @@ and default map ranges; this module builds, stores and queries maps over exactly
     /slip_twist                (..., 6) float32 raw (m/s, rad/s) direction, unit norm
     /status, /reason           (P, N_1, ..., N_n, K) uint8 codes (status_names, reason_names)
 
-Answers come from scene.SceneModel at phi with yaw 0 (the sagittal reduction when the
+Answers come from posed.PosedAnchorSolver at phi with yaw 0 (the sagittal reduction when the
 description claims the symmetry, which is checked at every node; else auto), so the twists are
 6D world twists at the tether point. Query (`DescribedMap.query`): multilinear over the state
 axes and phi, the conservative cell rule of query.py (any weighted corner without a value
@@ -46,13 +46,14 @@ import h5py
 import numpy as np
 
 from .. import __version__
+from ..posed import PosedAnchorResult
 from ..rft.media import Medium
-from ..scene import SceneResult
 from ..types import Status
 from .errors import MapFileError
 from .grid import DEFAULT_PHI_DEG, GridShape, check_axis, check_pulls
-from .hdf5 import STATUS_NAMES, ContentHash, NodeAnswers, empty_answers
+from .hdf5 import STATUS_NAMES, ContentHash, NodeAnswers, empty_answers, read_dataset
 from .interpolate import locate
+from .shipped import regular_map_file
 
 SCHEMA = 'rftgls.described_map'
 SCHEMA_VERSION = 1
@@ -150,23 +151,24 @@ class DescribedSpec:
     space: str = 'auto'
 
 
-_local = threading.local()   # per thread and process: (description, SceneModel) by spec
+_local = threading.local()   # per thread and process: (description, PosedAnchorSolver) by spec
 
 
 def _solver(spec: DescribedSpec):
     from ..description import DescriptionError, load_description
-    from ..scene import SceneModel
-    cache = getattr(_local, 'models', None)
+    from ..posed import PosedAnchorSolver
+    cache = getattr(_local, 'solvers', None)
     if cache is None:
-        cache = _local.models = {}
+        cache = _local.solvers = {}
     if spec not in cache:
         desc = load_description(spec.path)
         if desc.sha256 != spec.sha256:
             raise DescriptionError(f'{spec.path}: changed during the build (identity '
                                    f'{desc.sha256[:12]}, the build started with '
                                    f'{spec.sha256[:12]})')
-        cache[spec] = (desc, SceneModel(spec.medium, model=spec.model, method=spec.method,
-                                        n_twists=spec.n_twists, space=spec.space))
+        cache[spec] = (desc, PosedAnchorSolver(spec.medium, model=spec.model,
+                                               method=spec.method, n_twists=spec.n_twists,
+                                               space=spec.space))
     return cache[spec]
 
 
@@ -186,7 +188,7 @@ def solve_described_chunk(spec: DescribedSpec, grid: DescribedGrid, ks) -> tuple
                 reasons[a, p, :] = 'not_a_pose'
                 continue
             # one fit per node and pull, asked at every stored angle
-            answers = sm.predict_many(desc.scene(values, pull), grid.phi, 0.0)
+            answers = sm.solve_many(desc.pose(values, pull), grid.phi, 0.0)
             for j, r in enumerate(answers):
                 status[a, p, j] = STATUS_NAMES.index(r.status.value)
                 reasons[a, p, j] = r.reason
@@ -201,14 +203,14 @@ def build_described_map(desc, medium, grid: DescribedGrid | None = None, *,
                         method: str = 'direct', model: str = 'agarwal',
                         n_twists: int | None = None, command: str = '',
                         progress: bool = False, workers: int = 1) -> DescribedMapData:
-    """Answers of scene.SceneModel at every node of `grid` (default: the description's map
+    """Answers of posed.PosedAnchorSolver at every node of `grid` (default: the description's map
     ranges). desc: an AnchorDescription; medium: a Medium. workers: local processes (1 = in
     this process), as maps/build.py does for the robot maps (fixed chunks placed by state
     index, serial kernels: the same arrays on any number of workers); progress: a tqdm bar
     on stderr over the states."""
     from tqdm import tqdm
 
-    from ..scene import SceneModel
+    from ..posed import PosedAnchorSolver
     from .build import _run_inline, chunk_indices, local_workers
     grid = description_grid(desc) if grid is None else grid
     if grid.names != desc.state_names:
@@ -220,10 +222,10 @@ def build_described_map(desc, medium, grid: DescribedGrid | None = None, *,
     space = 'sagittal' if desc.symmetry == 'sagittal' else 'auto'
     spec = DescribedSpec(str(Path(desc.source).resolve()), desc.sha256, medium, model, method,
                          n_twists, space)
-    sm = SceneModel(medium, model=model, method=method, n_twists=n_twists, space=space)
-    cache = getattr(_local, 'models', None)
+    sm = PosedAnchorSolver(medium, model=model, method=method, n_twists=n_twists, space=space)
+    cache = getattr(_local, 'solvers', None)
     if cache is None:
-        cache = _local.models = {}
+        cache = _local.solvers = {}
     cache[spec] = (desc, sm)   # this process answers with the description it was given
     P, K, S = len(grid.pulls), len(grid.phi), grid.n_states
     chunks = chunk_indices(S, workers)
@@ -279,9 +281,10 @@ def content_sha256(data: DescribedMapData) -> str:
 
 
 def save_described_map(path: str | Path, data: DescribedMapData) -> Path:
+    from rftgls_conventions.safe_write import atomic_write
     path = Path(path)
     comp = {'compression': 'gzip', 'compression_opts': 4, 'shuffle': True, 'track_times': False}
-    with h5py.File(path, 'w', track_order=True) as f:
+    with atomic_write(path) as tmp, h5py.File(tmp, 'w', track_order=True) as f:
         f.attrs['schema'] = SCHEMA
         f.attrs['schema_version'] = SCHEMA_VERSION
         for key in ANSWER_ATTRS + OTHER_ATTRS:
@@ -306,15 +309,15 @@ def save_described_map(path: str | Path, data: DescribedMapData) -> Path:
 
 def is_described_map(path: str | Path) -> bool:
     try:
-        with h5py.File(path, 'r') as f:
+        with h5py.File(regular_map_file(path), 'r') as f:
             return str(f.attrs.get('schema', '')) == SCHEMA
-    except OSError:
+    except (OSError, MapFileError):
         return False
 
 
 def load_described_map(path: str | Path) -> DescribedMapData:
     """Read and check a described map (MapFileError, one line, on any problem)."""
-    path = Path(path)
+    path = regular_map_file(path)
     try:
         with h5py.File(path, 'r') as f:
             if str(f.attrs.get('schema', '')) != SCHEMA:
@@ -327,15 +330,15 @@ def load_described_map(path: str | Path) -> DescribedMapData:
                      for k, v in f.attrs.items()}
             names = tuple(str(attrs['state_names']).split(','))
             units = tuple(str(f['axes'][n].attrs['human_unit']) for n in names)
-            grid = DescribedGrid(names, units, tuple(f['axes'][n][()] for n in names),
-                                 f['axes/phi'][()],
+            grid = DescribedGrid(names, units, tuple(read_dataset(f['axes'][n]) for n in names),
+                                 read_dataset(f['axes/phi']),
                                  tuple(str(p) for p in f['axes/pull'].asstr()[()]))
-            arrays = {n: f[n][()] for n in ('capacity_N', 'slip_twist_scaled', 'slip_twist',
-                                            'status', 'reason')}
+            arrays = {n: read_dataset(f[n]) for n in ('capacity_N', 'slip_twist_scaled',
+                                                      'slip_twist', 'status', 'reason')}
             if list(f['status'].attrs['status_names']) != list(STATUS_NAMES):
                 raise MapFileError(f'{path}: status table differs from this reader\'s')
             reason_names = tuple(str(x) for x in f['reason'].attrs['reason_names'])
-    except (OSError, KeyError, ValueError) as exc:
+    except (OSError, KeyError, ValueError, TypeError, AttributeError, IndexError) as exc:
         if isinstance(exc, MapFileError):
             raise
         raise MapFileError(f'{path}: bad described map ({" ".join(str(exc).split())})') \
@@ -400,12 +403,12 @@ class DescribedMap:
     def medium_name(self) -> str:
         return str(self.data.attrs['medium'])
 
-    def _fail(self, status: Status, reason: str, detail: str) -> SceneResult:
-        return SceneResult(status, METHOD, str(self.data.attrs['space']), reason=reason,
-                           detail=detail)
+    def _fail(self, status: Status, reason: str, detail: str) -> PosedAnchorResult:
+        return PosedAnchorResult(status, METHOD, str(self.data.attrs['space']), reason=reason,
+                                 detail=detail)
 
     def query(self, values: Mapping[str, float], phi: float, pull: str,
-              description_sha256: str) -> SceneResult:
+              description_sha256: str) -> PosedAnchorResult:
         """Capacity (N) and 6D slip twist at state `values` (SI, by name), tether angle phi
         (rad), pull orientation; description_sha256: identity of the caller's description."""
         if description_sha256 != self.description_sha256:
@@ -474,11 +477,11 @@ class DescribedMap:
         # Raw direction: (v, w L_c) -> (v, w), renormalised (the force scale cancels).
         raw = ts / np.r_[np.ones(3), np.full(3, float(self.data.attrs['char_length_m']))]
         raw /= np.linalg.norm(raw)
-        return SceneResult(Status.OK, METHOD, str(self.data.attrs['space']),
-                           capacity_N=max(c, 0.0),
-                           slip_twist=tuple(float(x) for x in raw),
-                           slip_twist_scaled=tuple(float(x) for x in ts),
-                           detail=f'twist_confidence={norm:.3f}' + edge_detail, flags=flags)
+        return PosedAnchorResult(Status.OK, METHOD, str(self.data.attrs['space']),
+                                 capacity_N=max(c, 0.0),
+                                 slip_twist=tuple(float(x) for x in raw),
+                                 slip_twist_scaled=tuple(float(x) for x in ts),
+                                 detail=f'twist_confidence={norm:.3f}' + edge_detail, flags=flags)
 
     def query_batch(self, values: np.ndarray, phi: float, pull: str,
                     description_sha256: str) -> tuple[np.ndarray, np.ndarray]:
@@ -542,7 +545,7 @@ class DescribedMap:
         return np.where(ok, np.maximum(c, 0.0), np.nan), code
 
 
-# ------------------------------------------------------- accuracy and refinement
+# ------------------------------------------------------- provenance and identity
 def map_medium(data: DescribedMapData) -> Medium:
     """The medium a described map was built with (its provenance)."""
     return Medium(**json.loads(str(data.attrs['provenance_json']))['medium'])
@@ -555,148 +558,3 @@ def check_identity(cmap: DescribedMap, desc) -> None:
                          f'{cmap.data.attrs.get("description_name", "")} '
                          f'({cmap.description_sha256[:12]}); {desc.source} is '
                          f'{desc.sha256[:12]}')
-
-
-def reference_solver(cmap: DescribedMap, desc, reference: str = 'direct'):
-    """The live SceneModel a described map is checked against: `reference` method, the map's
-    medium, RFT model, twist count and space (the description must be the map's own)."""
-    from ..scene import SceneModel
-    check_identity(cmap, desc)
-    at = cmap.data.attrs
-    return SceneModel(map_medium(cmap.data), model=str(at['rft_model']), method=reference,
-                      n_twists=int(at['n_twists']), space=str(at['space']))
-
-
-def _live(sm, desc, values: dict[str, float], phi: float, pull: str) -> SceneResult:
-    """The reference answer at a state, with the build's rule off the physical range."""
-    if desc.violations(values):
-        return SceneResult(Status.INVALID_INPUT, sm.method, sm.space, reason='not_a_pose')
-    return sm.predict(desc.scene(values, pull), phi, 0.0)
-
-
-def described_accuracy(cmap: DescribedMap, desc, samples: int = 20, seed: int = 0,
-                       reference: str = 'direct', progress: bool = False):
-    """maps/accuracy.py's AccuracyReport for a described map: its answers against the live
-    `reference` on the description at maps/accuracy.py's sample_states and the midpoints between the
-    stored pull angles, every pull. Errors where both have a value; `status_mismatch` where
-    one has (map_conservative: the map is the one without)."""
-    from tqdm import tqdm
-
-    from .accuracy import MapComparison, sample_states
-    sm = reference_solver(cmap, desc, reference)
-    g = cmap.grid
-    if len(g.phi) < 2:
-        raise ValueError('the map has one pull angle: no midpoints to check')
-    phis = 0.5 * (g.phi[:-1] + g.phi[1:])
-    states = sample_states(g, samples, seed)
-    comp = MapComparison()
-    for s in tqdm(states, unit='state', file=sys.stderr, desc='accuracy', disable=not progress):
-        values = dict(zip(g.names, map(float, s)))
-        for pull in g.pulls:
-            for phi in phis.tolist():
-                comp.add(cmap.query(values, phi, pull, desc.sha256),
-                         _live(sm, desc, values, phi, pull))
-    return comp.report(reference, len(states))
-
-
-def described_interval_errors(cmap: DescribedMap, desc, samples: int = 6, seed: int = 0,
-                              reference: str = 'direct', progress: bool = False) -> list:
-    """maps/refine.py's IntervalError per interval of every state axis of a described map:
-    `samples` states with that coordinate at the interval's midpoint, the others random in
-    the grid, a random stored pull and pull angle; p95 of |map - reference| in %."""
-    from tqdm import tqdm
-
-    from .refine import IntervalError
-    sm = reference_solver(cmap, desc, reference)
-    g = cmap.grid
-    rng = np.random.default_rng(seed)
-    lo = np.array([a[0] for a in g.axes])
-    hi = np.array([a[-1] for a in g.axes])
-    jobs = [(k, j) for k, a in enumerate(g.axes) for j in range(len(a) - 1)]
-    out = []
-    for k, j in tqdm(jobs, desc='intervals', unit='interval', file=sys.stderr,
-                     disable=not progress):
-        errs, mismatched = [], 0
-        for _ in range(samples):
-            s = lo + (hi - lo) * rng.random(len(g.axes))
-            s[k] = 0.5 * (g.axes[k][j] + g.axes[k][j + 1])
-            values = dict(zip(g.names, map(float, s)))
-            pull = g.pulls[int(rng.integers(len(g.pulls)))]
-            phi = float(g.phi[int(rng.integers(len(g.phi)))])
-            r = _live(sm, desc, values, phi, pull)
-            m = cmap.query(values, phi, pull, desc.sha256)
-            if r.ok != m.ok:
-                mismatched += 1
-            elif r.capacity_N is not None and m.capacity_N is not None and r.capacity_N > 1e-9:
-                errs.append(100.0 * abs(m.capacity_N - r.capacity_N) / r.capacity_N)
-        p95 = float(np.percentile(errs, 95)) if errs else float('nan')
-        out.append(IntervalError(g.names[k], float(g.axes[k][j]), float(g.axes[k][j + 1]), p95,
-                                 len(errs), mismatched))
-    return out
-
-
-def refined_described_grid(grid: DescribedGrid, errors: list, tol_pct: float) -> DescribedGrid:
-    """The grid with the midpoint of every interval whose p95 error exceeds tol_pct."""
-    new = {n: list(a) for n, a in zip(grid.names, grid.axes)}
-    for e in errors:
-        if np.isfinite(e.p95_pct) and e.p95_pct > tol_pct:
-            new[e.axis].append(0.5 * (e.lo + e.hi))
-    return DescribedGrid(grid.names, grid.units,
-                         tuple(np.unique(np.asarray(new[n], dtype=float)) for n in grid.names),
-                         grid.phi, grid.pulls)
-
-
-class DescribedMapModel:
-    """A described map behind the robots' Predictor interface (predict(AnchorState, phi,
-    pull) -> CapacityResult with sagittal (vx, vz, wy) twists), for the consumers that
-    estimate an AnchorState (capacity_node's map_file, the lab tools' 'map'): the state
-    variables are fed from the AnchorState by description.robot_state_map (by name or
-    state_map), the answer is DescribedMap.query's. A 6D slip twist with an out-of-plane part
-    (> TWIST_PLANE_TOL of the unit scaled twist) cannot be carried: `invalid_input`
-    `not_symmetric`, as DescriptionModel answers there. desc must be the map's own."""
-
-    TWIST_PLANE_TOL = 1e-6
-
-    def __init__(self, cmap: DescribedMap, desc, state_map=None):
-        from ..description import robot_state_map
-        check_identity(cmap, desc)
-        self.map = cmap
-        self.description = desc
-        self.state_map = robot_state_map(desc, state_map)
-        self.method = METHOD
-
-    @property
-    def medium_name(self) -> str:
-        return self.map.medium_name
-
-    @property
-    def pulls(self) -> tuple[str, ...]:
-        return self.map.grid.pulls
-
-    def predict(self, state, phi: float, pull):
-        from ..description import state_values
-        from ..surfaces.base import CapacityResult
-        from ..types import Pull
-        robot = state_values(state)
-        values = {n: robot[q] for n, q in self.state_map.items()}
-        pull = pull.value if isinstance(pull, Pull) else str(pull)
-        r = self.map.query(values, phi, pull, self.description.sha256)
-        if not r.ok or r.slip_twist_scaled is None or r.slip_twist is None:
-            return CapacityResult(phi=float(phi), status=r.status, method=METHOD,
-                                  reason=r.reason, detail=r.detail)
-        ts, tr = np.asarray(r.slip_twist_scaled), np.asarray(r.slip_twist)
-        off = float(np.max(np.abs(ts[[1, 3, 5]])))
-        if off > self.TWIST_PLANE_TOL:
-            return CapacityResult(phi=float(phi), status=Status.INVALID_INPUT, method=METHOD,
-                                  reason='not_symmetric',
-                                  detail=f'the map\'s slip twist leaves the pull plane (out-of-'
-                                         f'plane part {off:.3g}); a sagittal answer cannot '
-                                         'carry it')
-        s3, r3 = ts[[0, 2, 4]], tr[[0, 2, 4]]
-        s3, r3 = s3 / np.linalg.norm(s3), r3 / np.linalg.norm(r3)
-        return CapacityResult(phi=float(phi), status=r.status, method=METHOD,
-                              capacity_N=r.capacity_N,
-                              slip_twist=(float(r3[0]), float(r3[1]), float(r3[2])),
-                              slip_twist_scaled=(float(s3[0]), float(s3[1]), float(s3[2])),
-                              unchecked_capacity_N=r.capacity_N, detail=r.detail,
-                              flags=r.flags)

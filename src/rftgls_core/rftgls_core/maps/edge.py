@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..anchor import AnchorModel
+from ..predictor.live import RobotPredictor
 from ..surfaces.base import SUPPORT_CHECK_TWISTS, LimitSurface
 from ..surfaces.raycast import winding_number
 from ..surfaces.twist_sphere import TwistSphere
@@ -86,12 +86,12 @@ def point_mesh_distance(vertices: np.ndarray, faces: np.ndarray,
     return float(np.min(np.minimum(plane, edge))) if len(f) else float('inf')
 
 
-def node_support_margin(model: AnchorModel, sphere: TwistSphere, state: AnchorState,
+def node_support_margin(predictor: RobotPredictor, sphere: TwistSphere, state: AnchorState,
                         pull: Pull | str, held: bool | None = None) -> float:
     """Support margin of one state and pull (see the module doc); `held` is the node's status
     (a value at its pull angles), None: the winding number of the sphere mesh decides. NaN
     when the pose has no surface (no buried leg, or wrenches that are not finite)."""
-    anchor = model.pose(state, pull)
+    anchor = predictor.pose(state, pull)
     if anchor.body.facets_active == 0:
         return float('nan')
     problem = anchor.problem
@@ -117,7 +117,7 @@ def fitted_wrenches(surface: LimitSurface | None, sphere: TwistSphere) -> np.nda
     return cloud[1] if cloud is not None and cloud[0] is sphere else None
 
 
-def node_margin_gradient(model: AnchorModel, sphere: TwistSphere, grid: MapGrid, k: int,
+def node_margin_gradient(predictor: RobotPredictor, sphere: TwistSphere, grid: MapGrid, k: int,
                          pull: Pull | str) -> np.ndarray:
     """(4,) d margin / d (h [1/m], theta_b, theta_l1, theta_l2 [1/rad]) at flat state index
     k: central differences at GRAD_STEP of the smaller neighbouring cell, one-sided at the
@@ -132,7 +132,7 @@ def node_margin_gradient(model: AnchorModel, sphere: TwistSphere, grid: MapGrid,
         lo, hi = x0.copy(), x0.copy()
         lo[a] = max(ax[0], x0[a] - step)
         hi[a] = min(ax[-1], x0[a] + step)
-        m_lo = node_support_margin(model, sphere, AnchorState(*map(float, lo)), pull)
-        m_hi = node_support_margin(model, sphere, AnchorState(*map(float, hi)), pull)
+        m_lo = node_support_margin(predictor, sphere, AnchorState(*map(float, lo)), pull)
+        m_hi = node_support_margin(predictor, sphere, AnchorState(*map(float, hi)), pull)
         out[a] = (m_hi - m_lo) / (hi[a] - lo[a])
     return out

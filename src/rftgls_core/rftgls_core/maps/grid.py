@@ -45,6 +45,11 @@ def check_axis(name: str, values) -> np.ndarray:
     return a
 
 
+# Nodes of one axis given on a command line: a map of 1000 nodes on one axis alone is already
+# 1000 states per combination of the others; more is a typo in the step.
+MAX_AXIS_NODES = 1000
+
+
 def parse_range(text: str) -> np.ndarray:
     """'start:step:stop' (inclusive stop) or 'a,b,c' -> float64 array, in the caller's units.
 
@@ -54,16 +59,23 @@ def parse_range(text: str) -> np.ndarray:
     try:
         if ':' in text:
             parts = [float(p) for p in text.split(':')]
-            if len(parts) != 3:
+            if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
                 raise ValueError
             start, step, stop = parts
             if not (step > 0.0 and stop >= start):
                 raise ValueError
-            n = int(math.floor((stop - start) / step + 1e-9)) + 1
-            return start + step * np.arange(n, dtype=np.float64)
-        return np.array([float(p) for p in text.split(',') if p.strip()], dtype=np.float64)
-    except ValueError:
-        raise ValueError(f'bad range {text!r}: use start:step:stop (step > 0) or a,b,c') from None
+            n = (stop - start) / step + 1e-9
+            if not n < MAX_AXIS_NODES:
+                raise ValueError(f'more than {MAX_AXIS_NODES} nodes')
+            return start + step * np.arange(int(math.floor(n)) + 1, dtype=np.float64)
+        values = np.array([float(p) for p in text.split(',') if p.strip()], dtype=np.float64)
+        if not np.all(np.isfinite(values)) or len(values) > MAX_AXIS_NODES:
+            raise ValueError
+        return values
+    except ValueError as exc:
+        why = f' ({exc})' if str(exc) else ''
+        raise ValueError(f'bad range {text!r}{why}: use start:step:stop (step > 0) or a,b,c '
+                         'of finite numbers') from None
 
 
 def check_pulls(pulls: tuple[str, ...]) -> tuple[str, ...]:

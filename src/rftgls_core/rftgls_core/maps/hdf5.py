@@ -14,7 +14,7 @@ orientations, (Nh, Nb, N1, N2) = state axes, K = pull angles. Everything is SI.
         scaling_length_m       L_c of the scaled metric (m)
         package_version        rftgls_core.__version__ of the builder
         build_command          command line (or call) that built the file
-        provenance_json        JSON (sorted keys) of AnchorModel.describe(): robot and medium
+        provenance_json        JSON (sorted keys) of RobotPredictor.describe(): robot and medium
                                parameters, RFT model, method, n_twists, scaling
         build_time_utc         ISO time of the build; the ONLY attribute that differs between
                                two builds from the same inputs (VOLATILE_ATTRS)
@@ -69,10 +69,12 @@ from typing import Any
 import h5py
 import numpy as np
 
+from rftgls_conventions.safe_write import atomic_write
+
 from ..types import Status
 from .errors import MapFileError, MapIntegrityWarning
 from .grid import AXIS_HUMAN, AXIS_UNITS, STATE_AXES, MapGrid, check_axis
-from .shipped import SHIPPED_SHA256, maps_dir
+from .shipped import SHIPPED_SHA256, maps_dir, regular_map_file
 
 SCHEMA = 'rftgls.capacity_map'
 SCHEMA_VERSION = 2
@@ -265,7 +267,7 @@ def save_map(path: str | Path, data: MapData) -> Path:
     digest = content_sha256(g, data.capacity_N, data.slip_twist_scaled, data.slip_twist,
                             data.status, STATUS_NAMES, data.reason, reason_names, data.attrs,
                             margin, grad)
-    with h5py.File(path, 'w', track_order=True) as f:
+    with atomic_write(path) as tmp, h5py.File(tmp, 'w', track_order=True) as f:
         f.attrs['schema'] = SCHEMA
         # A map without the support margin (built in memory by older code) stays version 1.
         f.attrs['schema_version'] = SCHEMA_VERSION if margin is not None else 1
@@ -304,10 +306,29 @@ def _attr(value):
     return value
 
 
+# What one dataset may expand to in memory. A compressed (or never written, fill-valued)
+# dataset can declare any shape in a small file; the shipped maps' largest is 0.1 MB.
+MAX_DATASET_BYTES = 1 << 30
+
+
+def check_dataset_size(ds: h5py.Dataset) -> None:
+    """MapFileError when reading `ds` would take more than MAX_DATASET_BYTES of memory."""
+    if float(np.prod(ds.shape, dtype=float)) * ds.dtype.itemsize > MAX_DATASET_BYTES:
+        raise MapFileError(f'dataset {ds.name} of shape {ds.shape} would take more than '
+                           f'{MAX_DATASET_BYTES >> 20} MiB to read')
+
+
+def read_dataset(ds: h5py.Dataset) -> np.ndarray:
+    """The values of `ds`, after check_dataset_size."""
+    check_dataset_size(ds)
+    return ds[()]
+
+
 def _dataset(f: h5py.File, name: str, shape: tuple, kind: str) -> np.ndarray:
     if name not in f or not isinstance(f[name], h5py.Dataset):
         raise MapFileError(f'dataset /{name} is missing')
     ds = f[name]
+    check_dataset_size(ds)
     if ds.shape != shape:
         raise MapFileError(f'dataset /{name} has shape {ds.shape}, the axes need {shape}')
     if ds.dtype.kind not in kind:
@@ -347,7 +368,7 @@ def _read(f: h5py.File, expected_sha256: str | None = None) -> MapData:
             raise MapFileError(f'axis /{key} is missing')
         if f[key].dtype.kind != 'f':
             raise MapFileError(f'axis /{key} has dtype {f[key].dtype}, expected float')
-        values = f[key][()]
+        values = read_dataset(f[key])
         if values.ndim != 1:
             raise MapFileError(f'axis /axes/{name} must be 1-D, has shape {values.shape}')
         try:
@@ -450,9 +471,7 @@ def load_map(path: str | Path, expected_sha256: str | None = None) -> MapData:
     is always checked). A file without a stored hash loads with a MapIntegrityWarning and
     `integrity == 'unverified'` (nodes should log it loudly).
     """
-    path = Path(path)
-    if not path.is_file():
-        raise MapFileError(f'{path}: no such map file')
+    path = regular_map_file(path)
     if expected_sha256 is None:
         expected_sha256 = _shipped_hash(path)
     try:

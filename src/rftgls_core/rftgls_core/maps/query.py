@@ -274,10 +274,6 @@ class CapacityMap:
         return CapacityResult(phi=phi, status=Status.INVALID_INPUT, method=METHOD,
                               reason=reason, detail=detail)
 
-    def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
-        """`query` under AnchorModel's name, so a map can stand wherever a predictor does."""
-        return self.query(state, phi, pull)
-
     def query(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
         """Capacity (N) along d(phi) and slip twist at `state` (SI), pull angle phi (rad)."""
         p = self._pull_index.get(pull.value if isinstance(pull, Pull) else str(pull))

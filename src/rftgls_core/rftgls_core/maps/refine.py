@@ -16,7 +16,7 @@ import numpy as np
 from tqdm import tqdm
 
 from ..types import AnchorState
-from .accuracy import reference_model
+from .accuracy import reference_predictor
 from .grid import STATE_AXES, MapGrid
 from .query import CapacityMap
 
@@ -33,7 +33,7 @@ class IntervalError:
 
 def interval_errors(cmap: CapacityMap, samples: int = 6, seed: int = 0,
                     reference: str = 'direct', progress: bool = False) -> list[IntervalError]:
-    model, _ = reference_model(cmap, reference)
+    predictor, _ = reference_predictor(cmap, reference)
     rng = np.random.default_rng(seed)
     axes = [getattr(cmap.grid, a) for a in STATE_AXES]
     lo = np.array([a[0] for a in axes])
@@ -50,7 +50,7 @@ def interval_errors(cmap: CapacityMap, samples: int = 6, seed: int = 0,
             state = AnchorState(*map(float, s))
             pull = cmap.pulls[rng.integers(len(cmap.pulls))]
             phi = float(phis[rng.integers(len(phis))])
-            r = model.predict(state, phi, pull)
+            r = predictor.predict(state, phi, pull)
             m = cmap.query(state, phi, pull)
             if r.ok != m.ok:
                 mismatched += 1

@@ -83,10 +83,17 @@ def resolve_map(spec: str | os.PathLike | None = None, robot: str | None = None)
             raise MapFileError(f'shipped map {path} not found (set RFTGLS_MAPS_DIR to the '
                                f'folder that holds {name})')
         return path
-    path = Path(text).expanduser()
-    if not path.is_file():
-        raise MapFileError(f'{text}: no such map file')
-    return path
+    return regular_map_file(Path(text).expanduser())
+
+
+def regular_map_file(path: str | os.PathLike) -> Path:
+    """path when it is a regular file within the map size limit (safe_read); MapFileError
+    (one line) otherwise: a FIFO or device would hang or flood the HDF5 reader."""
+    from rftgls_conventions.safe_read import InputFileError, check_regular
+    try:
+        return check_regular(path, 'map', 'map file')
+    except InputFileError as exc:
+        raise MapFileError(str(exc)) from None
 
 
 def shipped_map_path(robot: str) -> Path:

@@ -8,7 +8,7 @@ spatial (vx, vy, vz, wx, wy, wz) in m/s and rad/s, or planar (vx, vz, wy) for sa
 motion. Wrenches about `ref`: spatial (Fx, Fy, Fz, Mx, My, Mz) in N and N m, planar
 (Fx, Fz, My).
 
-"Model no more than the scene needs": facets above the surface are dropped once, when the
+"Model no more than the anchor needs": facets above the surface are dropped once, when the
 body is bound (they carry no force whatever the twist); for planar twists a body symmetric
 about a sagittal plane y = y0 is evaluated on one half with doubled weights, because mirror
 facets give equal (Fx, Fz, My) and opposite (Fy, Mx, Mz).

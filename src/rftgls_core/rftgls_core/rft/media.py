@@ -6,8 +6,8 @@ quotes N/cm^3 = 1e6 N/m^3). Values and their sources: docs/design/models-rft.md.
 """
 from __future__ import annotations
 
-import json
 import math
+import os
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
@@ -109,26 +109,35 @@ def custom_medium(xi_n: float | None = None, mu_surf: float | None = None,
                   zeta=float(zeta))
 
 
-def medium_from_dict(d: dict) -> Medium:
+def medium_from_dict(d: object) -> Medium:
     """A Medium from a dict with its field names (extra keys, e.g. confidence intervals of a
-    calibration, are ignored)."""
+    calibration, are ignored), its parameters inside their physical ranges (quantities.py:
+    a file, a bag or a parameter is input, not a search value)."""
+    from ..quantities import MU_SURF, XI_N, ZETA
     if not isinstance(d, dict):
         raise MediumError(f'a medium description is a JSON object, got {type(d).__name__}')
     names = {f.name for f in fields(Medium)}
     missing = {'name', 'xi_n', 'mu_surf', 'zeta'} - set(d)
     if missing:
         raise MediumError(f'medium description lacks {", ".join(sorted(missing))}')
-    return Medium(**{k: d[k] for k in names if k in d})
+    medium = Medium(**{k: d[k] for k in names if k in d})
+    for q, value in ((XI_N, medium.xi_n), (MU_SURF, medium.mu_surf), (ZETA, medium.zeta)):
+        problem = q.violation(value)
+        if problem:
+            raise MediumError(f'medium {medium.name!r}: {problem}')
+    return medium
 
 
 def load_medium(spec: str) -> Medium:
     """A preset name, or a medium JSON file (as `rftgls calibrate` writes)."""
+    from rftgls_conventions.safe_read import load_json
     path = Path(spec)
-    if path.suffix == '.json' or path.is_file():
+    preset = spec.strip().lower().replace('-', '_').replace(' ', '_') in PRESETS
+    if path.suffix == '.json' or (os.path.lexists(path) and not preset):
         try:
-            data = json.loads(path.read_text())
-        except (OSError, UnicodeDecodeError, ValueError) as exc:
-            raise MediumError(f'cannot read medium file {spec}: {exc}') from None
+            data = load_json(path, 'medium', 'medium file')
+        except ValueError as exc:
+            raise MediumError(str(exc)) from None
         try:
             return medium_from_dict(data)
         except MediumError as exc:

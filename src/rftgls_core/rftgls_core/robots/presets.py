@@ -14,7 +14,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 from ..geometry.shapes import c_leg
-from .model import RobotModel
+from .robot import Robot
 
 LEG_ARC_DIAMETER = 0.090   # m, paper
 LEG_THICKNESS = 0.005      # m, paper
@@ -34,22 +34,22 @@ _ASSUMED = {'leg_width_m': 'assumed', 'axle_z_m': 'assumed', 'leg_y_m': 'assumed
 
 
 def _robot(name: str, mass: float, axles: tuple[float, float], leg_y: tuple[float, float],
-           plate_length: float, n_arc: int, notes: dict[str, str]) -> RobotModel:
+           plate_length: float, n_arc: int, notes: dict[str, str]) -> Robot:
     """A robot of the paper's layout: mass kg, axles x (m from p), the same C-legs at
     AXLE_HEIGHT, centre of mass midway between the axles, L_c = 0.1 m."""
-    return RobotModel(
+    return Robot(
         name=name, mass=mass, com=(0.5 * sum(axles), AXLE_HEIGHT), axle_x=axles,
         axle_z=AXLE_HEIGHT, leg_y=leg_y, leg_mesh=_leg(n_arc), plate_length=plate_length,
         char_length=0.1, notes={**notes, **_ASSUMED})
 
 
 @lru_cache(maxsize=16)
-def prototype(n_arc: int = LEG_ARC_SEGMENTS) -> RobotModel:
+def prototype(n_arc: int = LEG_ARC_SEGMENTS) -> Robot:
     return _robot('prototype', 0.120, (0.050, 0.120), (0.040, 0.055), 0.140, n_arc, {})
 
 
 @lru_cache(maxsize=16)
-def minirquad(n_arc: int = LEG_ARC_SEGMENTS) -> RobotModel:
+def minirquad(n_arc: int = LEG_ARC_SEGMENTS) -> Robot:
     return _robot('minirquad', 0.296, (0.030, 0.120), (0.045, 0.055), 0.150, n_arc,
                   {'proximal_axle_x_m': 'assumed (wheelbase 0.090 m from the paper)'})
 
@@ -57,7 +57,7 @@ def minirquad(n_arc: int = LEG_ARC_SEGMENTS) -> RobotModel:
 ROBOTS = {'prototype': prototype, 'minirquad': minirquad}
 
 
-def get_robot(name: str, n_arc: int = LEG_ARC_SEGMENTS) -> RobotModel:
+def get_robot(name: str, n_arc: int = LEG_ARC_SEGMENTS) -> Robot:
     key = name.strip().lower()
     if key not in ROBOTS:
         raise ValueError(f'unknown robot {name!r}; known robots: {", ".join(sorted(ROBOTS))}')

@@ -7,7 +7,7 @@ the height of p above the free surface (m) and theta_b the angle of x_B above th
 answers `predict(state, phi, pull)` with a sagittal CapacityResult can then drive the existing
 quasi-static trajectory integrator (sim/trajectory.py) unchanged.
 
-The body must be mirror-symmetric about its x_B-z_B plane (checked per pose by the scene: an
+The body must be mirror-symmetric about its x_B-z_B plane (checked per pose by PosedAnchorSolver: an
 asymmetric body answers through the 6D path, whose out-of-plane slip a sagittal trajectory
 cannot follow; such a pose is reported `invalid_input`, reason `not_sagittal`).
 """
@@ -19,7 +19,7 @@ import numpy as np
 
 from ..body import RigidBody
 from ..geometry.transforms import rot_y
-from ..scene import Scene, SceneModel
+from ..posed import PosedAnchor, PosedAnchorSolver
 from ..surfaces.base import CapacityResult
 from ..types import AnchorState, Pull, Status
 
@@ -30,10 +30,10 @@ class BodyAnchor:
 
     body: RigidBody
 
-    def scene(self, state: AnchorState) -> Scene:
+    def pose(self, state: AnchorState) -> PosedAnchor:
         # rot_y(-thetaB): x_B tilts up for positive thetaB, as for the robots.
         pitch = -state.theta_b
-        return self.body.scene((0.0, 0.0, state.h), (0.0, pitch, 0.0), (0.0, 0.0, state.h))
+        return self.body.pose((0.0, 0.0, state.h), (0.0, pitch, 0.0), (0.0, 0.0, state.h))
 
     def top_z(self, state: AnchorState) -> float:
         """Highest point of the posed body, m."""
@@ -46,13 +46,13 @@ class BodyPredictor:
     the planar slip twist (vx, vz, wy) of the sagittal path. `pull` is ignored (a rigid body
     has no leg orientation)."""
 
-    def __init__(self, anchor: BodyAnchor, model: SceneModel):
+    def __init__(self, anchor: BodyAnchor, solver: PosedAnchorSolver):
         self.anchor = anchor
-        self.model = model
+        self.solver = solver
 
     def predict(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD
                 ) -> CapacityResult:
-        r = self.model.predict(self.anchor.scene(state), phi, 0.0)
+        r = self.solver.solve(self.anchor.pose(state), phi, 0.0)
         if r.status.has_value and r.space != 'sagittal':
             return CapacityResult(phi=phi, status=Status.INVALID_INPUT, method=r.method,
                                   reason='not_sagittal',

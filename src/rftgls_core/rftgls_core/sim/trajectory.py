@@ -16,18 +16,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol
 
 import numpy as np
 
+from ..predictor.protocol import Predictor
 from ..surfaces.base import CapacityResult
 from ..types import AnchorState, Pull
 
 MAX_TURN_PER_STEP = math.radians(1.0)   # rad per step when p hardly translates
-
-
-class Predictor(Protocol):
-    def predict(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult: ...
 
 
 @dataclass(frozen=True)

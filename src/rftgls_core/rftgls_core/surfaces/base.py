@@ -88,8 +88,13 @@ class CapacityResult:
     """Load capacity along d(phi) and the slip twist at the first exit.
 
     capacity_N: first-exit distance along d(phi), N; None unless status.has_value.
-    slip_twist: raw (vx, vz, wy) direction with unit Euclidean norm (see Scaling.twist_from_scaled).
-    slip_twist_scaled: the same twist as a unit vector of the scaled metric (compare these).
+    slip_twist: the slip twist, in the one meaning it has across the stack: the direction
+        (vx, vz, wy) the tether point p slips in, world axes at p, m/s, m/s, rad/s, scaled to
+        unit Euclidean norm (RFT is rate independent: only the direction is known;
+        Scaling.twist_from_scaled). The slip trajectories, capacity_node's estimate, diagnostics
+        and query service and the `rftgls capacity` JSON carry it as it is.
+    slip_twist_scaled: the same direction as a unit vector of the scaled metric (vx, vz,
+        wy L_c) (compare these: the angle between two of them means the same at any L_c).
     n_hits: distinct crossings of the ray with the surface (direct: roots found); -1 unknown.
     reason: short machine-greppable cause when status is not ok ('' when ok).
     detail: human-readable diagnostics (hits, folds, fit residuals ...).

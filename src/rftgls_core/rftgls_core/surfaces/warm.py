@@ -39,8 +39,7 @@ Anything else falls back to the cold solve, which becomes the next anchor when i
 from __future__ import annotations
 
 import math
-import time
-from collections import Counter, deque
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -625,65 +624,6 @@ def _clearance(ws: np.ndarray, faces: np.ndarray, point: np.ndarray,
     out = np.where(ok, np.maximum(lower, 0.0), np.inf)
     out[cand] = triangle_distances(ws, faces[cand], point)
     return out
-
-
-class WarmAnchorModel:
-    """The live predictor of a streaming robot: `predict(state, phi, pull)` like
-    rftgls_core.anchor.AnchorModel with method 'direct', answered by a WarmDirect per pull.
-
-    Keeps the solver time of the last `window` calls (`stats()`: median and p99 in us, the
-    fallback rate) for diagnostics.
-    """
-
-    def __init__(self, robot, medium, model: str = 'agarwal', n_twists: int | None = None,
-                 backend: str = 'auto', window: int = 1000, **warm_options) -> None:
-        from ..anchor import AnchorModel  # anchor imports surfaces: import on use
-        self.model = AnchorModel(robot, medium, model=model, method='direct',
-                                 n_twists=n_twists, backend=backend)
-        self.warm_options = dict(warm_options)
-        self.solvers: dict[str, WarmDirect] = {}
-        self.times_s: deque[float] = deque(maxlen=int(window))
-        self.name = 'direct-warm'
-
-    def solver(self, pull) -> WarmDirect:
-        key = str(getattr(pull, 'value', pull))
-        if key not in self.solvers:
-            self.solvers[key] = WarmDirect(self.model.n_twists, **self.warm_options)
-        return self.solvers[key]
-
-    def predict(self, state, phi: float, pull) -> CapacityResult:
-        t0 = time.perf_counter()
-        try:
-            return self._predict(state, phi, pull)
-        finally:
-            self.times_s.append(time.perf_counter() - t0)
-
-    def _predict(self, state, phi: float, pull) -> CapacityResult:
-        from ..types import AnchorState
-        m = self.model
-        solver = self.solver(pull)
-        if not isinstance(state, AnchorState) or not state.is_finite():
-            solver.forget()
-            return m.predict(state, phi, pull)     # the model's own invalid_state answer
-        if m.robot.state_range.violations(state):
-            solver.forget()
-            return m.predict(state, phi, pull)
-        anchor = m.pose(state, pull)
-        if anchor.body.facets_active == 0:
-            solver.forget()
-            return m.predict(state, phi, pull)
-        return solver.solve(anchor.problem, phi)
-
-    def stats(self) -> dict[str, float]:
-        """solve_us_median, solve_us_p99 over the window; steps and fallback_rate in all."""
-        steps = sum(s.n_steps_ for s in self.solvers.values())
-        falls = sum(s.n_fallbacks_ for s in self.solvers.values())
-        ts = np.sort(np.asarray(self.times_s)) * 1e6
-        return {'solve_us_median': float(np.median(ts)) if len(ts) else math.nan,
-                'solve_us_p99': float(ts[min(len(ts) - 1, int(math.ceil(0.99 * len(ts))) - 1)])
-                if len(ts) else math.nan,
-                'steps': float(steps),
-                'fallback_rate': falls / steps if steps else math.nan}
 
 
 # -- small scalar kernels of a warm step (numba when installed; the numpy versions above are the

@@ -9,9 +9,14 @@ the paper used an ArUco marker), sled_distance_m the tether reeled in while taut
 from __future__ import annotations
 
 import csv
+import io
 import math
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
+
+from rftgls_conventions.safe_read import read_text
+from rftgls_conventions.safe_write import write_text
+from rftgls_core.charts.figure_io import save
 
 
 @dataclass
@@ -48,7 +53,7 @@ class CycleRecord:
 
 def read_csv(path: str | Path) -> list[CycleRecord]:
     out = []
-    with open(path, newline='') as f:
+    with io.StringIO(read_text(path, 'report', 'cycle report'), newline='') as f:
         for row in csv.DictReader(f):
             kw = {}
             for fl in fields(CycleRecord):
@@ -66,12 +71,13 @@ def write_report(records: list[CycleRecord], out_dir: str | Path,
     out.mkdir(parents=True, exist_ok=True)
     csv_path, png_path = out / f'{stem}.csv', out / f'{stem}.png'
     names = [f.name for f in fields(CycleRecord)]
-    with open(csv_path, 'w', newline='') as f:
+    with io.StringIO(newline='') as f:
         w = csv.DictWriter(f, fieldnames=names)
         w.writeheader()
         for r in records:
             w.writerow({k: (f'{v:.4f}' if isinstance(v, float) else v)
                         for k, v in asdict(r).items()})
+        write_text(csv_path, f.getvalue())     # atomic; a planted link is replaced
     plot_report(records, png_path)
     return csv_path, png_path
 
@@ -118,9 +124,7 @@ def plot_report(records: list[CycleRecord], path: str | Path) -> None:
             ax_e.annotate('X: anchor stopped / refused', xy=(0.98, 0.02),
                           xycoords='axes fraction', ha='right', color='red', fontsize=8)
     fig.suptitle('MiniRQuad walk-burrow-tug cycles (energy per phase, cf. paper Fig. 12)')
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)     # layout, atomic write, free
 
 
 def merged(*groups: list[CycleRecord]) -> list[CycleRecord]:

@@ -10,11 +10,13 @@ samples as CSV. The demo writes both next to the cycle report (``<stem>_tug.png/
 from __future__ import annotations
 
 import csv
+import io
 import math
 from collections import deque
 from dataclasses import astuple, dataclass, fields
 from pathlib import Path
 
+from rftgls_conventions.safe_write import write_text
 from rftgls_core.charts.figure_io import save
 
 USABLE = ('ok', 'assumed')
@@ -115,10 +117,11 @@ def write_tug_series(series: TugSeries, out_dir: str | Path, stem: str,
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     csv_path = out / f'{stem}_tug.csv'
-    with csv_path.open('w', newline='') as f:
+    with io.StringIO(newline='') as f:
         w = csv.writer(f)
         w.writerow([fl.name for fl in fields(TugSample)])
         w.writerows(astuple(s) for s in series.samples)
+        write_text(csv_path, f.getvalue())     # atomic; a planted link is replaced
     png = plot_tug_series(series.samples, out / f'{stem}_tug.png', slow_ratio, stop_ratio,
                           title)
     return csv_path, png

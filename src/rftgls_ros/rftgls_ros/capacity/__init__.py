@@ -1,10 +1,12 @@
-"""ROS-free parts of capacity_node: predictors, the estimator, and message-free conversions.
+"""ROS-free parts of capacity_node: its predictor from its parameters, the estimator, and
+message-free conversions.
 
 Nothing in this sub-package imports rclpy, so tests (and other tools) can drive it directly.
 """
-from .estimator import INPUTS, CapacityEstimator, Estimate, EstimatorConfig
-from .predictor import ConfigError, LivePredictor, MapPredictor, Predictor, predictor_from_params
+from rftgls_node_base.parameters import ConfigError
 
-__all__ = ['CapacityEstimator', 'ConfigError', 'Estimate', 'EstimatorConfig', 'INPUTS',
-           'LivePredictor', 'MapPredictor', 'Predictor',
-           'predictor_from_params']
+from .estimator import INPUTS, CapacityEstimator, Estimate, EstimatorConfig
+from .node_predictor import DEFAULT_MAP, node_predictor
+
+__all__ = ['CapacityEstimator', 'ConfigError', 'DEFAULT_MAP', 'Estimate', 'EstimatorConfig',
+           'INPUTS', 'node_predictor']

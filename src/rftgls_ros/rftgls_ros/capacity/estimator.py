@@ -30,12 +30,12 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from rftgls_conventions import LEG_KEYS, axle_angles, tether_direction_xz, wrap_angle
+from rftgls_core.predictor import Predictor, predictor_name
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull, Status
 from rftgls_core.uncertainty import capacity_lower_bound
 from rftgls_node_base.diagnostics import DiagStatus
-
-from .predictor import ConfigError, Predictor, predictor_name
+from rftgls_node_base.parameters import ConfigError
 
 JOINTS = LEG_KEYS  # leg angle keys, rftgls_conventions
 # Input names, as used for timeouts and in stale/invalid reasons.
@@ -139,7 +139,7 @@ class Sample:
 
 @dataclass(frozen=True)
 class Estimate:
-    """One prediction. capacity_N, margin_N and slip_twist_raw are None unless `has_value`,
+    """One prediction. capacity_N, margin_N and slip_twist are None unless `has_value`,
     except `unsupported`, which reports capacity_N = 0 and margin_N = -tension_N.
 
     capacity_N: load capacity along the tether direction d(phi), N.
@@ -147,9 +147,10 @@ class Estimate:
         (config.lower_bound_level) and, with assumed inputs, the smallest capacity over their
         assumed range; None when neither applies or without a value.
     margin_N: capacity_N - tension_N, N (negative: the anchor is predicted to slip).
-    slip_twist_raw: unit direction (vx, vz, wy) of the predicted slip at p in world axes
-        (m/s, m/s, rad/s per unit; RFT is rate independent so only the direction is known);
-        given whenever there is a value, `slipping` says whether the tension exceeds capacity.
+    slip_twist: the predictor's slip twist (rftgls_core CapacityResult.slip_twist): the
+        direction (vx, vz, wy) of p's slip, world axes at p, m/s, m/s, rad/s, unit Euclidean
+        norm (RFT is rate independent so only the direction is known); given whenever there
+        is a value, `slipping` says whether the tension exceeds capacity.
     state, phi_rad, tension_N: the inputs used (None when missing or not finite).
     assumed: inputs taken from parameters instead of measurements ('height', 'phi').
     stale: inputs that are stale or were never received.
@@ -164,7 +165,7 @@ class Estimate:
     capacity_lower_N: float | None = None
     tension_N: float | None = None
     margin_N: float | None = None
-    slip_twist_raw: tuple[float, float, float] | None = None
+    slip_twist: tuple[float, float, float] | None = None
     slipping: bool = False
     state: AnchorState | None = None
     phi_rad: float | None = None
@@ -204,8 +205,8 @@ class Outputs:
         NaN without a value (the message's y component carries the 'no value' mark too).
     publish_lower: whether ~/capacity_lower is published (a lower bound is configured or an
         input is assumed).
-    slip_twist: (vx m/s, vz m/s, wy rad/s) unit direction; NaN without a value; zero when
-        the anchor holds (tension below capacity: the predicted motion is zero).
+    slip_twist: the estimate's slip twist (vx, vz, wy) while the anchor slips (tension above
+        capacity); zero while it holds (the predicted motion is zero); NaN without a value.
     """
 
     status: str
@@ -343,16 +344,16 @@ class CapacityEstimator:
                 + (f';{result.reason}' if result.reason else '')
         return Estimate(now, status, reason, result.detail,
                         capacity_N=result.capacity_N, capacity_lower_N=lower, margin_N=margin,
-                        slip_twist_raw=result.slip_twist, slipping=margin < 0.0, result=result,
+                        slip_twist=result.slip_twist, slipping=margin < 0.0, result=result,
                         **{**common, 'tension_N': tension})
 
     def outputs(self, est: Estimate) -> Outputs:
         """The output policy for `est` (see Outputs)."""
         d = tether_direction_xz(est.phi_rad if est.phi_rad is not None else NAN)
-        if est.slip_twist_raw is None:
+        if est.slip_twist is None:
             twist = (NAN, NAN, NAN)
         elif est.slipping:
-            twist = est.slip_twist_raw
+            twist = est.slip_twist
         else:  # the anchor holds: predicted motion is zero
             twist = (0.0, 0.0, 0.0)
         return Outputs(str(est.status), _along(est.capacity_N, d),
@@ -373,8 +374,8 @@ class CapacityEstimator:
         if est.warnings:
             message += ' [' + ', '.join(est.warnings) + ']'
         st = est.state
-        twist = ('nan' if est.slip_twist_raw is None
-                 else ' '.join(f'{x:.4g}' for x in est.slip_twist_raw))
+        twist = ('nan' if est.slip_twist is None
+                 else ' '.join(f'{x:.4g}' for x in est.slip_twist))
         values = {
             'status': str(est.status), 'detail': est.detail,
             'capacity_N': _fmt(est.capacity_N), 'capacity_lower_N': _fmt(est.capacity_lower_N),
@@ -386,8 +387,7 @@ class CapacityEstimator:
             'theta_l2_rad': _fmt(st.theta_l2 if st else None),
             'leg_spread_rad': ('nan' if est.leg_spread_rad is None
                                else ' '.join(f'{x:.4g}' for x in est.leg_spread_rad)),
-            'slip_twist_raw': twist,
-            'slip_twist': twist,   # deprecated: old key of slip_twist_raw, kept one release
+            'slip_twist': twist,
             'assumed_inputs': ','.join(est.assumed), 'stale_inputs': ','.join(est.stale),
             'reason': est.reason,
             'predictor': est.predictor, 'pull': str(self.pull),

@@ -15,9 +15,10 @@ from dataclasses import dataclass
 from typing import Any
 
 from rftgls_conventions import LEG_JOINT_NAMES, LEG_KEYS
+from rftgls_node_base.parameters import ConfigError
 
 from .estimator import DEFAULT_TIMEOUTS_S, EstimatorConfig
-from .predictor import DEFAULT_MAP, ConfigError
+from .node_predictor import DEFAULT_MAP
 
 TRIGGERS = ('joint_states', 'pitch', 'tension', 'height', 'phi')
 TENSION_AXES = ('x', 'y', 'z', 'tether')
@@ -41,8 +42,9 @@ PARAMETERS: dict[str, Param] = {
     'map_file': Param(DEFAULT_MAP, "HDF5 capacity map; '' = live computation with live_method"),
     'live_method': Param('direct-warm', 'live solver when map_file is empty (direct-warm: '
                          "the cold direct's answers, warm-started per message)"),
-    'live_n_twists': Param(0, 'twists of the live solver; 0 = rftgls_core.anchor.'
-                           'DEFAULT_TWISTS (1000) for every method, direct included', 0, 10**6),
+    'live_n_twists': Param(0, 'twists of the live solver; 0 = DEFAULT_TWISTS (1000, rftgls_core'
+                           '.surfaces.registry) for every surface method, direct included; '
+                           'direct-warm keeps its own (400)', 0, 10**6),
     'out_of_range_live_method': Param('', "live solver answering off-grid states; '' = none"),
     'edge_live_method': Param('direct-warm', "live solver re-answering the map's edge-margin "
                               "answers next to the support edge (its interpolated margin can "
@@ -57,7 +59,7 @@ PARAMETERS: dict[str, Param] = {
     'pull': Param('backward', "C-leg orientation to the pull: 'forward' or 'backward'"),
     # input topics (relative names: namespaces and remapping apply)
     'joint_states_topic': Param('joint_states', 'sensor_msgs/JointState topic'),
-    'imu_topic': Param('imu', 'sensor_msgs/Imu topic (orientation -> theta_B)'),
+    'imu_topic': Param('imu/data', 'sensor_msgs/Imu topic (REP-145; orientation -> theta_B)'),
     'pitch_topic': Param('', "std_msgs/Float64 theta_B in rad; replaces the IMU if set"),
     'tension_topic': Param('winch/tension', 'geometry_msgs/WrenchStamped tension topic'),
     'tension_component': Param('x', "signed tension: load cell axis 'x', 'y', 'z', or "

@@ -4,6 +4,7 @@ One idea per module; every module except `replay` is ROS-free (rosbags is pure P
 the lab tools run on any machine with the venv and no ROS install:
 
     bag_layout     topics, types, frames and metadata of one pull test; write/read (rosbags)
+    bag_files      a bag as untrusted input: its files checked before rosbags opens them
     planar         SE(2) helpers of the sagittal plane (world x, z, pitch thetaB)
     render         synthetic marker images at known poses (pinhole camera, noise, blur)
     aruco_tracking video / image folder + camera calibration -> planar track of p in a bag

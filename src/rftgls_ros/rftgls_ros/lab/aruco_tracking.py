@@ -17,9 +17,9 @@ CLI:
 """
 from __future__ import annotations
 
-import argparse
 import json
 import math
+import os
 import sys
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, replace
@@ -27,6 +27,11 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+
+from rftgls_conventions.safe_read import check_folder, check_regular, read_text
+from rftgls_core.cli.main import RftglsParser, cli_contract
+from rftgls_core.quantities import FRAME_RATE_HZ
+from rftgls_node_base.node_main import program_args
 
 from . import planar
 from .bag_layout import (
@@ -39,7 +44,7 @@ from .bag_layout import (
     read_pull_test,
     write_pull_test,
 )
-from .render import aruco_dictionary, object_corners
+from .render import aruco_dictionary, object_corners, require_aruco
 
 
 @dataclass(frozen=True)
@@ -74,6 +79,7 @@ class ArucoTracker:
                  config: TrackerConfig = TrackerConfig()):
         self.camera = camera
         self.markers = markers
+        require_aruco()           # one clear line on an OpenCV without the detector API
         params = cv2.aruco.DetectorParameters()
         params.cornerRefinementMethod = getattr(cv2.aruco,
                                                 f'CORNER_REFINE_{config.corner_refinement}')
@@ -161,19 +167,27 @@ IMAGE_SUFFIXES = ('.png', '.jpg', '.jpeg', '.bmp', '.tif', '.tiff', '.pgm')
 
 def image_folder_frames(folder: str | Path, fps: float) -> Iterator[tuple[float, np.ndarray]]:
     """Sorted image files. Times from `timestamps.csv` (file,t_s per line) when present, else
-    index / fps. Use capture times: processing times would skew the track."""
-    folder = Path(folder)
+    index / fps. Use capture times: processing times would skew the track. The folder and
+    every file are checked now (safe_read), the frames read as they are iterated."""
+    folder = check_folder(folder, 'folder of frames')
     files = sorted(f for f in folder.iterdir() if f.suffix.lower() in IMAGE_SUFFIXES)
+    for f in files:     # every frame a regular file within the size limit, before any work
+        check_regular(f, 'image', 'camera frame')
     stamps = {}
     csv = folder / 'timestamps.csv'
-    if csv.exists():
-        for line in csv.read_text().splitlines():
+    if os.path.lexists(csv):
+        for line in read_text(csv, 'csv', 'frame time stamps').splitlines():
             parts = line.strip().split(',')
             if len(parts) == 2 and parts[0] and not parts[0].startswith('#'):
                 try:
                     stamps[parts[0]] = float(parts[1])
                 except ValueError:
                     continue       # header line
+    return _image_frames(files, stamps, fps)
+
+
+def _image_frames(files: list[Path], stamps: dict[str, float], fps: float
+                  ) -> Iterator[tuple[float, np.ndarray]]:
     for i, f in enumerate(files):
         img = cv2.imread(str(f), cv2.IMREAD_GRAYSCALE)
         if img is None:
@@ -182,10 +196,15 @@ def image_folder_frames(folder: str | Path, fps: float) -> Iterator[tuple[float,
 
 
 def video_frames(path: str | Path) -> Iterator[tuple[float, np.ndarray]]:
-    """Frames of a video file with the container's timestamps (s)."""
-    cap = cv2.VideoCapture(str(path))
+    """Frames of a video file with the container's timestamps (s); the file is checked
+    (safe_read) and opened now, the frames read as they are iterated."""
+    cap = cv2.VideoCapture(str(check_regular(path, 'video', 'video')))
     if not cap.isOpened():
         raise ValueError(f'cannot open video {path}')
+    return _video_frames(cap)
+
+
+def _video_frames(cap) -> Iterator[tuple[float, np.ndarray]]:
     try:
         while True:
             ok, frame = cap.read()
@@ -217,13 +236,15 @@ def track_into_bag(frames: Iterable[tuple[float, np.ndarray]], camera: CameraCal
     return test
 
 
+@cli_contract('aruco_tracking')
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog='python -m rftgls_ros.lab.aruco_tracking',
+    ap = RftglsParser(prog='python -m rftgls_ros.lab.aruco_tracking',
                                  description='ArUco frames -> planar track of p in a pull-test bag')
     src = ap.add_mutually_exclusive_group(required=True)
     src.add_argument('--images', help='folder of frames (optional timestamps.csv: file,t_s)')
     src.add_argument('--video', help='video file')
-    ap.add_argument('--fps', type=float, default=30.0, help='image-folder rate without timestamps')
+    ap.add_argument('--fps', type=FRAME_RATE_HZ.arg, default=30.0,
+                    help='image-folder rate without timestamps')
     ap.add_argument('--camera', required=True,
                     help='camera JSON {width, height, K: 3x3 px, dist: [k1 k2 p1 p2 k3]}')
     base = ap.add_mutually_exclusive_group(required=True)
@@ -231,13 +252,16 @@ def main(argv: list[str] | None = None) -> int:
     base.add_argument('--meta', help='PullTestMeta JSON for a new bag (see lab_README.md)')
     ap.add_argument('--out', required=True, help='output bag directory (must not exist)')
     ap.add_argument('--storage', choices=['mcap', 'sqlite3'], default='mcap')
-    args = ap.parse_args(argv)
+    args = ap.parse_args(program_args(argv, ap.prog))
     try:
+        if os.path.lexists(args.out) and not os.path.islink(args.out):
+            raise ValueError(f'--out {args.out}: already exists; give a new bag folder')
         camera = CameraCalibration.load(args.camera)
         frames = (image_folder_frames(args.images, args.fps) if args.images
                   else video_frames(args.video))
         basetest = read_pull_test(args.bag_in) if args.bag_in else None
-        meta = PullTestMeta.from_json(Path(args.meta).read_text()) if args.meta else None
+        meta = (PullTestMeta.from_json(read_text(args.meta, 'calibration', 'test metadata'),
+                                       args.meta) if args.meta else None)
         test = track_into_bag(frames, camera, args.out, base=basetest, meta=meta,
                               storage=args.storage)
     except (ValueError, OSError, KeyError, json.JSONDecodeError) as exc:

@@ -38,10 +38,13 @@ from rftgls_conventions import (
     tether_direction_xz,
     tether_phi_from_xz,
 )
+from rftgls_conventions.safe_read import load_json, parse_json
+from rftgls_conventions.safe_write import atomic_write
 from rftgls_core.geometry.transforms import matrix_to_quat
 from rftgls_core.types import AnchorState
 
 from . import planar
+from .bag_files import BagError, guard_bag_read
 
 SCHEMA = 'rftgls_lab.pull_test'
 SCHEMA_VERSION = 1
@@ -107,11 +110,6 @@ def offered_qos(topic: str) -> list:
                 zero, zero, QosLiveliness.AUTOMATIC, zero, False)]
 
 
-class BagError(ValueError):
-    """A bag that cannot be used as a lab pull test: missing, not rosbag2, truncated or
-    corrupt, a topic with an unexpected type, or malformed metadata. One line."""
-
-
 def _typestore():
     from rosbags.typesys import Stores, get_typestore
     return get_typestore(Stores.ROS2_JAZZY)
@@ -124,24 +122,6 @@ def _check_types(path, connections) -> None:
         if want is not None and c.msgtype != want:
             raise BagError(f'{path}: topic {c.topic} has type {c.msgtype!r}, the lab layout '
                            f'says {want!r}')
-
-
-def guard_bag_read(path, read):
-    """Run read() on a bag, turning every failure of the bag's bytes into one BagError.
-
-    rosbags, mcap and CDR decoding raise their own types (ReaderError, struct.error,
-    KeyError, IndexError, UnicodeDecodeError, ...) on truncated or hostile files; a bag is
-    untrusted input, so all of them mean the same thing to the caller.
-    """
-    if not Path(path).exists():
-        raise BagError(f'{path}: no such bag (a rosbag2 folder or .mcap file)')
-    try:
-        return read()
-    except BagError:
-        raise
-    except Exception as exc:  # noqa: BLE001 -- see docstring
-        raise BagError(f'{path}: not a readable rosbag2 pull-test bag '
-                       f'({type(exc).__name__}: {one_line(exc)})') from None
 
 
 @dataclass(frozen=True)
@@ -188,10 +168,22 @@ class CameraCalibration:
 
     @classmethod
     def load(cls, path: str | Path) -> 'CameraCalibration':
-        """JSON {width, height, K: 3x3, dist: [...]} (the same keys this class writes)."""
-        d = json.loads(Path(path).read_text())
-        return cls(int(d['width']), int(d['height']), tuple(tuple(map(float, r)) for r in d['K']),
-                   tuple(map(float, d.get('dist', (0.0,) * 5))))
+        """JSON {width, height, K: 3x3, dist: [...]} (the same keys this class writes);
+        ValueError (one line) for anything else."""
+        d = load_json(path, 'calibration', 'camera calibration')
+        try:
+            cam = cls(int(d['width']), int(d['height']),
+                      tuple(tuple(map(float, r)) for r in d['K']),
+                      tuple(map(float, d.get('dist', (0.0,) * 5))))
+            ok = (cam.K_array.shape == (3, 3) and np.all(np.isfinite(cam.K_array))
+                  and np.all(np.isfinite(cam.dist_array)) and 0 < cam.width <= 100_000
+                  and 0 < cam.height <= 100_000)
+        except (KeyError, TypeError, ValueError, AttributeError):
+            ok = False
+        if not ok:
+            raise ValueError(f'{path}: not a camera calibration (want width, height, K: 3x3 '
+                             'finite numbers, dist)')
+        return cam
 
 
 @dataclass(frozen=True)
@@ -224,8 +216,20 @@ class PullTestMeta:
         return json.dumps(d, allow_nan=False, sort_keys=True)
 
     @classmethod
-    def from_json(cls, text: str) -> 'PullTestMeta':
-        d = json.loads(text)
+    def from_json(cls, text: str, source: object = 'metadata') -> 'PullTestMeta':
+        """The metadata of a JSON text; ValueError (one line) for anything that is not a
+        pull-test metadata document of this schema (a field missing or of the wrong type)."""
+        d = parse_json(text, source)
+        try:
+            return cls._from_dict(d)
+        except (KeyError, TypeError, AttributeError, IndexError) as exc:
+            raise ValueError(f'{source}: not a {SCHEMA} document ({type(exc).__name__}: '
+                             f'{one_line(exc)})') from None
+
+    @classmethod
+    def _from_dict(cls, d) -> 'PullTestMeta':
+        if not isinstance(d, dict):
+            raise TypeError(f'a JSON object, got {type(d).__name__}')
         if d.get('schema') != SCHEMA or int(d.get('schema_version', -1)) > SCHEMA_VERSION:
             raise ValueError(f'not a {SCHEMA} v<={SCHEMA_VERSION} document: '
                              f'{d.get("schema")!r} v{d.get("schema_version")!r}')
@@ -295,7 +299,8 @@ def _stamp(ts, t_ns: int):
 
 
 def write_pull_test(path: str | Path, test: PullTest, storage: str = 'mcap') -> Path:
-    """Write a rosbag2 directory (storage 'mcap' or 'sqlite3'); the directory must not exist."""
+    """Write a rosbag2 directory (storage 'mcap' or 'sqlite3'); the directory must not exist
+    (a symlink there is replaced, never followed: safe_write.atomic_write)."""
     from rosbags.rosbag2 import StoragePlugin, Writer
 
     plugin = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}[storage]
@@ -351,7 +356,8 @@ def write_pull_test(path: str | Path, test: PullTest, storage: str = 'mcap') -> 
     if tf_static is not None:
         events.append((test.t0_ns, '/tf_static', tf_static))
     events.sort(key=lambda e: e[0])  # stable: metadata stays first at t0
-    with Writer(path, version=8, storage_plugin=plugin) as w:
+    with atomic_write(path, folder=True) as tmp, \
+            Writer(tmp, version=8, storage_plugin=plugin) as w:
         w.set_custom_data(CUSTOM_KEY, meta_json)
         conns = {}
         for topic in dict.fromkeys(e[1] for e in events):
@@ -451,7 +457,8 @@ def _read_metadata(path) -> PullTestMeta:
     with Reader(path) as r:
         conns = [c for c in r.connections if c.topic == '/lab/metadata']
         _check_types(path, conns)
-        for c, _, raw in r.messages(connections=conns):
+        # rosbags reads every connection when given none: no metadata topic, no reading.
+        for c, _, raw in (r.messages(connections=conns) if conns else ()):
             return PullTestMeta.from_json(ts.deserialize_cdr(raw, c.msgtype).data)
     raise BagError(f'{path}: no /lab/metadata message; not a lab pull-test bag')
 

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import io
 import json
 import math
 import shlex
@@ -41,9 +42,15 @@ from pathlib import Path
 
 import numpy as np
 
+from rftgls_conventions.safe_read import read_text
+from rftgls_conventions.safe_write import output_file, write_text
+from rftgls_core.charts.figure_io import figure_path, pyplot, save
+from rftgls_core.cli.main import RftglsParser, cli_contract
 from rftgls_core.predictor import Predictor
+from rftgls_core.quantities import FORCE_SIGMA_N, PLATE_AREA_M2
 from rftgls_core.rft.media import Medium
 from rftgls_core.types import AnchorState
+from rftgls_node_base.node_main import program_args
 
 from .bag_layout import BagError, PullTest, read_pull_test
 from .evaluate import running_median
@@ -117,10 +124,8 @@ class PenetrationTrace:
                 and plate_area_m2 > 0):
             raise ValueError(f'--plate-area must be a positive area in m^2, got {plate_area_m2}')
         try:
-            with open(path, newline='') as fh:
-                rows = list(csv.reader(fh))
-        except UnicodeDecodeError:
-            raise ValueError(f'{path}: not a text CSV file') from None
+            rows = list(csv.reader(io.StringIO(read_text(path, 'csv', 'penetration CSV'),
+                                               newline='')))
         except csv.Error as exc:
             raise ValueError(f'{path}: malformed CSV ({exc})') from None
         if not rows:
@@ -289,12 +294,12 @@ def calibrate(pulls: list[PullObservation],
 
     def pull_forces(xi: float, mu: float) -> np.ndarray:
         med = custom_medium(xi_n=xi, mu_surf=mu)
-        models: dict[str, Predictor] = {}
+        predictors: dict[str, Predictor] = {}
         out = np.empty(len(pulls))
         for i, ob in enumerate(pulls):
-            if ob.robot not in models:
-                models[ob.robot] = make_predictor(method, ob.robot, med, anchor=anchor)
-            r = models[ob.robot].predict(ob.state, ob.phi, ob.pull)
+            if ob.robot not in predictors:
+                predictors[ob.robot] = make_predictor(method, ob.robot, med, anchor=anchor)
+            r = predictors[ob.robot].predict(ob.state, ob.phi, ob.pull)
             # No balance at this medium: the anchor holds nothing; the residual says so
             # (a NaN would stop the solver).
             out[i] = r.capacity_N if r.status.has_value and r.capacity_N is not None else 0.0
@@ -405,10 +410,7 @@ def plot_fit(cal: Calibration, path: str | Path) -> None:
     """Fit and residual plot of one calibration (PNG): penetration force against A * depth
     per test with the fitted line, pull-test breakaway measured against predicted, and the
     residuals of both."""
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     cols = int(bool(cal.penetration_tests)) + int(bool(cal.pull_fit))
     fig, axes = plt.subplots(2, cols, figsize=(5.5 * cols, 7), squeeze=False)
     c = 0
@@ -446,9 +448,7 @@ def plot_fit(cal: Calibration, path: str | Path) -> None:
     fig.suptitle(f'calibration: xi_n {cal.xi_n:.4g} N/m^3, {mu_txt}\n95 % interval of xi_n '
                  f'{cal.ci95["xi_n"][0]:.4g} .. {cal.ci95["xi_n"][1]:.4g} '
                  f'({cal.interval_basis.get("xi_n", "")})', fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)     # layout, atomic write (a planted link replaced), free
 
 
 def plot_path(out: str | Path) -> Path:
@@ -462,14 +462,16 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument('--penetration', action='append', default=[], metavar='CSV',
                     help='plate-penetration test: CSV with header depth_m,force_N[,test]; '
                          'repeat the option for several tests (each file is its own test)')
-    ap.add_argument('--plate-area', type=float, action='append', default=[], metavar='M2',
+    ap.add_argument('--plate-area', type=PLATE_AREA_M2.arg, action='append', default=[],
+                    metavar='M2',
                     help='penetration plate area, m^2: once for every file, or once per '
                          '--penetration in the same order')
     ap.add_argument('--method', default='twist-mesh',
                     choices=['twist-mesh', 'direct', 'alpha', 'ellipsoid'])
     add_anchor_arguments(ap)
-    ap.add_argument('--sigma-pull', type=float, default=0.05, help='N (relative weighting)')
-    ap.add_argument('--sigma-penetration', type=float, default=0.05, help='N')
+    ap.add_argument('--sigma-pull', type=FORCE_SIGMA_N.arg, default=0.05,
+                    help='N (relative weighting)')
+    ap.add_argument('--sigma-penetration', type=FORCE_SIGMA_N.arg, default=0.05, help='N')
     ap.add_argument('--name', default='calibrated')
     ap.add_argument('--out', default='medium_calibrated.json')
 
@@ -485,6 +487,8 @@ def add_parser(sub) -> None:
 
 def run(args, command: str) -> int:
     """Errors propagate as ValueError/OSError (the rftgls CLI prints them in one line)."""
+    out = output_file(args.out, '--out', ('.json',))    # both outputs checked before work
+    png = figure_path(plot_path(out), '--out (its plot)')
     if len(set(map(str, args.bags))) != len(args.bags):
         raise ValueError('a bag is given twice; each pull test counts once')
     if len(set(args.penetration)) != len(args.penetration):
@@ -517,8 +521,7 @@ def run(args, command: str) -> int:
     cal = calibrate(pulls, pen or None, method=args.method, sigma_pull_N=args.sigma_pull,
                     sigma_penetration_N=args.sigma_penetration, progress=True, anchor=anchor)
     cal.sources = [str(b) for b in args.bags] + list(args.penetration)
-    Path(args.out).write_text(cal.to_json(args.name, command))
-    png = plot_path(args.out)
+    write_text(out, cal.to_json(args.name, command))
     plot_fit(cal, png)
     lo, hi = cal.ci95['xi_n']
     print(f'xi_n    = {cal.xi_n:.4g} N/m^3  (95% CI {lo:.4g} .. {hi:.4g}, '
@@ -537,11 +540,12 @@ def run(args, command: str) -> int:
     return 0
 
 
+@cli_contract('calibrate')
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog='python -m rftgls_ros.lab.calibrate',
+    ap = RftglsParser(prog='python -m rftgls_ros.lab.calibrate',
                                  description='fit (xi_n, mu_surf) with 95%% confidence intervals')
     add_arguments(ap)
-    args = ap.parse_args(argv)
+    args = ap.parse_args(program_args(argv, ap.prog))
     command = 'python -m rftgls_ros.lab.calibrate ' + shlex.join(
         sys.argv[1:] if argv is None else argv)
     try:

@@ -16,8 +16,8 @@ method gave a value; the count of tests without one is reported next to it, neve
 """
 from __future__ import annotations
 
-import argparse
 import csv
+import io
 import math
 import sys
 from dataclasses import dataclass
@@ -25,8 +25,12 @@ from pathlib import Path
 
 import numpy as np
 
+from rftgls_conventions.safe_write import output_folder, write_text
 from rftgls_core.charts.figure_io import save
+from rftgls_core.cli.main import RftglsParser, cli_contract
 from rftgls_core.predictor import Predictor
+from rftgls_core.quantities import SLIP_STEP_M, SLIP_TRAVEL_M
+from rftgls_node_base.node_main import program_args
 
 from .bag_layout import PullTest, read_pull_test
 from .predict import (
@@ -210,20 +214,22 @@ def evaluate(tests: list[PullTest], methods: list[str], map_path: str | Path | N
 
 
 def write_csv(rows: list[Row], path: str | Path) -> None:
-    with open(path, 'w', newline='') as fh:
-        w = csv.writer(fh)
-        w.writerow(['test_id', 'method', 'meas_peak_N', 'pred_peak_N', 'meas_dz_dx', 'pred_dz_dx',
-                    'meas_dtheta_dx_deg_per_mm', 'pred_dtheta_dx_deg_per_mm', 'stop_reason'])
-        k = math.degrees(1.0) * 1e-3
-        for r in rows:
-            w.writerow([r.test_id, r.method, r.measured['peak_N'], r.predicted['peak_N'],
-                        r.measured['dz_dx'], r.predicted['dz_dx'],
-                        r.measured['dtheta_dx'] * k, r.predicted['dtheta_dx'] * k,
-                        r.stop_reason])
+    """results.csv, written atomically (safe_write)."""
+    fh = io.StringIO(newline='')
+    w = csv.writer(fh)
+    w.writerow(['test_id', 'method', 'meas_peak_N', 'pred_peak_N', 'meas_dz_dx', 'pred_dz_dx',
+                'meas_dtheta_dx_deg_per_mm', 'pred_dtheta_dx_deg_per_mm', 'stop_reason'])
+    k = math.degrees(1.0) * 1e-3
+    for r in rows:
+        w.writerow([r.test_id, r.method, r.measured['peak_N'], r.predicted['peak_N'],
+                    r.measured['dz_dx'], r.predicted['dz_dx'],
+                    r.measured['dtheta_dx'] * k, r.predicted['dtheta_dx'] * k, r.stop_reason])
+    write_text(path, fh.getvalue())
 
 
+@cli_contract('evaluate')
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog='python -m rftgls_ros.lab.evaluate',
+    ap = RftglsParser(prog='python -m rftgls_ros.lab.evaluate',
                                  description='pull tests vs. predictions (Table I, Fig. 8)')
     ap.add_argument('bags', nargs='+')
     ap.add_argument('--methods', nargs='+', default=list(METHODS), choices=METHODS)
@@ -232,20 +238,24 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument('--medium', default=None,
                     help='preset name or medium JSON (default: each bag\'s own medium)')
     add_anchor_arguments(ap)
-    ap.add_argument('--step', type=float, default=1e-3, help='simulation step, m of p')
-    ap.add_argument('--max-travel', type=float, default=0.04, help='m')
+    ap.add_argument('--step', type=SLIP_STEP_M.arg, default=1e-3, help='simulation step, m of p')
+    ap.add_argument('--max-travel', type=SLIP_TRAVEL_M.arg, default=0.04, help='m')
     ap.add_argument('--integrator', choices=['euler', 'heun'], default='heun')
     ap.add_argument('--out-dir', default='lab_eval')
-    args = ap.parse_args(argv)
+    args = ap.parse_args(program_args(argv, ap.prog))
     try:
+        # The small inputs first, so a bad one is refused before the bags are decoded.
+        out = output_folder(args.out_dir, '--out-dir')
         anchor = load_anchor(args.anchor, args.anchor_state)
+        medium = load_medium(args.medium) if args.medium else None
+        from rftgls_core.maps import resolve_map
+        map_path = resolve_map(args.map) if args.map is not None else None
         tests = [read_pull_test(b) for b in args.bags]
         methods = list(args.methods)
-        map_path = args.map
         if 'map' in methods and map_path is None:
             # The robot's installed map (never a file in the current directory), and only
             # if it was built for the bags' medium: a map answers for its own medium only.
-            from rftgls_core.maps import CapacityMap, resolve_map
+            from rftgls_core.maps import CapacityMap
             try:
                 guess = resolve_map(None, robot=tests[0].meta.robot)
                 cmap = CapacityMap.load(guess)
@@ -260,19 +270,16 @@ def main(argv: list[str] | None = None) -> int:
                 print("evaluate: no --map given and no shipped map for this robot, medium "
                       "(and --anchor); skipping 'map'", file=sys.stderr)
                 methods.remove('map')
-        medium = load_medium(args.medium) if args.medium else None
         rows, preds = evaluate(tests, methods, map_path, medium, args.step, args.max_travel,
                                args.integrator, anchor=anchor)
     except (ValueError, OSError) as exc:
         print(f'evaluate: error: {exc}', file=sys.stderr)
         return 2
-    out = Path(args.out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     synthetic = any(t.meta.synthetic for t in tests)
     title = (f'{len(tests)} pull tests' + (' (SYNTHETIC data)' if synthetic else '')
              + ': absolute errors in predictions')
     md = table_markdown(summarise(rows, methods), title)
-    (out / 'table.md').write_text(md)
+    write_text(out / 'table.md', md)
     write_csv(rows, out / 'results.csv')
     plot_fig8(tests[:4], {m: preds[m][:4] for m in methods}, out / 'fig8.png', title=title)
     print(md)

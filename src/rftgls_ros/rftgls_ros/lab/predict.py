@@ -1,8 +1,9 @@
 """Model predictions for one pull test: capacity, slip trajectory, with every method.
 
-Predictors: the four AnchorModel surfaces ('ellipsoid', 'alpha', 'twist-mesh', 'direct') and
-'map' (CapacityMap.query on a precomputed HDF5 map). Trajectories use rftgls_core.sim
-(quasi-static slip integration, paper section IV) from the measured initial state.
+Predictors (rftgls_core.predictor.build_predictor): the live solver with one of the four
+surface methods ('ellipsoid', 'alpha', 'twist-mesh', 'direct') and 'map' (a precomputed HDF5
+map). Trajectories use rftgls_core.sim (quasi-static slip integration, paper section IV) from
+the measured initial state.
 
 Robot: the bag's (metadata `robot`, a preset name) unless an anchor description is given
 (`--anchor FILE.yaml` of evaluate and calibrate; rftgls_core.description): then the
@@ -32,7 +33,7 @@ from rftgls_core.description import (
     robot_state_map,
     state_values,
 )
-from rftgls_core.predictor import Predictor
+from rftgls_core.predictor import InputNames, Predictor, PredictorSpec, build_predictor
 from rftgls_core.rft.media import Medium, medium_from_dict
 from rftgls_core.rft.media import load_medium as core_load_medium
 from rftgls_core.robots.presets import get_robot
@@ -106,38 +107,30 @@ def add_anchor_arguments(ap) -> None:
                          'depth=h,tilt=theta_b')
 
 
+# The lab tools' option for each input of a predictor specification (errors name these).
+LAB_NAMES = InputNames(
+    map='--map', robot="the test's robot", description='--anchor', state_map='--anchor-state',
+    medium='the medium', live_method='--method', n_twists='--twists', verb='give',
+    state_source='what a pull-test bag measures; --anchor-state NAME=QUANTITY,... maps them')
+
+
 def make_predictor(method: str, robot: str, medium: Medium, map_path: str | Path | None = None,
                    n_twists: int | None = None,
                    anchor: LabAnchor | None = None) -> Predictor:
-    """The core Predictor of `method` (one of METHODS) for `robot` in `medium`: the live
-    AnchorModel, or for 'map' the CapacityMap at map_path (checked to be of `robot`).
-    anchor: a description to pose instead of the preset `robot` (DescriptionModel; a map
-    must then answer for that description, CapacityMap.check_description)."""
+    """The core Predictor of `method` (one of METHODS) for `robot` in `medium`, built by
+    rftgls_core.predictor.build_predictor: the live solver, or for 'map' the map at map_path
+    (checked to be of `robot`). anchor: a description to pose instead of the preset `robot`
+    (a map must then answer for that description). ValueError (one line) otherwise."""
+    described = {} if anchor is None else {'description': anchor.description,
+                                           'state_map': anchor.state_map}
     if method == 'map':
         if map_path is None:
             raise ValueError("method 'map' needs a map file")
-        from rftgls_core.maps import CapacityMap, resolve_map
-        from rftgls_core.maps.described import DescribedMap, DescribedMapModel, is_described_map
-        path = resolve_map(map_path)
-        if is_described_map(path):   # built with `map build --anchor`: for that description
-            if anchor is None:
-                raise ValueError(f'{path} is a described map: give --anchor FILE.yaml, the '
-                                 'description it was built for')
-            return DescribedMapModel(DescribedMap.load(path), anchor.description,
-                                     anchor.state_map)
-        cmap = CapacityMap.load(path)   # predict() like AnchorModel
-        if anchor is not None:
-            cmap.check_description(anchor.sha256)
-        elif cmap.robot_name != robot:
-            raise ValueError(f'{cmap.source}: map is for robot {cmap.robot_name!r}, the test '
-                             f'is of {robot!r}')
-        return cmap
-    if anchor is not None:
-        from rftgls_core.description import DescriptionModel
-        return DescriptionModel(anchor.description, medium, method=method, n_twists=n_twists,
-                                state_map=anchor.state_map)
-    from rftgls_core.anchor import AnchorModel
-    return AnchorModel(get_robot(robot), medium, method=method, n_twists=n_twists)
+        spec = PredictorSpec(map=str(map_path), robot=None if anchor else robot, **described)
+    else:
+        spec = PredictorSpec(robot=robot, medium=medium, live_method=method, n_twists=n_twists,
+                             **described)
+    return build_predictor(spec, LAB_NAMES)
 
 
 def surface_min_z(robot: str, pull: str, anchor: LabAnchor | None = None):

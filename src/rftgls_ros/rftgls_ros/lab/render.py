@@ -33,7 +33,30 @@ class MarkerView:
     T_cam_marker: np.ndarray
 
 
+# The ArUco API the lab tools use (OpenCV >= 4.7: the detector object and generateImageMarker).
+ARUCO_API = ('ArucoDetector', 'DetectorParameters', 'generateImageMarker',
+             'getPredefinedDictionary')
+
+
+class ArucoUnavailable(ValueError):
+    """This OpenCV has no (new enough) ArUco module (one line, says what to install)."""
+
+
+def require_aruco() -> None:
+    """ArucoUnavailable when cv2.aruco lacks the API above: Ubuntu 24.04's python3-opencv
+    (4.6) has the older function API only."""
+    aruco = getattr(cv2, 'aruco', None)
+    missing = [n for n in ARUCO_API if not hasattr(aruco, n)]
+    if missing:
+        has = 'no aruco module' if aruco is None else 'an older ArUco API'
+        raise ArucoUnavailable(
+            f'ArUco tracking needs OpenCV >= 4.7 with cv2.aruco.{missing[0]}; this OpenCV '
+            f'{getattr(cv2, "__version__", "?")} has {has} (install opencv-python-headless '
+            '>= 4.7 in the venv, see the README\'s robot section)')
+
+
 def aruco_dictionary(name: str):
+    require_aruco()
     return cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, name))
 
 

@@ -33,10 +33,14 @@ from pathlib import Path
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 
+from rftgls_core.cli.main import RftglsParser, cli_contract
+from rftgls_core.quantities import REPLAY_RATE, WAIT_S
 from rftgls_node_base.dds_loopback import during_init
+from rftgls_node_base.node_main import finish, program_args, release_ros, stop_on_signals
 
-from .bag_layout import KNOWN_TYPES, BagError, guard_bag_read
+from .bag_layout import KNOWN_TYPES, TOPICS, BagError, guard_bag_read, read_metadata
 from .predict import add_anchor_arguments
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -107,18 +111,20 @@ class BagReplayer:
                  skip_images: bool = False):
         from rosbags.rosbag2 import Reader
         self.node = node
+        read_metadata(bag)     # a bag that is not a lab pull test: BagError, nothing published
         self.reader = Reader(bag)
         guard_bag_read(bag, self.reader.open)
         conns = [c for c in self.reader.connections
                  if (topics is None or c.topic in topics)
                  and not (skip_images and 'image' in c.topic)]
-        # Topics of unknown types are not replayed (see message_class); say which.
+        # Only the lab layout's topics with their own types are replayed (see message_class);
+        # anything else a recorder added is skipped, and said.
         self.skipped = sorted({f'{c.topic} ({c.msgtype})' for c in conns
-                               if c.msgtype not in KNOWN_TYPES})
+                               if TOPICS.get(c.topic, ('',))[0] != c.msgtype})
         if self.skipped:
-            node.get_logger().warning('not replaying topics of unknown type: '
+            node.get_logger().warning('not replaying topics outside the lab layout: '
                                       + ', '.join(self.skipped))
-        conns = [c for c in conns if c.msgtype in KNOWN_TYPES]
+        conns = [c for c in conns if TOPICS.get(c.topic, ('',))[0] == c.msgtype]
         self.publishers = {}
         for c in conns:
             if c.topic not in self.publishers:
@@ -140,12 +146,13 @@ class BagReplayer:
         self.count += 1
         return conn.topic, t_ns
 
-    def run(self, rate: float = 1.0, spin=None) -> int:
+    def run(self, rate: float = 1.0, spin=None, stopped=lambda: False) -> int:
         """Publish everything with the recorded spacing divided by `rate` (0: no waiting).
-        spin(timeout_s) is called while waiting (e.g. an executor's spin_once)."""
+        spin(timeout_s) is called while waiting (e.g. an executor's spin_once); the replay
+        ends early when stopped() is true."""
         t_first = None
         wall0 = time.monotonic()
-        while True:
+        while not stopped():
             item = self.step()
             if item is None:
                 break
@@ -154,7 +161,7 @@ class BagReplayer:
                 t_first = t_ns
             if rate > 0:
                 due = wall0 + (t_ns - t_first) * 1e-9 / rate
-                while (left := due - time.monotonic()) > 0:
+                while (left := due - time.monotonic()) > 0 and not stopped():
                     if spin:
                         spin(min(left, 0.05))
                     else:
@@ -169,28 +176,54 @@ class BagReplayer:
             self.node.destroy_publisher(p)
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog='python -m rftgls_ros.lab.replay',
-                                 description='publish a pull-test bag (recorded bytes)')
+def build_parser() -> argparse.ArgumentParser:
+    ap = RftglsParser(prog='rftgls_lab_replay',
+                      description='publish a pull-test bag (recorded bytes)')
     ap.add_argument('bag')
-    ap.add_argument('--rate', type=float, default=1.0,
+    ap.add_argument('--rate', type=REPLAY_RATE.arg, default=1.0,
                     help='speed factor (1 = original timing, 0 = as fast as possible)')
     ap.add_argument('--topics', nargs='*', help='only these topics')
     ap.add_argument('--skip-images', action='store_true')
-    ap.add_argument('--wait-subscribers', type=float, default=1.0,
+    ap.add_argument('--wait-subscribers', type=WAIT_S.arg, default=1.0,
                     help='s to wait for discovery before the first message')
+    ap.add_argument('--no-description', action='store_true',
+                    help='publish no /robot_description (another node does, e.g. '
+                         'state_publisher in replay.launch.py)')
     add_anchor_arguments(ap)
-    args = ap.parse_args(argv)
+    return ap
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The replay's options from argv (default sys.argv[1:]), ROS arguments stripped (they go
+    to rclpy: a launch file's node name, remappings)."""
+    return build_parser().parse_args(program_args(argv, 'rftgls_lab_replay'))
+
+
+def main(argv: list[str] | None = None) -> int:
+    code = _main(argv)
+    if argv is None:       # as the program: end now (node_main.finish)
+        release_ros()
+        finish(code)
+    return code
+
+
+@cli_contract('replay')
+def _main(argv: list[str] | None) -> int:
+    args = parse_args(argv)
     try:   # before ROS starts: a bad description or bag is one line, exit 2
-        desc = bag_description(args.bag, args.anchor, args.anchor_state)
+        desc = None if args.no_description else bag_description(args.bag, args.anchor,
+                                                                args.anchor_state)
+        read_metadata(args.bag)   # only a lab pull test is replayed into the live graph
     except ValueError as exc:   # BagError is one
         print(f'replay: error: {" ".join(str(exc).split())}', file=sys.stderr)
         return 2
     if desc is not None:
         print(f'robot_description: {desc.name} from {desc.source}; capacity_node: '
               f'-p anchor_description_file:={desc.source}')
+    stop = stop_on_signals()
     with during_init():
-        rclpy.init()
+        rclpy.init(args=['rftgls_lab_replay', *(sys.argv[1:] if argv is None else argv)],
+                   signal_handler_options=SignalHandlerOptions.NO)
     node = Node('rftgls_lab_replay')   # the node is named as its executable
     try:
         rep = BagReplayer(node, args.bag, args.topics, args.skip_images)
@@ -198,15 +231,14 @@ def main(argv: list[str] | None = None) -> int:
             publish_description(node, desc)
         # Give DDS discovery a moment, or the first messages go to nobody.
         end = time.monotonic() + args.wait_subscribers
-        while time.monotonic() < end:
+        while time.monotonic() < end and not stop.is_set():
             rclpy.spin_once(node, timeout_sec=0.05)
-        n = rep.run(args.rate, spin=lambda t: rclpy.spin_once(node, timeout_sec=t))
+        n = rep.run(args.rate, spin=lambda t: rclpy.spin_once(node, timeout_sec=t),
+                    stopped=stop.is_set)
         print(f'replayed {n} messages from {args.bag}')
         # keep the latched metadata alive a little for late joiners
         rclpy.spin_once(node, timeout_sec=0.2)
         rep.close()
-    except KeyboardInterrupt:
-        pass
     except BagError as exc:
         print(f'replay: error: {exc}', file=sys.stderr)
         return 2

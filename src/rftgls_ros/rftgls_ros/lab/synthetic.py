@@ -16,18 +16,29 @@ record the description's name as their robot and its identity in the notes.
 """
 from __future__ import annotations
 
-import argparse
 import math
 import shlex
 import sys
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
+from rftgls_conventions.safe_write import output_folder
+from rftgls_core.cli.main import RftglsParser, cli_contract
 from rftgls_core.predictor import Predictor
+from rftgls_core.quantities import (
+    ANGLE_DEG,
+    MU_SURF,
+    POSITION_M,
+    SEED,
+    SLIP_STEP_M,
+    SLIP_TRAVEL_M,
+    TETHER_PHI_DEG,
+    XI_N,
+)
 from rftgls_core.rft.media import Medium, custom_medium, get_medium
 from rftgls_core.types import AnchorState
+from rftgls_node_base.node_main import program_args
 
 from .bag_layout import PullTest, PullTestMeta, write_pull_test
 from .predict import add_anchor_arguments, load_anchor, make_predictor, surface_min_z
@@ -111,36 +122,39 @@ def parse_config(text: str) -> tuple[float, float, str]:
     l1, l2, pull = text.split(',')
     if pull not in ('forward', 'backward'):
         raise ValueError(f'pull must be forward or backward, got {pull!r}')
-    return float(l1), float(l2), pull
+    return ANGLE_DEG.check(float(l1), 'L1'), ANGLE_DEG.check(float(l2), 'L2'), pull
 
 
 def config_id(l1: float, l2: float, pull: str) -> str:
     return f'{pull}_L1{l1:+04.0f}_L2{l2:+04.0f}'
 
 
+@cli_contract('synthetic')
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog='python -m rftgls_ros.lab.synthetic',
+    ap = RftglsParser(prog='python -m rftgls_ros.lab.synthetic',
                                  description='synthetic pull-test bags (labelled synthetic)')
     ap.add_argument('--out-dir', required=True)
     ap.add_argument('--robot', default='prototype')
     ap.add_argument('--nominal-medium', default='glass_beads',
                     help='medium recorded as the test medium (what the lab believes)')
-    ap.add_argument('--xi-n', type=float, default=4.2e5, help='truth xi_n, N/m^3')
-    ap.add_argument('--mu-surf', type=float, default=0.3, help='truth mu_surf')
+    ap.add_argument('--xi-n', type=XI_N.arg, default=4.2e5, help='truth xi_n, N/m^3')
+    ap.add_argument('--mu-surf', type=MU_SURF.arg, default=0.3, help='truth mu_surf')
     ap.add_argument('--config', action='append', type=parse_config,
                     help='L1_DEG,L2_DEG,PULL (repeat); default: 8 paper-like pairs')
-    ap.add_argument('--h', type=float, default=0.02, help='initial h, m')
-    ap.add_argument('--theta-b', type=float, default=0.0, help='initial thetaB, deg')
-    ap.add_argument('--phi', type=float, default=0.0, help='tether angle, deg')
+    ap.add_argument('--h', type=POSITION_M.arg, default=0.02, help='initial h, m')
+    ap.add_argument('--theta-b', type=ANGLE_DEG.arg, default=0.0, help='initial thetaB, deg')
+    ap.add_argument('--phi', type=TETHER_PHI_DEG.arg, default=0.0, help='tether angle, deg')
     ap.add_argument('--method', default='twist-mesh')
-    ap.add_argument('--step', type=float, default=1e-3, help='m of p per simulation step')
-    ap.add_argument('--max-travel', type=float, default=0.04, help='m')
+    ap.add_argument('--step', type=SLIP_STEP_M.arg, default=1e-3,
+                    help='m of p per simulation step')
+    ap.add_argument('--max-travel', type=SLIP_TRAVEL_M.arg, default=0.04, help='m')
     ap.add_argument('--integrator', choices=['euler', 'heun'], default='heun')
-    ap.add_argument('--seed', type=int, default=1)
+    ap.add_argument('--seed', type=SEED, default=1)
     ap.add_argument('--storage', choices=['mcap', 'sqlite3'], default='mcap')
     add_anchor_arguments(ap)
-    args = ap.parse_args(argv)
+    args = ap.parse_args(program_args(argv, ap.prog))
     try:
+        out = output_folder(args.out_dir, '--out-dir')   # checked before any work
         anchor = load_anchor(args.anchor, args.anchor_state)
     except ValueError as exc:
         print(f'synthetic: error: {exc}', file=sys.stderr)
@@ -152,8 +166,6 @@ def main(argv: list[str] | None = None) -> int:
                    note='truth of synthetic bags')
     nominal = get_medium(args.nominal_medium)
     predictor = make_predictor(args.method, args.robot, truth, anchor=anchor)
-    out = Path(args.out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     from tqdm import tqdm
     configs = args.config or DEFAULT_CONFIGS
     for k, (l1, l2, pull) in enumerate(tqdm(configs, unit='test', file=sys.stderr)):
@@ -165,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
                           integrator=args.integrator, method=args.method,
                           seed=args.seed * 1000 + k, predictor=predictor, anchor=anchor)
         path = out / tid
-        if path.exists():
+        if path.is_dir() and not path.is_symlink():   # a bag of an earlier run: replaced
             import shutil
             shutil.rmtree(path)
         write_pull_test(path, test, storage=args.storage)

@@ -8,11 +8,14 @@ of x, z and thetaB of p in lab_world.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from dataclasses import dataclass
 
 import numpy as np
+
+from rftgls_core.cli.main import RftglsParser, cli_contract
+from rftgls_core.quantities import IMAGE_BLUR_PX, IMAGE_NOISE, SEED, bounded_int
+from rftgls_node_base.node_main import program_args
 
 from .aruco_tracking import ArucoTracker, TrackerConfig
 from .render import BenchScene, default_bench, render
@@ -63,14 +66,17 @@ def measure(n: int = 100, noise: float = 2.0, blur: float = 0.6, seed: int = 1,
     return AccuracyResult(poses, est, tracking.reprojection_px)
 
 
+@cli_contract('tracking_accuracy')
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog='python -m rftgls_ros.lab.tracking_accuracy',
-                                 description=__doc__.split('\n\n')[0])
-    ap.add_argument('--frames', type=int, default=200)
-    ap.add_argument('--noise', type=float, default=2.0, help='image noise sigma, grey levels')
-    ap.add_argument('--blur', type=float, default=0.6, help='Gaussian blur sigma, px')
-    ap.add_argument('--seed', type=int, default=1)
-    args = ap.parse_args(argv)
+    ap = RftglsParser(prog='python -m rftgls_ros.lab.tracking_accuracy',
+                      description=__doc__.split('\n\n')[0])
+    ap.add_argument('--frames', type=bounded_int(1, 100_000, 'frame count'), default=200)
+    ap.add_argument('--noise', type=IMAGE_NOISE.arg, default=2.0,
+                    help='image noise sigma, grey levels')
+    ap.add_argument('--blur', type=IMAGE_BLUR_PX.arg, default=0.6,
+                    help='Gaussian blur sigma, px')
+    ap.add_argument('--seed', type=SEED, default=1)
+    args = ap.parse_args(program_args(argv, ap.prog))
     res = measure(args.frames, args.noise, args.blur, args.seed, progress=True)
     s = res.summary()
     print(f"{s['tracked']}/{s['frames']} frames tracked "

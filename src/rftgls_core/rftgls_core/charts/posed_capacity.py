@@ -1,4 +1,4 @@
-"""Capacity of a scene (a rigid body or a robot) against the tether's yaw and its angle.
+"""Capacity of a posed anchor (a rigid body or a robot) against the tether's yaw and its angle.
 
 Left: capacity against yaw at a fixed tether angle phi (a yawed pull is a load out of the
 sagittal plane: the 6D path answers it). Right: capacity against phi at a fixed yaw, drawn in
@@ -12,16 +12,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ..scene import Scene, SceneModel
+from ..posed import PosedAnchor, PosedAnchorSolver
 from .figure_io import pyplot, save
 
 
-def capacity_sweep(model: SceneModel, scene: Scene, phis, yaws) -> dict:
+def capacity_sweep(solver: PosedAnchorSolver, posed: PosedAnchor, phis, yaws) -> dict:
     """Capacities (N, NaN without a value), statuses and spaces for every (phi, yaw) pair of
     the two 1D sweeps (rad)."""
     out: dict = {'phi_rad': [], 'yaw_rad': [], 'capacity_N': [], 'status': [], 'space': []}
     for phi, yaw in zip(phis, yaws):
-        r = model.predict(scene, float(phi), float(yaw))
+        r = solver.solve(posed, float(phi), float(yaw))
         out['phi_rad'].append(float(phi))
         out['yaw_rad'].append(float(yaw))
         out['capacity_N'].append(r.capacity_N)
@@ -30,15 +30,15 @@ def capacity_sweep(model: SceneModel, scene: Scene, phis, yaws) -> dict:
     return out
 
 
-def plot_scene_capacity(model: SceneModel, scene: Scene, phi: float, yaw: float,
+def plot_posed_capacity(solver: PosedAnchorSolver, posed: PosedAnchor, phi: float, yaw: float,
                         out: str | Path, n_yaw: int = 19, n_phi: int = 37,
                         title: str = '') -> dict:
     """Write the two-panel PNG; returns both sweeps (for JSON next to it)."""
     plt = pyplot()
     yaws = np.linspace(-math.pi / 2, math.pi / 2, n_yaw)
-    by_yaw = capacity_sweep(model, scene, np.full(n_yaw, phi), yaws)
+    by_yaw = capacity_sweep(solver, posed, np.full(n_yaw, phi), yaws)
     phis = np.linspace(-math.pi / 2, math.pi / 2, n_phi)
-    by_phi = capacity_sweep(model, scene, phis, np.full(n_phi, yaw))
+    by_phi = capacity_sweep(solver, posed, phis, np.full(n_phi, yaw))
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 5))
     cap = np.array([np.nan if c is None else c for c in by_yaw['capacity_N']])
     space = np.array(by_yaw['space'])
@@ -63,6 +63,6 @@ def plot_scene_capacity(model: SceneModel, scene: Scene, phi: float, yaw: float,
     ax2.set_aspect('equal', adjustable='datalim')
     ax2.grid(alpha=0.3)
     ax2.legend(fontsize=8)
-    fig.suptitle(title or f'{scene.name}: {model.medium.name}')
+    fig.suptitle(title or f'{posed.name}: {solver.medium.name}')
     save(fig, out)
     return {'by_yaw': by_yaw, 'by_phi': by_phi}

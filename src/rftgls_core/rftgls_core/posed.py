@@ -1,17 +1,18 @@
-"""Any buried body, any tether direction: choose the sagittal reduction or the full 6D path.
+"""The posed anchor: any buried body, any tether direction, in the sagittal reduction or in 6D.
 
-A Scene is what the capacity needs, whoever built it (a posed robot, a rigid body from an STL):
-world-frame facets, the tether point p (reference of twists and moments), mass and centre of
-mass, and a characteristic length for the scaled metric. The tether pulls p along
+A PosedAnchor is the body in sand that a capacity needs, whoever posed it (a robot from its
+state, an anchor description from its state values, a rigid body from an STL): world-frame
+facets, the tether point p (reference of twists and moments), mass and centre of mass, and a
+characteristic length for the scaled metric. The tether pulls p along
 
     u(phi, yaw) = Rz(yaw) (-cos phi, 0, sin phi)     (world; phi = 90 deg pulls straight up)
 
-"Model no more than the scene needs, and no less" (docs/design/six-d.md): when the buried facets
-and the centre of mass are mirror-symmetric about the pull plane (the vertical plane through p
-that contains u), planar twists in that plane map to planar wrenches and the sagittal
-reduction of surfaces/ (3D wrench space, one half of the facets with doubled weights) answers.
-The symmetry is checked on the facets themselves, never assumed. Otherwise the full 6D path
-of gls6d.py answers.
+PosedAnchorSolver answers its capacity. "Model no more than the anchor needs, and no less"
+(docs/design/six-d.md): when the buried facets and the centre of mass are mirror-symmetric
+about the pull plane (the vertical plane through p that contains u), planar twists in that
+plane map to planar wrenches and the sagittal reduction of surfaces/ (3D wrench space, one half
+of the facets with doubled weights) answers. The symmetry is checked on the facets themselves,
+never assumed. Otherwise the full 6D path of gls6d.py answers.
 """
 from __future__ import annotations
 
@@ -28,20 +29,20 @@ from .gls6d import DEFAULT_TWISTS_6D, EARLIER_ANGLE, InPlane6, Problem6, Result6
 from .rft.engine import BuriedBody
 from .rft.media import Medium
 from .rft.models import make_model
-from .robots.model import G, RobotModel
+from .robots.robot import G, Robot
 from .surfaces.base import GLSProblem
-from .surfaces.registry import surface_class
+from .surfaces.registry import default_twists, surface_class
 from .surfaces.scaling import Scaling
 from .types import AnchorState, Pull, Status
 
 SPACES = ('auto', 'sagittal', '6d')
-# Facet symmetry tolerance, relative to the scene's characteristic length: STL files store
+# Facet symmetry tolerance, relative to the anchor's characteristic length: STL files store
 # float32 coordinates (about 6e-8 relative), CAD exports a little worse.
 SYMMETRY_RTOL = 1e-6
 
 
 @dataclass(frozen=True)
-class Scene:
+class PosedAnchor:
     """A posed body in the medium (SI, world frame W: z up, free surface z = 0).
 
     facets: world facets of everything that may touch the medium. ref: the tether point p, m.
@@ -74,39 +75,39 @@ def pull_vector(phi: float, yaw: float = 0.0) -> np.ndarray:
     return rot_z(yaw) @ np.array([-math.cos(phi), 0.0, math.sin(phi)])
 
 
-def scene_from_robot(robot: RobotModel, state: AnchorState, pull: Pull | str) -> Scene:
-    """The sagittal robot as a Scene (both sides of its legs, p as the tether point)."""
+def pose_robot(robot: Robot, state: AnchorState, pull: Pull | str) -> PosedAnchor:
+    """The sagittal robot as a PosedAnchor (both sides of its legs, p as the tether point)."""
     posed = robot.pose(state, pull)
     p = np.asarray(posed.ref, dtype=float)
     c, s = math.cos(state.theta_b), math.sin(state.theta_b)
-    # Body x_B tilts up by thetaB (robots/model.py: rot_y(-thetaB)).
+    # Body x_B tilts up by thetaB (robots/robot.py: rot_y(-thetaB)).
     com = p + np.array([c * robot.com[0] - s * robot.com[1], 0.0,
                         s * robot.com[0] + c * robot.com[1]])
-    return Scene(name=robot.name, facets=posed.facets, ref=p, mass=robot.mass, com=com,
-                 char_length=robot.char_length)
+    return PosedAnchor(name=robot.name, facets=posed.facets, ref=p, mass=robot.mass, com=com,
+                       char_length=robot.char_length)
 
 
 @dataclass(frozen=True)
 class Symmetry:
-    """Whether a scene is mirror-symmetric about its pull plane, and why not."""
+    """Whether a posed anchor is mirror-symmetric about its pull plane, and why not."""
 
     symmetric: bool
     detail: str
 
 
-def pull_plane_symmetry(scene: Scene, yaw: float, rtol: float = SYMMETRY_RTOL) -> Symmetry:
+def pull_plane_symmetry(posed: PosedAnchor, yaw: float, rtol: float = SYMMETRY_RTOL) -> Symmetry:
     """Check (not assume) the mirror symmetry about the vertical plane through p with normal
     Rz(yaw) y: every buried facet must have a mirror facet (centroid, normal, area) and the
     centre of mass must lie in the plane. Facets above the surface carry no force."""
     n = rot_z(yaw) @ np.array([0.0, 1.0, 0.0])
-    tol = rtol * max(scene.char_length, 1e-12)
-    off = float(np.dot(np.asarray(scene.com) - scene.ref, n))
+    tol = rtol * max(posed.char_length, 1e-12)
+    off = float(np.dot(np.asarray(posed.com) - posed.ref, n))
     if abs(off) > tol:
         return Symmetry(False, f'centre of mass {off * 1e3:.3g} mm off the pull plane')
-    f = scene.buried()
+    f = posed.buried()
     if len(f) == 0:
         return Symmetry(True, 'nothing buried')
-    rel = f.centroids - scene.ref
+    rel = f.centroids - posed.ref
     mirrored = f.centroids - 2.0 * np.outer(rel @ n, n)
     mnorm = f.normals - 2.0 * np.outer(f.normals @ n, n)
     dist, idx = cKDTree(f.centroids).query(mirrored, k=1)
@@ -119,17 +120,17 @@ def pull_plane_symmetry(scene: Scene, yaw: float, rtol: float = SYMMETRY_RTOL) -
                           f'symmetric about the pull plane (yaw {math.degrees(yaw):.3g} deg)')
 
 
-def mirror_planes(scene: Scene) -> list[tuple[float, Symmetry]]:
-    """The vertical planes through p about which the scene is mirror-symmetric: (yaw in
+def mirror_planes(posed: PosedAnchor) -> list[tuple[float, Symmetry]]:
+    """The vertical planes through p about which the posed anchor is mirror-symmetric: (yaw in
     [0, pi) of the plane with normal Rz(yaw) y, its passed `pull_plane_symmetry` check).
     Candidates: the principal axes of the buried facets' horizontal area moment about p (a
     mirror plane's normal is one of them, as the moment is invariant under the mirror) and the
     world x and y axes (when the moment is isotropic, e.g. a cross of fins, its axes are
     arbitrary)."""
-    f = scene.buried()
+    f = posed.buried()
     if len(f) == 0:
         return []
-    rel = (f.centroids - scene.ref)[:, :2]
+    rel = (f.centroids - posed.ref)[:, :2]
     mom = (rel * f.areas[:, None]).T @ rel
     _, vec = np.linalg.eigh(mom)
     cands = [math.atan2(-float(v[0]), float(v[1])) for v in vec.T] + [0.0, math.pi / 2]
@@ -138,23 +139,24 @@ def mirror_planes(scene: Scene) -> list[tuple[float, Symmetry]]:
         c = c % math.pi     # the plane with normal Rz(c) y
         if any(abs(math.remainder(c - o, math.pi)) < 1e-9 for o, _ in out):
             continue
-        sym = pull_plane_symmetry(scene, c)
+        sym = pull_plane_symmetry(posed, c)
         if sym.symmetric:
             out.append((c, sym))
     return out
 
 
-def mirror_plane_yaws(scene: Scene) -> list[float]:
+def mirror_plane_yaws(posed: PosedAnchor) -> list[float]:
     """The yaws (rad, in [0, pi)) of `mirror_planes`."""
-    return [yaw for yaw, _ in mirror_planes(scene)]
+    return [yaw for yaw, _ in mirror_planes(posed)]
 
 
 @dataclass(frozen=True)
-class SceneResult:
+class PosedAnchorResult:
     """Capacity along u(phi, yaw) and the slip twist, always as 6D world quantities.
 
-    slip_twist_scaled: unit (vx, vy, vz, wx L_c, wy L_c, wz L_c); slip_twist: raw direction
-    (m/s, rad/s) of unit Euclidean norm. space: 'sagittal' or '6d' (which path answered).
+    slip_twist: the slip twist (vx, vy, vz, wx, wy, wz) of the tether point, world axes, m/s and
+    rad/s, unit Euclidean norm; slip_twist_scaled: the same direction as a unit vector
+    (vx, vy, vz, wx L_c, wy L_c, wz L_c). space: 'sagittal' or '6d' (which path answered).
     """
 
     status: Status
@@ -173,8 +175,8 @@ class SceneResult:
         return self.status.has_value
 
 
-class SceneModel:
-    """Capacity of a Scene for a tether angle and yaw, on the smallest model that is exact.
+class PosedAnchorSolver:
+    """Capacity of a PosedAnchor for a tether angle and yaw, on the smallest model that is exact.
 
     space: 'auto' (sagittal when the symmetry check passes, else 6D), 'sagittal' (refused with
     `invalid_input` `not_symmetric` when the check fails) or '6d' (always the full path).
@@ -187,70 +189,71 @@ class SceneModel:
                  n_twists_6d: int = DEFAULT_TWISTS_6D, backend: str = 'auto'):
         if space not in SPACES:
             raise ValueError(f'space must be one of {", ".join(SPACES)}, got {space!r}')
-        from .anchor import DEFAULT_TWISTS, DEFAULT_TWISTS_BY_METHOD
         self.medium = medium
         self.stress_model = make_model(model, medium)
         self.method = method
         self.surface_cls = surface_class(method)
-        self.n_twists = int(n_twists if n_twists is not None
-                            else DEFAULT_TWISTS_BY_METHOD.get(method, DEFAULT_TWISTS))
+        self.n_twists = int(n_twists if n_twists is not None else default_twists(method))
         self.space = space
         self.n_twists_6d = int(n_twists_6d)
         self.backend = backend
 
     @staticmethod
-    def scaling_for(scene: Scene) -> tuple[float, float]:
+    def scaling_for(posed: PosedAnchor) -> tuple[float, float]:
         # s_F = the weight (as for the robots); a weightless body gets 1 N (only a unit).
-        return (scene.weight if scene.weight > 0.0 else 1.0), scene.char_length
+        return (posed.weight if posed.weight > 0.0 else 1.0), posed.char_length
 
-    def predict(self, scene: Scene, phi: float, yaw: float = 0.0) -> SceneResult:
-        return self.predict_many(scene, [phi], yaw)[0]
+    def solve(self, posed: PosedAnchor, phi: float, yaw: float = 0.0) -> PosedAnchorResult:
+        """Capacity of `posed` along u(phi, yaw) (rad) and its slip twist."""
+        return self.solve_many(posed, [phi], yaw)[0]
 
-    def predict_many(self, scene: Scene, phis, yaw: float = 0.0) -> list[SceneResult]:
-        """`predict` at several tether angles (rad) of one scene and yaw: the limit surface is
-        fitted once and asked along every u(phi, yaw) (a map node's angles), with the answers
-        `predict` gives one by one (the fit does not depend on phi)."""
+    def solve_many(self, posed: PosedAnchor, phis, yaw: float = 0.0
+                   ) -> list[PosedAnchorResult]:
+        """`solve` at several tether angles (rad) of one posed anchor and yaw: the limit
+        surface is fitted once and asked along every u(phi, yaw) (a map node's angles), with
+        the answers `solve` gives one by one (the fit does not depend on phi)."""
         phis = [float(x) for x in np.atleast_1d(np.asarray(phis, dtype=float))]
         bad = [p for p in phis if not math.isfinite(p)]
         if bad or not math.isfinite(yaw):
-            def invalid(phi: float) -> SceneResult:
-                return SceneResult(Status.INVALID_INPUT, self.method, self.space,
-                                   reason='invalid_phi', detail=f'phi {phi!r}, yaw {yaw!r}')
+            def invalid(phi: float) -> PosedAnchorResult:
+                return PosedAnchorResult(Status.INVALID_INPUT, self.method, self.space,
+                                         reason='invalid_phi', detail=f'phi {phi!r}, yaw {yaw!r}')
             if not math.isfinite(yaw):
                 return [invalid(p) for p in phis]
             good = [p for p in phis if math.isfinite(p)]
-            answers = iter(self.predict_many(scene, good, yaw) if good else [])
+            answers = iter(self.solve_many(posed, good, yaw) if good else [])
             return [next(answers) if math.isfinite(p) else invalid(p) for p in phis]
-        if len(scene.buried()) == 0:
-            return [SceneResult(Status.UNSUPPORTED, self.method, self.space,
-                                reason='no_buried_facet',
-                                detail='no facet of the body is below the free surface z = 0')
+        if len(posed.buried()) == 0:
+            return [PosedAnchorResult(Status.UNSUPPORTED, self.method, self.space,
+                                      reason='no_buried_facet',
+                                      detail='no facet of the body is below the free surface z = 0')
                     for _ in phis]
-        sym = pull_plane_symmetry(scene, yaw)
+        sym = pull_plane_symmetry(posed, yaw)
         if self.space == 'sagittal' and not sym.symmetric:
-            return [SceneResult(Status.INVALID_INPUT, self.method, 'sagittal',
-                                reason='not_symmetric',
-                                detail='the sagittal reduction needs mirror symmetry about the '
-                                       'pull plane: ' + sym.detail) for _ in phis]
+            return [PosedAnchorResult(Status.INVALID_INPUT, self.method, 'sagittal',
+                                      reason='not_symmetric',
+                                      detail='the sagittal reduction needs mirror symmetry '
+                                             'about the pull plane: ' + sym.detail)
+                    for _ in phis]
         if self.space == '6d' or not sym.symmetric:
-            return self._predict_6d(scene, phis, yaw, sym)
-        out = self._predict_sagittal(scene, phis, yaw, sym)
+            return self._solve_6d(posed, phis, yaw, sym)
+        out = self._solve_sagittal(posed, phis, yaw, sym)
         vertical = [k for k, phi in enumerate(phis) if abs(math.cos(phi)) < 1e-12]
         if vertical:
-            self._least_over_mirror_planes(scene, phis, yaw, vertical, out)
+            self._least_over_mirror_planes(posed, phis, yaw, vertical, out)
         return out
 
-    def _least_over_mirror_planes(self, scene: Scene, phis: list[float], yaw: float,
-                                  vertical: list[int], out: list[SceneResult]) -> None:
+    def _least_over_mirror_planes(self, posed: PosedAnchor, phis: list[float], yaw: float,
+                                  vertical: list[int], out: list[PosedAnchorResult]) -> None:
         """A vertical pull lies in every vertical plane: each mirror plane of the body gives
         an in-plane crossing of the same load ray, and the sagittal reduction in one plane cannot
         see the others' (a flat plate pulled up slides along its long side, out of the plane of
         its short side). The first exit is the least of them (in place, for the indices
         `vertical`)."""
-        for plane, plane_sym in mirror_planes(scene):
+        for plane, plane_sym in mirror_planes(posed):
             if abs(math.remainder(plane - yaw, math.pi)) < 1e-9:
                 continue
-            other = self._predict_sagittal(scene, [phis[k] for k in vertical], plane,
+            other = self._solve_sagittal(posed, [phis[k] for k in vertical], plane,
                                            plane_sym)
             for k, res in zip(vertical, other):
                 cur = out[k]
@@ -262,11 +265,11 @@ class SceneModel:
                                     f'{math.degrees(plane):.3g} deg); ' + res.detail)
 
     # -- the sagittal reduction ------------------------------------------------------------
-    def _predict_sagittal(self, scene: Scene, phis: list[float], yaw: float,
-                          sym: Symmetry) -> list[SceneResult]:
-        p = np.asarray(scene.ref, dtype=float)
-        facets = scene.facets
-        com = np.asarray(scene.com, dtype=float)
+    def _solve_sagittal(self, posed: PosedAnchor, phis: list[float], yaw: float,
+                          sym: Symmetry) -> list[PosedAnchorResult]:
+        p = np.asarray(posed.ref, dtype=float)
+        facets = posed.facets
+        com = np.asarray(posed.com, dtype=float)
         if yaw != 0.0:   # turn the pull plane into the x-z plane through p
             r = rot_z(-yaw)
             facets = Facets((facets.centroids - p) @ r.T + p, facets.normals @ r.T,
@@ -274,13 +277,13 @@ class SceneModel:
             com = r @ (com - p) + p
         body = BuriedBody(facets, self.stress_model, ref=p, mirror_y=float(p[1]),
                           backend=self.backend)
-        w = scene.weight
+        w = posed.weight
         gravity = np.array([0.0, -w, w * (com[0] - p[0])])
 
         def wrench_fn(twists: np.ndarray) -> np.ndarray:
             return -body.planar_wrench(twists) - gravity
 
-        sf, lc = self.scaling_for(scene)
+        sf, lc = self.scaling_for(posed)
         surface = self.surface_cls(n_twists=self.n_twists).fit(
             GLSProblem(wrench_fn, Scaling(sf, lc)))
         rz = rot_z(yaw)
@@ -295,29 +298,29 @@ class SceneModel:
             twist = scaled = None
             if res.slip_twist_scaled is not None and res.slip_twist is not None:
                 twist, scaled = lift(res.slip_twist), lift(res.slip_twist_scaled)
-            out.append(SceneResult(res.status, res.method, 'sagittal', res.capacity_N, twist,
-                                   scaled, res.reason,
-                                   'sagittal reduction: ' + sym.detail + '; ' + res.detail,
-                                   res.flags, res.twist_spread_rad))
+            out.append(PosedAnchorResult(res.status, res.method, 'sagittal', res.capacity_N, twist,
+                                         scaled, res.reason,
+                                         'sagittal reduction: ' + sym.detail + '; ' + res.detail,
+                                         res.flags, res.twist_spread_rad))
         return out
 
     # -- the full 6D path --------------------------------------------------------------------
-    def surface_6d(self, scene: Scene) -> Surface6:
-        body = BuriedBody(scene.facets, self.stress_model, ref=scene.ref, backend=self.backend)
-        g = scene.gravity6()
+    def surface_6d(self, posed: PosedAnchor) -> Surface6:
+        body = BuriedBody(posed.facets, self.stress_model, ref=posed.ref, backend=self.backend)
+        g = posed.gravity6()
 
         def wrench_fn(twists: np.ndarray) -> np.ndarray:
             return -body.wrench(twists) - g
 
-        sf, lc = self.scaling_for(scene)
-        f = scene.buried()
-        forms = np.hstack([f.normals, np.cross(f.centroids - scene.ref, f.normals)])
+        sf, lc = self.scaling_for(posed)
+        f = posed.buried()
+        forms = np.hstack([f.normals, np.cross(f.centroids - posed.ref, f.normals)])
         return Surface6(n_twists=self.n_twists_6d).fit(
             Problem6(wrench_fn, g, Scaling6(sf, lc), switch_forms=forms))
 
-    def _predict_6d(self, scene: Scene, phis: list[float], yaw: float,
-                    sym: Symmetry) -> list[SceneResult]:
-        surface = self.surface_6d(scene)
+    def _solve_6d(self, posed: PosedAnchor, phis: list[float], yaw: float,
+                    sym: Symmetry) -> list[PosedAnchorResult]:
+        surface = self.surface_6d(posed)
         why = ('6D forced (--space 6d)' if sym.symmetric else 'full 6D: ' + sym.detail)
         # Mirror-symmetric about the pull plane: the in-plane answer is a crossing of the 6D
         # ray too (docs/design/six-d.md), one the cloud's seeds can miss (a root on a switching
@@ -328,7 +331,7 @@ class SceneModel:
             normal = (nx, ny, nz)
             planar = [InPlane6(r.capacity_N, r.slip_twist_scaled, r.flags, normal)
                       if r.ok and r.capacity_N is not None and r.slip_twist_scaled is not None
-                      else None for r in self._predict_sagittal(scene, phis, yaw, sym)]
+                      else None for r in self._solve_sagittal(posed, phis, yaw, sym)]
         # Not symmetric about the pull plane but about another vertical plane through p (a
         # yawed pull on a symmetric body): the in-plane answers there, lifted, seed the 6D
         # search. A pull yawed slightly off a mirror plane often exits near that plane's slip
@@ -337,14 +340,14 @@ class SceneModel:
         # earlier-crossing seeds) is solved: farther off, its slip says little about this ray.
         seeds: list[list[np.ndarray]] = [[] for _ in phis]
         if not sym.symmetric:
-            for plane_yaw in mirror_plane_yaws(scene):
+            for plane_yaw in mirror_plane_yaws(posed):
                 # the sense of the plane's pull nearer to the actual yaw
                 near = plane_yaw + math.pi * round((yaw - plane_yaw) / math.pi)
                 close = [float(pull_vector(p, yaw) @ pull_vector(p, near))
                          > math.cos(EARLIER_ANGLE) for p in phis]
                 if not any(close):
                     continue
-                for k, r0 in enumerate(self._predict_sagittal(scene, phis, near, Symmetry(
+                for k, r0 in enumerate(self._solve_sagittal(posed, phis, near, Symmetry(
                         True, 'mirror plane'))):
                     if close[k] and r0.ok and r0.slip_twist_scaled is not None:
                         seeds[k].append(np.asarray(r0.slip_twist_scaled, dtype=float))
@@ -352,7 +355,7 @@ class SceneModel:
         for phi, cand, sd in zip(phis, planar, seeds, strict=True):
             r: Result6 = surface.capacity(pull_vector(phi, yaw), in_plane=cand,
                                           seeds=np.array(sd) if sd else None)
-            out.append(SceneResult(r.status, r.method, '6d', r.capacity_N, r.slip_twist,
-                                   r.slip_twist_scaled, r.reason, why + '; ' + r.detail,
-                                   r.flags))
+            out.append(PosedAnchorResult(r.status, r.method, '6d', r.capacity_N, r.slip_twist,
+                                         r.slip_twist_scaled, r.reason, why + '; ' + r.detail,
+                                         r.flags))
         return out

@@ -1,4 +1,4 @@
-"""Sagittal robot models: legs on two axles posed from an anchor state
+"""Sagittal robots: legs on two axles posed from an anchor state
 (h, thetaB, thetaL1, thetaL2).
 
 Frames (docs/design/architecture.md). World W: z up, free surface z = 0. Body B: origin at the
@@ -65,7 +65,7 @@ class StateRange:
 
 
 @dataclass(frozen=True)
-class RobotModel:
+class Robot:
     """Every dimension the RFT-GLS model needs; SI units, body frame B (see module doc).
 
     Numbers the paper does not give are assumptions, marked in the presets.
@@ -83,7 +83,7 @@ class RobotModel:
     notes: dict = field(default_factory=dict, compare=False)
     state_range: StateRange = field(default_factory=StateRange)
 
-    def with_leg_mesh(self, mesh: TriMesh) -> 'RobotModel':
+    def with_leg_mesh(self, mesh: TriMesh) -> 'Robot':
         """The same robot with another leg (e.g. an STL file), in the leg frame above."""
         return replace(self, leg_mesh=mesh)
 
@@ -144,7 +144,7 @@ class PosedRobot:
     The body is symmetric about the plane y = 0.
     """
 
-    robot: RobotModel
+    robot: Robot
     state: AnchorState
     pull: Pull
     facets: Facets
