@@ -134,3 +134,69 @@ def test_float32_costs_little_and_is_opt_in():
         BuriedBody(f, model, precision='float16')
     with pytest.raises(ValueError, match='fused'):
         BuriedBody(f, model, backend='numpy', precision='float32')
+
+
+def _sphere_facets(depth=0.05):
+    mesh = icosphere(0.02, 2)
+    return mesh.facets().transformed(np.eye(3), [0.0, 0.0, -depth])
+
+
+def test_twists_with_and_without_resting_facets_in_one_call():
+    # The kernel blocks the twists for which every facet certainly moves apart from the
+    # others (kernel_pairs._twist_bounds) and puts each answer back in its row: a call that
+    # mixes both kinds gives each twist bitwise its answer alone, and numpy's to 1e-12.
+    f = _sphere_facets()
+    model = AgarwalRFT(6.8e5, 0.4)
+    ref_pt = f.centroids[7]
+    a = BuriedBody(f, model, ref=ref_pt, backend='numpy')
+    b = BuriedBody(f, model, ref=ref_pt, backend='numba')
+    rng = np.random.default_rng(9)
+    t = rng.normal(size=(2 * kernels.BLOCK + 7, 6))
+    t[::3, :3] = 0.0        # pure rotations about the reference point: facet 7 rests
+    together = b.wrench(t)
+    assert np.array_equal(together, np.array([b.wrench(row) for row in t]))
+    assert_agree(a.wrench(t), together, 1e-12)
+    t3 = rng.normal(size=(kernels.BLOCK + 9, 3))
+    t3[::4, :2] = 0.0       # planar rotations about the reference point
+    together3 = b.planar_wrench(t3)
+    assert np.array_equal(together3, np.array([b.planar_wrench(row) for row in t3]))
+    assert_agree(a.planar_wrench(t3), together3, 1e-12)
+
+
+def test_a_facet_between_the_rest_bounds_is_decided_exactly():
+    # A facet whose speed lies between the cheap bounds of the rest tolerance (lo, hi) sends
+    # its block through the exact tolerance. Here facet 7 moves at 1.0005e-12 of the fastest
+    # facet's speed (the numpy path: moving, so it carries its full stress) and below hi:
+    # without the exact pass the kernel would drop its force.
+    from rftgls_core.rft import kernel_pairs
+    f = _sphere_facets()
+    model = AgarwalRFT(6.8e5, 0.4)
+    c = f.centroids
+    axis = (c[0] - c[7]) / np.linalg.norm(c[0] - c[7])  # pure rotation about this axis
+    dist = np.linalg.norm(np.cross(c - c[7], axis), axis=1)
+    # move the axis sideways so facet 7 sits 1.0005e-12 x the farthest facet's distance away
+    side = np.cross(axis, [0.0, 0.0, 1.0])
+    side /= np.linalg.norm(side)
+    centre = c[7] + 1.0005e-12 * dist.max() * side
+    a = BuriedBody(f, model, ref=centre, backend='numpy')
+    b = BuriedBody(f, model, ref=centre, backend='numba')
+    t = np.zeros((3, 6))
+    t[:, 3:] = axis
+    t[1, 3:] *= 2.0
+    k = b._full['fused']
+    tw = np.ascontiguousarray(t.T)
+    ext = kernel_pairs._extent(False, k['r'])
+    lo, hi, moves = kernel_pairs._twist_bounds(False, tw, 0, k['r'], *ext, k['c'][3], k['c'][4])
+    speed = np.linalg.norm(np.cross(t[0, 3:], k['r'][7]))
+    assert lo < speed <= hi and not moves
+    assert speed > 1e-12 * np.linalg.norm(np.cross(t[0, 3:], k['r']), axis=1).max()
+    # Facet 7's velocity is ~4e-14 m/s from lever arms whose rounding is ~1e-17 m: its
+    # direction is known to ~1e-4 only, and the two paths round it differently (the kernel
+    # contracts into FMA), so its stress differs by up to ~1e-4 of the facet's share of the
+    # wrench (1.5e-3 here; measured 2e-8 of the wrench). Dropping the facet (the fast test
+    # alone: speed <= hi) changes the wrench by its whole share, 1,000 times the tolerance.
+    rest = BuriedBody(f.subset(np.arange(len(c)) != 7), model, ref=centre, backend='numpy')
+    w_ref, w_fused, w_without = a.wrench(t), b.wrench(t), rest.wrench(t)
+    scale = np.abs(w_ref).max()
+    assert np.abs(w_fused - w_ref).max() <= 1e-6 * scale
+    assert np.abs(w_without - w_ref).max() >= 1e-3 * scale

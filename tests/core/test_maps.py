@@ -284,7 +284,8 @@ def test_batch_matches_single():
 
 
 def test_query_is_fast(cmap):
-    # Loose guard only (shared noisy machines); the budgeted figure is maps.bench.
+    # Loose guard only (shared noisy machines); the budgeted figure is map_query_us
+    # (rftgls_core/benchmarks/maps.py).
     import time
     s = state(12, 3, 5, 25)
     t0 = time.perf_counter()

@@ -155,7 +155,7 @@ def test_warm_state_is_learned_not_set():
 
 def test_the_bench_live_stream_is_answered_as_cold_and_mostly_warm():
     # The stream behind `rftgls bench`'s capacity_live_* figures, every one of its states.
-    from rftgls_core.bench import LIVE_PHI, live_stream
+    from rftgls_core.benchmarks.live import LIVE_PHI, live_stream
     states = live_stream()
     assert len(states) == 1000 and states[0] == live_stream()[0]     # deterministic
     r = run_stream('minirquad', states, LIVE_PHI, Pull.BACKWARD)

@@ -127,7 +127,7 @@ class Rig:
         self.Float64 = Float64
         self.stream = None
         if live:   # leg angles of the core bench's live stream (noise and slow burrowing)
-            from rftgls_core.bench import live_stream
+            from rftgls_core.benchmarks.live import live_stream
             self.stream = [(s.theta_l1, s.theta_l2) for s in live_stream()]
 
     def on_out(self, msg) -> None:

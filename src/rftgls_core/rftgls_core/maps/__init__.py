@@ -7,11 +7,11 @@
     query.py        CapacityMap: load, query (onboard hot path), query_batch
     build.py        build_map: RobotPredictor at every node; local processes or Dask
     accuracy.py     map vs. a reference method at cell centres and random states
-    bench.py        map_query_us and map_build_s figures
     shipped.py      resolve_map: the one resolver of map names and paths; shipped hashes
 
 The query side (grid, hdf5, interpolate, query) imports no RFT code, so the onboard node loads
-fast; build/accuracy/bench are imported on first use.
+fast; build/accuracy are imported on first use (the map figures of `rftgls bench` are in
+rftgls_core/benchmarks/maps.py).
 """
 from __future__ import annotations
 

@@ -1,19 +1,23 @@
 """Building a capacity map: RobotPredictor at every grid node, in parallel, deterministically.
 
-Work unit: a chunk of flat state indices (grid.py order). For each state, each pull
-orientation is fitted once and queried at every stored pull angle (predict_many), so a node
-costs P surface fits. Each worker process (or Dask worker thread) builds its RobotPredictor once
-and keeps it (`_predictor` cache), because the twist sphere and the numba kernels are the
-expensive part to set up.
+Work unit: a chunk of flat state indices (grid.py order), every n-th state of the grid
+(neighbouring states cost alike, a strided chunk mixes cheap and dear ones, so the workers
+finish together). For each state, each pull orientation is fitted once and queried at every
+stored pull angle, and the node's support margin is taken on the fit's own wrenches, so a
+node costs P surface fits. Each worker process (or Dask worker thread) builds its RobotPredictor
+once and keeps it (`_predictor` cache), because the twist sphere and the numba kernels are
+the expensive part to set up; the local pool is started once for both passes of a build
+(a worker's start, imports and cached kernels, costs ~1.5 s of CPU).
 
 Determinism: chunks are fixed by the grid and chunk size, results are placed by state index
 (never by completion order), the RFT kernels are serial, and nothing random is drawn, so the
 same inputs give the same arrays on 1 worker, N local workers or a Dask cluster. Only the
 build_time_utc attribute differs between builds.
 
-Executors: workers == 1 runs in this process; workers > 1 uses a 'spawn' process pool (no
-fork of a parent that may hold threads: tqdm's monitor, Dask, ROS); `scheduler` sends the
-same chunks to a Dask distributed scheduler at that address.
+Executors: workers == 1 runs in this process; workers > 1 uses this process and workers - 1
+'spawn' processes (no fork of a parent that may hold threads: tqdm's monitor, Dask, ROS),
+`local_workers`; `scheduler` sends the same chunks to a Dask distributed scheduler at that
+address.
 """
 from __future__ import annotations
 
@@ -23,8 +27,10 @@ import multiprocessing
 import os
 import sys
 import threading
+from collections import deque
 from collections.abc import Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import Future, ProcessPoolExecutor
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
 
@@ -37,7 +43,13 @@ from ..robots.presets import get_robot
 from ..surfaces.registry import DEFAULT_METHOD, DEFAULT_TWISTS
 from ..surfaces.twist_sphere import TwistSphere
 from ..types import Status
-from .edge import EDGE_MARGIN_TWISTS, node_margin_gradient, node_support_margin
+from .edge import (
+    EDGE_MARGIN_TWISTS,
+    fitted_wrenches,
+    node_margin_gradient,
+    node_support_margin,
+    signed_margin,
+)
 from .grid import MapGrid, default_grid
 from .hdf5 import STATUS_NAMES, MapData, empty_answers
 
@@ -98,7 +110,8 @@ def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResul
     for a, k in enumerate(idx.tolist()):
         state = grid.state(k)
         for p, pull in enumerate(grid.pulls):
-            for j, r in enumerate(predictor.predict_many(state, grid.phi, pull)):
+            surface, failure = predictor.fit(state, pull)
+            for j, r in enumerate(predictor.answers(surface, failure, grid.phi)):
                 status[a, p, j] = STATUS_NAMES.index(r.status.value)
                 reason[a][p][j] = r.reason
                 if r.status.has_value:
@@ -106,7 +119,9 @@ def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResul
                     ts[a, p, j] = r.slip_twist_scaled
                     tr[a, p, j] = r.slip_twist
             held = bool(np.isfinite(cap[a, p]).any())
-            margin[a, p] = node_support_margin(predictor, sphere, state, pull, held)
+            ws = fitted_wrenches(surface, sphere)
+            margin[a, p] = (node_support_margin(predictor, sphere, state, pull, held) if ws is None
+                            else signed_margin(ws, sphere, held))
     return ChunkResult(idx, cap, ts, tr, status, reason, margin)
 
 
@@ -146,9 +161,12 @@ def edge_cell_corners(held: np.ndarray) -> np.ndarray:
 
 
 def chunk_indices(n_states: int, workers: int, per_worker: int = 8) -> list[np.ndarray]:
-    """Contiguous chunks, about `per_worker` per worker (load balance vs. task overhead)."""
-    size = max(1, math.ceil(n_states / max(1, workers * per_worker)))
-    return [np.arange(s, min(s + size, n_states)) for s in range(0, n_states, size)]
+    """About `per_worker` chunks per worker (load balance vs. task overhead), each every
+    n-th state: neighbouring states cost alike (a contiguous chunk of support-checked or
+    closure-searched states takes several times one of unsupported states), so strided chunks
+    cost alike and the workers finish together."""
+    n_chunks = min(n_states, max(1, workers * per_worker))
+    return [np.arange(c, n_states, n_chunks) for c in range(n_chunks)]
 
 
 def _run_inline(spec, grid, chunks, fn=solve_chunk) -> Iterator:
@@ -156,16 +174,71 @@ def _run_inline(spec, grid, chunks, fn=solve_chunk) -> Iterator:
         yield fn(spec, grid, c)
 
 
-def _run_pool(spec, grid, chunks, workers, fn=solve_chunk) -> Iterator:
-    ctx = multiprocessing.get_context('spawn')
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-        futures = [pool.submit(fn, spec, grid, c) for c in chunks]
+class LocalWorkers:
+    """`workers` workers for every pass of one build: this process and workers - 1 'spawn'
+    processes started once. A process's start (imports, cached kernels) costs ~1.5 s of CPU
+    and 3-10 s of wall time on a busy machine, so the process that has them already works
+    too (its kernels on one thread meanwhile, as the others' are), and when it runs out of
+    chunks it also takes the ones still queued at a process that has not finished them (the
+    same numbers, whoever computes them first): a pass never waits for a slow start."""
+
+    def __init__(self, pool: ProcessPoolExecutor, processes: int):
+        self.pool, self.processes = pool, processes
+
+    def run(self, spec, grid, chunks, fn=solve_chunk) -> Iterator:
+        """Results of fn on every chunk, each once, in completion order."""
+        todo = deque(chunks)
+        running: dict[Future, object] = {}
+        taken: set[Future] = set()      # chunks this process computed itself
         try:
-            for fut in as_completed(futures):
-                yield fut.result()
+            while todo or len(taken) < len(running):
+                while todo and len(running) - len(taken) < 2 * self.processes:
+                    c = todo.popleft()
+                    running[self.pool.submit(fn, spec, grid, c)] = c
+                for fut in [f for f in running if f.done()]:
+                    running.pop(fut)
+                    if fut in taken:
+                        taken.discard(fut)
+                    else:
+                        yield fut.result()
+                if todo:
+                    yield fn(spec, grid, todo.popleft())
+                    continue
+                left = [f for f in running if f not in taken]
+                if left:
+                    taken.add(left[0])
+                    yield fn(spec, grid, running[left[0]])
         finally:
-            for fut in futures:
+            for fut in running:
                 fut.cancel()
+
+
+@contextmanager
+def local_workers(workers: int) -> Iterator[LocalWorkers]:
+    """LocalWorkers for a build on `workers` >= 2 workers (on leaving, chunks not started are
+    cancelled and a chunk still running elsewhere is not waited for)."""
+    ctx = multiprocessing.get_context('spawn')
+    pool = ProcessPoolExecutor(max_workers=workers - 1, mp_context=ctx)
+    try:
+        with _one_thread():
+            yield LocalWorkers(pool, workers - 1)
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
+
+
+@contextmanager
+def _one_thread() -> Iterator[None]:
+    """The RFT kernels of this thread on one thread inside the block (the other workers take
+    the other cores)."""
+    from ..rft import kernels
+    before = kernels.threads()
+    if kernels.AVAILABLE:
+        kernels.set_threads(1)
+    try:
+        yield
+    finally:
+        if kernels.AVAILABLE:
+            kernels.set_threads(before)
 
 
 def probe_scheduler(address: str, timeout_s: float = 3.0) -> None:
@@ -216,6 +289,63 @@ def _run_dask(spec, grid, chunks, address: str, timeout_s: float,
         client.close()
 
 
+@dataclass
+class _Answers:
+    """Every state's answers, (S, P, K) (+ (3,)), reasons as strings, margins (S, P)."""
+
+    capacity_N: np.ndarray
+    slip_twist_scaled: np.ndarray
+    slip_twist: np.ndarray
+    status: np.ndarray
+    reasons: np.ndarray
+    support_margin: np.ndarray
+
+
+def _solve_states(run, spec: BuildSpec, grid: MapGrid, workers: int, progress: bool
+                  ) -> _Answers:
+    """First pass: every state, in chunks (`chunk_indices`), placed by state index."""
+    P, K, S = len(grid.pulls), len(grid.phi), grid.n_states
+    cap, ts, tr, status, reasons = empty_answers((S, P, K), 3)
+    margin = np.full((S, P), np.nan)
+    from tqdm import tqdm
+    with tqdm(total=S, unit='state', file=sys.stderr, disable=not progress,
+              desc=f'map {spec.robot}/{spec.medium.name}', dynamic_ncols=True) as bar:
+        for r in run(chunk_indices(S, workers)):
+            cap[r.ks], ts[r.ks], tr[r.ks], status[r.ks] = (r.capacity_N, r.slip_twist_scaled,
+                                                           r.slip_twist, r.status)
+            margin[r.ks] = r.support_margin
+            for a, k in enumerate(r.ks.tolist()):
+                for p in range(P):
+                    reasons[k, p, :] = r.reason[a][p]
+            bar.update(len(r.ks))
+    return _Answers(cap, ts, tr, status, reasons, margin)
+
+
+def _edge_pass(run, grid: MapGrid, answers: _Answers, workers: int
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Second pass: at the corners of cells that straddle the support edge (the only cells
+    whose rule reads them) the margin again and its gradient, on the dense sphere of the
+    weight-held check; the gradient is NaN elsewhere. Returns (margin (S, P), grad (S, P, 4))."""
+    P, S = len(grid.pulls), grid.n_states
+    margin = answers.support_margin.copy()
+    valued_codes = [STATUS_NAMES.index(st.value) for st in Status if st.has_value]
+    held = np.asarray(np.isin(answers.status, valued_codes).any(axis=2)).T.reshape(
+        (P,) + grid.state_shape)
+    need = edge_cell_corners(held) & np.isfinite(margin.T.reshape(held.shape))
+    pk = np.argwhere(need.reshape(P, -1))               # (M, 2) = (pull, flat state)
+    held_flat = held.reshape(P, -1)
+    jobs = (np.column_stack([pk[:, 1], pk[:, 0], held_flat[pk[:, 0], pk[:, 1]]])
+            if len(pk) else np.zeros((0, 3), np.intp))
+    grad = np.full((S, P, 4), np.nan)
+    if len(jobs):
+        size = max(1, math.ceil(len(jobs) / max(1, workers * 8)))
+        for js, m1, g4 in run([jobs[i:i + size] for i in range(0, len(jobs), size)],
+                              solve_grad_chunk):
+            margin[js[:, 0], js[:, 1]] = m1
+            grad[js[:, 0], js[:, 1]] = g4
+    return margin, grad
+
+
 def default_workers() -> int:
     try:
         return max(1, len(os.sched_getaffinity(0)))
@@ -246,51 +376,23 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
     workers = default_workers() if workers is None else int(workers)
     if workers < 1:
         raise ValueError(f'workers must be >= 1, got {workers}')
-    chunks = chunk_indices(grid.n_states, 4 if scheduler else workers)
+    with ExitStack() as stack:
+        local = (stack.enter_context(local_workers(min(workers, grid.n_states)))
+                 if workers > 1 and not scheduler else None)
 
-    def run(chunks, fn=solve_chunk) -> Iterator:
-        if scheduler:
-            return _run_dask(spec, grid, chunks, scheduler, scheduler_timeout_s, fn)
-        if workers == 1 or len(chunks) == 1:
-            return _run_inline(spec, grid, chunks, fn)
-        return _run_pool(spec, grid, chunks, min(workers, len(chunks)), fn)
+        def run(chunks, fn=solve_chunk) -> Iterator:
+            if scheduler:
+                return _run_dask(spec, grid, chunks, scheduler, scheduler_timeout_s, fn)
+            if local is None or len(chunks) == 1:
+                return _run_inline(spec, grid, chunks, fn)
+            return local.run(spec, grid, chunks, fn)
 
-    results = run(chunks)
-
-    P, K, S = len(grid.pulls), len(grid.phi), grid.n_states
-    cap, ts, tr, status, reasons = empty_answers((S, P, K), 3)
-    margin = np.full((S, P), np.nan)
-    grad = np.full((S, P, 4), np.nan)
-    from tqdm import tqdm
-    with tqdm(total=S, unit='state', file=sys.stderr, disable=not progress,
-              desc=f'map {spec.robot}/{med.name}', dynamic_ncols=True) as bar:
-        for r in results:
-            cap[r.ks], ts[r.ks], tr[r.ks], status[r.ks] = (r.capacity_N, r.slip_twist_scaled,
-                                                           r.slip_twist, r.status)
-            margin[r.ks] = r.support_margin
-            for a, k in enumerate(r.ks.tolist()):
-                for p in range(P):
-                    reasons[k, p, :] = r.reason[a][p]
-            bar.update(len(r.ks))
-
-    # Second pass: at the corners of cells that straddle the support edge (the only cells
-    # whose rule reads them) the margin again and its gradient, on the dense sphere of the
-    # weight-held check; the gradient is NaN elsewhere.
-    valued_codes = [STATUS_NAMES.index(st.value) for st in Status if st.has_value]
-    held = np.asarray(np.isin(status, valued_codes).any(axis=2)).T.reshape((P,) + grid.state_shape)
-    need = edge_cell_corners(held) & np.isfinite(margin.T.reshape(held.shape))
-    pk = np.argwhere(need.reshape(P, -1))               # (M, 2) = (pull, flat state)
-    held_flat = held.reshape(P, -1)
-    jobs = (np.column_stack([pk[:, 1], pk[:, 0], held_flat[pk[:, 0], pk[:, 1]]])
-            if len(pk) else np.zeros((0, 3), np.intp))
-    grad = np.full((S, P, 4), np.nan)
-    if len(jobs):
-        size = max(1, math.ceil(len(jobs) / max(1, (4 if scheduler else workers) * 8)))
-        for js, m1, g4 in run([jobs[i:i + size] for i in range(0, len(jobs), size)],
-                              solve_grad_chunk):
-            margin[js[:, 0], js[:, 1]] = m1
-            grad[js[:, 0], js[:, 1]] = g4
-
+        answers = _solve_states(run, spec, grid, 4 if scheduler else workers, progress)
+        margin, grad = _edge_pass(run, grid, answers, 4 if scheduler else workers)
+    P = len(grid.pulls)
+    cap, ts, tr, status = (answers.capacity_N, answers.slip_twist_scaled, answers.slip_twist,
+                           answers.status)
+    reasons = answers.reasons
     # Sorted table: the reason codes do not depend on completion order.
     names = tuple(sorted(set(reasons.reshape(-1).tolist()) | {''}))
     code_of = {n: i for i, n in enumerate(names)}

@@ -37,6 +37,7 @@ import math
 import sys
 import threading
 from collections.abc import Mapping
+from contextlib import ExitStack
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -210,7 +211,7 @@ def build_described_map(desc, medium, grid: DescribedGrid | None = None, *,
     from tqdm import tqdm
 
     from ..posed import PosedAnchorSolver
-    from .build import _run_inline, _run_pool, chunk_indices
+    from .build import _run_inline, chunk_indices, local_workers
     grid = description_grid(desc) if grid is None else grid
     if grid.names != desc.state_names:
         raise ValueError(f'grid axes {grid.names} are not the state of {desc.name} '
@@ -228,12 +229,14 @@ def build_described_map(desc, medium, grid: DescribedGrid | None = None, *,
     cache[spec] = (desc, sm)   # this process answers with the description it was given
     P, K, S = len(grid.pulls), len(grid.phi), grid.n_states
     chunks = chunk_indices(S, workers)
-    results = (_run_inline(spec, grid, chunks, solve_described_chunk)
-               if workers == 1 or len(chunks) == 1 else
-               _run_pool(spec, grid, chunks, min(workers, len(chunks)), solve_described_chunk))
     cap, ts, tr, status, reasons = empty_answers((P, S, K), 6)
-    with tqdm(total=S, unit='state', file=sys.stderr, disable=not progress,
-              desc=f'map {desc.name}/{medium.name}', dynamic_ncols=True) as bar:
+    with ExitStack() as stack, tqdm(total=S, unit='state', file=sys.stderr,
+                                    disable=not progress, desc=f'map {desc.name}/{medium.name}',
+                                    dynamic_ncols=True) as bar:
+        results = (_run_inline(spec, grid, chunks, solve_described_chunk)
+                   if workers == 1 or len(chunks) == 1 else
+                   stack.enter_context(local_workers(min(workers, len(chunks)))).run(
+                       spec, grid, chunks, solve_described_chunk))
         for ks, c, t, r, st, rs in results:
             # (n, P, K) -> (P, n, K): placed by state index, never by completion order
             cap[:, ks], ts[:, ks], tr[:, ks] = (np.swapaxes(c, 0, 1), np.swapaxes(t, 0, 1),

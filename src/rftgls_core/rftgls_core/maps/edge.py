@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..predictor.live import RobotPredictor
-from ..surfaces.base import SUPPORT_CHECK_TWISTS
+from ..surfaces.base import SUPPORT_CHECK_TWISTS, LimitSurface
 from ..surfaces.raycast import winding_number
 from ..surfaces.twist_sphere import TwistSphere
 from ..types import AnchorState, Pull
@@ -98,11 +98,23 @@ def node_support_margin(predictor: RobotPredictor, sphere: TwistSphere, state: A
     w = problem.wrench_fn(sphere.twists_raw(problem.scaling))
     if not np.all(np.isfinite(w)):
         return float('nan')
-    ws = problem.scaling.wrench_to_scaled(w)
+    return signed_margin(problem.scaling.wrench_to_scaled(w), sphere, held)
+
+
+def signed_margin(ws: np.ndarray, sphere: TwistSphere, held: bool | None = None) -> float:
+    """The support margin from the scaled wrenches ws of the twists of `sphere` (see
+    node_support_margin)."""
     dist = point_mesh_distance(ws, sphere.faces)
     if held is None:
         held = abs(winding_number(ws, sphere.faces)) >= 0.5
     return dist if held else -dist
+
+
+def fitted_wrenches(surface: LimitSurface | None, sphere: TwistSphere) -> np.ndarray | None:
+    """The scaled wrenches a fit evaluated on `sphere` (the same numbers node_support_margin
+    would compute again for that pose), or None when it evaluated none there."""
+    cloud = surface.cloud_ if surface is not None else None
+    return cloud[1] if cloud is not None and cloud[0] is sphere else None
 
 
 def node_margin_gradient(predictor: RobotPredictor, sphere: TwistSphere, grid: MapGrid, k: int,

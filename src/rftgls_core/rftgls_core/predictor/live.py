@@ -103,8 +103,13 @@ class LivePredictor:
 
     def predict_many(self, state: AnchorState, phis, pull: Pull | str) -> list[CapacityResult]:
         """Capacity and slip twist for several pull angles (rad) of one state."""
+        return self.answers(*self.fit(state, pull), phis)
+
+    @staticmethod
+    def answers(surface: LimitSurface | None, failure: CapacityResult | None,
+                phis) -> list[CapacityResult]:
+        """The answers of a `fit` at pull angles phis (rad): the surface's, or the failure's."""
         phis = np.atleast_1d(np.asarray(phis, dtype=float))
-        surface, failure = self.fit(state, pull)
         if surface is None:
             assert failure is not None
             return [CapacityResult(**{**failure.__dict__, 'phi': float(p)}) for p in phis]

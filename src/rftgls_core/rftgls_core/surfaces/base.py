@@ -212,6 +212,8 @@ class LimitSurface(ABC):
         self.problem: GLSProblem | None = None
         # The support check's dense sphere and scaled wrenches, when this fit evaluated them.
         self.support_samples_: tuple[TwistSphere, np.ndarray] | None = None
+        # The fit's own sphere and its scaled wrenches, once evaluated and finite.
+        self.cloud_: tuple[TwistSphere, np.ndarray] | None = None
         self.fit_info = FitInfo(status=Status.INVALID_INPUT, reason='not_fitted',
                                 detail='call fit() first')
 
@@ -221,6 +223,7 @@ class LimitSurface(ABC):
         self.problem = problem
         self.fit_info = FitInfo()
         self.support_samples_ = None
+        self.cloud_ = None
         if self.n_twists < self.min_twists:
             return self._fail_fit(Status.DEGENERATE, 'too_few_twists',
                                   f'{self.n_twists} twists: {self.method} needs at least '
@@ -230,6 +233,7 @@ class LimitSurface(ABC):
         if w is None:
             return self._fail_fit(Status.INVALID_INPUT, 'non_finite_wrench', why)
         ws = problem.scaling.wrench_to_scaled(w)
+        self.cloud_ = (sphere, ws)
         sv = np.linalg.svd(ws - ws.mean(axis=0), compute_uv=False)
         if not sv[-1] > 1e-9 * sv[0]:
             return self._fail_fit(Status.DEGENERATE, 'flat_cloud',
