@@ -22,10 +22,10 @@ from rftgls_core.geometry.stl import write_stl
 from rftgls_core.maps import CapacityMap, MapFileError, resolve_map
 from rftgls_core.maps.described import (
     DescribedMap,
-    build_described_map,
     description_grid,
     save_described_map,
 )
+from rftgls_core.maps.described_build import build_described_map
 from rftgls_core.posed import PosedAnchorSolver
 from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium

@@ -156,10 +156,10 @@ def test_method_map_takes_a_described_map_with_its_description(tmp_path):
     without it or for another description, in one line."""
     from rftgls_core.description import load_description
     from rftgls_core.maps.described import (
-        build_described_map,
         description_grid,
         save_described_map,
     )
+    from rftgls_core.maps.described_build import build_described_map
     desc = load_description(PROTOTYPE)
     med = get_medium('glass_beads')
     grid = description_grid(desc, {'h': [0.01, 0.02], 'theta_b': [0.0, 10.0],

@@ -194,10 +194,10 @@ def dh_described_map(tmp_path_factory):
     (its nodes include DH), twist-mesh, backward pull."""
     from rftgls_core.description import load_description
     from rftgls_core.maps.described import (
-        build_described_map,
         description_grid,
         save_described_map,
     )
+    from rftgls_core.maps.described_build import build_described_map
     from rftgls_core.rft.media import get_medium
     desc = load_description(MINIRQUAD)
     grid = description_grid(desc, {'h': [0.034, 0.036], 'theta_b': [5.0, 8.9],

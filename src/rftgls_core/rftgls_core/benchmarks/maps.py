@@ -63,7 +63,8 @@ def scaling_figures() -> list[Figure]:
     """Map builds on 1 and 2 local workers: the robot map and a described map."""
     from ..description import load_description, shipped_description
     from ..maps.build import build_map
-    from ..maps.described import build_described_map, description_grid
+    from ..maps.described import description_grid
+    from ..maps.described_build import build_described_map
     from ..rft.media import get_medium
     grid = prototype_grid()
     t = {}

@@ -166,7 +166,8 @@ def run_build_anchor(args) -> int:
     """`map build --anchor`: a described map (maps/described.py) over the description's state
     variables, built in this process."""
     from ..description import load_description
-    from ..maps.described import build_described_map, description_grid, save_described_map
+    from ..maps.described import description_grid, save_described_map
+    from ..maps.described_build import build_described_map
     from ..maps.grid import DEFAULT_PHI_DEG, parse_range
     from .map_described import local_workers
     if args.scheduler:

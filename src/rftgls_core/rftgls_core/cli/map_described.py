@@ -55,8 +55,9 @@ def refine(args) -> int:
     same description, medium, method and twist count."""
     import shlex
 
-    from ..maps.described import build_described_map, map_medium, save_described_map
+    from ..maps.described import map_medium, save_described_map
     from ..maps.described_accuracy import described_interval_errors, refined_described_grid
+    from ..maps.described_build import build_described_map
     cmap, desc = _load(args)
     errors = described_interval_errors(cmap, desc, samples=args.samples, seed=args.seed,
                                        progress=not args.quiet)
