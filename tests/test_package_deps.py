@@ -29,6 +29,9 @@ ROSDEP = {
     'cv2': 'python3-opencv', 'serial': 'python3-serial', 'yaml': 'python3-yaml',
     'rosbags': 'python3-rosbags-pip', 'pytest': 'python3-pytest',
     'hypothesis': 'python3-hypothesis', 'urdf_parser_py': 'urdfdom_py',
+    # llvmlite is numba's compiler backend, installed with it (Debian's python3-numba depends
+    # on python3-llvmlite); the bench reads numba's target CPU from it.
+    'llvmlite': 'python3-numba',
 }
 ROS = {'rclpy', 'launch', 'launch_ros', 'ament_index_python', 'builtin_interfaces', 'xacro'}
 EXEMPT = {'setuptools'}
