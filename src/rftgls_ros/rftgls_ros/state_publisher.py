@@ -154,7 +154,7 @@ class StatePublisher(Node):
 
     def on_joints(self, msg: JointState) -> None:
         # Raw angles are judged before they are drawn: a leg angle beyond LEG_LIMIT_RAD is no
-        # reading (capacity-inputs.md), and wrapped it would draw a plausible leg.
+        # reading (docs/design/capacity-inputs.md), and wrapped it would draw a plausible leg.
         names, positions = [], []
         for name, pos in zip(msg.name, msg.position, strict=False):
             if name in self.leg_joints and not abs(pos) <= LEG_LIMIT_RAD:

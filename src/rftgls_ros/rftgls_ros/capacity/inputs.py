@@ -54,8 +54,8 @@ def gravity_problem(q: tuple[float, float, float, float],
 
 
 # Raw leg angles (before wrapping) beyond +-LEG_LIMIT_RAD are not readings: the driver sends
-# them wrapped to (-pi, pi] (PROTOCOL.md) and a [0, 2 pi) convention stays inside 2 pi, so 2 pi
-# accepts both; 1e300 or 6.28e6 rad would wrap to a plausible angle.
+# them wrapped to (-pi, pi] (src/minirquad_driver/PROTOCOL.md) and a [0, 2 pi) convention stays
+# inside 2 pi, so 2 pi accepts both; 1e300 or 6.28e6 rad would wrap to a plausible angle.
 LEG_LIMIT_RAD = 2.0 * math.pi
 # An IMU whose up axis is further than this from the vertical is upside down or on its side
 # (digging accelerations and the steepest pitch the robot reaches, |theta_B| < 30 deg, stay
