@@ -82,12 +82,12 @@ def test_no_nan_on_the_screen_in_any_state(status):
     combos = itertools.product(NUMBERS, NUMBERS, [(math.nan,) * 3, (0.0, 0.0, 0.0),
                                                    (0.1, -0.2, 0.97)],
                                [0.0, 10.0], [None, frozenset(), frozenset({'phi'})],
-                               [False, True], [False, True])
+                               [False, True], [False, True], [None, (), ('burrow',)])
     shown = 0
-    for cap, tension, twist, age, assumed, override, estop in combos:
+    for cap, tension, twist, age, assumed, override, estop, unheard in combos:
         m = TeleopModel()
         m.status, m.capacity, m.tension, m.slip_twist = status, cap, tension, twist
-        m.t_capacity, m.assumed_inputs = 0.0, assumed
+        m.t_capacity, m.assumed_inputs, m.unheard = 0.0, assumed, unheard
         m.t = age
         if override:
             m.key('!', age)
@@ -104,7 +104,7 @@ def test_no_nan_on_the_screen_in_any_state(status):
             assert GREY in lines[1] and 'not usable: ' + verdict.detail in text, text
             assert re.search(r'margin\s+--  N', text), text
         shown += 1
-    assert shown == len(NUMBERS) ** 2 * 3 * 2 * 3 * 2 * 2
+    assert shown == len(NUMBERS) ** 2 * 3 * 2 * 3 * 2 * 2 * 3
 
 
 def test_an_assumed_input_is_named_and_refused_unless_accepted():

@@ -84,6 +84,12 @@ class TeleopNode(Node):
                                      lambda: 'TUG' if self.model.winch > 0.0 else 'manual')
 
     def send(self, cmds) -> None:
+        unheard = dict.fromkeys(self.pubs[t].topic_name for t, _ in cmds
+                                if self.pubs[t].get_subscription_count() == 0)
+        if unheard:   # a lost command must not look like a sent one
+            self.model.message += (f'; NOT SENT: nobody subscribes to {", ".join(unheard)} '
+                                   '(is bridge_node running?)')
+            self.model.alert = True
         for topic, value in cmds:
             if topic in ('winch',):
                 self.pubs[topic].publish(Float64(data=float(value)))
@@ -114,6 +120,7 @@ class TeleopNode(Node):
 
     def on_timer(self) -> None:
         m = self.model
+        m.unheard = tuple(t for t, p in self.pubs.items() if p.get_subscription_count() == 0)
         self.send(m.update(time.monotonic()))
         if m.winch != 0.0:   # refresh: the MCU's winch deadman stops a winch left unrefreshed
             self.pubs['winch'].publish(Float64(data=float(m.winch)))

@@ -57,6 +57,9 @@ class TeleopModel:
         self.mode: str | None = None
         self.override_until = -math.inf
         self.estop = False
+        # Command topics nobody subscribes to (the robot's bridge is not up or not yet
+        # discovered): a key press would be lost, so the screen says so. None = not known.
+        self.unheard: tuple[str, ...] | None = None
         self.message = 'press a key; q quits'
         self.alert = False
         self.quit = False
@@ -203,6 +206,12 @@ class TeleopModel:
                  f'vx {tw[0]:+.2f} vz {tw[1]:+.2f} wy {tw[2]:+.2f} (unit direction)'
                  if all(math.isfinite(x) for x in tw) else '--')
         ov = f'{RED}OVERRIDE{RESET}' if self.overridden() else 'guarded'
+        if self.unheard is None:
+            robot = f'{GREY}robot link unknown{RESET}'
+        elif self.unheard:
+            robot = f'{RED}NOBODY LISTENS to {", ".join(self.unheard)}{RESET}'
+        else:
+            robot = 'robot listening'
         evidence = ('prediction usable' if verdict.usable
                     else f'{GREY}not usable: {verdict.detail}{RESET}')
         lines = [
@@ -214,7 +223,7 @@ class TeleopModel:
             f'evidence {evidence}',
             f'slip twist {twist}',
             f'winch {1e3 * self.winch:+5.0f} mm/s   anchor {self.mode or "-"}   {ov}   '
-            f'tether {self.tether.free_length:.3f} m'
+            f'tether {self.tether.free_length:.3f} m   {robot}'
             + (f'   {RED}E-STOP{RESET}' if self.estop else ''),
             (RED if self.alert else YELLOW) + self.message + RESET,
         ]
