@@ -213,7 +213,7 @@ def test_an_assumed_range_that_can_lose_the_anchor_bounds_at_zero(live_predictor
     assert e.status is Status.ASSUMED and e.capacity_lower_N == 0.0
 
 
-# -- raw values, judged before they are transformed (their tolerances: capacity-inputs.md) -----
+# -- raw values, judged before they are transformed (docs/design/capacity-inputs.md) -----
 @pytest.mark.parametrize('raw, ok', [(2 * math.pi, True), (-2 * math.pi, True),
                                      (2 * math.pi + 1e-9, False), (1e300, False),
                                      (6.28e6, False), (math.inf, False)])
