@@ -229,6 +229,7 @@ def test_documented_teleop_path_tugs_guards_and_stops(tmp_path, ros_context):
         term.wait_for(r'prediction usable', 5, robot.spin)
         n = numbers(term.screen())
         assert 3.0 < n['capacity'] < 9.0, term.screen()
+        print(f"DH burrowed: capacity {n['capacity']} N, tension {n['tension']} N")
         # The winch runs only under a usable (measured ok) estimate: a late telemetry frame on
         # a loaded machine makes an estimate stale and teleop stops the winch at once; the
         # operator presses i again once the screen says the prediction is usable.
@@ -237,6 +238,7 @@ def test_documented_teleop_path_tugs_guards_and_stops(tmp_path, ros_context):
         term.press(' ')
         term.wait_for(r'winch stopped', 5, robot.spin)
         n = numbers(term.screen())
+        print(f"DH reeled {1e3 * (robot.spool - start):.1f} mm, load {n['load']:.0f} %")
         assert n['load'] < 80 and 'press ! then i' not in ''.join(term.screens()), \
             term.screen()
 
@@ -252,6 +254,8 @@ def test_documented_teleop_path_tugs_guards_and_stops(tmp_path, ros_context):
                    in term.screen(), 'i')
         n = numbers(term.screen())
         assert 80 <= n['load'] < 100 and n['tension'] < n['capacity'], term.screen()
+        print(f"SH guard stop: tension {n['tension']} N, capacity {n['capacity']} N, "
+              f"load {n['load']:.0f} %")
         held = robot.spool
         term.press('i')
         term.wait_for(r'>= 80 %: press ! then i to override', 5, robot.spin)
