@@ -22,7 +22,7 @@ export MPLBACKEND := Agg
 ENV := source tools/env.sh
 PYTEST_ARGS ?= -n 2
 
-.PHONY: setup build demo test test-cpus colcon-test lint bench lock clean firmware firmware-size
+.PHONY: setup build demo teleop-sim test test-cpus colcon-test lint bench lock clean firmware firmware-size
 
 setup: $(STAMP) $(BIN)/ros2 $(WS)/install/.built-stamp firmware
 
@@ -61,6 +61,14 @@ $(WS)/install/.built-stamp: $(STAMP) $(PKG_FILES) $(WS_FILES)
 	touch $@
 
 build: setup
+
+# The teleoperated tug on the simulated MiniRQuad: simulator, serial bridge, capacity_node and
+# state_publisher (launch/teleop.launch.py, run by the project's launch stand-in); then
+# `source tools/env.sh && ros2 run rftgls_ros teleop` in a second terminal (same ROS_DOMAIN_ID).
+SLED ?= 0.4
+teleop-sim: setup
+	$(ENV) && python -m rftgls_ros.launch_run src/rftgls_ros/launch/teleop.launch.py \
+	    sled_mass_kg:=$(SLED) port:=/tmp/minirquad_sim_tty_$$ROS_DOMAIN_ID
 
 # The simulated MiniRQuad, the serial bridge, capacity_node and behavior_node: three
 # walk-burrow-tug cycles with a 400 g sled and three with a 600 g sled (picks its own

@@ -36,6 +36,7 @@ def test_replay_into_capacity_node(ros_context, synthetic_bags):
         # recorded stamps are old; the bag's force is a world vector T d(phi)
         Parameter('freshness_source', value='receipt_time'),
         Parameter('tension_component', value='tether'),
+        Parameter('tension_frame_id', value='lab_world'),
         # the synthetic states reach just past the map's grid: the live solver answers there
         Parameter('out_of_range_live_method', value='twist-mesh')])
     player = rclpy.create_node('lab_replay', context=ros_context)

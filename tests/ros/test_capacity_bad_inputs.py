@@ -14,7 +14,15 @@ from _capacity_common import DH, PHI
 
 from rftgls_core.types import AnchorState, Pull, Status
 from rftgls_ros.capacity.estimator import CapacityEstimator, EstimatorConfig
-from rftgls_ros.capacity.inputs import axle_angle, gravity_problem, wrap_angle
+from rftgls_ros.capacity.inputs import (
+    axle_angle,
+    frame_problem,
+    gravity_problem,
+    imu_problem,
+    quat_xyzw_to_pitch,
+    roll_rad,
+    wrap_angle,
+)
 
 NOW = 1000.0
 DEG = math.pi / 180.0
@@ -203,3 +211,52 @@ def test_an_assumed_range_that_can_lose_the_anchor_bounds_at_zero(live_predictor
     feed(est, height=None)
     e = est.estimate(NOW)
     assert e.status is Status.ASSUMED and e.capacity_lower_N == 0.0
+
+
+# -- raw values, judged before they are transformed (docs/design/capacity-inputs.md) -----
+@pytest.mark.parametrize('raw, ok', [(2 * math.pi, True), (-2 * math.pi, True),
+                                     (2 * math.pi + 1e-9, False), (1e300, False),
+                                     (6.28e6, False), (math.inf, False)])
+def test_raw_leg_angles_are_judged_before_wrapping(est, raw, ok):
+    feed(est, joints=legs(l1=raw, l1_right=raw))
+    e = est.estimate(NOW)
+    if ok:   # 2 pi wraps to 0: a plausible (if different) state, answered
+        assert e.status is not Status.INVALID_INPUT
+    else:
+        assert e.status is Status.INVALID_INPUT and no_value(e)
+        assert e.reason_codes in (('outside_limits:joint_states',),
+                                  ('not_finite:joint_states',))
+
+
+@pytest.mark.parametrize('scale, ok', [(1.0 + 0.9e-3, True), (1.0 - 0.9e-3, True),
+                                       (1.0 + 1.1e-3, False), (1.0 - 1.1e-3, False),
+                                       (10.0, False), (1e-5, False), (1e150, False)])
+def test_quaternion_norm_tolerance(scale, ok):
+    q = tuple(scale * c for c in _pitch_q(5 * DEG))
+    problem = imu_problem(q, None, 80 * DEG, 10 * DEG)
+    assert (problem is None) == ok, problem
+    if not ok:
+        assert problem[0] == 'malformed'
+
+
+def _rolled(theta_b, roll):
+    x1, y1, z1, w1 = _pitch_q(theta_b)
+    x2, w2 = math.sin(roll / 2), math.cos(roll / 2)
+    return (w1 * x2 + x1 * w2, y1 * w2 + z1 * x2, z1 * w2 - y1 * x2, w1 * w2 - x1 * x2)
+
+
+@pytest.mark.parametrize('roll_deg, ok', [(0.0, True), (9.9, True), (-9.9, True),
+                                          (10.1, False), (-10.1, False), (75.0, False)])
+def test_roll_limit(roll_deg, ok):
+    q = _rolled(5 * DEG, roll_deg * DEG)
+    assert roll_rad(q) == pytest.approx(roll_deg * DEG, abs=1e-12)
+    assert quat_xyzw_to_pitch(*q) == pytest.approx(5 * DEG, abs=1e-12)  # roll is invisible
+    problem = imu_problem(q, None, 80 * DEG, 10 * DEG)
+    assert (problem is None) == ok, problem
+    if not ok:
+        assert problem[0] == 'implausible_roll'
+
+
+def test_frame_problem():
+    assert frame_problem('imu_link', 'imu_link') is None
+    assert 'expected' in frame_problem('', 'imu_link')

@@ -68,6 +68,9 @@ def test_lock_step_replay_matches_core(ros_context, tmp_path, live_predictor):
     node = CapacityNode(context=ros_context, parameter_overrides=[
         Parameter('map_file', value=''), Parameter('live_method', value='twist-mesh'),
         Parameter('phi_rad', value=PHI),
+        # the recorded IMU and force carry the body frame
+        Parameter('imu_frame_id', value='base_link'),
+        Parameter('tension_frame_id', value='base_link'),
         # recorded stamps are in the past: a replay is aged by receipt time
         Parameter('freshness_source', value='receipt_time')])
     ex = SingleThreadedExecutor(context=ros_context)

@@ -99,6 +99,7 @@ def test_static_to_late_subscriber_and_dynamic_from_inputs(rig):
     r.js.publish(m)
     imu = Imu()
     imu.header.stamp.sec = 1235
+    imu.header.frame_id = 'imu_link'
     o = imu.orientation
     o.x, o.y, o.z, o.w = pitch_to_quat_xyzw(math.radians(10.0))
     r.imu.publish(imu)
@@ -118,6 +119,43 @@ def test_static_to_late_subscriber_and_dynamic_from_inputs(rig):
     anchor = r.latest('anchor')
     assert anchor.transform.translation.z == 0.042 and anchor.transform.rotation.w == 1.0
     assert r.latest('winch_rope') is None
+
+
+def _imu(q, frame='imu_link', sec=1):
+    imu = Imu()
+    imu.header.stamp.sec = sec
+    imu.header.frame_id = frame
+    o = imu.orientation
+    o.x, o.y, o.z, o.w = q
+    imu.linear_acceleration_covariance[0] = -1.0
+    return imu
+
+
+def _rolled(roll):
+    return (math.sin(roll / 2), 0.0, 0.0, math.cos(roll / 2))
+
+
+@pytest.mark.parametrize('what, imu', [
+    ('rolled 75 deg', _imu(_rolled(math.radians(75.0)))),
+    ('quaternion x10', _imu(tuple(10.0 * c for c in pitch_to_quat_xyzw(0.1)))),
+    ('quaternion norm 1e150', _imu(tuple(1e150 * c for c in pitch_to_quat_xyzw(0.1)))),
+    ('wrong frame', _imu(pitch_to_quat_xyzw(0.1), frame='base_link')),
+])
+def test_inputs_are_judged_before_they_are_drawn(rig, what, imu):
+    # A good sample draws the body; then each bad one draws nothing (the good pose stands),
+    # and a raw leg angle that would wrap to a plausible one draws no leg.
+    r = rig()
+    assert r.spin(5.0, lambda: r.imu.get_subscription_count() and r.js.get_subscription_count())
+    r.imu.publish(_imu(pitch_to_quat_xyzw(0.1), sec=10))
+    assert r.spin(5.0, lambda: r.latest('base_link') is not None)
+    imu.header.stamp.sec = 20
+    r.imu.publish(imu)
+    r.js.publish(JointState(name=['leg_proximal_left'], position=[1e300]))
+    r.js.publish(JointState(name=['leg_distal_left'], position=[0.5]))  # a good one, after
+    assert r.spin(5.0, lambda: r.latest('left_distal_leg') is not None)
+    r.spin(0.3)
+    assert all(t.header.stamp.sec != 20 for m in r.tf for t in m.transforms), what
+    assert r.latest('left_proximal_leg') is None
 
 
 def test_urdf_text_and_frame_prefix(rig):

@@ -2,8 +2,8 @@
 command lines launch_ros builds, all stay up for 5 s once every node is on the graph; then the
 shutdown launch does (SIGINT to all at once) stops each within 2 s with exit status 0 and no
 traceback. bringup publishes /robot_description (the description package's URDF, latched);
-in sim.launch.py the winch is commanded to 0 after the SIGINT, before the bridge lets go
-(read from the simulator's own log of the host commands it handled)."""
+in sim.launch.py and teleop.launch.py the winch is commanded to 0 after the SIGINT, before
+the bridge lets go (read from the simulator's own log of the host commands it handled)."""
 from __future__ import annotations
 
 import json
@@ -30,7 +30,9 @@ SAMPLE_BAG = REPO / 'src/rftgls_ros/rftgls_ros/lab/samples/forward_L1-040_L2+000
 NODES = {'bringup.launch.py': {'bridge_node', 'capacity_node', 'state_publisher',
                                'behavior_node'},
          'sim.launch.py': {'bridge_node', 'capacity_node', 'state_publisher', 'behavior_node'},
-         'replay.launch.py': {'rftgls_lab_replay', 'capacity_node', 'state_publisher'}}
+         'replay.launch.py': {'rftgls_lab_replay', 'capacity_node', 'state_publisher'},
+         'teleop.launch.py': {'bridge_node', 'capacity_node', 'state_publisher'}}
+SIMULATED = ('sim.launch.py', 'teleop.launch.py')   # minirquad_sim is their first program
 BAD_OUTPUT = ('Traceback', 'RCLError', 'context is not valid', 'KeyboardInterrupt')
 
 
@@ -109,11 +111,12 @@ def test_launch_file_runs_and_stops_like_ros2_launch(name, tmp_path, ros_context
     log = tmp_path / 'commands.jsonl'
     args = {'bringup.launch.py': {'port': str(tmp_path / 'no_such_tty')},
             'sim.launch.py': {'port': str(tmp_path / 'tty'), 'sled_mass_kg': '1'},
-            'replay.launch.py': {'bag': str(SAMPLE_BAG)}}[name]
+            'replay.launch.py': {'bag': str(SAMPLE_BAG)},
+            'teleop.launch.py': {'port': str(tmp_path / 'tty'), 'sled_mass_kg': '1'}}[name]
 
     def with_command_log(launch: Launch) -> None:
         # The simulator (the hardware stand-in, not under test) logs the commands it handles.
-        if name == 'sim.launch.py':
+        if name in SIMULATED:
             launch.processes[0].arguments += ['--command-log', str(log)]
     launch = None
     try:
@@ -125,7 +128,7 @@ def test_launch_file_runs_and_stops_like_ros2_launch(name, tmp_path, ros_context
         t_sigint = time.time()
         result = stop_cleanly(launch)
         print(name, {n: f'{t:.2f} s' for n, (_, t) in result.items()})
-        if name == 'sim.launch.py':      # the MCU's last winch command is the stop
+        if name in SIMULATED:      # the MCU's last winch command is the stop
             assert probe.spin(15.0, lambda: any(c['speed'] == 0.0 for c in winch_after(
                 log, t_sigint))), winch_after(log, t_sigint)
             assert winch_after(log, t_sigint)[-1]['speed'] == 0.0, winch_after(log, t_sigint)

@@ -206,7 +206,8 @@ def test_replay_frames_resolve(tmp_path, spawn, ros_context):
            'ros2_ws/params/capacity_node.yaml', '-p', 'robot:=prototype', '-p',
            'medium:=glass_beads', '-p', 'map_file:=maps/prototype_glass_beads.h5', '-p',
            'pull:=forward', '-p', 'pitch_topic:=/lab/theta_b', '-p', 'phi_topic:=/winch/phi',
-           '-p', 'tension_component:=tether', '-p', 'freshness_source:=receipt_time'],
+           '-p', 'tension_component:=tether', '-p',
+           'tension_frame_id:=lab_world', '-p', 'freshness_source:=receipt_time'],
           stdout=logs['capacity_node'], stderr=logs['capacity_node'], cwd=REPO)
     spawn(['ros2', 'run', 'rftgls_ros', 'state_publisher', '--ros-args', '-p',
            'robot:=prototype', '-p', 'odom_frame:=lab_world', '-p',

@@ -41,6 +41,7 @@ def generate_launch_description():
                           'pull': ParameterValue(LaunchConfiguration('pull'), value_type=str),
                           'pitch_topic': '/lab/theta_b', 'phi_topic': '/winch/phi',
                           'tension_component': 'tether',
+                          'tension_frame_id': 'lab_world',   # the bag's force is a world vector
                           'freshness_source': 'receipt_time'}],
              output='screen'),
         # TF for the replay: the bag's /tf_static holds lab_world -> aruco_tank (-> camera);

@@ -155,12 +155,14 @@ class Rig:
         from geometry_msgs.msg import WrenchStamped
         from sensor_msgs.msg import Imu
         imu = Imu()
+        imu.header.frame_id = 'imu_link'     # capacity_node's imu_frame_id
         o = imu.orientation
         o.x, o.y, o.z, o.w = pitch_to_quat_xyzw(DH[1])
         self.pub_imu.publish(imu)
         self.pub_height.publish(self.Float64(data=DH[0]))
         self.pub_phi.publish(self.Float64(data=PHI))
         w = WrenchStamped()
+        w.header.frame_id = 'winch_link'     # capacity_node's tension_frame_id
         w.wrench.force.x = 1.0
         self.pub_tension.publish(w)
 

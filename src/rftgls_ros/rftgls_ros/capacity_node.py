@@ -34,7 +34,7 @@ from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import ConfigError, declare
 
 from .capacity.estimator import JOINTS, CapacityEstimator, Estimate
-from .capacity.inputs import gravity_problem, quat_xyzw_to_pitch
+from .capacity.inputs import frame_problem, imu_problem, quat_xyzw_to_pitch
 from .capacity.node_predictor import node_predictor
 from .capacity.params import PARAMETERS, RUNTIME, configs
 from .capacity_extras import CapacityExtras
@@ -179,24 +179,27 @@ class CapacityNode(Node):
             self._input_done('joint_states', msg.header.stamp, info)
 
     def on_imu(self, msg: Imu, info) -> None:
+        # Judged on the raw message (frame, quaternion norm, roll, gravity), before the
+        # quaternion is normalised into a pitch: docs/design/capacity-inputs.md.
         now = self.sample_time(msg.header)
         o = msg.orientation
         q = (o.x, o.y, o.z, o.w)
         a = msg.linear_acceleration
         # REP-145: covariance[0] = -1 means the field is not provided.
         accel = None if msg.linear_acceleration_covariance[0] == -1.0 else (a.x, a.y, a.z)
-        if msg.orientation_covariance[0] == -1.0:
+        cfg = self.config
+        wrong_frame = frame_problem(msg.header.frame_id, cfg.imu_frame_id)
+        if wrong_frame is not None:
+            self.estimator.mark_malformed('pitch', now, f'IMU: {wrong_frame}', code='wrong_frame')
+        elif msg.orientation_covariance[0] == -1.0:
             self.estimator.mark_malformed('pitch', now, 'IMU publishes no orientation')
         else:
-            try:
-                why = gravity_problem(q, accel, self.config.imu_tilt_limit_rad)
-                if why is not None:
-                    self.estimator.mark_malformed('pitch', now, f'IMU: {why}',
-                                                  code='implausible_gravity')
-                else:
-                    self.estimator.update('pitch', now, quat_xyzw_to_pitch(*q))
-            except ValueError as exc:
-                self.estimator.mark_malformed('pitch', now, str(exc))
+            problem = imu_problem(q, accel, cfg.imu_tilt_limit_rad, cfg.imu_roll_limit_rad)
+            if problem is not None:
+                self.estimator.mark_malformed('pitch', now, f'IMU: {problem[1]}',
+                                              code=problem[0])
+            else:
+                self.estimator.update('pitch', now, quat_xyzw_to_pitch(*q))
         self._input_done('pitch', msg.header.stamp, info)
 
     def on_pitch(self, msg: Float64, info) -> None:
@@ -206,6 +209,12 @@ class CapacityNode(Node):
     def on_tension(self, msg: WrenchStamped, info) -> None:
         # Signed along the load cell axis: a negative reading stays negative (invalid below the
         # dead band), it is never folded into a positive tension.
+        wrong_frame = frame_problem(msg.header.frame_id, self.config.tension_frame_id)
+        if wrong_frame is not None:
+            self.estimator.mark_malformed('tension', self.sample_time(msg.header),
+                                          f'tension: {wrong_frame}', code='wrong_frame')
+            self._input_done('tension', msg.header.stamp, info)
+            return
         f = msg.wrench.force
         if self.tension_component == 'tether':
             d = pull_direction(self.estimator.current_phi())

@@ -18,6 +18,7 @@ model), odom's z = 0 is the free surface. The math is in rftgls_ros.tf_tree (ROS
 """
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -27,12 +28,19 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, String
 
-from rftgls_conventions import quat_xyzw_to_pitch
+from rftgls_conventions import LEG_JOINT_NAMES, quat_xyzw_to_pitch
 from rftgls_conventions.safe_read import InputFileError, read_text
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import ConfigError, declare
 from tf2_msgs.msg import TFMessage
 
+from .capacity.inputs import (
+    IMU_ROLL_LIMIT_RAD,
+    IMU_TILT_LIMIT_RAD,
+    LEG_LIMIT_RAD,
+    frame_problem,
+    imu_problem,
+)
 from .tf_tree import (
     Transform,
     UrdfError,
@@ -52,6 +60,7 @@ PARAMETERS = {
     'anchor_frame': ('anchor', "world-aligned frame at p (capacity_node's frame_id); '' = none"),
     'joint_states_topic': ('joint_states', 'sensor_msgs/JointState topic'),
     'imu_topic': ('imu/data', 'sensor_msgs/Imu topic (REP-145; orientation -> body pitch)'),
+    'imu_frame_id': ('imu_link', "the IMU messages' header.frame_id (others are dropped)"),
     'pitch_topic': ('', "std_msgs/Float64 body pitch in rad; replaces the IMU if set"),
     'height_topic': ('winch/height', "std_msgs/Float64 height of p in m; '' = height_m only"),
     'height_m': (0.03, 'height of p above the free surface until a height sample'),
@@ -94,6 +103,8 @@ class StatePublisher(Node):
         self.odom = self.prefix + p['odom_frame']
         self.base = self.prefix + 'base_link'
         self.anchor = self.prefix + p['anchor_frame'] if p['anchor_frame'] else ''
+        self.imu_frame = p['imu_frame_id']
+        self.leg_joints = frozenset(LEG_JOINT_NAMES)
         self.height_m = float(p['height_m'])
         self.height_measured = False
         self.pitch_rad: float | None = None
@@ -142,7 +153,15 @@ class StatePublisher(Node):
                                              self.now()))
 
     def on_joints(self, msg: JointState) -> None:
-        ts = moving_transforms(self.joints, list(msg.name), list(msg.position), self.prefix)
+        # Raw angles are judged before they are drawn: a leg angle beyond LEG_LIMIT_RAD is no
+        # reading (docs/design/capacity-inputs.md), and wrapped it would draw a plausible leg.
+        names, positions = [], []
+        for name, pos in zip(msg.name, msg.position, strict=False):
+            if name in self.leg_joints and not abs(pos) <= LEG_LIMIT_RAD:
+                continue
+            names.append(name)
+            positions.append(pos)
+        ts = moving_transforms(self.joints, names, positions, self.prefix)
         if ts:
             stamp = msg.header.stamp
             if stamp.sec == 0 and stamp.nanosec == 0:
@@ -150,17 +169,23 @@ class StatePublisher(Node):
             self.pub_tf.publish(self.stamped(ts, stamp))
 
     def on_imu(self, msg: Imu) -> None:
+        # Judged before the quaternion is normalised: the frame, the norm, roll and gravity
+        # (capacity_node's rules); a refused sample draws no pose, the last good one stands.
         if msg.orientation_covariance[0] == -1.0:   # REP-145: no orientation in this IMU
             return
-        o = msg.orientation
-        try:
-            self.pitch_rad = quat_xyzw_to_pitch(o.x, o.y, o.z, o.w)
-        except ValueError:       # a zero/NaN quaternion: keep the last good pitch
+        if frame_problem(msg.header.frame_id, self.imu_frame) is not None:
             return
+        o = msg.orientation
+        q = (o.x, o.y, o.z, o.w)
+        a = msg.linear_acceleration
+        accel = None if msg.linear_acceleration_covariance[0] == -1.0 else (a.x, a.y, a.z)
+        if imu_problem(q, accel, IMU_TILT_LIMIT_RAD, IMU_ROLL_LIMIT_RAD) is not None:
+            return
+        self.pitch_rad = quat_xyzw_to_pitch(*q)
         self.publish_pose(msg.header.stamp)
 
     def on_pitch(self, msg: Float64) -> None:
-        if msg.data == msg.data:    # not NaN
+        if abs(msg.data) <= math.pi / 2:    # a pitch (not NaN, not beyond vertical)
             self.pitch_rad = float(msg.data)
             self.publish_pose(None)
 

@@ -3,10 +3,11 @@
 Inputs (SI, the conventions of docs/design/architecture.md#frames-and-signs; rules and tolerances in
 docs/design/capacity-inputs.md):
   joints   leg angles, rad, from -z_B about the axles: proximal_left/right (theta_L1),
-           distal_left/right (theta_L2). Angles are wrapped to [-pi, pi); the two legs of one
-           axle are combined on the circle and must agree within `leg_tolerance_rad`,
-           otherwise the estimate is `invalid_input` (leg_disagreement): never an average of
-           two legs that are somewhere else.
+           distal_left/right (theta_L2). Raw angles beyond +-leg_limit_rad are
+           `invalid_input` (outside_limits), judged before wrapping; then angles are wrapped
+           to [-pi, pi); the two legs of one axle are combined on the circle and must agree
+           within `leg_tolerance_rad`, otherwise the estimate is `invalid_input`
+           (leg_disagreement): never an average of two legs that are somewhere else.
   pitch    body pitch theta_B, rad, positive when the axle end of the body is above p.
   tension  winch tension T, N, signed along the load cell axis (positive pulls p toward the
            sled); below -tension_deadband_N it is `invalid_input` (negative_tension).
@@ -29,13 +30,15 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from rftgls_conventions import LEG_KEYS, axle_angles, tether_direction_xz, wrap_angle
+from rftgls_conventions import LEG_KEYS, axle_angles, tether_direction_xz
 from rftgls_core.predictor import Predictor, predictor_name
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull, Status
 from rftgls_core.uncertainty import capacity_lower_bound
 from rftgls_node_base.diagnostics import DiagStatus
 from rftgls_node_base.parameters import ConfigError
+
+from .inputs import LEG_LIMIT_RAD
 
 JOINTS = LEG_KEYS  # leg angle keys, rftgls_conventions
 # Input names, as used for timeouts and in stale/invalid reasons.
@@ -74,7 +77,7 @@ class EstimatorConfig:
     phi_rad: float = math.radians(-20.0)  # assumed phi until a phi sample arrives
     h_range_m: tuple[float, float] = (-0.05, 0.30)
     pitch_limit_rad: float = math.pi / 2
-    leg_limit_rad: float = math.pi
+    leg_limit_rad: float = LEG_LIMIT_RAD   # raw, before wrapping (inputs.py says why)
     phi_limit_rad: float = math.pi / 2
     tension_max_N: float = 200.0
     tension_deadband_N: float = 0.05  # a load cell reads slightly below 0 at zero load
@@ -444,8 +447,11 @@ class CapacityEstimator:
                                         f'joint angle not finite: {", ".join(bad)}')]
         lim = self.config.leg_limit_rad
         problems = [Problem('outside_limits', 'joint_states',
-                            f'{k} = {x:.4g} rad outside [-{lim:.4g}, {lim:.4g}]')
-                    for k, x in ((k, wrap_angle(x)) for k, x in v.items()) if abs(x) > lim]
+                            f'{k} = {x:.4g} rad outside [-{lim:.4g}, {lim:.4g}] (before '
+                            'wrapping)')
+                    for k, x in v.items() if abs(x) > lim]
+        if problems:   # wrapped, such a value would look like a plausible angle
+            return None, None, problems
         tol = self.config.leg_tolerance_rad
         axles = axle_angles(v, tol)
         spreads = dict(zip(('proximal', 'distal'), axles.spread_rad))

@@ -18,6 +18,7 @@ from rftgls_conventions import LEG_JOINT_NAMES, LEG_KEYS
 from rftgls_node_base.parameters import ConfigError
 
 from .estimator import DEFAULT_TIMEOUTS_S, EstimatorConfig
+from .inputs import IMU_ROLL_LIMIT_RAD, IMU_TILT_LIMIT_RAD, LEG_LIMIT_RAD
 from .node_predictor import DEFAULT_MAP
 
 TRIGGERS = ('joint_states', 'pitch', 'tension', 'height', 'phi')
@@ -79,8 +80,17 @@ PARAMETERS: dict[str, Param] = {
     'tension_max_N': Param(200.0, 'largest plausible tension, N', 0.0, 1e6),
     'tension_deadband_N': Param(0.05, 'a reading down to -deadband counts as zero, N',
                                 0.0, 1e3),
-    'imu_tilt_limit_rad': Param(math.radians(80.0), 'body up axis this far from vertical is '
+    'imu_tilt_limit_rad': Param(IMU_TILT_LIMIT_RAD, 'body up axis this far from vertical is '
                                 'implausible, rad', 0.0, math.pi),
+    'imu_roll_limit_rad': Param(IMU_ROLL_LIMIT_RAD, 'body roll beyond this is implausible for '
+                                'the sagittal model (legs at different depths), rad',
+                                0.0, math.pi),
+    'leg_limit_rad': Param(LEG_LIMIT_RAD, 'largest raw leg angle magnitude, judged before '
+                           'wrapping, rad', 0.0, 1e3),
+    'imu_frame_id': Param('imu_link', 'the IMU messages\' header.frame_id (others: '
+                          'invalid_input)'),
+    'tension_frame_id': Param('winch_link', "the tension messages' header.frame_id (others: "
+                              "invalid_input)"),
     'assumed_height_range_m': Param(0.01, 'half-width of the range an assumed height may '
                                     'really take, m', 0.0, 1.0),
     'assumed_phi_range_rad': Param(math.radians(10.0), 'half-width of the range an assumed phi '
@@ -112,7 +122,8 @@ DEFAULTS = {name: p.default for name, p in PARAMETERS.items()}
 # Parameters a running node applies (validated first); every other one is start-up only.
 RUNTIME = frozenset({
     'height_m', 'phi_rad', 'leg_tolerance_rad', 'h_min_m', 'h_max_m', 'tension_max_N',
-    'tension_deadband_N', 'imu_tilt_limit_rad', 'assumed_height_range_m',
+    'tension_deadband_N', 'imu_tilt_limit_rad', 'imu_roll_limit_rad', 'leg_limit_rad',
+    'assumed_height_range_m',
     'assumed_phi_range_rad', 'lower_bound_level', 'h_sigma_m', 'theta_b_sigma_rad',
     'capacity_rel_sigma', 'clock_offset_tolerance_s', 'diagnostics_period_s',
     *(f'{name}_timeout_s' for name in DEFAULT_TIMEOUTS_S),
@@ -125,7 +136,10 @@ class NodeConfig:
 
     tension_component: str = 'x'
     freshness_source: str = 'header_stamp'
-    imu_tilt_limit_rad: float = math.radians(80.0)
+    imu_tilt_limit_rad: float = IMU_TILT_LIMIT_RAD
+    imu_roll_limit_rad: float = IMU_ROLL_LIMIT_RAD
+    imu_frame_id: str = 'imu_link'
+    tension_frame_id: str = 'winch_link'
     triggers: frozenset[str] = frozenset({'tension'})
     publish_rate_hz: float = 20.0
     diagnostics_period_s: float = 1.0
@@ -142,6 +156,9 @@ class NodeConfig:
         tilt = self.imu_tilt_limit_rad
         if not (math.isfinite(tilt) and 0.0 < tilt < math.pi):
             raise ConfigError(f'imu_tilt_limit_rad must lie in (0, pi), got {tilt!r}')
+        roll = self.imu_roll_limit_rad
+        if not (math.isfinite(roll) and 0.0 < roll < math.pi / 2):
+            raise ConfigError(f'imu_roll_limit_rad must lie in (0, pi/2), got {roll!r}')
         if not self.triggers <= set(TRIGGERS):
             raise ConfigError(f'trigger_inputs must be a subset of {list(TRIGGERS)}, '
                               f'got {sorted(self.triggers)}')
@@ -158,6 +175,7 @@ def configs(p: Mapping[str, Any]) -> tuple[EstimatorConfig, NodeConfig]:
     est = EstimatorConfig(
         pull=p['pull'], timeouts_s=timeouts, leg_tolerance_rad=p['leg_tolerance_rad'],
         height_m=p['height_m'], phi_rad=p['phi_rad'], h_range_m=(p['h_min_m'], p['h_max_m']),
+        leg_limit_rad=p['leg_limit_rad'],
         tension_max_N=p['tension_max_N'], tension_deadband_N=p['tension_deadband_N'],
         clock_tolerance_s=p['clock_offset_tolerance_s'],
         assumed_height_range_m=p['assumed_height_range_m'],
@@ -166,6 +184,7 @@ def configs(p: Mapping[str, Any]) -> tuple[EstimatorConfig, NodeConfig]:
         h_sigma_m=p['h_sigma_m'], theta_b_sigma_rad=p['theta_b_sigma_rad'],
         capacity_rel_sigma=p['capacity_rel_sigma']).check()
     node = NodeConfig(p['tension_component'], p['freshness_source'], p['imu_tilt_limit_rad'],
+                      p['imu_roll_limit_rad'], p['imu_frame_id'], p['tension_frame_id'],
                       frozenset(p['trigger_inputs']), p['publish_rate_hz'],
                       p['diagnostics_period_s']).check()
     return est, node

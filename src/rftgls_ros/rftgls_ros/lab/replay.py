@@ -12,7 +12,8 @@ Feed capacity_node (its own defaults read /joint_states, /winch/tension, /winch/
 
     python -m rftgls_ros.capacity_node --ros-args -p robot:=prototype -p medium:=glass_beads \
         -p map_file:=maps/prototype_glass_beads.h5 -p pull:=forward \
-        -p pitch_topic:=/lab/theta_b -p phi_topic:=/winch/phi &
+        -p pitch_topic:=/lab/theta_b -p phi_topic:=/winch/phi \
+        -p tension_component:=tether -p tension_frame_id:=lab_world &
     python -m rftgls_ros.lab.replay BAG [--rate 1 | --rate 4 | --rate 0] [--anchor FILE.yaml]
 
 The robot: the replay also publishes the URDF of the anchor description on /robot_description

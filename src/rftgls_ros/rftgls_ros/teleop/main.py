@@ -1,8 +1,10 @@
 """``teleop``: terminal teleop of the tug with the live prediction (rclpy node + raw tty).
 
-Subscribes /winch/tension, /joint_states (winch_rope), /capacity_node/{capacity, slip_twist,
-status}; publishes /winch/speed, /burrow, /gait, /estop, and /winch/height, /winch/phi for
-capacity_node (h = Table II mean of the requested mode; phi from the tether length).
+Subscribes /winch/tension, /joint_states (winch_rope) and /capacity_node/estimate (status,
+capacity, slip twist and the assumed inputs in one message, so they never mix two estimates);
+publishes /winch/speed, /burrow, /gait, /estop, and /winch/height, /winch/phi for capacity_node
+(h = Table II mean of the requested mode; phi from the tether paid out and the attachment
+height: rftgls_ros.behavior.model.TetherTracker, the one behavior_node uses).
 Run it alone with the robot (or simulator), bridge_node and capacity_node, not together with
 behavior_node (both would command the winch). On exit the session's capacity_node estimates are
 written as a time series to `report_dir` (default out/teleop; "" = none): teleop_tug.png/.csv
@@ -18,23 +20,20 @@ import termios
 import time
 import tty
 
-from geometry_msgs.msg import TwistStamped, WrenchStamped
+from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64, String
 
 from rftgls_conventions import WINCH_ROPE_JOINT
+from rftgls_interfaces.msg import AnchorEstimate
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import declare
 
 from ..behavior.tug_series import write_tug_series
 from ..capacity_query import record_tug
 from .model import TeleopConfig, TeleopModel
-
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
-
 
 # ROS parameter (unit in the name) -> (TeleopConfig field, meaning, lo, hi). Start-up only.
 PARAMETERS = {
@@ -57,6 +56,11 @@ class TeleopNode(Node):
         for name, (field, text, lo, hi) in PARAMETERS.items():
             setattr(cfg, field, float(declare(self, name, float(getattr(cfg, field)), text,
                                               lo=lo, hi=hi)))
+        accept = declare(self, 'accept_assumed_inputs', '',
+                         "inputs an 'assumed' estimate may assume, comma-separated (e.g. "
+                         "'height'); '' = none: only a measured ok is evidence")
+        cfg.accept_assumed_inputs = tuple(x.strip() for x in str(accept).split(',')
+                                          if x.strip())
         self.refresh_hz = declare(self, 'refresh_hz', 8.0, 'screen refresh rate', lo=0.1,
                                   hi=100.0)
         self.model = TeleopModel(cfg)
@@ -71,9 +75,8 @@ class TeleopNode(Node):
         sensor = qos_profile_sensor_data
         self.create_subscription(WrenchStamped, 'winch/tension', self.on_tension, sensor)
         self.create_subscription(JointState, 'joint_states', self.on_joints, sensor)
-        self.create_subscription(WrenchStamped, 'capacity_node/capacity', self.on_capacity, 10)
-        self.create_subscription(TwistStamped, 'capacity_node/slip_twist', self.on_twist, 10)
-        self.create_subscription(String, 'capacity_node/status', self.on_status, LATCHED)
+        self.create_subscription(AnchorEstimate, 'capacity_node/estimate', self.on_estimate,
+                                 10)
         self.create_timer(0.05, self.on_timer)
         self.report_dir = declare(self, 'report_dir', 'out/teleop',
                                   "session time series directory; '' = none")
@@ -81,6 +84,12 @@ class TeleopNode(Node):
                                      lambda: 'TUG' if self.model.winch > 0.0 else 'manual')
 
     def send(self, cmds) -> None:
+        unheard = dict.fromkeys(self.pubs[t].topic_name for t, _ in cmds
+                                if self.pubs[t].get_subscription_count() == 0)
+        if unheard:   # a lost command must not look like a sent one
+            self.model.message += (f'; NOT SENT: nobody subscribes to {", ".join(unheard)} '
+                                   '(is bridge_node running?)')
+            self.model.alert = True
         for topic, value in cmds:
             if topic in ('winch',):
                 self.pubs[topic].publish(Float64(data=float(value)))
@@ -96,19 +105,22 @@ class TeleopNode(Node):
         if WINCH_ROPE_JOINT in msg.name:
             self.model.tether.update(msg.position[msg.name.index(WINCH_ROPE_JOINT)])
 
-    def on_capacity(self, msg) -> None:
-        self.model.capacity = math.hypot(msg.wrench.force.x, msg.wrench.force.z)
-        self.model.t_capacity = time.monotonic()
-        self.send(self.model.update(time.monotonic()))
-
-    def on_twist(self, msg) -> None:
-        self.model.slip_twist = (msg.twist.linear.x, msg.twist.linear.z, msg.twist.angular.y)
-
-    def on_status(self, msg) -> None:
-        self.model.status = msg.data
+    def on_estimate(self, msg: AnchorEstimate) -> None:
+        m = self.model
+        m.status = msg.status
+        m.capacity = msg.capacity_n if msg.has_value else math.nan
+        m.assumed_inputs = frozenset(msg.assumed_inputs)
+        tw = msg.slip_twist
+        # The estimate carries the slip direction even while the anchor holds: shown only
+        # when the tension exceeds the capacity (predicted motion is zero otherwise).
+        m.slip_twist = ((tw.linear.x, tw.linear.z, tw.angular.y) if msg.slipping
+                        else (0.0, 0.0, 0.0) if msg.has_value else (math.nan,) * 3)
+        m.t_capacity = time.monotonic()
+        self.send(m.update(time.monotonic()))
 
     def on_timer(self) -> None:
         m = self.model
+        m.unheard = tuple(t for t, p in self.pubs.items() if p.get_subscription_count() == 0)
         self.send(m.update(time.monotonic()))
         if m.winch != 0.0:   # refresh: the MCU's winch deadman stops a winch left unrefreshed
             self.pubs['winch'].publish(Float64(data=float(m.winch)))

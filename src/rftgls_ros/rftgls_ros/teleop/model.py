@@ -6,6 +6,8 @@ estimate is not evidence (``behavior.evidence.judge``: status other than a measu
 ``assumed`` with an input outside ``accept_assumed_inputs`` (default none), no finite value, or
 older than ``stale_after``), reeling in is refused and a running reel-in is stopped; paying
 out and stopping always work. ``extrapolated`` is never accepted.
+Screen: a number is shown only when it is one; a capacity that is not evidence is greyed with
+the reason, the load percentage and the margin only when tension and capacity are both valid.
 Units: N, m/s (reel-in positive), s.
 """
 from __future__ import annotations
@@ -17,6 +19,7 @@ from ..behavior.evidence import judge
 from ..behavior.model import ANCHOR_MODES, TetherTracker
 
 RED, GREEN, YELLOW, BOLD, RESET = '\x1b[1;31m', '\x1b[32m', '\x1b[33m', '\x1b[1m', '\x1b[0m'
+GREY = '\x1b[2m'   # faint: a number that is not evidence
 
 KEYS = {
     'i': 'reel in faster', 'o': 'reel in slower / pay out', ' ': 'stop the winch',
@@ -54,6 +57,9 @@ class TeleopModel:
         self.mode: str | None = None
         self.override_until = -math.inf
         self.estop = False
+        # Command topics nobody subscribes to (the robot's bridge is not up or not yet
+        # discovered): a key press would be lost, so the screen says so. None = not known.
+        self.unheard: tuple[str, ...] | None = None
         self.message = 'press a key; q quits'
         self.alert = False
         self.quit = False
@@ -61,11 +67,16 @@ class TeleopModel:
         self.t = 0.0
 
     # ------------------------------------------------------------------ state
-    def valid(self) -> bool:
+    def verdict(self):
+        """behavior.evidence.judge on the last estimate: usable, reason code, detail."""
         return judge(self.t, self.capacity, self.status, self.t_capacity, self.cfg.stale_after,
-                     self.assumed_inputs, frozenset(self.cfg.accept_assumed_inputs)).usable
+                     self.assumed_inputs, frozenset(self.cfg.accept_assumed_inputs))
+
+    def valid(self) -> bool:
+        return self.verdict().usable
 
     def ratio(self) -> float:
+        """tension / capacity; NaN unless both are valid (never shown as a number then)."""
         if not self.valid() or self.capacity <= 0 or not math.isfinite(self.tension):
             return math.nan
         return self.tension / self.capacity
@@ -124,9 +135,10 @@ class TeleopModel:
             if self.estop:
                 self.message, self.alert = 'e-stop engaged: release with r first', True
                 return out
-            if not self.valid():
+            verdict = self.verdict()
+            if not verdict.usable:
                 self.message = (f'capacity status {self.status}: refusing to pull harder '
-                                '(no valid prediction)')
+                                f'(no valid prediction: {verdict.detail})')
                 self.alert = True
                 return out
             r = self.ratio()
@@ -164,34 +176,54 @@ class TeleopModel:
 
     # ------------------------------------------------------------------ screen
     def screen(self) -> list[str]:
+        """The lines of one redraw. No 'nan' anywhere: a missing number is '--', a capacity
+        that is not evidence is greyed with the reason, the load only from two valid numbers."""
+        verdict = self.verdict()
         r = self.ratio()
         limit = self.cfg.limit_fraction
         over = math.isfinite(r) and r >= limit
-        color = RED if over or not self.valid() else GREEN
+        color = RED if over or not verdict.usable else GREEN
         f = lambda x, u: f'{x:6.2f} {u}' if math.isfinite(x) else '   --  ' + u  # noqa: E731
-        margin = self.capacity - self.tension if self.valid() else math.nan
+        if verdict.usable:
+            capacity = f(self.capacity, 'N')
+            margin = f(self.capacity - self.tension, 'N')
+        else:
+            capacity = f'{GREY}{f(self.capacity, "N")}{RESET}'
+            margin = f(math.nan, 'N')
         width = 30
         fill = 0 if not math.isfinite(r) else min(width, int(round(r * width)))
         bar = '#' * fill + '-' * (width - fill)
         mark = int(limit * width)
         bar = bar[:mark] + '|' + bar[mark:]
+        if math.isfinite(r):
+            load = f'{color}[{bar}] {100 * r:5.0f} %{RESET} of capacity'
+        else:
+            why = ('tension not measured' if verdict.usable else 'no valid capacity')
+            load = f'{GREY}[{bar}]    -- %{RESET} of capacity ({why})'
         tw = self.slip_twist
         twist = ('holds (no slip predicted)' if all(math.isfinite(x) for x in tw)
                  and not any(tw) else
                  f'vx {tw[0]:+.2f} vz {tw[1]:+.2f} wy {tw[2]:+.2f} (unit direction)'
                  if all(math.isfinite(x) for x in tw) else '--')
         ov = f'{RED}OVERRIDE{RESET}' if self.overridden() else 'guarded'
+        if self.unheard is None:
+            robot = f'{GREY}robot link unknown{RESET}'
+        elif self.unheard:
+            robot = f'{RED}NOBODY LISTENS to {", ".join(self.unheard)}{RESET}'
+        else:
+            robot = 'robot listening'
+        evidence = ('prediction usable' if verdict.usable
+                    else f'{GREY}not usable: {verdict.detail}{RESET}')
         lines = [
             f'{BOLD}MiniRQuad teleop tug{RESET}  i/o reel in/out  space stop  1/2/3 burrow '
             'DH/DL/SH  u unburrow  w/s walk/stand  ! override  x STOP ALL  r release  q quit',
-            f'tension  {f(self.tension, "N")}   capacity {f(self.capacity, "N")}   margin '
-            f'{f(margin, "N")}   status {color}{self.status}{RESET}',
-            f'load     {color}[{bar}] '
-            f'{(100 * r if math.isfinite(r) else float("nan")):5.0f} %{RESET} of capacity '
-            f'(limit {100 * limit:.0f} %)',
+            f'tension  {f(self.tension, "N")}   capacity {capacity}   margin '
+            f'{margin}   status {color}{self.status}{RESET}',
+            f'load     {load} (limit {100 * limit:.0f} %)',
+            f'evidence {evidence}',
             f'slip twist {twist}',
             f'winch {1e3 * self.winch:+5.0f} mm/s   anchor {self.mode or "-"}   {ov}   '
-            f'tether {self.tether.free_length:.3f} m'
+            f'tether {self.tether.free_length:.3f} m   {robot}'
             + (f'   {RED}E-STOP{RESET}' if self.estop else ''),
             (RED if self.alert else YELLOW) + self.message + RESET,
         ]
