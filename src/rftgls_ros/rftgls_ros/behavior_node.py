@@ -16,7 +16,7 @@ Published: /gait, /burrow (std_msgs/String), /winch/speed (std_msgs/Float64, m/s
   does not measure it), /winch/phi (Float64, rad: tether angle from the tether length),
   ~/state (String, transient local), ~/events (String, one JSON object per event).
 Action: ~/walk_burrow_tug (rftgls_interfaces/WalkBurrowTug: goal sled mass and cycles, feedback
-  state and margin, result per cycle; cancel stops the winch at once; behavior/tug_action.py).
+  state and margin, result per cycle; cancel stops the winch at once; tug_action.py).
   With ``autostart`` (default, kept one release) the node also runs the sled_mass_kg/cycles
   parameters at start, as before the action; ``autostart:=false`` waits for a goal.
 """
@@ -52,10 +52,10 @@ from .behavior import (
     Observation,
     write_report,
 )
-from .behavior.tug_action import TugActionServer
 from .behavior.tug_series import TugSample, write_tug_series
 from .capacity.node_predictor import DEFAULT_MAP, node_predictor
 from .capacity_query import CAPACITY_SOURCES, ServicePredictor, record_tug
+from .tug_action import TugActionServer
 
 WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's deadman (0.1 s)
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -185,7 +185,7 @@ class BehaviorNode(Node):
 
     def start_run(self, sled_mass_kg: float, cycles: int) -> None:
         """A new run with this sled (kg) and cycles, the other parameters as configured."""
-        lo, hi = param_range('sled_mass_kg')
+        lo, hi = _RANGES['_kg']                            # the sled_mass_kg parameter's
         if not (lo < sled_mass_kg <= hi) or cycles < 1:   # NaN fails too
             raise ValueError(f'need 0 < sled_mass_kg <= {hi:g} and cycles >= 1, got '
                              f'{sled_mass_kg!r} kg and {cycles} cycles')

@@ -2,8 +2,9 @@
 (rftgls_interfaces/WalkBurrowTug; goal: sled mass and cycles; feedback: state, margin, lower
 bound; result: every cycle's outcome).
 
-The server talks to the node through a small surface (``RunHost``): start a run, stop it now,
-the run's machine, capacity_node's last estimate. One goal at a time: a goal is rejected while
+The rclpy side of the action, next to the ROS-free behaviour (``behavior/``). The server talks
+to the node through a small surface (``RunHost``): start a run, stop it now, the run's
+machine, capacity_node's last estimate. One goal at a time: a goal is rejected while
 a run is going (the parameters' run of ``autostart`` included).
 
 Cancel stops the winch in the cancel request's own callback: the machine is cancelled and
@@ -27,9 +28,9 @@ from rclpy.task import Future
 from rftgls_interfaces.action import WalkBurrowTug
 from rftgls_interfaces.msg import CycleOutcome
 
-from .machine import BehaviorMachine
-from .report import CycleRecord
-from .tug_series import TugSample
+from .behavior.machine import BehaviorMachine
+from .behavior.report import CycleRecord
+from .behavior.tug_series import TugSample
 
 # The cycle report's outcome words (machine.py) -> CycleOutcome's constants.
 OUTCOMES = {'ok': CycleOutcome.OK, 'refused': CycleOutcome.REFUSED,
