@@ -66,6 +66,7 @@ def test_cancel_while_walking_stands_and_after_a_cycle_keeps_its_record(predicto
     run_loop(m, plant, on_step=lambda p, mach: hook(p, mach) if mach.records else None)
     assert seen['cmd'].oneshots == [('gait', 'stand')] and seen['cmd'].winch == 0.0
     assert [(r.cycle, r.outcome) for r in m.records] == [(1, 'ok'), (2, 'cancelled')]
+    assert m.records[1].walk_s >= 0.3 and m.records[1].walk_j > 0   # the walk so far counts
 
 
 def test_result_maps_every_outcome_and_success_needs_every_cycle_ok(predictor):

@@ -946,13 +946,19 @@ class BehaviorMachine:
         ``cancelled``; FINISHED. Nothing happens once the run is over."""
         if self.done:
             return
+        c = self.cycle
         if self.state == State.TUG:
             self._finish_tug('cancelled')
+        elif c is not None and self.state == State.WALK:     # the walk so far counts
+            c.walk_j += self._energy_since_enter()
+            c.walk_s += self._elapsed()
+        elif c is not None and self.state == State.BURROW:   # the burrow so far counts
+            c.burrow_j += self._energy_since_enter()
+            c.burrow_s += self._elapsed()
         if self.state == State.WALK or (self.state == State.WAIT_LINK
                                         and self._resume == State.WALK):
             self._oneshots.append(('gait', 'stand'))
         self._winch = 0.0
-        c = self.cycle
         if c is not None and not (self.records and self.records[-1].cycle == c.index):
             c.outcome, c.reason = 'cancelled', 'cancelled'
             self._record()
