@@ -5,13 +5,16 @@ ActionClient in this process.
 One stack, goals in turn: a goal cancelled in the middle of its tug (the winch stop measured on
 the simulator's own telemetry record: spool position and host time of every frame, 100 Hz,
 with the MCU's winch deadman switched off so that only the cancel can stop it), a second goal
-while one runs (rejected), a goal the node cannot run (aborted with the reason), and a goal
-that runs its cycle to the end (succeeded, the cycle's outcome in the result).
+while one runs (rejected), a goal the node cannot run (aborted with the reason), a goal that
+runs its cycle to the end (succeeded, the cycle's outcome in the result), and SIGINT to
+behavior_node while a goal runs (launch's shutdown: exit 0, no traceback). One stack start for
+all of them: starting four processes is a large part of the ~40 s.
 """
 from __future__ import annotations
 
 import json
 import math
+import signal
 import time
 from pathlib import Path
 
@@ -32,8 +35,9 @@ ENV = {'RCUTILS_LOGGING_USE_STDOUT': '1', 'RCUTILS_CONSOLE_OUTPUT_FORMAT': '{mes
        'PYTHONUNBUFFERED': '1'}
 
 
-def start_stack(tmp_path: Path, spawn) -> dict[str, Path]:
-    """The stack with behavior_node waiting for goals; returns the simulator's record files."""
+def start_stack(tmp_path: Path, spawn) -> dict:
+    """The stack with behavior_node waiting for goals; returns the simulator's record files
+    and behavior_node's process."""
     files = {'link': tmp_path / 'link', 'record': tmp_path / 'record.jsonl',
              'commands': tmp_path / 'commands.jsonl'}
     tty = str(tmp_path / 'tty')
@@ -56,7 +60,8 @@ def start_stack(tmp_path: Path, spawn) -> dict[str, Path]:
             'ros2_ws/params/behavior_node.yaml', '-p', 'autostart:=false']
     for kv in FAST:
         argv += ['-p', kv]
-    spawn(argv, stdout=logs['behavior'], stderr=logs['behavior'], cwd=REPO, env=ENV)
+    files['behavior'] = spawn(argv, stdout=logs['behavior'], stderr=logs['behavior'], cwd=REPO,
+                              env=ENV)
     return files
 
 
@@ -190,6 +195,15 @@ def test_walk_burrow_tug_action_cancel_reject_abort_and_complete(tmp_path, spawn
         assert res.result.final_state == 'FINISHED'
         # (10 Hz feedback: a state shorter than that, like CHECK, may not show)
         assert {'WALK', 'BURROW', 'TUG'} <= {f.state for f in c.feedback}
+
+        # 4. SIGINT while a goal runs: the node stops cleanly.
+        c.feedback.clear()
+        handle = c.send(0.4, 1)
+        assert handle.accepted
+        assert c.spin_until(lambda: c.feedback and c.feedback[-1].state == 'WALK', 30.0)
+        beh = files['behavior']
+        beh.send_signal(signal.SIGINT)
+        assert beh.wait(timeout=5.0) == 0
     finally:
         c.close()
     log = (tmp_path / 'behavior.log').read_text()
