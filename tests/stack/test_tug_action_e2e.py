@@ -182,6 +182,7 @@ def test_walk_burrow_tug_action_cancel_reject_abort_and_complete(tmp_path, spawn
         res = c.result(bad, 10.0)
         assert res.status == GoalStatus.STATUS_ABORTED
         assert 'sled_mass_kg' in res.result.reason and not res.result.cycles
+        assert res.result.final_state == ''
 
         # 3. A goal that runs to the end: one cycle, the sled arrives.
         c.feedback.clear()

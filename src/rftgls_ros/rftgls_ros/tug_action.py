@@ -28,7 +28,7 @@ from rclpy.task import Future
 from rftgls_interfaces.action import WalkBurrowTug
 from rftgls_interfaces.msg import CycleOutcome
 
-from .behavior.machine import BehaviorMachine
+from .behavior import BehaviorMachine, State
 from .behavior.report import CycleRecord
 from .behavior.tug_series import TugSample
 
@@ -71,7 +71,7 @@ def run_succeeded(machine: BehaviorMachine) -> bool:
     """The run did what the goal asked: `cycles` cycles ran their course and the sled arrived
     in each (aborted attempts that were retried do not count against it)."""
     counted = [r for r in machine.records if r.outcome != 'aborted']
-    return (str(machine.state) == 'FINISHED' and len(counted) >= machine.cfg.cycles
+    return (machine.state == State.FINISHED and len(counted) >= machine.cfg.cycles
             and all(r.outcome == 'ok' for r in counted))
 
 
@@ -120,14 +120,13 @@ class TugActionServer:
                 goal.canceled()
             else:
                 goal.abort()
-            return WalkBurrowTug.Result(final_state=str(self._host.machine.state), reason=why)
+            return WalkBurrowTug.Result(final_state='', reason=why)
         try:
             self._host.start_run(req.sled_mass_kg, req.cycles)
         except ValueError as exc:
             self._node.get_logger().error(f'walk_burrow_tug goal refused: {exc}')
             goal.abort()
-            return WalkBurrowTug.Result(final_state=str(self._host.machine.state),
-                                        reason=f'goal refused: {exc}')
+            return WalkBurrowTug.Result(final_state='', reason=f'goal refused: {exc}')
         self._node.get_logger().info(f'walk_burrow_tug: {1e3 * req.sled_mass_kg:.0f} g sled, '
                                      f'{req.cycles} cycles')
         self._goal, self._run_over = goal, Future()
