@@ -26,3 +26,16 @@ def test_messages_and_constants():
             GaitCommand.BOUND) == (0, 1, 2, 3)
     assert (LinkState.OK, LinkState.STALE) == (0, 1)
     assert math.isnan(float('nan')) and QueryCapacity.Request is not None
+
+
+def test_walk_burrow_tug_action():
+    from rftgls_interfaces.action import WalkBurrowTug
+    from rftgls_interfaces.msg import CycleOutcome
+    assert WalkBurrowTug.Goal.get_fields_and_field_types() == {'sled_mass_kg': 'double',
+                                                               'cycles': 'uint32'}
+    assert WalkBurrowTug.Result.get_fields_and_field_types()['cycles'] == \
+        'sequence<rftgls_interfaces/CycleOutcome>'
+    assert {'state', 'margin_n', 'capacity_lower_n'} <= set(
+        WalkBurrowTug.Feedback.get_fields_and_field_types())
+    assert (CycleOutcome.OK, CycleOutcome.REFUSED, CycleOutcome.STOPPED, CycleOutcome.ABORTED,
+            CycleOutcome.CANCELLED) == (1, 2, 3, 4, 5)

@@ -2,6 +2,9 @@
 (/robot_description and TF), behavior_node.
 
     ros2 launch rftgls_ros bringup.launch.py port:=/dev/ttyACM0 sled_mass_kg:=0.4
+    ros2 launch rftgls_ros bringup.launch.py port:=/dev/ttyACM0 autostart:=false   # goals:
+    ros2 action send_goal /behavior_node/walk_burrow_tug rftgls_interfaces/action/WalkBurrowTug \
+        "{sled_mass_kg: 0.4, cycles: 3}"
 
 Parameters come from the installed YAML files (share/rftgls_ros/params); capacity_node reads the
 tether angle behavior_node estimates (/winch/phi), as `make demo` does. The robot model is the
@@ -35,6 +38,9 @@ def generate_launch_description():
                               description='mass of the sled to haul, kg'),
         DeclareLaunchArgument('cycles', default_value='3',
                               description='walk-burrow-tug cycles'),
+        DeclareLaunchArgument('autostart', default_value='true',
+                              description='behavior_node runs sled_mass_kg/cycles at start; '
+                                          'false: it waits for walk_burrow_tug goals'),
         Node(package='minirquad_driver', executable='bridge_node', name='bridge_node',
              parameters=[{'port': port}], output='screen'),
         Node(package='rftgls_ros', executable='capacity_node', name='capacity_node',
@@ -50,7 +56,9 @@ def generate_launch_description():
                          {'sled_mass_kg': ParameterValue(LaunchConfiguration('sled_mass_kg'),
                                                          value_type=float),
                           'cycles': ParameterValue(LaunchConfiguration('cycles'),
-                                                   value_type=int)}],
+                                                   value_type=int),
+                          'autostart': ParameterValue(LaunchConfiguration('autostart'),
+                                                      value_type=bool)}],
              remappings=[('imu', 'imu/data')],   # REP-145's topic (the bridge has both)
              output='screen'),
     ])

@@ -15,6 +15,10 @@ Published: /gait, /burrow (std_msgs/String), /winch/speed (std_msgs/Float64, m/s
   positive), /winch/height (Float64, m: h of p, the burrowed mode's Table II mean; MiniRQuad
   does not measure it), /winch/phi (Float64, rad: tether angle from the tether length),
   ~/state (String, transient local), ~/events (String, one JSON object per event).
+Action: ~/walk_burrow_tug (rftgls_interfaces/WalkBurrowTug: goal sled mass and cycles, feedback
+  state and margin, result per cycle; cancel stops the winch at once; tug_action.py).
+  With ``autostart`` (default, kept one release) the node also runs the sled_mass_kg/cycles
+  parameters at start, as before the action; ``autostart:=false`` waits for a goal.
 """
 from __future__ import annotations
 
@@ -22,7 +26,7 @@ import json
 import math
 import sys
 import time
-from dataclasses import fields
+from dataclasses import fields, replace
 
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TwistStamped, WrenchStamped
@@ -48,9 +52,10 @@ from .behavior import (
     Observation,
     write_report,
 )
-from .behavior.tug_series import write_tug_series
+from .behavior.tug_series import TugSample, write_tug_series
 from .capacity.node_predictor import DEFAULT_MAP, node_predictor
 from .capacity_query import CAPACITY_SOURCES, ServicePredictor, record_tug
+from .tug_action import TugActionServer
 
 WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's deadman (0.1 s)
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -128,10 +133,14 @@ class BehaviorNode(Node):
                                        anchor_state_variables=desc_vars)
         else:
             predictor = ServicePredictor(self, f'{cap_ns}/query_capacity')
+        self.predictor = predictor
         self.machine = BehaviorMachine(
             self.cfg, ModeChooser(predictor, self.cfg.safety_factor, self.cfg.phis_rad))
         self.obs = Observation(t=self.now_s())
-        self.finished = False
+        # Without autostart the node idles (as after a run) until a walk_burrow_tug goal.
+        self.finished = not declare(self, 'autostart', True, 'run the sled_mass_kg/cycles '
+                                    'parameters at start (deprecated: send a walk_burrow_tug '
+                                    'goal); false: wait for a goal')
         self._last_winch: float | None = None
         self._last_winch_t = -math.inf
         self._state_sent: str | None = None
@@ -158,6 +167,7 @@ class BehaviorNode(Node):
         # The report's <stem>_tug.png time series (behavior/tug_series.py).
         self.tug_series = record_tug(self, cap_ns, self.now_s, lambda: str(self.machine.state))
         self.create_timer(1.0 / rate, self.step)
+        self.tug_action = TugActionServer(self, self)
         self.get_logger().info(
             f'sled {1e3 * self.cfg.sled_mass_kg:.0f} g (mu {self.cfg.sled_mu}), {self.cfg.cycles} '
             f'cycles, safety factor {self.cfg.safety_factor}, map {predictor.path}; tugs only '
@@ -167,6 +177,32 @@ class BehaviorNode(Node):
 
     def now_s(self) -> float:
         return time.monotonic()
+
+    # ------------------------------------------------------------------ runs (tug_action.py)
+    @property
+    def running(self) -> bool:
+        return not self.finished
+
+    def start_run(self, sled_mass_kg: float, cycles: int) -> None:
+        """A new run with this sled (kg) and cycles, the other parameters as configured."""
+        lo, hi = _RANGES['_kg']                            # the sled_mass_kg parameter's
+        if not (lo < sled_mass_kg <= hi) or cycles < 1:   # NaN fails too
+            raise ValueError(f'need 0 < sled_mass_kg <= {hi:g} and cycles >= 1, got '
+                             f'{sled_mass_kg!r} kg and {cycles} cycles')
+        cfg = replace(self.cfg, sled_mass_kg=float(sled_mass_kg), cycles=int(cycles)).check()
+        tether = self.machine.tether      # the same rope: its free length carries over
+        self.machine = BehaviorMachine(
+            cfg, ModeChooser(self.predictor, cfg.safety_factor, cfg.phis_rad))
+        self.machine.tether = tether
+        self.finished, self._state_sent = False, None
+
+    def stop_run(self, why: str) -> None:
+        """Cancel the run and step once: the winch stop is published now."""
+        self.machine.cancel(why)
+        self.step()
+
+    def latest_estimate(self) -> TugSample | None:
+        return self.tug_series.samples[-1] if self.tug_series.samples else None
 
     # ------------------------------------------------------------------ inputs
     def on_joints(self, msg: JointState) -> None:
@@ -281,7 +317,7 @@ def main(args=None) -> int:
     done_at: list[float] = []
 
     def keep_going(node: BehaviorNode) -> bool:
-        if node.finished and node.exit_when_done:
+        if node.finished and node.machine.done and node.exit_when_done:
             done_at[:] = done_at or [time.monotonic()]
             return time.monotonic() - done_at[0] <= 0.5   # let the last messages go out
         return True

@@ -13,7 +13,8 @@ PACKAGE = REPO / 'src' / 'rftgls_ros'
 UNIT_TESTS = ['tests/ros/test_tf_tree.py',
               'tests/ros/test_capacity_estimator.py',
               'tests/ros/test_launch_files.py',
-              'tests/ros/test_rviz_config.py']
+              'tests/ros/test_rviz_config.py',
+              'tests/stack/test_tug_action_unit.py']
 
 
 def _run(*cmd: str) -> subprocess.CompletedProcess:

@@ -937,3 +937,29 @@ class BehaviorMachine:
     @property
     def done(self) -> bool:
         return self.state in TERMINAL
+
+    # ------------------------------------------------------------------ cancel
+    def cancel(self, why: str) -> None:
+        """Stop the run now (the walk-burrow-tug action's cancel): the winch braked in the
+        next ``step``'s commands, the legs left where they are (a burrowed anchor keeps holding
+        a taut tether), a walking robot told to stand; the cycle in progress is recorded
+        ``cancelled``; FINISHED. Nothing happens once the run is over."""
+        if self.done:
+            return
+        c = self.cycle
+        if self.state == State.TUG:
+            self._finish_tug('cancelled')
+        elif c is not None and self.state == State.WALK:     # the walk so far counts
+            c.walk_j += self._energy_since_enter()
+            c.walk_s += self._elapsed()
+        elif c is not None and self.state == State.BURROW:   # the burrow so far counts
+            c.burrow_j += self._energy_since_enter()
+            c.burrow_s += self._elapsed()
+        if self.state == State.WALK or (self.state == State.WAIT_LINK
+                                        and self._resume == State.WALK):
+            self._oneshots.append(('gait', 'stand'))
+        self._winch = 0.0
+        if c is not None and not (self.records and self.records[-1].cycle == c.index):
+            c.outcome, c.reason = 'cancelled', 'cancelled'
+            self._record()
+        self._go(State.FINISHED, f'cancelled, winch braked: {why}')
