@@ -1,5 +1,6 @@
-"""capacity_node's project-typed outputs (rftgls_ros/capacity_extras.py): the query service,
-the whole-estimate message and the markers, in process with a probe, real DDS on loopback.
+"""capacity_node's project-typed outputs (rftgls_ros/estimate_msg.py, capacity_query.py,
+marker_publisher.py): the query service, the whole-estimate message and the markers, in process
+with a probe, real DDS on loopback.
 
 References come from outside the node: `rftgls capacity --method map --json` (the CLI, a
 separate process) for the service, and rftgls_core's CapacityMap.query for the marker geometry.

@@ -26,7 +26,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy  # noqa: E
 from std_msgs.msg import Header  # noqa: E402
 
 from rftgls_ros.capacity.params import PARAMETERS  # noqa: E402
-from rftgls_ros.capacity_extras import PARAMETERS as EXTRA_PARAMETERS  # noqa: E402
+from rftgls_ros.marker_publisher import PARAMETERS as EXTRA_PARAMETERS  # noqa: E402
 from rftgls_ros.tf_tree import TfTree, Transform  # noqa: E402
 
 # Real-time end-to-end stacks: `make test` runs them alone (pytest.ini, Makefile).

@@ -30,6 +30,8 @@ from std_msgs.msg import Float64, String
 from rftgls_conventions import one_line
 from rftgls_core.predictor import predictor_name
 from rftgls_core.types import pull_direction
+from rftgls_interfaces.msg import AnchorEstimate
+from rftgls_interfaces.srv import QueryCapacity
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import ConfigError, declare
 
@@ -37,7 +39,9 @@ from .capacity.estimator import JOINTS, CapacityEstimator, Estimate
 from .capacity.inputs import frame_problem, imu_problem, quat_xyzw_to_pitch
 from .capacity.node_predictor import node_predictor
 from .capacity.params import PARAMETERS, RUNTIME, configs
-from .capacity_extras import CapacityExtras
+from .capacity_query import answer_query
+from .estimate_msg import estimate_msg
+from .marker_publisher import CapacityMarkers
 
 
 class CapacityNode(Node):
@@ -79,8 +83,12 @@ class CapacityNode(Node):
         self.pub_status = self.create_publisher(String, '~/status', latched)
         # /diagnostics is global (every node reports there; REP-107), the rest is relative.
         self.pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
-        self.extras = CapacityExtras(self)  # ~/estimate, ~/query_capacity, ~/markers
-        # After every declare (the extras' too): rclpy runs the callback on declarations.
+        # The whole estimate in one project-typed message (what behavior_node reads), the
+        # "what if" service answered by this node's predictor, and the markers.
+        self.pub_estimate = self.create_publisher(AnchorEstimate, '~/estimate', 10)
+        self.create_service(QueryCapacity, '~/query_capacity', self.on_query)
+        self.markers = CapacityMarkers(self)
+        # After every declare (the markers' too): rclpy runs the callback on declarations.
         self.add_on_set_parameters_callback(self.on_set_parameters)
 
         # Sensor-data QoS (best effort, volatile) with a deeper queue than its 5: at 500 Hz
@@ -147,6 +155,9 @@ class CapacityNode(Node):
         self.get_logger().info('parameters changed: ' + ', '.join(
             f'{x.name}={x.value!r}' for x in params))
         return SetParametersResult(successful=True)
+
+    def on_query(self, req, res):
+        return answer_query(self.estimator.predictor, self.params['pull'], req, res)
 
     def now_s(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -270,7 +281,8 @@ class CapacityNode(Node):
         if out.publish_lower:
             self.pub_lower.publish(lower)
         self.pub_twist.publish(twist)
-        self.extras.publish(est, cap.header)
+        self.pub_estimate.publish(estimate_msg(est, cap.header, self.params['pull']))
+        self.markers.publish(est, cap.header)
         self.last_estimate = est
         self.last_publish = time.monotonic()
         self.processing_s = time.perf_counter() - t0

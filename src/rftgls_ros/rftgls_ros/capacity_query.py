@@ -1,11 +1,14 @@
-"""behavior_node's "what if I burrow to this pose" question, asked of capacity_node.
+"""capacity_node's ``~/query_capacity`` service (rftgls_interfaces/QueryCapacity), both ends:
+behavior_node's "what if I burrow to this pose" question and capacity_node's answer.
 
-ServicePredictor is the ModeChooser's predictor ``(state, phi) -> (capacity N | None,
-Status)`` answered by capacity_node's ``~/query_capacity`` service (rftgls_interfaces/
-QueryCapacity), so the behaviour decides on the same map or model as the estimates it tugs on,
-and loads no copy of its own. The call blocks the caller for at most ``timeout_s``: the client
-lives on a private node spun by a private executor, so it can be called from a callback of
-the behaviour node's own executor.
+``answer_query`` fills the response from capacity_node's own predictor, so the answer gives the
+numbers of `rftgls capacity --method map` for the same map, and the behaviour decides on the same
+map or model as the estimates it tugs on (it loads no copy of its own).
+
+``ServicePredictor`` is the ModeChooser's predictor ``(state, phi) -> (capacity N | None,
+Status)`` answered by that service. The call blocks the caller for at most ``timeout_s``: the
+client lives on a private node spun by a private executor, so it can be called from a callback
+of the behaviour node's own executor.
 
 Safety: an unanswered question is no value. A missing service, a timeout or a malformed answer
 gives ``(None, Status.STALE)``, which the chooser never counts as sufficient (no tug on it);
@@ -26,8 +29,36 @@ from rftgls_interfaces.msg import AnchorEstimate
 from rftgls_interfaces.srv import QueryCapacity
 
 from .behavior.tug_series import TugSeries
+from .estimate_msg import num_or_nan, twist_msg
 
 CAPACITY_SOURCES = ('service', 'local_map')
+
+
+def answer_query(predictor, default_pull: str, req, res):
+    """Fill a QueryCapacity response from predictor.predict (invalid_input on a bad request)."""
+    res.capacity_n = num_or_nan(None)
+    res.slip_twist = res.slip_twist_scaled = twist_msg(None)
+    res.method = predictor.name
+    values = (req.h_m, req.theta_b_rad, req.theta_l1_rad, req.theta_l2_rad, req.phi_rad)
+    pull = req.pull.strip() or default_pull
+    try:
+        Pull(pull)
+    except ValueError:
+        res.status, res.reason = str(Status.INVALID_INPUT), 'unknown_pull'
+        res.detail = f"pull must be 'forward' or 'backward' (or empty), got {req.pull!r}"
+        return res
+    if not all(math.isfinite(v) for v in values):
+        res.status, res.reason = str(Status.INVALID_INPUT), 'not_finite'
+        res.detail = f'state and phi must be finite, got {values}'
+        return res
+    r = predictor.predict(AnchorState(*values[:4]), values[4], pull)
+    res.status, res.reason, res.detail = str(r.status), r.reason, r.detail
+    res.has_value = r.status.has_value
+    res.capacity_n = num_or_nan(r.capacity_N)
+    res.slip_twist = twist_msg(r.slip_twist)
+    res.slip_twist_scaled = twist_msg(r.slip_twist_scaled)
+    res.flags = list(r.flags)
+    return res
 
 
 class ServicePredictor:

@@ -1,18 +1,8 @@
-"""capacity_node's project-typed outputs: the whole estimate, the query service and markers.
+"""capacity_node's ``~/markers``: each estimate drawn for RViz and Foxglove, rate-limited.
 
-Created by CapacityNode in one line and fed every published estimate; the standard-typed
-topics stay in capacity_node.py for tools that only know standard messages.
-
-  ~/estimate         rftgls_interfaces/AnchorEstimate: one estimate as a whole (status, reason,
-                     capacity, lower bound, margin, slip twist, assumed inputs, method, stamp).
-  ~/query_capacity   rftgls_interfaces/QueryCapacity: the capacity at a hypothetical state
-                     (behavior_node's "what if I burrow to this pose"), answered by the node's
-                     own predictor, so it gives the numbers of `rftgls capacity --method map`
-                     for the same map.
-  ~/markers          visualization_msgs/MarkerArray, at most every marker_period_s: geometry
-                     from rftgls_ros.capacity.markers (limit curve at My = 0, tether force,
-                     capacity coloured by margin, slip direction, buried leg facets, the
-                     free surface, a text), in marker_frame_id.
+visualization_msgs/MarkerArray, at most every marker_period_s: geometry from
+rftgls_ros.capacity.markers (limit curve at My = 0, tether force, capacity coloured by margin,
+slip direction, buried leg facets, the free surface, a text), in marker_frame_id.
 
 Parameters (declared here): marker_period_s (s, 0 = no markers), marker_frame_id (the body
 frame at the winch point p, the URDF's winch_link), marker_force_scale_m_per_N (m drawn per N).
@@ -26,20 +16,16 @@ import time
 
 import numpy as np
 from builtin_interfaces.msg import Duration
-from geometry_msgs.msg import Point, Twist
+from geometry_msgs.msg import Point
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from rftgls_core.predictor.maps import MapPredictor
-from rftgls_core.types import AnchorState, Pull, Status
-from rftgls_interfaces.msg import AnchorEstimate
-from rftgls_interfaces.srv import QueryCapacity
 from rftgls_node_base.parameters import declare
 
 from .capacity.estimator import Estimate
 from .capacity.markers import CurveSample, MarkerStyle, estimate_markers, limit_curve
 
-NAN = float('nan')
 # name -> (default, description, lo, hi); start-up only (read-only: a run-time change is
 # rejected by rclpy with its reason).
 PARAMETERS = {
@@ -49,60 +35,6 @@ PARAMETERS = {
 }
 KINDS = {'line_strip': Marker.LINE_STRIP, 'arrow': Marker.ARROW,
          'text': Marker.TEXT_VIEW_FACING, 'points': Marker.POINTS}
-
-
-def _num(x: float | None) -> float:
-    return NAN if x is None else float(x)
-
-
-def _twist(v) -> Twist:
-    t = Twist()
-    vx, vz, wy = (NAN, NAN, NAN) if v is None else v
-    t.linear.x, t.linear.z, t.angular.y = float(vx), float(vz), float(wy)
-    return t
-
-
-def estimate_msg(est: Estimate, header: Header, pull: str) -> AnchorEstimate:
-    """The AnchorEstimate of one Estimate (NaN for every missing number)."""
-    st = est.state
-    return AnchorEstimate(
-        header=header, status=str(est.status), reason=est.reason, detail=est.detail,
-        has_value=est.has_value, capacity_n=_num(est.capacity_N),
-        capacity_lower_n=_num(est.capacity_lower_N), tension_n=_num(est.tension_N),
-        margin_n=_num(est.margin_N), slipping=bool(est.slipping),
-        slip_twist=_twist(est.slip_twist), phi_rad=_num(est.phi_rad),
-        h_m=_num(st.h if st else None), theta_b_rad=_num(st.theta_b if st else None),
-        theta_l1_rad=_num(st.theta_l1 if st else None),
-        theta_l2_rad=_num(st.theta_l2 if st else None),
-        assumed_inputs=list(est.assumed), stale_inputs=list(est.stale),
-        warnings=list(est.warnings), method=est.predictor, pull=pull)
-
-
-def answer_query(predictor, default_pull: str, req, res):
-    """Fill a QueryCapacity response from predictor.predict (invalid_input on a bad request)."""
-    res.capacity_n = NAN
-    res.slip_twist = res.slip_twist_scaled = _twist(None)
-    res.method = predictor.name
-    values = (req.h_m, req.theta_b_rad, req.theta_l1_rad, req.theta_l2_rad, req.phi_rad)
-    pull = req.pull.strip() or default_pull
-    try:
-        Pull(pull)
-    except ValueError:
-        res.status, res.reason = str(Status.INVALID_INPUT), 'unknown_pull'
-        res.detail = f"pull must be 'forward' or 'backward' (or empty), got {req.pull!r}"
-        return res
-    if not all(math.isfinite(v) for v in values):
-        res.status, res.reason = str(Status.INVALID_INPUT), 'not_finite'
-        res.detail = f'state and phi must be finite, got {values}'
-        return res
-    r = predictor.predict(AnchorState(*values[:4]), values[4], pull)
-    res.status, res.reason, res.detail = str(r.status), r.reason, r.detail
-    res.has_value = r.status.has_value
-    res.capacity_n = _num(r.capacity_N)
-    res.slip_twist = _twist(r.slip_twist)
-    res.slip_twist_scaled = _twist(r.slip_twist_scaled)
-    res.flags = list(r.flags)
-    return res
 
 
 def marker_array(geoms, header: Header, lifetime_s: float) -> MarkerArray:
@@ -131,8 +63,9 @@ def marker_array(geoms, header: Header, lifetime_s: float) -> MarkerArray:
     return MarkerArray(markers=out)
 
 
-class CapacityExtras:
-    """Publishers and the service above, attached to a CapacityNode."""
+class CapacityMarkers:
+    """The ``~/markers`` publisher of a CapacityNode: its parameters, the rate limit, and the
+    limit curve and buried facets cached per anchor state."""
 
     def __init__(self, node):
         self.node = node
@@ -142,9 +75,7 @@ class CapacityExtras:
         self.frame_id = p['marker_frame_id']
         self.style = MarkerStyle(force_scale_m_per_N=float(p['marker_force_scale_m_per_N']))
         self.pull = node.params['pull']
-        self.pub_estimate = node.create_publisher(AnchorEstimate, '~/estimate', 10)
         self.pub_markers = node.create_publisher(MarkerArray, '~/markers', 2)
-        node.create_service(QueryCapacity, '~/query_capacity', self.on_query)
         pred = node.estimator.predictor
         primary = getattr(pred, 'primary', pred)     # FallbackPredictor: its map
         self.curve_map = primary if isinstance(primary, MapPredictor) else None
@@ -155,11 +86,8 @@ class CapacityExtras:
         self._buried = None
         self._last_markers = -math.inf
 
-    def on_query(self, req, res):
-        return answer_query(self.node.estimator.predictor, self.pull, req, res)
-
     def publish(self, est: Estimate, header: Header) -> None:
-        self.pub_estimate.publish(estimate_msg(est, header, self.pull))
+        """Draw `est` unless the last markers are younger than marker_period_s."""
         now = time.monotonic()
         if self.period_s <= 0.0 or now - self._last_markers < self.period_s:
             return
