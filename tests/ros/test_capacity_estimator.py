@@ -231,3 +231,73 @@ def test_reconfigure_applies_from_the_next_estimate(est, live_predictor):
     assert after != before
     with pytest.raises(ConfigError):
         est.reconfigure(dataclasses.replace(est.config, pull='forward'))
+
+
+# ------------------------------------------------------------------ input provenance
+def _map_estimator(**cfg):
+    from rftgls_ros.capacity.predictor import MapPredictor
+    return CapacityEstimator(MapPredictor(), EstimatorConfig(pull='backward', **cfg))
+
+
+def _map_min(h_lo: float, h_hi: float) -> float:
+    """Smallest capacity of the shipped map at five heights from h_lo to h_hi (ends
+    included) at DH's angles: the map queried directly, not through the estimator."""
+    import numpy as np
+
+    from rftgls_core.maps import CapacityMap, shipped_map_path
+    from rftgls_core.types import AnchorState
+    cmap = CapacityMap.load(shipped_map_path('minirquad'))
+    caps = [cmap.query(AnchorState(float(h), DH.theta_b, DH.theta_l1, DH.theta_l2), PHI,
+                       'backward').capacity_N for h in np.linspace(h_lo, h_hi, 5)]
+    return min(caps)
+
+
+@pytest.mark.parametrize('provenance, status, assumed, modelled, code', [
+    ('measured', Status.OK, (), (), None),
+    ('modelled', Status.OK, (), ('height',), 'modelled_input:height'),
+    ('assumed', Status.ASSUMED, ('height',), (), 'assumed_input:height'),
+])
+def test_every_estimate_says_which_inputs_were_not_measured(provenance, status, assumed,
+                                                            modelled, code):
+    est = _map_estimator(lower_bound_level=0.0)
+    feed(est, 0.0)
+    est.update('height', 0.0, DH.h, provenance, 0.002)
+    e = est.estimate(0.0)
+    assert (e.status, e.assumed, e.modelled) == (status, assumed, modelled)
+    assert e.has_value
+    if code is None:                           # measured: no range to cover, no bound asked
+        assert e.reason == '' and e.capacity_lower_N is None
+        assert not est.outputs(e).publish_lower
+        return
+    assert code in e.reason_codes
+    # The lower bound covers the stated band: the smallest capacity over h +- 2 mm.
+    assert e.capacity_lower_N == pytest.approx(_map_min(DH.h - 0.002, DH.h + 0.002), abs=1e-9)
+    assert e.capacity_lower_N < e.capacity_N
+    d = est.diagnostic(e, 'x')
+    assert d.values[f'{provenance}_inputs'] == 'height'
+    assert code in d.message
+    assert d.level == (1 if provenance == 'assumed' else 0)
+
+
+def test_an_unstated_band_takes_the_configured_range_and_a_bad_one_is_refused():
+    est = _map_estimator(lower_bound_level=0.0, assumed_height_range_m=0.003)
+    feed(est, 0.0)
+    est.update('height', 0.0, DH.h, 'assumed')            # band NaN: not stated
+    e = est.estimate(0.0)
+    assert e.capacity_lower_N == pytest.approx(_map_min(DH.h - 0.003, DH.h + 0.003), abs=1e-9)
+    for band in (-0.001, math.inf):
+        with pytest.raises(ValueError, match='band'):
+            est.update('height', 0.0, DH.h, 'modelled', band)
+    with pytest.raises(ValueError, match='tension is measured'):
+        est.update('tension', 0.0, 1.0, 'assumed')
+
+
+def test_a_malformed_value_keeps_its_provenance_until_a_good_one():
+    est = _map_estimator()
+    feed(est, 0.0)
+    est.update('height', 0.0, DH.h, 'assumed', 0.002)
+    est.mark_malformed('height', 0.1, 'provenance not stated')
+    e = est.estimate(0.1)
+    assert e.status is Status.INVALID_INPUT and e.assumed == ('height',)
+    est.update('height', 0.2, DH.h, 'measured')
+    assert est.estimate(0.2).status is Status.OK

@@ -1,4 +1,4 @@
-"""capacity_node's project-typed outputs (rftgls_ros/estimate_msg.py, capacity_query.py,
+"""capacity_node's project-typed outputs (rftgls_ros/capacity_msgs.py, capacity_query.py,
 marker_publisher.py): the query service, the whole-estimate message and the markers, in process
 with a probe, real DDS on loopback.
 

@@ -119,6 +119,16 @@ def test_static_to_late_subscriber_and_dynamic_from_inputs(rig):
     anchor = r.latest('anchor')
     assert anchor.transform.translation.z == 0.042 and anchor.transform.rotation.w == 1.0
     assert r.latest('winch_rope') is None
+    # A height sent with its provenance (behavior_node's burrowed height) moves p as well.
+    from rftgls_interfaces.msg import InputValue
+    typed = r.probe.create_publisher(InputValue, 'winch/height_estimate', 10)
+    assert r.spin(5.0, lambda: typed.get_subscription_count())
+    typed.publish(InputValue(value=0.047, band=0.004, provenance=InputValue.ASSUMED))
+    r.spin(0.3)
+    imu.header.stamp.sec = 1236
+    r.imu.publish(imu)
+    assert r.spin(5.0, lambda: r.latest('anchor').header.stamp.sec == 1236)
+    assert r.latest('anchor').transform.translation.z == 0.047
 
 
 def _imu(q, frame='imu_link', sec=1):

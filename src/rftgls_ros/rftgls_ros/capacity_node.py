@@ -30,7 +30,7 @@ from std_msgs.msg import Float64, String
 from rftgls_conventions import one_line
 from rftgls_core.predictor import predictor_name
 from rftgls_core.types import pull_direction
-from rftgls_interfaces.msg import AnchorEstimate
+from rftgls_interfaces.msg import AnchorEstimate, InputValue
 from rftgls_interfaces.srv import QueryCapacity
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import ConfigError, declare
@@ -39,8 +39,8 @@ from .capacity.estimator import JOINTS, CapacityEstimator, Estimate
 from .capacity.inputs import frame_problem, imu_problem, quat_xyzw_to_pitch
 from .capacity.node_predictor import node_predictor
 from .capacity.params import PARAMETERS, RUNTIME, configs
+from .capacity_msgs import estimate_msg, read_input_value
 from .capacity_query import answer_query
-from .estimate_msg import estimate_msg
 from .marker_publisher import CapacityMarkers
 
 
@@ -108,6 +108,9 @@ class CapacityNode(Node):
         if p['height_topic']:
             self.create_subscription(Float64, p['height_topic'],
                                      lambda m, i: self.on_scalar('height', m, i), sensor)
+        if p['height_estimate_topic']:
+            self.create_subscription(InputValue, p['height_estimate_topic'],
+                                     lambda m, i: self.on_input_value('height', m, i), sensor)
         if p['phi_topic']:
             self.create_subscription(Float64, p['phi_topic'],
                                      lambda m, i: self.on_scalar('phi', m, i), sensor)
@@ -134,7 +137,8 @@ class CapacityNode(Node):
                 f'MAP WITHOUT CONTENT HASH: {cmap.path} cannot be checked for integrity; '
                 'answers from it are only as good as the file. Rebuild it with `rftgls map '
                 'build` to get a hashed map.')
-        for name, topic in (('height', p['height_topic']), ('phi', p['phi_topic'])):
+        for name, topic in (('height', p['height_topic'] or p['height_estimate_topic']),
+                            ('phi', p['phi_topic'])):
             if not topic:
                 self.get_logger().warning(
                     f'{name} is ASSUMED from parameter {name}_{"m" if name == "height" else "rad"}'
@@ -236,8 +240,20 @@ class CapacityNode(Node):
         self._input_done('tension', msg.header.stamp, info)
 
     def on_scalar(self, name: str, msg: Float64, info) -> None:
+        """A bare Float64: a measurement (it has no way to say otherwise)."""
         self.estimator.update(name, self.now_s(), msg.data)
         self._input_done(name, None, info)
+
+    def on_input_value(self, name: str, msg: InputValue, info) -> None:
+        """A value with its band and provenance: carried into the estimate (status assumed,
+        or ok naming the modelled input, the lower bound covering the band)."""
+        t = self.sample_time(msg.header)
+        got = read_input_value(msg)
+        if isinstance(got, str):
+            self.estimator.mark_malformed(name, t, f'{name}: {got}')
+        else:
+            self.estimator.update(name, t, *got)
+        self._input_done(name, msg.header.stamp, info)
 
     def _input_done(self, name: str, stamp, info) -> None:
         if name in self.triggers:

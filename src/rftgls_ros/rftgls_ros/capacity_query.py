@@ -29,7 +29,7 @@ from rftgls_interfaces.msg import AnchorEstimate
 from rftgls_interfaces.srv import QueryCapacity
 
 from .behavior.tug_series import TugSeries
-from .estimate_msg import num_or_nan, twist_msg
+from .capacity_msgs import num_or_nan, twist_msg
 
 CAPACITY_SOURCES = ('service', 'local_map')
 

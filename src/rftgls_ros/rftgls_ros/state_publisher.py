@@ -11,8 +11,10 @@ pitch sample (none before the first: the body has no pose yet). With `robot_desc
 empty, the URDF of `robot` in minirquad_description (share/minirquad_description/urdf).
 
 ESTIMATED: the body pitch theta_B (from the IMU orientation, or from `pitch_topic`) and the
-height h of the winch point p above the free surface (`height_topic`, behavior_node's estimate
-of the burrowed height; parameter `height_m` until the first sample). ASSUMED: p stands at
+height h of the winch point p above the free surface (`height_estimate_topic`, an InputValue
+such as behavior_node's burrowed height, which says whether it is measured, modelled or
+assumed; `height_topic`, a measured Float64; parameter `height_m` until the first sample).
+TF has no field for provenance: the drawing is only as good as that input. ASSUMED: p stands at
 x = y = 0 of odom (the robot observes no horizontal position), no roll or yaw (the planar
 model), odom's z = 0 is the free surface. The math is in rftgls_ros.tf_tree (ROS-free).
 """
@@ -30,6 +32,7 @@ from std_msgs.msg import Float64, String
 
 from rftgls_conventions import LEG_JOINT_NAMES, quat_xyzw_to_pitch
 from rftgls_conventions.safe_read import InputFileError, read_text
+from rftgls_interfaces.msg import InputValue
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import ConfigError, declare
 from tf2_msgs.msg import TFMessage
@@ -62,7 +65,9 @@ PARAMETERS = {
     'imu_topic': ('imu/data', 'sensor_msgs/Imu topic (REP-145; orientation -> body pitch)'),
     'imu_frame_id': ('imu_link', "the IMU messages' header.frame_id (others are dropped)"),
     'pitch_topic': ('', "std_msgs/Float64 body pitch in rad; replaces the IMU if set"),
-    'height_topic': ('winch/height', "std_msgs/Float64 height of p in m; '' = height_m only"),
+    'height_topic': ('winch/height', "std_msgs/Float64 measured height of p in m; '' = none"),
+    'height_estimate_topic': ('winch/height_estimate', "rftgls_interfaces/InputValue height of "
+                              "p in m (measured, modelled or assumed); '' = none"),
     'height_m': (0.03, 'height of p above the free surface until a height sample'),
 }
 
@@ -106,7 +111,7 @@ class StatePublisher(Node):
         self.imu_frame = p['imu_frame_id']
         self.leg_joints = frozenset(LEG_JOINT_NAMES)
         self.height_m = float(p['height_m'])
-        self.height_measured = False
+        self.height_received = False
         self.pitch_rad: float | None = None
 
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -124,12 +129,17 @@ class StatePublisher(Node):
         else:
             self.create_subscription(Imu, p['imu_topic'], self.on_imu, sensor)
         if p['height_topic']:
-            self.create_subscription(Float64, p['height_topic'], self.on_height, sensor)
+            self.create_subscription(Float64, p['height_topic'],
+                                     lambda m: self.on_height(m.data), sensor)
+        if p['height_estimate_topic']:
+            self.create_subscription(InputValue, p['height_estimate_topic'],
+                                     lambda m: self.on_height(m.value), sensor)
+        heights = ' and '.join(t for t in (p['height_topic'], p['height_estimate_topic']) if t)
         self.publish_static()
         self.get_logger().info(
             f'{len(self.joints)} URDF joints, pitch from '
             f'{p["pitch_topic"] or p["imu_topic"]}, height from '
-            f'{p["height_topic"] or "parameter height_m"} (assumed {self.height_m} m until a '
+            f'{heights or "parameter height_m"} (assumed {self.height_m} m until a '
             'sample); x, y of p not observed (0)')
 
     def stamped(self, transforms: list[Transform], stamp) -> TFMessage:
@@ -189,10 +199,10 @@ class StatePublisher(Node):
             self.pitch_rad = float(msg.data)
             self.publish_pose(None)
 
-    def on_height(self, msg: Float64) -> None:
-        if msg.data == msg.data:
-            self.height_m = float(msg.data)
-            self.height_measured = True
+    def on_height(self, h: float) -> None:
+        if h == h:     # not NaN
+            self.height_m = float(h)
+            self.height_received = True
 
     def publish_pose(self, stamp) -> None:
         # Only with a measured pitch: before the first sample the body has no pose in odom

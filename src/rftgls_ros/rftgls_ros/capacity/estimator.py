@@ -15,20 +15,24 @@ docs/design/capacity-inputs.md):
            `height_m` parameter is ASSUMED until the first sample arrives).
   phi      tether angle, rad: tension along (-cos phi, 0, sin phi) in world axes
            (optional topic; `phi_rad` parameter ASSUMED until the first sample arrives).
+Every sample carries its provenance (inputs.Provenance): height and phi may arrive MODELLED or
+ASSUMED with an uncertainty band (half-width); the other inputs are measurements.
 Times are seconds on one clock: the time each sample was taken (the node uses the header
 stamp where there is one, else the receipt time). A sample older than its timeout is stale;
 one stamped more than `clock_tolerance_s` in the future is invalid (future_stamp).
 
 Status precedence: stale > invalid_input > the predictor's status, then ok -> assumed when an
-input came from a parameter. A value (capacity, margin, slip twist) is present only for ok and
-assumed. Reasons are machine-readable `code:input` items joined by ';' (e.g.
+input came from a parameter or arrived ASSUMED. A MODELLED input leaves the status ok, is named
+in `modelled` and in the reason (`modelled_input:height`), and the lower bound covers its band
+(as it covers an assumed input's range). A value (capacity, margin, slip twist) is present only
+for ok and assumed. Reasons are machine-readable `code:input` items joined by ';' (e.g.
 `stale_input:tension`, `negative_tension:tension`, `assumed_input:height`); `detail` is prose.
 """
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from rftgls_conventions import LEG_KEYS, axle_angles, tether_direction_xz
 from rftgls_core.predictor import Predictor, predictor_name
@@ -38,17 +42,17 @@ from rftgls_core.uncertainty import capacity_lower_bound
 from rftgls_node_base.diagnostics import DiagStatus
 from rftgls_node_base.parameters import ConfigError
 
-from .inputs import LEG_LIMIT_RAD
+from .inputs import LEG_LIMIT_RAD, Provenance, band_problem
+from .range_bound import range_minimum
 
 JOINTS = LEG_KEYS  # leg angle keys, rftgls_conventions
 # Input names, as used for timeouts and in stale/invalid reasons.
 INPUTS = ('joint_states', 'pitch', 'tension', 'height', 'phi')
 DEFAULT_TIMEOUTS_S = {'joint_states': 0.25, 'pitch': 0.25, 'tension': 0.25, 'height': 1.0,
                       'phi': 1.0}
-# Inputs with a parameter fallback: used (and reported as assumed) until measured once.
+# Inputs with a parameter fallback: used (and reported as assumed) until received once. Only
+# these may arrive modelled or assumed (the lower bound can scan their range).
 ASSUMABLE = ('height', 'phi')
-# Samples per assumed axis when the lower bound scans the assumed range.
-RANGE_SAMPLES = 5
 
 
 @dataclass(frozen=True)
@@ -138,6 +142,8 @@ class EstimatorConfig:
 class Sample:
     t: float      # s, when the sample was taken (header stamp, else receipt) on one clock
     value: float  # SI
+    provenance: Provenance = Provenance.MEASURED
+    band: float = math.nan   # half-width of the true value's range, SI; NaN = not stated
 
 
 @dataclass(frozen=True)
@@ -155,7 +161,8 @@ class Estimate:
         norm (RFT is rate independent so only the direction is known); given whenever there
         is a value, `slipping` says whether the tension exceeds capacity.
     state, phi_rad, tension_N: the inputs used (None when missing or not finite).
-    assumed: inputs taken from parameters instead of measurements ('height', 'phi').
+    assumed: inputs taken from parameters or received as assumed ('height', 'phi').
+    modelled: inputs received as modelled (computed, not measured); the status stays ok.
     stale: inputs that are stale or were never received.
     warnings: non-fatal findings.
     """
@@ -174,6 +181,7 @@ class Estimate:
     phi_rad: float | None = None
     leg_spread_rad: tuple[float, float] | None = None
     assumed: tuple[str, ...] = ()
+    modelled: tuple[str, ...] = ()
     stale: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
     predictor: str = ''
@@ -207,7 +215,7 @@ class Outputs:
         there is no value, so nobody can read a number as a valid capacity. capacity_y: 0, or
         NaN without a value (the message's y component carries the 'no value' mark too).
     publish_lower: whether ~/capacity_lower is published (a lower bound is configured or an
-        input is assumed).
+        input is assumed or modelled).
     slip_twist: the estimate's slip twist (vx, vz, wy) while the anchor slips (tension above
         capacity); zero while it holds (the predicted motion is zero); NaN without a value.
     """
@@ -268,11 +276,24 @@ class CapacityEstimator:
             self._joints[key] = Sample(t, float(value))
         self._malformed.pop('joint_states', None)
 
-    def update(self, name: str, t: float, value: float) -> None:
-        """A scalar input: 'pitch' (rad), 'tension' (N), 'height' (m) or 'phi' (rad)."""
+    def update(self, name: str, t: float, value: float,
+               provenance: Provenance = Provenance.MEASURED, band: float = math.nan) -> None:
+        """A scalar input: 'pitch' (rad), 'tension' (N), 'height' (m) or 'phi' (rad).
+
+        provenance and band (half-width of the true value's range, the input's unit; NaN = not
+        stated): height and phi may be modelled or assumed, every other input is measured
+        (ValueError otherwise, as for a band that is negative or infinite).
+        """
         if name not in INPUTS or name == 'joint_states':
             raise KeyError(f'unknown scalar input {name!r}')
-        self._inputs[name] = Sample(t, float(value))
+        provenance = Provenance(provenance)
+        if provenance is not Provenance.MEASURED and name not in ASSUMABLE:
+            raise ValueError(f'{name} is measured; only {", ".join(ASSUMABLE)} may be '
+                             f'{provenance}')
+        why = band_problem(band)
+        if why is not None:
+            raise ValueError(f'{name}: {why}')
+        self._inputs[name] = Sample(t, float(value), provenance, float(band))
         self._malformed.pop(name, None)
 
     def mark_malformed(self, name: str, t: float, why: str, code: str = 'malformed') -> None:
@@ -285,9 +306,9 @@ class CapacityEstimator:
         if name == 'joint_states':
             for k in JOINTS:
                 if k in self._joints:
-                    self._joints[k] = Sample(t, self._joints[k].value)
+                    self._joints[k] = replace(self._joints[k], t=t)
         elif name in self._inputs:
-            self._inputs[name] = Sample(t, self._inputs[name].value)
+            self._inputs[name] = replace(self._inputs[name], t=t)
         else:
             self._inputs[name] = Sample(t, math.nan)
 
@@ -301,11 +322,12 @@ class CapacityEstimator:
         stale_problems = self._stale_inputs(now)
         tension = self._value('tension')
         phi = self._value('phi', cfg.phi_rad)
-        assumed = tuple(n for n in ASSUMABLE if n not in self._inputs)
+        assumed = self._with_provenance(Provenance.ASSUMED)
+        modelled = self._with_provenance(Provenance.MODELLED)
         if stale_problems:
             return Estimate(now, Status.STALE, reason_of(stale_problems),
                             '; '.join(p.text for p in stale_problems),
-                            tension_N=tension, phi_rad=phi, assumed=assumed,
+                            tension_N=tension, phi_rad=phi, assumed=assumed, modelled=modelled,
                             stale=tuple(dict.fromkeys(p.input for p in stale_problems)),
                             predictor=predictor_name(self.predictor))
         legs, spread, problems = self._legs()
@@ -319,7 +341,7 @@ class CapacityEstimator:
             state = AnchorState(h, pitch, legs[0], legs[1])
         common = dict(tension_N=tension if _finite(tension) else None,
                       phi_rad=phi if _finite(phi) else None, state=state,
-                      leg_spread_rad=spread, assumed=assumed,
+                      leg_spread_rad=spread, assumed=assumed, modelled=modelled,
                       predictor=predictor_name(self.predictor))
         if problems:
             return Estimate(now, Status.INVALID_INPUT, reason_of(problems),
@@ -339,11 +361,13 @@ class CapacityEstimator:
                             result=result, **common)
         tension = max(tension, 0.0)  # inside the dead band
         margin = result.capacity_N - tension
-        lower = self._lower_bound(state, phi, result.capacity_N, assumed)
+        lower = self._lower_bound(state, phi, result.capacity_N, self._ranges())
         status, reason = result.status, result.reason
         if assumed:
             status = Status.ASSUMED
-            reason = reason_of([Problem('assumed_input', n, '') for n in assumed]) \
+        if assumed or modelled:
+            reason = reason_of([Problem('assumed_input', n, '') for n in assumed]
+                               + [Problem('modelled_input', n, '') for n in modelled]) \
                 + (f';{result.reason}' if result.reason else '')
         return Estimate(now, status, reason, result.detail,
                         capacity_N=result.capacity_N, capacity_lower_N=lower, margin_N=margin,
@@ -362,7 +386,8 @@ class CapacityEstimator:
         return Outputs(str(est.status), _along(est.capacity_N, d),
                        NAN if est.capacity_N is None else 0.0, _along(est.margin_N, d),
                        _along(est.capacity_lower_N, d),
-                       self.config.lower_bound_level > 0.0 or bool(est.assumed), twist)
+                       self.config.lower_bound_level > 0.0 or bool(est.assumed)
+                       or bool(est.modelled), twist)
 
     def diagnostic(self, est: Estimate, name: str, extra: Mapping[str, str] = {}) -> DiagStatus:
         """The /diagnostics entry of `est`: level from LEVELS (WARN at least with warnings or
@@ -391,7 +416,8 @@ class CapacityEstimator:
             'leg_spread_rad': ('nan' if est.leg_spread_rad is None
                                else ' '.join(f'{x:.4g}' for x in est.leg_spread_rad)),
             'slip_twist': twist,
-            'assumed_inputs': ','.join(est.assumed), 'stale_inputs': ','.join(est.stale),
+            'assumed_inputs': ','.join(est.assumed), 'modelled_inputs': ','.join(est.modelled),
+            'stale_inputs': ','.join(est.stale),
             'reason': est.reason,
             'predictor': est.predictor, 'pull': str(self.pull),
             **extra,
@@ -402,6 +428,31 @@ class CapacityEstimator:
     def _value(self, name: str, fallback: float | None = None) -> float | None:
         s = self._inputs.get(name)
         return s.value if s is not None else fallback
+
+    def _with_provenance(self, provenance: Provenance) -> tuple[str, ...]:
+        """The inputs whose value in use has this provenance (an input never received is
+        assumed: its parameter stands in)."""
+        out = []
+        for name in ASSUMABLE:
+            s = self._inputs.get(name)
+            p = Provenance.ASSUMED if s is None else s.provenance
+            if p is provenance:
+                out.append(name)
+        return tuple(out)
+
+    def _ranges(self) -> tuple[tuple[str, float], ...]:
+        """(input, half-width) of every assumed or modelled input, in ASSUMABLE order: the
+        sample's band when stated, else the configured assumed range."""
+        cfg = self.config
+        own = {'height': cfg.assumed_height_range_m, 'phi': cfg.assumed_phi_range_rad}
+        out = []
+        for name in ASSUMABLE:
+            s = self._inputs.get(name)
+            if s is not None and s.provenance is Provenance.MEASURED:
+                continue
+            band = s.band if s is not None and not math.isnan(s.band) else own[name]
+            out.append((name, band))
+        return tuple(out)
 
     def _samples(self):
         """(input name, sample time) of every received sample."""
@@ -486,18 +537,18 @@ class CapacityEstimator:
         return out
 
     def _lower_bound(self, state: AnchorState, phi: float, capacity_N: float,
-                     assumed: tuple[str, ...]) -> float | None:
+                     ranges: tuple[tuple[str, float], ...]) -> float | None:
         """Conservative lower bound, cached with the prediction it belongs to.
 
         Sigma part (lower_bound_level > 0): rftgls_core.uncertainty.capacity_lower_bound at
-        the used state. Assumed part: the smallest capacity over the assumed range of every
-        assumed input (RANGE_SAMPLES points per axis, ends included); a point without a value
-        makes it 0. The bound is the smaller of the two; None when neither applies.
+        the used state. Range part: the smallest capacity over the range (input, half-width)
+        of every assumed or modelled input (range_bound.range_minimum). The bound is the
+        smaller of the two; None when neither applies.
         """
         cfg = self.config
-        if cfg.lower_bound_level <= 0.0 and not assumed:
+        if cfg.lower_bound_level <= 0.0 and not ranges:
             return None
-        key = (state.as_tuple(), phi, assumed)
+        key = (state.as_tuple(), phi, ranges)
         if self._lower_cache is not None and self._lower_cache[0] == key:
             return self._lower_cache[1]
         bounds = []
@@ -506,32 +557,13 @@ class CapacityEstimator:
                 lambda st, ph: self.predictor.predict(st, ph, self.pull), state, phi,
                 capacity_N, cfg.lower_bound_level, cfg.h_sigma_m, cfg.theta_b_sigma_rad,
                 cfg.capacity_rel_sigma))
-        if assumed:
-            bounds.append(self._range_minimum(state, phi, assumed))
+        if ranges:
+            bounds.append(range_minimum(
+                lambda st, ph: self.predictor.predict(st, ph, self.pull), state, phi,
+                dict(ranges), cfg.h_range_m, cfg.phi_limit_rad))
         lower = min(bounds)
         self._lower_cache = (key, lower)
         return lower
-
-    def _range_minimum(self, state: AnchorState, phi: float, assumed: tuple[str, ...]) -> float:
-        cfg = self.config
-        hs, phis = [state.h], [phi]
-        if 'height' in assumed:
-            lo = max(cfg.h_range_m[0], state.h - cfg.assumed_height_range_m)
-            hi = min(cfg.h_range_m[1], state.h + cfg.assumed_height_range_m)
-            hs = _linspace(lo, hi, RANGE_SAMPLES)
-        if 'phi' in assumed:
-            lo = max(-cfg.phi_limit_rad, phi - cfg.assumed_phi_range_rad)
-            hi = min(cfg.phi_limit_rad, phi + cfg.assumed_phi_range_rad)
-            phis = _linspace(lo, hi, RANGE_SAMPLES)
-        best = math.inf
-        for h in hs:
-            st = AnchorState(h, state.theta_b, state.theta_l1, state.theta_l2)
-            for ph in phis:
-                r = self.predictor.predict(st, ph, self.pull)
-                if r.status not in (Status.OK, Status.ASSUMED) or r.capacity_N is None:
-                    return 0.0
-                best = min(best, r.capacity_N)
-        return max(0.0, best)
 
     def _predict(self, state: AnchorState, phi: float) -> CapacityResult:
         key = (state.as_tuple(), phi)
@@ -545,8 +577,3 @@ class CapacityEstimator:
 def _finite(*xs) -> bool:
     return all(x is not None and math.isfinite(x) for x in xs)
 
-
-def _linspace(lo: float, hi: float, n: int) -> list[float]:
-    if hi <= lo:
-        return [lo]
-    return [lo + (hi - lo) * i / (n - 1) for i in range(n)]

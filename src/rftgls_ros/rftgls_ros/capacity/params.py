@@ -65,7 +65,11 @@ PARAMETERS: dict[str, Param] = {
     'tension_topic': Param('winch/tension', 'geometry_msgs/WrenchStamped tension topic'),
     'tension_component': Param('x', "signed tension: load cell axis 'x', 'y', 'z', or "
                                     "'tether' (a world force projected on d(phi))"),
-    'height_topic': Param('winch/height', "std_msgs/Float64 h in m; '' = height_m only"),
+    'height_topic': Param('winch/height', "std_msgs/Float64 h in m, a measurement (a sensor, "
+                          "a recorded lab bag); '' = none"),
+    'height_estimate_topic': Param('winch/height_estimate', "rftgls_interfaces/InputValue h in "
+                                   "m with its band and provenance (measured, modelled, "
+                                   "assumed); '' = none"),
     'phi_topic': Param('', "std_msgs/Float64 phi in rad; '' = phi_rad only"),
     **{f'joint_{k}': Param(name, f'JointState name of the {k.replace("_", " ")} leg')
        for k, name in zip(LEG_KEYS, LEG_JOINT_NAMES)},

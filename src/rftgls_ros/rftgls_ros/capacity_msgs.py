@@ -1,0 +1,96 @@
+"""The project's messages around capacity_node, converted to and from the ROS-free types.
+
+- AnchorEstimate (out, ``~/estimate``): one Estimate as a whole, NaN for every missing number,
+  the status as a code and (deprecated, one release) as its word. The one message between
+  capacity_node and its consumers: behavior_node reads nothing else of capacity_node.
+- InputValue (in): a height or tether angle with its uncertainty band and its provenance
+  (measured, modelled, assumed), so an estimate built on a value that is not a measurement
+  says so (docs/design/capacity-inputs.md, "Provenance").
+
+Field meanings and units: src/rftgls_interfaces/msg/*.msg.
+"""
+from __future__ import annotations
+
+from geometry_msgs.msg import Twist
+from std_msgs.msg import Header
+
+from rftgls_core.types import Status
+from rftgls_interfaces.msg import AnchorEstimate, InputValue
+
+from .capacity.estimator import Estimate
+from .capacity.inputs import Provenance, band_problem
+
+NAN = float('nan')
+STATUS_CODES = {
+    Status.OK: AnchorEstimate.STATUS_OK, Status.ASSUMED: AnchorEstimate.STATUS_ASSUMED,
+    Status.STALE: AnchorEstimate.STATUS_STALE,
+    Status.INVALID_INPUT: AnchorEstimate.STATUS_INVALID_INPUT,
+    Status.OUT_OF_RANGE: AnchorEstimate.STATUS_OUT_OF_RANGE,
+    Status.UNSUPPORTED: AnchorEstimate.STATUS_UNSUPPORTED,
+    Status.DEGENERATE: AnchorEstimate.STATUS_DEGENERATE,
+}
+STATUS_OF_CODE = {code: status for status, code in STATUS_CODES.items()}
+PROVENANCE_CODES = {Provenance.MEASURED: InputValue.MEASURED,
+                    Provenance.MODELLED: InputValue.MODELLED,
+                    Provenance.ASSUMED: InputValue.ASSUMED}
+PROVENANCE_OF_CODE = {code: p for p, code in PROVENANCE_CODES.items()}
+
+
+def num_or_nan(x: float | None) -> float:
+    """A message float: NaN for None ("no value")."""
+    return NAN if x is None else float(x)
+
+
+def twist_msg(v: tuple[float, float, float] | None) -> Twist:
+    """A planar twist (vx, vz, wy) as geometry_msgs/Twist (linear.x, linear.z, angular.y);
+    NaN in all three for None."""
+    t = Twist()
+    vx, vz, wy = (NAN, NAN, NAN) if v is None else v
+    t.linear.x, t.linear.z, t.angular.y = float(vx), float(vz), float(wy)
+    return t
+
+
+def estimate_msg(est: Estimate, header: Header, pull: str) -> AnchorEstimate:
+    """The AnchorEstimate of one Estimate (NaN for every missing number)."""
+    st = est.state
+    return AnchorEstimate(
+        header=header, status_code=STATUS_CODES[est.status], status=str(est.status),
+        reason=est.reason, detail=est.detail,
+        has_value=est.has_value, capacity_n=num_or_nan(est.capacity_N),
+        capacity_lower_n=num_or_nan(est.capacity_lower_N), tension_n=num_or_nan(est.tension_N),
+        margin_n=num_or_nan(est.margin_N), slipping=bool(est.slipping),
+        slip_twist=twist_msg(est.slip_twist), phi_rad=num_or_nan(est.phi_rad),
+        h_m=num_or_nan(st.h if st else None), theta_b_rad=num_or_nan(st.theta_b if st else None),
+        theta_l1_rad=num_or_nan(st.theta_l1 if st else None),
+        theta_l2_rad=num_or_nan(st.theta_l2 if st else None),
+        assumed_inputs=list(est.assumed), modelled_inputs=list(est.modelled),
+        stale_inputs=list(est.stale),
+        warnings=list(est.warnings), method=est.predictor, pull=pull)
+
+
+def status_word(msg: AnchorEstimate) -> str:
+    """The rftgls_core Status word of an AnchorEstimate's status_code; 'unknown_<code>' for a
+    code this node does not know (0: nobody filled it in), which no consumer takes as a
+    value."""
+    status = STATUS_OF_CODE.get(msg.status_code)
+    return str(status) if status is not None else f'unknown_{msg.status_code}'
+
+
+def input_value(value: float, band: float, provenance: Provenance, source: str,
+                header: Header) -> InputValue:
+    """An InputValue message (SI value, half-width band or NaN, provenance, source text)."""
+    return InputValue(header=header, value=float(value), band=float(band),
+                      provenance=PROVENANCE_CODES[Provenance(provenance)], source=source)
+
+
+def read_input_value(msg: InputValue) -> tuple[float, Provenance, float] | str:
+    """(value, provenance, band) of an InputValue, or why it cannot be used (one line): an
+    unknown provenance code (0: not stated) or a band that is neither >= 0 nor NaN."""
+    provenance = PROVENANCE_OF_CODE.get(msg.provenance)
+    if provenance is None:
+        return (f'provenance code {msg.provenance} is none of measured '
+                f'({InputValue.MEASURED}), modelled ({InputValue.MODELLED}), assumed '
+                f'({InputValue.ASSUMED})')
+    band = float(msg.band)
+    why = band_problem(band)
+    return why if why is not None else (float(msg.value), provenance, band)
