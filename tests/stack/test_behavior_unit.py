@@ -141,6 +141,27 @@ def test_step_returns_its_events_once(predictor):
     assert m.done and returned and returned == list(m.events)
 
 
+def test_the_burrowed_height_is_sent_as_table_ii_with_its_band(predictor):
+    """MiniRQuad does not measure h: after a burrow the machine sends the mode's Table II mean
+    with a band of two of its standard deviations (SH: 47 +- 2 mm SD -> +- 4 mm), and says so."""
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    plant = Plant(0.4, predictor)
+    obs, sent = Observation(t=0.0), {}
+    while plant.t < 60.0 and not m.done and 'TUG' not in sent:
+        cmd = m.step(obs)
+        sent.setdefault(str(m.state), cmd)
+        plant.apply(cmd)
+        for _ in range(5):
+            obs = plant.advance(0.002)
+    walk, tug = sent['WALK'], sent['TUG']
+    assert (walk.height, walk.height_source) == (cfg.h_walk_m, 'h_walk_m parameter (walking), '
+                                                 'not measured')
+    assert math.isnan(walk.height_band)
+    assert (tug.height, tug.height_band) == (pytest.approx(0.047), pytest.approx(0.004))
+    assert tug.height_source == 'Table II mean of SH (paper), not measured'
+
+
 @pytest.mark.parametrize('bad', [dict(cycles=0), dict(slow_ratio=0.99, stop_ratio=0.9),
                                  dict(tug_speed_m_s=0.0), dict(phis_rad=(2.0,))])
 def test_behavior_config_check_refuses(bad):

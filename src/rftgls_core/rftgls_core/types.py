@@ -1,4 +1,5 @@
-"""Small typed records shared by every layer: anchor states, planar wrenches and twists, statuses.
+"""Small typed records shared by every layer: anchor states, planar wrenches and twists, statuses,
+provenance.
 
 Frames and signs (docs/design/architecture.md): world z up, free surface z = 0, gravity -z.
 Planar quantities live in the sagittal x-z plane with the winch point p as reference:
@@ -32,6 +33,19 @@ class Status(str, enum.Enum):
     @property
     def has_value(self) -> bool:
         return self in (Status.OK, Status.ASSUMED)
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class Provenance(str, enum.Enum):
+    """Where an input value comes from. Every output built on it carries it: an estimate that
+    rests on a modelled or assumed input says so (docs/design/capacity-inputs.md,
+    "Provenance")."""
+
+    MEASURED = 'measured'   # read from a sensor of this robot
+    MODELLED = 'modelled'   # computed by a model from measurements, with an uncertainty band
+    ASSUMED = 'assumed'     # a constant (a parameter, a paper's table), not this robot's state
 
     def __str__(self) -> str:
         return self.value

@@ -7,14 +7,14 @@ reacts at the tension rate), and publishes the commands, the state and every eve
 Subscribed: /joint_states (sensor_msgs/JointState: legs rad, ``winch_rope`` m / m/s),
   /imu (sensor_msgs/Imu: thetaB nose up positive, rftgls_conventions.quat_xyzw_to_pitch),
   /winch/tension (geometry_msgs/WrenchStamped, N), /energy (std_msgs/Float64, J),
-  /minirquad/link_state (std_msgs/String ok|stale), /capacity_node/capacity (WrenchStamped,
-  N along the tether: |force|), /capacity_node/slip_twist (TwistStamped), /capacity_node/status,
-  /diagnostics (only capacity_node's status: its `assumed_inputs` value, comma-separated
-  input names, tells which inputs an `assumed` estimate assumed).
+  /minirquad/link_state (std_msgs/String ok|stale), and of capacity_node only its whole
+  estimate /capacity_node/estimate (rftgls_interfaces/AnchorEstimate: capacity N along the
+  tether, lower bound, status code, assumed inputs, slip twist, in one message).
 Published: /gait, /burrow (std_msgs/String), /winch/speed (std_msgs/Float64, m/s reel-in
-  positive), /winch/height (Float64, m: h of p, the burrowed mode's Table II mean; MiniRQuad
-  does not measure it), /winch/phi (Float64, rad: tether angle from the tether length),
-  ~/state (String, transient local), ~/events (String, one JSON object per event).
+  positive), /winch/height_estimate (rftgls_interfaces/InputValue: h of p in m, ASSUMED: the
+  burrowed mode's Table II mean with a band of two of its standard deviations; MiniRQuad does
+  not measure it), /winch/phi (Float64, rad: tether angle from the tether length), ~/state
+  (String, transient local), ~/events (String, one JSON object per event).
 Action: ~/walk_burrow_tug (rftgls_interfaces/WalkBurrowTug: goal sled mass and cycles, feedback
   state and margin, result per cycle; cancel stops the winch at once; tug_action.py).
   With ``autostart`` (default, kept one release) the node also runs the sled_mass_kg/cycles
@@ -28,12 +28,11 @@ import sys
 import time
 from dataclasses import fields, replace
 
-from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import TwistStamped, WrenchStamped
+from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import Imu, JointState
-from std_msgs.msg import Float64, String
+from std_msgs.msg import Float64, Header, String
 
 from rftgls_conventions import (
     LEG_KEYS,
@@ -42,6 +41,8 @@ from rftgls_conventions import (
     leg_keys_from_joint_names,
     quat_xyzw_to_pitch,
 )
+from rftgls_core.types import Provenance
+from rftgls_interfaces.msg import AnchorEstimate, InputValue
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import declare
 
@@ -52,9 +53,10 @@ from .behavior import (
     Observation,
     write_report,
 )
-from .behavior.tug_series import TugSample, write_tug_series
+from .behavior.tug_series import TugSample, TugSeries, write_tug_series
 from .capacity.node_predictor import DEFAULT_MAP, node_predictor
-from .capacity_query import CAPACITY_SOURCES, ServicePredictor, record_tug
+from .capacity_msgs import input_value, status_word
+from .capacity_query import CAPACITY_SOURCES, ServicePredictor
 from .tug_action import TugActionServer
 
 WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's deadman (0.1 s)
@@ -148,7 +150,7 @@ class BehaviorNode(Node):
         self.pub_gait = self.create_publisher(String, 'gait', 10)
         self.pub_burrow = self.create_publisher(String, 'burrow', 10)
         self.pub_winch = self.create_publisher(Float64, 'winch/speed', 10)
-        self.pub_height = self.create_publisher(Float64, 'winch/height', 10)
+        self.pub_height = self.create_publisher(InputValue, 'winch/height_estimate', 10)
         self.pub_phi = self.create_publisher(Float64, 'winch/phi', 10)
         self.pub_state = self.create_publisher(String, '~/state', LATCHED)
         self.pub_events = self.create_publisher(String, '~/events', 50)
@@ -159,13 +161,11 @@ class BehaviorNode(Node):
         self.create_subscription(WrenchStamped, 'winch/tension', self.on_tension, sensor)
         self.create_subscription(Float64, 'energy', self.on_energy, 10)
         self.create_subscription(String, 'minirquad/link_state', self.on_link, LATCHED)
-        self.create_subscription(WrenchStamped, f'{cap_ns}/capacity', self.on_capacity, 10)
-        self.create_subscription(TwistStamped, f'{cap_ns}/slip_twist', self.on_twist, 10)
-        self.create_subscription(String, f'{cap_ns}/status', self.on_status, LATCHED)
-        self.cap_name = cap_ns.rsplit('/', 1)[-1]
-        self.create_subscription(DiagnosticArray, '/diagnostics', self.on_diagnostics, 10)  # global
+        # capacity_node: its whole estimate, nothing else (status, value and the names of the
+        # assumed inputs arrive together, so they always belong to one estimate).
+        self.create_subscription(AnchorEstimate, f'{cap_ns}/estimate', self.on_estimate, 10)
         # The report's <stem>_tug.png time series (behavior/tug_series.py).
-        self.tug_series = record_tug(self, cap_ns, self.now_s, lambda: str(self.machine.state))
+        self.tug_series = TugSeries()
         self.create_timer(1.0 / rate, self.step)
         self.tug_action = TugActionServer(self, self)
         self.get_logger().info(
@@ -238,28 +238,20 @@ class BehaviorNode(Node):
         self.obs.link_ok = msg.data == 'ok'
         self.step()
 
-    def on_capacity(self, msg: WrenchStamped) -> None:
-        f = msg.wrench.force
-        self.obs.capacity = math.hypot(f.x, f.z)      # |C d(phi)| = C (NaN stays NaN)
-        self.obs.t_capacity = self.now_s()
+    def on_estimate(self, msg: AnchorEstimate) -> None:
+        """capacity_node's estimate, as received (judged by the machine's evidence rule)."""
+        o, t = self.obs, self.now_s()
+        o.capacity, o.t_capacity = msg.capacity_n, t     # N along the tether; NaN: no value
+        o.capacity_status = status_word(msg)
+        o.assumed_inputs = frozenset(msg.assumed_inputs)
+        tw = msg.slip_twist
+        twist = (tw.linear.x, tw.linear.z, tw.angular.y)
+        # The predicted motion is zero while the anchor holds (capacity_node's slip_twist).
+        o.slip_twist = twist if msg.slipping or not all(map(math.isfinite, twist)) \
+            else (0.0, 0.0, 0.0)
+        self.tug_series.add(t, msg.tension_n, msg.capacity_n, msg.capacity_lower_n,
+                            o.capacity_status, str(self.machine.state))
         self.step()
-
-    def on_twist(self, msg: TwistStamped) -> None:
-        self.obs.slip_twist = (msg.twist.linear.x, msg.twist.linear.z, msg.twist.angular.y)
-
-    def on_status(self, msg: String) -> None:
-        if msg.data != self.obs.capacity_status:
-            self.obs.assumed_inputs = None   # names belong to one status; wait for new ones
-        self.obs.capacity_status = msg.data
-
-    def on_diagnostics(self, msg: DiagnosticArray) -> None:
-        for st in msg.status:
-            if not st.name.startswith(f'{self.cap_name}:'):
-                continue
-            values = {kv.key: kv.value for kv in st.values}
-            if values.get('status') == self.obs.capacity_status and 'assumed_inputs' in values:
-                self.obs.assumed_inputs = frozenset(
-                    x.strip() for x in values['assumed_inputs'].split(',') if x.strip())
 
     # ------------------------------------------------------------------ step
     def step(self) -> None:
@@ -277,7 +269,9 @@ class BehaviorNode(Node):
                 or t - self._last_winch_t > refresh):
             self.pub_winch.publish(Float64(data=float(cmd.winch)))
             self._last_winch, self._last_winch_t = cmd.winch, t
-        self.pub_height.publish(Float64(data=float(cmd.height)))
+        header = Header(stamp=self.get_clock().now().to_msg())
+        self.pub_height.publish(input_value(cmd.height, cmd.height_band, Provenance.ASSUMED,
+                                            cmd.height_source, header))
         self.pub_phi.publish(Float64(data=float(cmd.phi)))
         for ev in cmd.events:
             if ev['kind'] == 'warn':

@@ -6,6 +6,7 @@
 - InputValue (in): a height or tether angle with its uncertainty band and its provenance
   (measured, modelled, assumed), so an estimate built on a value that is not a measurement
   says so (docs/design/capacity-inputs.md, "Provenance").
+- ``record_tug``: a consumer that records every estimate into a TugSeries (teleop's tug plot).
 
 Field meanings and units: src/rftgls_interfaces/msg/*.msg.
 """
@@ -14,11 +15,12 @@ from __future__ import annotations
 from geometry_msgs.msg import Twist
 from std_msgs.msg import Header
 
-from rftgls_core.types import Status
+from rftgls_core.types import Provenance, Status
 from rftgls_interfaces.msg import AnchorEstimate, InputValue
 
+from .behavior.tug_series import TugSeries
 from .capacity.estimator import Estimate
-from .capacity.inputs import Provenance, band_problem
+from .capacity.inputs import band_problem
 
 NAN = float('nan')
 STATUS_CODES = {
@@ -94,3 +96,17 @@ def read_input_value(msg: InputValue) -> tuple[float, Provenance, float] | str:
     band = float(msg.band)
     why = band_problem(band)
     return why if why is not None else (float(msg.value), provenance, band)
+
+
+def record_tug(node, cap_ns: str, now, state) -> TugSeries:
+    """Record every capacity_node estimate (``{cap_ns}/estimate``) for the tug time series
+    (behavior/tug_series.py). now() -> s and state() -> str: the recording node's clock and
+    its state at the estimate's arrival."""
+    series = TugSeries()
+
+    def on_estimate(msg: AnchorEstimate) -> None:
+        series.add(now(), msg.tension_n, msg.capacity_n, msg.capacity_lower_n,
+                   status_word(msg), state())
+
+    node.create_subscription(AnchorEstimate, f'{cap_ns}/estimate', on_estimate, 10)
+    return series

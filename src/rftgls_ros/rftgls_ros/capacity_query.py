@@ -25,10 +25,8 @@ from rclpy.executors import SingleThreadedExecutor
 
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull, Status
-from rftgls_interfaces.msg import AnchorEstimate
 from rftgls_interfaces.srv import QueryCapacity
 
-from .behavior.tug_series import TugSeries
 from .capacity_msgs import num_or_nan, twist_msg
 
 CAPACITY_SOURCES = ('service', 'local_map')
@@ -131,16 +129,3 @@ class ServicePredictor:
         self._executor.remove_node(self._node)
         self._node.destroy_node()
 
-
-def record_tug(node, cap_ns: str, now, state) -> TugSeries:
-    """Record every capacity_node estimate (``{cap_ns}/estimate``) for the tug time series
-    (behavior/tug_series.py). now() -> s and state() -> str: the recording node's clock and
-    its state at the estimate's arrival (behavior_node: the machine's state)."""
-    series = TugSeries()
-
-    def on_estimate(msg: AnchorEstimate) -> None:
-        series.add(now(), msg.tension_n, msg.capacity_n, msg.capacity_lower_n, msg.status,
-                   state())
-
-    node.create_subscription(AnchorEstimate, f'{cap_ns}/estimate', on_estimate, 10)
-    return series

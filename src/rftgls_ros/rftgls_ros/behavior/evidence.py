@@ -7,8 +7,8 @@ the accept-list). ``judge`` turns what behavior_node last received into a ``Verd
 - usable: the winch may reel in on this estimate.
 - reason: a stable code (tests and reports use it, not the wording).
 - transient: the evidence is only *missing, late or inconsistent* (no estimate yet, older than
-  the timeout, ``stale``, a value-carrying status next to no value, or ``assumed`` before the
-  names of its assumed inputs arrived). The winch stops at
+  the timeout, ``stale``, a value-carrying status next to no value, or ``assumed`` without
+  the names of its assumed inputs). The winch stops at
   once, and the attempt is aborted if the evidence is not back within the grace time. Every
   other failure is an explicit "no value" from capacity_node and aborts at once.
 
@@ -71,8 +71,9 @@ def judge(t: float, capacity: float | None, status: str, t_capacity: float,
         return Verdict(False, status_reason(status), False,
                        f'capacity_node status {status!r}: no usable value')
     if capacity is None or not math.isfinite(capacity) or capacity < 0.0:
-        # Status and value travel on two topics: a value-carrying status next to a NaN is
-        # most often the other estimate's status read out of order. The winch stops anyway.
+        # Where status and value travel on two topics (teleop), a value-carrying status next
+        # to a NaN is most often the other estimate's status read out of order. In one
+        # message it is a broken estimate. The winch stops either way.
         return Verdict(False, NO_VALUE, True,
                        f'capacity_node status {status!r} without a finite capacity')
     if status == ASSUMED:

@@ -212,13 +212,17 @@ class Observation:
 class Commands:
     """To publish after a step: one-shot ``gait``/``burrow`` commands (in order), the winch
     reel-in set-point (m/s, 0 brakes), h (m) and phi (rad) for capacity_node, and the events
-    of this step (to log and publish, in order)."""
+    of this step (to log and publish, in order). h is assumed, never measured (MiniRQuad has
+    no sensor for it): height_band is the half-width of its range (m, NaN = not stated) and
+    height_source says where the number comes from."""
 
     oneshots: list[tuple[str, str]]
     winch: float
     height: float
     phi: float
     events: list[dict] = field(default_factory=list)
+    height_band: float = math.nan
+    height_source: str = ''
 
 
 @dataclass
@@ -340,12 +344,18 @@ class BehaviorMachine:
     @property
     def height(self) -> float:
         """Height of p (m): not measured on MiniRQuad; the burrowed mode's Table II mean."""
+        return self.height_input()[0]
+
+    def height_input(self) -> tuple[float, float, str]:
+        """(h m, band m, source) of the assumed height of p: the burrowed mode's Table II
+        mean within H_BAND_SDS of its standard deviations, else h_walk_m (band not stated)."""
         if self.mode and self.state in (State.BURROW, State.CHECK, State.TUG, State.HOLD,
                                         State.SLACKEN, State.CYCLE_DONE, State.REFUSED,
                                         State.FINISHED, State.WAIT_LINK,
                                         State.WAIT_EVIDENCE):
-            return ANCHOR_MODES[self.mode].h
-        return self.cfg.h_walk_m
+            m = ANCHOR_MODES[self.mode]
+            return m.h, m.h_band, f'Table II mean of {m.name} (paper), not measured'
+        return self.cfg.h_walk_m, math.nan, 'h_walk_m parameter (walking), not measured'
 
     def _inputs_fresh(self) -> bool:
         o = self.obs
@@ -408,8 +418,9 @@ class BehaviorMachine:
         if handler is not None:
             handler()
         self._watch_stop()
-        out = Commands(self._oneshots, self._winch, self.height, self.tether.phi(self.height),
-                       self._step_events)
+        h, band, source = self.height_input()
+        out = Commands(self._oneshots, self._winch, h, self.tether.phi(h), self._step_events,
+                       band, source)
         self._oneshots, self._step_events = [], []
         return out
 

@@ -21,7 +21,8 @@ class AnchorMode:
     """One burrowing mode of the paper's Table II.
 
     retract, final: (thetaL1, thetaL2) in rad; h: mean final height of p, m; theta_b: mean
-    final body pitch, rad; energy_ratio: burrow energy relative to SH (paper Fig. 10(a)).
+    final body pitch, rad; energy_ratio: burrow energy relative to SH (paper Fig. 10(a));
+    h_sd: standard deviation of the final height over the paper's six trials, m.
     """
 
     name: str
@@ -30,6 +31,13 @@ class AnchorMode:
     h: float
     theta_b: float
     energy_ratio: float
+    h_sd: float
+
+    @property
+    def h_band(self) -> float:
+        """Half-width of the range a burrowed height is taken to lie in, m: H_BAND_SDS of the
+        paper's standard deviations (MiniRQuad does not measure h)."""
+        return H_BAND_SDS * self.h_sd
 
     def expected_state(self) -> AnchorState:
         """The anchor state the paper measured after this burrow (Table II means)."""
@@ -40,12 +48,16 @@ def _rad(a: float, b: float) -> tuple[float, float]:
     return (math.radians(a), math.radians(b))
 
 
-# Paper Table II and Fig. 10(a): DH and DL burrows use 1.32 and 1.26 times the energy of SH.
+# Paper Table II (final h 34 +- 1, 36 +- 2, 47 +- 2 mm, mean +- SD of six trials) and
+# Fig. 10(a): DH and DL burrows use 1.32 and 1.26 times the energy of SH.
 ANCHOR_MODES: dict[str, AnchorMode] = {
-    'DH': AnchorMode('DH', _rad(-75, -50), _rad(-40, 30), 0.034, math.radians(5.0), 1.32),
-    'DL': AnchorMode('DL', _rad(-75, -50), _rad(-40, 0), 0.036, math.radians(8.9), 1.26),
-    'SH': AnchorMode('SH', _rad(-40, -20), _rad(-40, 30), 0.047, math.radians(2.4), 1.00),
+    'DH': AnchorMode('DH', _rad(-75, -50), _rad(-40, 30), 0.034, math.radians(5.0), 1.32, 0.001),
+    'DL': AnchorMode('DL', _rad(-75, -50), _rad(-40, 0), 0.036, math.radians(8.9), 1.26, 0.002),
+    'SH': AnchorMode('SH', _rad(-40, -20), _rad(-40, 30), 0.047, math.radians(2.4), 1.00, 0.002),
 }
+# A burrowed height is taken to lie within this many of Table II's standard deviations of its
+# mean (about 95 % of burrows if their spread is normal; six trials say little more).
+H_BAND_SDS = 2.0
 
 
 # --------------------------------------------------------------------------- required force

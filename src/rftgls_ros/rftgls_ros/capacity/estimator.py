@@ -37,12 +37,12 @@ from dataclasses import dataclass, field, replace
 from rftgls_conventions import LEG_KEYS, axle_angles, tether_direction_xz
 from rftgls_core.predictor import Predictor, predictor_name
 from rftgls_core.surfaces.base import CapacityResult
-from rftgls_core.types import AnchorState, Pull, Status
+from rftgls_core.types import AnchorState, Provenance, Pull, Status
 from rftgls_core.uncertainty import capacity_lower_bound
 from rftgls_node_base.diagnostics import DiagStatus
 from rftgls_node_base.parameters import ConfigError
 
-from .inputs import LEG_LIMIT_RAD, Provenance, band_problem
+from .inputs import LEG_LIMIT_RAD, band_problem
 from .range_bound import range_minimum
 
 JOINTS = LEG_KEYS  # leg angle keys, rftgls_conventions

@@ -1,5 +1,4 @@
-"""Pure conversions and plausibility checks of capacity_node's sensor inputs, and where an
-input comes from (no ROS).
+"""Pure conversions and plausibility checks of capacity_node's sensor inputs (no ROS).
 
 Angles in rad, accelerations in m/s^2, quaternions (x, y, z, w) of the body in a z-up world
 (frames and signs: rftgls_conventions). The rules and their
@@ -7,7 +6,6 @@ tolerances are explained in docs/design/capacity-inputs.md.
 """
 from __future__ import annotations
 
-import enum
 import math
 
 # The conversions themselves live in rftgls_conventions (one place for every package);
@@ -127,18 +125,6 @@ def frame_problem(got: str, expected: str) -> str | None:
     if got == expected:
         return None
     return f'frame_id {got!r}, expected {expected!r}'
-
-
-class Provenance(str, enum.Enum):
-    """Where an input value comes from; every estimate built on it says so
-    (docs/design/capacity-inputs.md, "Provenance")."""
-
-    MEASURED = 'measured'   # a sensor of this robot
-    MODELLED = 'modelled'   # a model computed from measurements, with an uncertainty band
-    ASSUMED = 'assumed'     # a constant (a parameter, a paper's table), not this robot's state
-
-    def __str__(self) -> str:
-        return self.value
 
 
 def band_problem(band: float) -> str | None:

@@ -32,7 +32,7 @@ from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import declare
 
 from ..behavior.tug_series import write_tug_series
-from ..capacity_query import record_tug
+from ..capacity_msgs import record_tug
 from .model import TeleopConfig, TeleopModel
 
 # ROS parameter (unit in the name) -> (TeleopConfig field, meaning, lo, hi). Start-up only.

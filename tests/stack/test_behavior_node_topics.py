@@ -1,0 +1,116 @@
+"""behavior_node's wiring, in process over real DDS on loopback: what it reads of capacity_node
+(its whole estimate, nothing else), how an estimate becomes what the machine judges, and how
+the height it assumes goes out (marked assumed, never as a measurement)."""
+from __future__ import annotations
+
+import math
+import time
+
+import pytest
+
+rclpy = pytest.importorskip('rclpy')
+pytest.importorskip('rftgls_interfaces')
+
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+
+from rftgls_interfaces.msg import AnchorEstimate, InputValue  # noqa: E402
+from rftgls_ros.behavior import evidence  # noqa: E402
+from rftgls_ros.behavior_node import BehaviorNode  # noqa: E402
+
+
+@pytest.fixture
+def rig(ros_context):
+    made = []
+
+    def make(**params):
+        node = BehaviorNode(context=ros_context, parameter_overrides=[
+            Parameter(k, value=v) for k, v in params.items()])
+        probe = rclpy.create_node('behavior_probe', context=ros_context)
+        ex = SingleThreadedExecutor(context=ros_context)
+        ex.add_node(node)
+        ex.add_node(probe)
+        made.append((ex, node, probe))
+        return node, probe, ex
+
+    yield make
+    for ex, node, probe in made:
+        ex.shutdown()
+        node.machine.chooser.predictor.destroy()
+        node.destroy_node()
+        probe.destroy_node()
+
+
+def spin_until(ex, cond, timeout=5.0):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end and not cond():
+        ex.spin_once(timeout_sec=0.02)
+    return cond()
+
+
+def subscriptions(probe, node_name):
+    """{topic: [types]} the ROS graph lists for a node's subscriptions (discovery over DDS)."""
+    return dict(probe.get_subscriber_names_and_types_by_node(node_name, '/'))
+
+
+def test_reads_only_the_estimate_of_capacity_node_and_no_diagnostics(rig):
+    _node, probe, ex = rig()
+    assert spin_until(ex, lambda: '/joint_states' in subscriptions(probe, 'behavior_node'))
+    subs = subscriptions(probe, 'behavior_node')
+    assert {t for t in subs if t.startswith('/capacity_node/')} == {'/capacity_node/estimate'}
+    assert subs['/capacity_node/estimate'] == ['rftgls_interfaces/msg/AnchorEstimate']
+    assert '/diagnostics' not in subs, subs
+    # The robot's own inputs, for comparison: the rest of what it reads.
+    assert set(subs) == {'/capacity_node/estimate', '/joint_states', '/imu', '/winch/tension',
+                         '/energy', '/minirquad/link_state'}, subs
+    # Its private node for capacity_node's query service is a client only.
+    assert subscriptions(probe, 'behavior_node_capacity_query') == {}
+
+
+def test_one_estimate_message_is_what_the_machine_judges(rig):
+    node, probe, ex = rig(accept_assumed_inputs='height')
+    pub = probe.create_publisher(AnchorEstimate, '/capacity_node/estimate', 10)
+    assert spin_until(ex, lambda: pub.get_subscription_count() > 0)
+
+    def send(**fields):
+        t0 = node.obs.t_capacity
+        msg = AnchorEstimate(has_value=True, capacity_n=2.5, capacity_lower_n=1.3, **fields)
+        msg.slip_twist.linear.x, msg.slip_twist.linear.z, msg.slip_twist.angular.y = \
+            0.6, -0.2, 0.77
+        pub.publish(msg)
+        assert spin_until(ex, lambda: node.obs.t_capacity > t0)
+        return node.obs
+
+    obs = send(status_code=AnchorEstimate.STATUS_ASSUMED, status='assumed',
+               assumed_inputs=['height'])
+    assert (obs.capacity, obs.capacity_status, obs.assumed_inputs) == \
+        (2.5, 'assumed', frozenset({'height'}))
+    assert obs.slip_twist == (0.0, 0.0, 0.0)       # holds: the predicted motion is zero
+    assert node.machine.evidence().usable            # an accepted assumed input
+    obs = send(status_code=AnchorEstimate.STATUS_ASSUMED, status='assumed',
+               assumed_inputs=['height', 'phi'], slipping=True)
+    assert obs.slip_twist == (0.6, -0.2, 0.77)
+    assert node.machine.evidence().reason == evidence.ASSUMED_NOT_ACCEPTED
+    # The code decides, not the deprecated word; a code nobody filled in is no value.
+    obs = send(status_code=0, status='ok')
+    assert obs.capacity_status == 'unknown_0'
+    assert node.machine.evidence().reason == 'status_unknown_0'
+    obs = send(status_code=AnchorEstimate.STATUS_OK, status='ok')
+    assert obs.capacity_status == 'ok' and obs.assumed_inputs == frozenset()
+    assert node.machine.evidence().usable
+    # Each estimate is one sample of the tug series, with its lower bound.
+    assert [s.capacity_lower_n for s in node.tug_series.samples][-4:] == [1.3] * 4
+
+
+def test_the_height_it_sends_is_marked_assumed(rig):
+    node, probe, ex = rig(h_walk_m=0.055)
+    got = []
+    probe.create_subscription(InputValue, '/winch/height_estimate', got.append, 10)
+    assert spin_until(ex, lambda: len(got) >= 3)
+    m = got[-1]
+    assert (m.value, m.provenance) == (0.055, InputValue.ASSUMED)
+    assert math.isnan(m.band) and 'not measured' in m.source
+    assert m.header.stamp.sec > 0
+    # No plain Float64 height: capacity_node would take it for a measurement.
+    assert '/winch/height' not in {p.topic_name for p in node.publishers}
+    assert probe.count_publishers('/winch/height') == 0
