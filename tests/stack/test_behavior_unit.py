@@ -218,11 +218,11 @@ def test_machine_link_loss_mid_tug_waits_then_resumes(predictor):
     seen = {}
 
     def cut(p, mach):
-        if mach.state == State.TUG and 'cut' not in seen and mach._elapsed() > 1.0:
+        if mach.state == State.TUG and 'cut' not in seen and mach.elapsed() > 1.0:
             seen['cut'] = p.t
             p.link_ok = False
         if 'cut' in seen and p.link_ok is False:
-            assert mach._winch == 0.0 or mach.state == State.TUG
+            assert mach.winch == 0.0 or mach.state == State.TUG
             if p.t - seen['cut'] > 1.0:
                 seen['state_during'] = mach.state
                 p.link_ok = True
@@ -242,7 +242,7 @@ def test_machine_legs_moved_during_link_loss_reburrows(predictor):
     seen = {}
 
     def cut(p, mach):
-        if mach.state == State.TUG and 'cut' not in seen and mach._elapsed() > 1.0:
+        if mach.state == State.TUG and 'cut' not in seen and mach.elapsed() > 1.0:
             seen['cut'] = p.t
             p.link_ok = False
             g = p.gaits['stand']

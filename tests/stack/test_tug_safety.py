@@ -75,7 +75,7 @@ def _fault_mid_tug(predictor, fault=None, dead=False, t_max=40.0, **cfg_kw):
 
     def inject(p, mach):
         if 'fault_t' not in seen and mach.state == State.TUG \
-                and p.robot.winch.spool_velocity > 0.04 and mach._elapsed() > 1.0:
+                and p.robot.winch.spool_velocity > 0.04 and mach.elapsed() > 1.0:
             # The last estimate that was evidence is the one delivered at this time.
             seen['fault_t'], seen['spool0'] = p.t, p.robot.winch.spool_position
             p.capacity_fault = fault
@@ -188,7 +188,7 @@ def test_aborted_tug_is_retried_when_evidence_returns(predictor):
     plant = Plant(0.4, predictor)
 
     def inject(p, mach):
-        if p.capacity_fault is None and mach.state == State.TUG and mach._elapsed() > 1.0:
+        if p.capacity_fault is None and mach.state == State.TUG and mach.elapsed() > 1.0:
             flaky.t0 = p.t
             p.capacity_fault = flaky
     run_loop(m, plant, on_step=inject)

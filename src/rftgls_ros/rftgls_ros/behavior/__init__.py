@@ -3,8 +3,18 @@ energy model, the tether bookkeeping, the state machine and the cycle report (pa
 
 Everything here is plain Python on SI values; ``behavior_node`` only parses messages, calls
 ``BehaviorMachine.step`` and publishes what it returns.
+
+    config.py    BehaviorConfig: the parameters
+    signals.py   Observation (in) and Commands (out) of one step
+    states.py    State, HoldCause
+    machine.py   BehaviorMachine: the state table, what the phases share, the cycle tally
+    walk.py, burrow.py, tug.py, retry.py, link_wait.py: the phases, each with its own state
+    model.py     anchor modes, force need, energy model, mode chooser, tether geometry
+    evidence.py  is an estimate usable evidence for tugging; slip.py: has the anchor slipped
+    report.py, tug_series.py: the cycle report and the tug time series
 """
-from .machine import BehaviorConfig, BehaviorMachine, Commands, Observation, State
+from .config import BehaviorConfig
+from .machine import BehaviorMachine
 from .model import (
                     ANCHOR_MODES,
                     AnchorMode,
@@ -16,6 +26,8 @@ from .model import (
                     TetherTracker,
 )
 from .report import CycleRecord, write_report
+from .signals import Commands, Observation
+from .states import State
 
 __all__ = ['ANCHOR_MODES', 'AnchorMode', 'Candidate', 'Decision', 'EnergyModel', 'ForceNeed',
            'ModeChooser', 'TetherTracker', 'BehaviorConfig', 'BehaviorMachine',

@@ -1,0 +1,214 @@
+"""The anchor: choose a burrowing mode, burrow, check the anchor at the measured pose, and after
+a stop re-burrow into a stronger mode (CHOOSE, BURROW, CHECK, HOLD, SLACKEN).
+
+The choice and the checks ask the ModeChooser (capacity at a mode's pose for every tether angle
+of ``phis_rad``, the cheapest sufficient mode in energy). The pose check uses the measured leg
+angles and pitch, and h from Table II (MiniRQuad does not measure it); the tug then starts only
+on capacity_node's live evidence (``machine.evidence``). At most ``max_burrows_per_cycle``
+burrows per cycle. Units: m, rad, N, J, s.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from rftgls_core.types import Status
+
+from . import evidence
+from .model import ANCHOR_MODES
+from .states import REBURROW_WHY, HoldCause, State
+
+if TYPE_CHECKING:
+    from .machine import BehaviorMachine
+
+
+@dataclass
+class AnchorCheck:
+    """CHECK's progress: the prediction at the measured pose said sufficient (why), or the
+    query went unanswered (warned once)."""
+
+    passed: bool = False
+    why: str = ''
+    unanswered: bool = False
+
+
+@dataclass(frozen=True)
+class Reburrow:
+    """The mode to burrow into once the tether is slack, and why."""
+
+    mode: str
+    reason: str
+
+
+class Burrow:
+    """CHOOSE, BURROW, CHECK, HOLD and SLACKEN."""
+
+    def __init__(self, machine: BehaviorMachine):
+        self.m = machine
+        self.at_pose_since: float | None = None   # s: legs within tolerance of the final pose
+        self.check = AnchorCheck()
+        self.hold_cause = HoldCause.NONE
+        self.next: Reburrow | None = None
+        self.on_enter = {State.BURROW: self._enter_burrow, State.CHECK: self._enter_check,
+                         State.SLACKEN: self._enter_slacken}
+        self.on_step = {State.CHOOSE: self._do_choose, State.BURROW: self._do_burrow,
+                        State.CHECK: self._do_check, State.HOLD: self._do_hold,
+                        State.SLACKEN: self._do_slacken}
+
+    # ------------------------------------------------------------------ choose and burrow
+    def _do_choose(self) -> None:
+        m = self.m
+        d = m.chooser.choose(m.need.value, m.energy)
+        m.decide(d)
+        if d.mode is None:
+            m.refuse(d.reason)
+        else:
+            self.start(d.mode, d.reason)
+
+    def start(self, mode: str, reason: str) -> None:
+        """Burrow into `mode` (one more burrow this cycle)."""
+        m = self.m
+        m.mode = mode
+        m.cycle.modes.append(mode)
+        m.go(State.BURROW, f'burrow {mode}: {reason.split(";")[0]}')
+
+    def _enter_burrow(self) -> None:
+        self.m.winch = 0.0
+        self.at_pose_since = None
+        self.m.command('burrow', self.m.mode)
+
+    def at_final_pose(self) -> bool:
+        """The measured legs are within burrow_tolerance_rad of the mode's final pose."""
+        m = self.m
+        legs, mode = m.obs.legs, ANCHOR_MODES.get(m.mode or '')
+        return mode is not None and legs is not None and max(
+            abs(legs[0] - mode.final[0]), abs(legs[1] - mode.final[1])) \
+            <= m.cfg.burrow_tolerance_rad
+
+    def _do_burrow(self) -> None:
+        m, cfg = self.m, self.m.cfg
+        at = self.at_final_pose()
+        if at and self.at_pose_since is None:
+            self.at_pose_since = m.obs.t
+        elif not at:
+            self.at_pose_since = None
+        done = at and m.obs.t - self.at_pose_since >= cfg.burrow_settle_s
+        timeout = m.elapsed() >= cfg.burrow_timeout_s
+        if done or timeout:
+            dt, de = m.elapsed(), m.energy_since_enter()
+            m.cycle.burrow_j += de
+            m.cycle.burrow_s += dt
+            above_idle = de - m.idle_power * dt
+            m.energy.update(m.mode, above_idle)
+            m.event('info', f'burrow {m.mode}: {de:.2f} J in {dt:.1f} s '
+                            f'({above_idle:.2f} J above idle); energy estimates now '
+                    + ', '.join(f'{k} {m.energy.estimate(k):.2f} J' for k in ANCHOR_MODES))
+            m.go(State.CHECK, 'at the final pose' if done else
+                 f'burrow timeout ({cfg.burrow_timeout_s:.0f} s): checking the pose reached')
+
+    # ------------------------------------------------------------------ check
+    def _enter_check(self) -> None:
+        self.m.winch = 0.0
+        self.check = AnchorCheck()
+
+    def _do_check(self) -> None:
+        m = self.m
+        if not self.check.passed:
+            self._check_prediction()
+            return
+        # The prediction holds; the tug starts only on capacity_node's live evidence.
+        v = m.evidence()
+        if not v.usable:
+            if m.elapsed() >= m.cfg.capacity_wait_s:
+                m.retry.abort(v, in_tug=False)
+            return
+        cap = m.obs.capacity * m.chooser.scale
+        required = m.cfg.safety_factor * m.need.value
+        if cap < required:
+            m.event('decision', f'capacity_node: {m.mode} holds {cap:.2f} N < '
+                                f'{required:.2f} N required', mode=m.mode)
+            self.reselect(f'{m.mode} insufficient per capacity_node', cap)
+            return
+        m.go(State.TUG, f'{m.mode} holds at the measured pose ({self.check.why}; '
+                        f'capacity_node {cap:.2f} N >= {required:.2f} N)')
+
+    def _check_prediction(self) -> None:
+        m = self.m
+        state = m.measured_state()
+        if state is None:
+            return
+        c = m.chooser.evaluate(m.mode, state, m.need.value, m.energy.estimate(m.mode))
+        m.weakest = c.weakest
+        if not c.sufficient and all(s == str(Status.STALE) for s in c.statuses):
+            self._check_missing_evidence()
+            return
+        pose = (f'measured pose thetaL1 {math.degrees(state.theta_l1):.1f}, thetaL2 '
+                f'{math.degrees(state.theta_l2):.1f}, thetaB {math.degrees(state.theta_b):.1f} '
+                f'deg, h {1e3 * state.h:.0f} mm (Table II mean, not measured)')
+        caps = '/'.join(f'{x:.2f}' if x is not None else s
+                        for x, s in zip(c.capacities, c.statuses))
+        m.event('decision', f'check {m.mode} at the {pose}: capacity {caps} N -> '
+                            f'{"sufficient" if c.sufficient else "insufficient"} '
+                            f'({c.why})', mode=m.mode, capacities=c.capacities)
+        if c.sufficient:
+            self.check.passed, self.check.why = True, c.why
+            self._do_check()
+            return
+        self.reselect(f'{m.mode} insufficient at the measured pose', c.weakest)
+
+    def _check_missing_evidence(self) -> None:
+        """The pose check's questions came back `stale` (capacity_node's query service
+        unanswered): evidence is missing, the anchor is not shown insufficient. The evidence
+        rule decides, as in the live check: wait, then abort and retry by the policy."""
+        m = self.m
+        if not self.check.unanswered:
+            self.check.unanswered = True
+            m.event('warn', f'check {m.mode}: the capacity query is unanswered (stale); '
+                            'waiting for evidence, not re-burrowing', mode=m.mode)
+        if m.elapsed() >= m.cfg.capacity_wait_s:
+            v = m.evidence()
+            m.retry.abort(v if not v.usable else evidence.Verdict(
+                False, evidence.NO_VALUE, True, 'capacity query unanswered'), in_tug=False)
+
+    # ------------------------------------------------------------------ after a stop
+    def hold(self, cause: HoldCause, text: str, reason: str) -> None:
+        """Winch stopped for `cause` (HOLD); `reason` is the cycle's CSV reason code."""
+        self.hold_cause = cause
+        self.m.cycle.cause, self.m.cycle.reason = cause, reason
+        self.m.go(State.HOLD, text)
+
+    def _do_hold(self) -> None:
+        m = self.m
+        m.winch = 0.0
+        if self.hold_cause in REBURROW_WHY and m.cfg.reburrow:
+            why = REBURROW_WHY[self.hold_cause]
+            self.hold_cause = HoldCause.NONE
+            self.reselect(why, m.weakest)
+        elif m.elapsed() > 0.5:
+            m.stop_cycle(m.reason)
+
+    def reselect(self, why: str, weakest: float | None) -> None:
+        """A mode stronger than `weakest` (N) if one suffices and the cycle has burrows left:
+        slacken, then burrow it; else stop the cycle."""
+        m = self.m
+        if m.burrows >= m.cfg.max_burrows_per_cycle:
+            m.stop_cycle(f'{why}; {m.burrows} burrows this cycle, giving up')
+            return
+        d = m.chooser.choose(m.need.value, m.energy, exclude=[m.mode],
+                             stronger_than=weakest, pose='expected')
+        m.decide(d)
+        if d.mode is None:
+            m.stop_cycle(f'{why}; {d.reason}')
+        else:
+            self.next = Reburrow(d.mode, f'{why}; re-burrow: {d.reason}')
+            m.go(State.SLACKEN, f'{why}: slacken the tether, then re-burrow {d.mode}')
+
+    def _enter_slacken(self) -> None:
+        self.m.winch = -self.m.cfg.slacken_speed_m_s
+
+    def _do_slacken(self) -> None:
+        m = self.m
+        if m.elapsed() >= m.cfg.slacken_time_s:
+            m.winch = 0.0
+            self.start(self.next.mode, self.next.reason)

@@ -1,0 +1,73 @@
+"""Link wait (WAIT_LINK): the robot's link went stale or its joint states / tension aged past
+``input_timeout_s`` in an active state. The winch stops in that step and the machine waits;
+once the inputs have been fresh for ``link_settle_s`` it resumes where it was: a tug, hold,
+check or finished cycle re-checks the anchor first (or burrows again if the legs left the
+burrowed pose during the outage), a walk walks on for what is left, a burrow burrows again.
+Units: s.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from .states import State
+
+if TYPE_CHECKING:
+    from .machine import BehaviorMachine
+
+
+class LinkWait:
+    """WAIT_LINK, and the interruption that leads there."""
+
+    def __init__(self, machine: BehaviorMachine):
+        self.m = machine
+        self.resume: State | None = None        # the state the outage interrupted
+        self.back_since: float | None = None     # s: inputs fresh again without a break
+        self.on_enter: dict = {}
+        self.on_step = {State.WAIT_LINK: self._do_wait_link}
+
+    def interrupt(self) -> None:
+        """Inputs lost in an active state: book a walk so far, stop the winch, wait."""
+        m = self.m
+        if m.state == State.WALK:
+            m.walk.pause()
+        self.resume = m.state
+        m.winch = 0.0
+        if m.state == State.TUG:
+            m.tug.interrupted()
+        what = 'link stale' if not m.obs.link_ok else 'joint_states/tension stale'
+        m.go(State.WAIT_LINK, f'{what} during {self.resume}: winch stopped, waiting')
+
+    def _do_wait_link(self) -> None:
+        m = self.m
+        m.winch = 0.0
+        if not m.inputs_fresh():
+            self.back_since = None
+            return
+        if self.back_since is None:
+            self.back_since = m.obs.t
+            return
+        if m.obs.t - self.back_since < m.cfg.link_settle_s:
+            return
+        self.back_since = None
+        resume = self.resume or State.IDLE_MEASURE
+        back = f'link back after {m.elapsed():.1f} s'
+        if resume in (State.TUG, State.HOLD, State.CHECK, State.CYCLE_DONE):
+            if resume == State.TUG:
+                m.tug.finish('interrupted')
+            if not m.burrow.at_final_pose():
+                # The legs moved during the outage (an MCU reset, a stand): the anchor that
+                # was checked is gone, and the assumed Table II height no longer applies.
+                m.burrow.start(m.mode, f'{back}: the legs left the {m.mode} pose during the '
+                                       f'outage')
+                return
+            m.go(State.CHECK, f'{back}: re-checking the {m.mode} anchor before resuming the '
+                              f'tug')
+        elif resume == State.WALK:
+            m.go(State.WALK, f'{back}: walking on')
+        elif resume == State.BURROW:
+            m.cycle.modes.pop()                  # this burrow starts over
+            m.burrow.start(m.mode, f'{back}: burrow again')
+        elif resume == State.SLACKEN:
+            m.go(State.SLACKEN, 'link back: slacken again')
+        else:
+            m.go(resume, back)

@@ -1,0 +1,53 @@
+"""What the behaviour machine reads and returns each step: the Observation of the robot and of
+capacity_node (SI values with their receipt times), and the Commands to publish."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+
+@dataclass
+class Observation:
+    """What the robot and capacity_node last said, with receive times t_* (s, node clock).
+
+    legs: (thetaL1, thetaL2) rad (left/right averaged); theta_b rad; tension N; spool m
+    reeled since MCU boot and spool_velocity m/s (reel-in positive); energy J since bridge
+    start; power W; link_ok from /minirquad/link_state; capacity N along the tether and its
+    status word from capacity_node; assumed_inputs the input names capacity_node reported
+    as assumed (None = not received); slip_twist (vx, vz, wy) unit direction in the anchor
+    frame.
+    """
+
+    t: float
+    legs: tuple[float, float] | None = None
+    t_legs: float = -math.inf
+    theta_b: float | None = None
+    tension: float | None = None
+    t_tension: float = -math.inf
+    spool: float | None = None
+    spool_velocity: float = 0.0
+    energy: float | None = None
+    power: float | None = None
+    link_ok: bool = False
+    capacity: float | None = None
+    capacity_status: str = 'stale'
+    t_capacity: float = -math.inf
+    assumed_inputs: frozenset[str] | None = None
+    slip_twist: tuple[float, float, float] | None = None
+
+
+@dataclass
+class Commands:
+    """To publish after a step: one-shot ``gait``/``burrow`` commands (in order), the winch
+    reel-in set-point (m/s, 0 brakes), h (m) and phi (rad) for capacity_node, and the events
+    of this step (to log and publish, in order). h is assumed, never measured (MiniRQuad has
+    no sensor for it): height_band is the half-width of its range (m, NaN = not stated) and
+    height_source says where the number comes from."""
+
+    oneshots: list[tuple[str, str]]
+    winch: float
+    height: float
+    phi: float
+    events: list[dict] = field(default_factory=list)
+    height_band: float = math.nan
+    height_source: str = ''
