@@ -551,16 +551,24 @@ class CapacityEstimator:
         key = (state.as_tuple(), phi, ranges)
         if self._lower_cache is not None and self._lower_cache[0] == key:
             return self._lower_cache[1]
+        # Both parts ask for some of the same states (the state itself, h one sigma away):
+        # each state is predicted once.
+        answers = {(state.as_tuple(), phi): self._predict(state, phi)}
+
+        def predict(st: AnchorState, ph: float) -> CapacityResult:
+            k = (st.as_tuple(), ph)
+            if k not in answers:
+                answers[k] = self.predictor.predict(st, ph, self.pull)
+            return answers[k]
+
         bounds = []
         if cfg.lower_bound_level > 0.0:
             bounds.append(capacity_lower_bound(
-                lambda st, ph: self.predictor.predict(st, ph, self.pull), state, phi,
-                capacity_N, cfg.lower_bound_level, cfg.h_sigma_m, cfg.theta_b_sigma_rad,
-                cfg.capacity_rel_sigma))
+                predict, state, phi, capacity_N, cfg.lower_bound_level, cfg.h_sigma_m,
+                cfg.theta_b_sigma_rad, cfg.capacity_rel_sigma))
         if ranges:
-            bounds.append(range_minimum(
-                lambda st, ph: self.predictor.predict(st, ph, self.pull), state, phi,
-                dict(ranges), cfg.h_range_m, cfg.phi_limit_rad))
+            bounds.append(range_minimum(predict, state, phi, dict(ranges), cfg.h_range_m,
+                                        cfg.phi_limit_rad))
         lower = min(bounds)
         self._lower_cache = (key, lower)
         return lower

@@ -2,9 +2,12 @@
 
 An assumed or modelled input (docs/design/capacity-inputs.md, "Provenance") is known only to
 lie within a range: value +- half-width (its band, or the node's assumed range). The capacity
-the stack can count on is then the smallest capacity over that range, scanned at
-RANGE_SAMPLES points per input (ends included, clipped to the plausible limits); a point
-without a value makes it 0 (somewhere in the range the anchor may hold nothing).
+the stack can count on is then the smallest capacity over that range, scanned at the value
+plus SCAN_FRACTIONS of the half-width (five points, ends included, each clipped to the
+plausible limits); a point without a value makes it 0 (somewhere in the range the anchor may
+hold nothing). The points are the value itself and half-way points on purpose: with a band
+of two standard deviations they are the states the prediction and the one-sigma bound ask
+for too, which a caller can answer once (CapacityEstimator does).
 
 Units SI: h in m, phi in rad, capacities in N. No ROS.
 """
@@ -16,7 +19,7 @@ from collections.abc import Callable, Mapping
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Status
 
-RANGE_SAMPLES = 5
+SCAN_FRACTIONS = (-1.0, -0.5, 0.0, 0.5, 1.0)
 
 
 def range_minimum(predict: Callable[[AnchorState, float], CapacityResult], state: AnchorState,
@@ -27,11 +30,9 @@ def range_minimum(predict: Callable[[AnchorState, float], CapacityResult], state
     clip the scan."""
     hs, phis = [state.h], [phi]
     if 'height' in ranges:
-        hs = _linspace(max(h_limits[0], state.h - ranges['height']),
-                       min(h_limits[1], state.h + ranges['height']))
+        hs = scan_points(state.h, ranges['height'], *h_limits)
     if 'phi' in ranges:
-        phis = _linspace(max(-phi_limit, phi - ranges['phi']),
-                         min(phi_limit, phi + ranges['phi']))
+        phis = scan_points(phi, ranges['phi'], -phi_limit, phi_limit)
     best = math.inf
     for h in hs:
         st = AnchorState(h, state.theta_b, state.theta_l1, state.theta_l2)
@@ -43,7 +44,8 @@ def range_minimum(predict: Callable[[AnchorState, float], CapacityResult], state
     return max(0.0, best)
 
 
-def _linspace(lo: float, hi: float, n: int = RANGE_SAMPLES) -> list[float]:
-    if hi <= lo:
-        return [lo]
-    return [lo + (hi - lo) * i / (n - 1) for i in range(n)]
+
+def scan_points(x: float, half_width: float, lo: float, hi: float) -> list[float]:
+    """x + f * half_width for f in SCAN_FRACTIONS, each clipped to [lo, hi], without repeats
+    (a zero width is x alone)."""
+    return list(dict.fromkeys(min(hi, max(lo, x + f * half_width)) for f in SCAN_FRACTIONS))
