@@ -235,8 +235,11 @@ def test_reconfigure_applies_from_the_next_estimate(est, live_predictor):
 
 # ------------------------------------------------------------------ input provenance
 def _map_estimator(**cfg):
-    from rftgls_ros.capacity.predictor import MapPredictor
-    return CapacityEstimator(MapPredictor(), EstimatorConfig(pull='backward', **cfg))
+    from rftgls_core.maps import CapacityMap, shipped_map_path
+    from rftgls_core.predictor.maps import MapPredictor
+    path = shipped_map_path('minirquad')
+    return CapacityEstimator(MapPredictor(CapacityMap.load(path), path),
+                             EstimatorConfig(pull='backward', **cfg))
 
 
 def _map_min(h_lo: float, h_hi: float) -> float:
