@@ -76,6 +76,7 @@ class Burrow:
     def _enter_burrow(self) -> None:
         self.m.winch = 0.0
         self.at_pose_since = None
+        self.m.slip.reset()          # a new anchor: its slip references start afresh
         self.m.command('burrow', self.m.mode)
 
     def at_final_pose(self) -> bool:
@@ -114,6 +115,8 @@ class Burrow:
 
     def _do_check(self) -> None:
         m = self.m
+        if m.tug.anchor_slipped('at the re-check'):
+            return
         if not self.check.passed:
             self._check_prediction()
             return

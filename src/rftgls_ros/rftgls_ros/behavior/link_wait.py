@@ -1,7 +1,8 @@
 """Link wait (WAIT_LINK): the robot's link went stale or its joint states / tension aged past
 ``input_timeout_s`` in an active state. The winch stops in that step and the machine waits;
 once the inputs have been fresh for ``link_settle_s`` it resumes where it was: a tug, hold,
-check or finished cycle re-checks the anchor first (or burrows again if the legs left the
+check or finished cycle first measures the anchor against its slip references (a slip during
+the outage is recorded and answered by the slip policy, never forgotten), then re-checks it (or burrows again if the legs left the
 burrowed pose during the outage), a walk walks on for what is left, a burrow burrows again.
 Units: s.
 """
@@ -54,7 +55,12 @@ class LinkWait:
         if resume in (State.TUG, State.HOLD, State.CHECK, State.CYCLE_DONE):
             if resume == State.TUG:
                 m.tug.finish('interrupted')
-            if not m.burrow.at_final_pose():
+            at_pose = m.burrow.at_final_pose()
+            # A slip during the outage is measured against the anchor's references first (the
+            # leg rule only at the burrowed pose: a reset or a stand moves the legs too).
+            if m.tug.anchor_slipped(f'during the {m.elapsed():.1f} s outage', legs=at_pose):
+                return
+            if not at_pose:
                 # The legs moved during the outage (an MCU reset, a stand): the anchor that
                 # was checked is gone, and the assumed Table II height no longer applies.
                 m.burrow.start(m.mode, f'{back}: the legs left the {m.mode} pose during the '

@@ -25,6 +25,8 @@ and steps of its states, which the machine collects into its state table:
     burrow.py     CHOOSE, BURROW, CHECK, HOLD, SLACKEN: choose a mode, burrow, check the anchor
                   at the measured pose, re-burrow into a stronger mode after a stop
     tug.py        TUG: reel in on live evidence, the margin guard, the slip, the stop report
+                  (the slip's references belong to the anchor: the machine's ``slip``, reset
+                  by every burrow, kept through link gaps, waits and re-checks)
     retry.py      WAIT_EVIDENCE: an aborted attempt, waiting for evidence, giving up
     link_wait.py  WAIT_LINK: robot link or inputs lost, winch stopped, resume
 
@@ -49,6 +51,7 @@ from .model import ANCHOR_MODES, Decision, EnergyModel, ForceNeed, ModeChooser, 
 from .report import CycleRecord
 from .retry import EvidenceRetry
 from .signals import Commands, Observation
+from .slip import SlipDetector
 from .states import ACTIVE, TERMINAL, HoldCause, State
 from .tug import Tug
 from .walk import Walk
@@ -109,6 +112,10 @@ class BehaviorMachine:
         self._t_enter = 0.0
         self._e_enter: float | None = None
         self._last_spool: float | None = None
+        # The anchor's slip evidence (slip.py): kept per burrow through gaps, waits, re-checks.
+        self.slip = SlipDetector(config.slip_pitch_rad, config.slip_leg_rad,
+                                 config.slip_tension_drop, config.slip_min_reel_m,
+                                 config.taut_tension_N)
         self.walk = Walk(self)
         self.burrow = Burrow(self)
         self.tug = Tug(self)

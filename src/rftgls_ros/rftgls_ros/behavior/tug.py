@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from . import evidence
-from .slip import SlipDetector, SlipEvent
+from .slip import SlipEvent
 from .states import HoldCause, State
 
 if TYPE_CHECKING:
@@ -58,13 +58,11 @@ class TugAttempt:
 
 
 class Tug:
-    """TUG. The slip detector's references are taken afresh for every tug attempt."""
+    """TUG. The slip detector (the machine's ``slip``) keeps the anchor's references across
+    attempts; only its tension-drop rule restarts with each attempt."""
 
     def __init__(self, machine: BehaviorMachine):
         self.m = machine
-        cfg = machine.cfg
-        self.slip = SlipDetector(cfg.slip_pitch_rad, cfg.slip_leg_rad, cfg.slip_tension_drop,
-                                 cfg.slip_min_reel_m, cfg.taut_tension_N)
         self.attempt = TugAttempt(0.0, SpoolAt(0.0, None))
         self.pending_stop: PendingStop | None = None
         self.had_value = False      # capacity_node gave a value-carrying status this run
@@ -74,7 +72,8 @@ class Tug:
     def _enter_tug(self) -> None:
         o = self.m.obs
         self.attempt = TugAttempt(started_t=o.t, good=SpoolAt(o.t, o.spool))
-        self.slip.reset()
+        self.m.slip.settle(o.theta_b, o.legs)     # the anchor's first tug: before any load
+        self.m.slip.new_pull()
 
     def _do_tug(self) -> None:
         """One tug step: end or slip first, then evidence, then the margin guard, then reel."""
@@ -112,7 +111,29 @@ class Tug:
         o = self.m.obs
         if not self.m.cfg.slip_detect:
             return False
-        ev = self.slip.update(o.tension, o.spool, o.theta_b, o.legs)
+        ev = self.m.slip.update(o.tension, o.spool, o.theta_b, o.legs)
+        if ev is None:
+            return False
+        self.finish('slip')
+        self._on_slip(ev)
+        return True
+
+    def anchor_slipped(self, when: str, legs: bool = True) -> bool:
+        """Outside TUG (a re-check after a link gap or an evidence wait): has this anchor
+        slipped, now seen against its references or recorded before? Then the slip policy
+        answers (HOLD, re-burrow stronger or stop) and True; the winch stays stopped.
+        legs False: the leg rule is left out (the legs left the burrowed pose otherwise)."""
+        m = self.m
+        if not m.cfg.slip_detect:
+            return False
+        done = m.slip.slipped
+        if done is not None:
+            m.winch = 0.0
+            m.burrow.hold(HoldCause.SLIP, f'the {m.mode} anchor slipped ({done.reason}) '
+                                          f'before {when}: winch stopped', done.reason)
+            return True
+        m.slip.held(m.obs.tension)    # a tension the host did not see may have been higher
+        ev = m.slip.moved(m.obs.theta_b, m.obs.legs if legs else None, when)
         if ev is None:
             return False
         self._on_slip(ev)
@@ -217,13 +238,16 @@ class Tug:
             m.retry.abort(v, in_tug=True)
 
     def _on_slip(self, ev: SlipEvent) -> None:
-        """The anchor moved under load: stop, learn how much weaker the ground is than
-        predicted, then re-burrow into a mode that is strong enough with that correction."""
+        """The anchor moved under load: stop, attribute the slip to the anchor, learn how much
+        weaker the ground is than predicted, then re-burrow into a mode that is strong enough
+        with that correction (or stop: burrow.hold)."""
         m = self.m
         o = m.obs
         m.winch = 0.0
-        self.pending_stop = PendingStop(SpoolAt(o.t, o.spool), ev.reason, 'the slip was detected')
-        self.finish('slip')
+        m.slip.record(ev)
+        if m.state == State.TUG:
+            self.pending_stop = PendingStop(SpoolAt(o.t, o.spool), ev.reason,
+                                            'the slip was detected')
         predicted = o.capacity if (o.capacity is not None and math.isfinite(o.capacity)) \
             else m.own_capacity()[0]
         note = ''
@@ -235,7 +259,8 @@ class Tug:
                         f'predicted: predictions scaled by {k:.2f} from now on')
         m.weakest = ev.peak_tension
         m.event('warn', f'anchor slip detected ({ev.reason}: {ev.detail}){note}',
-                reason=ev.reason, peak_tension=ev.peak_tension, scale=m.chooser.scale)
+                reason=ev.reason, peak_tension=ev.peak_tension, scale=m.chooser.scale,
+                pitch_lost_rad=ev.pitch_lost, legs_moved_rad=ev.legs_moved)
         m.burrow.hold(HoldCause.SLIP, f'anchor slip ({ev.reason}): winch stopped', ev.reason)
 
     def twist_text(self) -> str:
