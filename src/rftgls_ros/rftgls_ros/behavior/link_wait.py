@@ -2,9 +2,9 @@
 ``input_timeout_s`` in an active state. The winch stops in that step and the machine waits;
 once the inputs have been fresh for ``link_settle_s`` it resumes where it was: a tug, hold,
 check or finished cycle first measures the anchor against its slip references (a slip during
-the outage is recorded and answered by the slip policy, never forgotten), then re-checks it (or burrows again if the legs left the
-burrowed pose during the outage), a walk walks on for what is left, a burrow burrows again.
-Units: s.
+the outage is recorded and answered by the slip policy, never forgotten), then re-checks it
+(or burrows again if the legs left the burrowed pose during the outage), a walk walks on for
+what is left, a burrow burrows again. Units: s.
 """
 from __future__ import annotations
 

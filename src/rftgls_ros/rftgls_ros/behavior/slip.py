@@ -17,9 +17,9 @@ The references belong to the anchor (one burrow), not to a tug attempt: the pitc
 angles of the settled, still unloaded anchor as its first tug starts (``settle``; without
 that, where the tether first goes taut), kept through link gaps, waits, re-checks and
 restarted tugs, so a slip that happened while nobody was looking, even one that began before
-the host saw any load, is still measured against where the anchor was (``moved``). Only the tension-drop rule restarts
-with every pull (``new_pull``): a braked winch lets the tension settle, and a restarted tug
-builds it up again. ``reset`` starts a new anchor (a new burrow).
+the host saw any load, is still measured against where the anchor was (``moved``). Only the
+tension-drop rule restarts with every pull (``new_pull``): a braked winch lets the tension
+settle, and a restarted tug builds it up again. ``reset`` starts a new anchor (a new burrow).
 
 Units: s, N, m, rad. Pure state, no ROS.
 """
