@@ -160,6 +160,12 @@ def _heavier_sim(argv):
     ap.add_argument('--heavier-mass', type=float, required=True)
     ap.add_argument('--disconnect-after-reel', type=float,
                     help='unplug (--disconnect-for s) once the spool has reeled this far, m')
+    ap.add_argument('--gap-after-slip', type=float,
+                    help='a link gap once the anchor has slipped this far under load, m')
+    ap.add_argument('--gap-kind', choices=('stall', 'unplug'), default='stall',
+                    help='stall: the MCU loop stalls --gap-for s (no frames either way, as '
+                         'a stalled ground solver); unplug: the pty closes --disconnect-for s')
+    ap.add_argument('--gap-for', type=float, default=0.4, help='s (stall)')
     own, rest = ap.parse_known_args(argv)
     slip = {'m': 0.0}
     holder = {}
@@ -198,6 +204,15 @@ def _heavier_sim(argv):
                 if not slip['m']:
                     print(f'SLIP_START at {self.time:.3f} s', flush=True)
                 slip['m'] += abs(self.x_p - x0)
+                if own.gap_after_slip is not None and slip['m'] >= own.gap_after_slip \
+                        and self.winch.command > 0.0:
+                    own.gap_after_slip = None
+                    print(f'GAP {own.gap_kind} at slip {slip["m"]:.6f} at {self.time:.3f} s',
+                          flush=True)
+                    if own.gap_kind == 'stall':
+                        time.sleep(own.gap_for)       # the whole MCU loop stands still
+                    elif 'args' in holder:
+                        holder['args'].disconnect_at = 0.0  # the run loop unplugs at once
 
     sim_main.WinchSled = HeavierSled
     sim_main.SimRobot = SlipRecorder
