@@ -11,8 +11,11 @@ import pytest
 rclpy = pytest.importorskip('rclpy')
 pytest.importorskip('rftgls_interfaces')
 
+from geometry_msgs.msg import WrenchStamped  # noqa: E402
+from rclpy.duration import Duration  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.qos import qos_profile_sensor_data  # noqa: E402
 
 from rftgls_interfaces.msg import AnchorEstimate, InputValue  # noqa: E402
 from rftgls_ros.behavior import evidence  # noqa: E402
@@ -114,3 +117,42 @@ def test_the_height_it_sends_is_marked_assumed(rig):
     # No plain Float64 height: capacity_node would take it for a measurement.
     assert '/winch/height' not in {p.topic_name for p in node.publishers}
     assert probe.count_publishers('/winch/height') == 0
+
+
+def test_freshness_is_the_age_of_the_sample_not_of_its_receipt(rig):
+    node, probe, ex = rig(accept_assumed_inputs='height')
+    pub = probe.create_publisher(AnchorEstimate, '/capacity_node/estimate', 10)
+    ten = probe.create_publisher(WrenchStamped, '/winch/tension', qos_profile_sensor_data)
+    assert spin_until(ex, lambda: pub.get_subscription_count() > 0
+                      and ten.get_subscription_count() > 0)
+
+    def stamp(age_s: float):
+        return (probe.get_clock().now() - Duration(nanoseconds=int(age_s * 1e9))).to_msg()
+
+    def send(age_s: float):
+        n = len(node.tug_series.samples)
+        msg = AnchorEstimate(status_code=AnchorEstimate.STATUS_OK, status='ok',
+                             has_value=True, capacity_n=2.5, capacity_lower_n=2.0)
+        msg.header.stamp = stamp(age_s)
+        pub.publish(msg)
+        assert spin_until(ex, lambda: len(node.tug_series.samples) > n)
+        return node.machine.evidence()
+
+    # Just received, but its sample is 0.3 s old (a slow link): not evidence.
+    v = send(0.3)
+    assert (v.usable, v.reason) == (False, evidence.TIMEOUT), v
+    assert 290 <= float(v.detail.split(' ms')[0].split()[-1]) < 400, v.detail
+    assert send(0.0).usable
+    # A heartbeat estimate (stamped now) over a link whose last tension sample is 0.2 s old
+    # is as old as that sample: every estimate is built on it.
+    w = WrenchStamped()
+    w.header.stamp = stamp(0.2)
+    w.wrench.force.x = 1.0
+    ten.publish(w)
+    assert spin_until(ex, lambda: node.obs.tension == 1.0)
+    v = send(0.0)
+    assert (v.usable, v.reason) == (False, evidence.TIMEOUT), v
+    w.header.stamp = stamp(0.0)
+    ten.publish(w)
+    assert spin_until(ex, lambda: node.now_s() - node.obs.t_tension < 0.1)
+    assert send(0.0).usable

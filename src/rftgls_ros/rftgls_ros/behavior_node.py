@@ -9,7 +9,9 @@ Subscribed: /joint_states (sensor_msgs/JointState: legs rad, ``winch_rope`` m / 
   /winch/tension (geometry_msgs/WrenchStamped, N), /energy (std_msgs/Float64, J),
   /minirquad/link_state (std_msgs/String ok|stale), and of capacity_node only its whole
   estimate /capacity_node/estimate (rftgls_interfaces/AnchorEstimate: capacity N along the
-  tether, lower bound, status code, assumed inputs, slip twist, in one message).
+  tether, lower bound, status code, assumed inputs, slip twist, in one message). Freshness is
+  the age of the underlying sample by its header stamp, not the receipt time
+  (docs/design/tug-safety.md, "Freshness by sample age").
 Published: /gait, /burrow (std_msgs/String), /winch/speed (std_msgs/Float64, m/s reel-in
   positive), /winch/height_estimate (rftgls_interfaces/InputValue: h of p in m, ASSUMED: the
   burrowed mode's Table II mean with a band of two of its standard deviations; MiniRQuad does
@@ -178,6 +180,17 @@ class BehaviorNode(Node):
     def now_s(self) -> float:
         return time.monotonic()
 
+    def sample_time(self, stamp) -> float:
+        """When a stamped sample was taken, on this node's monotonic clock (s): now minus its
+        age by the header stamp (the ROS clock, into which the bridge maps the MCU's sample
+        time). A sample that sat in a slow link or a stalled process is as old as its stamp
+        says, however recently it arrived. An unset stamp counts as taken now; a stamp ahead
+        of this clock as age 0."""
+        if stamp.sec == 0 and stamp.nanosec == 0:
+            return self.now_s()
+        age_ns = self.get_clock().now().nanoseconds - (stamp.sec * 10**9 + stamp.nanosec)
+        return self.now_s() - max(0.0, age_ns * 1e-9)
+
     # ------------------------------------------------------------------ runs (tug_action.py)
     @property
     def running(self) -> bool:
@@ -208,7 +221,7 @@ class BehaviorNode(Node):
     def on_joints(self, msg: JointState) -> None:
         pos = dict(zip(msg.name, msg.position))
         vel = dict(zip(msg.name, msg.velocity))
-        t = self.now_s()
+        t = self.sample_time(msg.header.stamp)
         legs = {key: pos[name] for name, key in leg_keys_from_joint_names(pos).items()}
         if len(legs) == len(LEG_KEYS) and all(math.isfinite(x) for x in legs.values()):
             # Left/right combined on the circle; the machine checks the pose, capacity_node
@@ -229,7 +242,8 @@ class BehaviorNode(Node):
 
     def on_tension(self, msg: WrenchStamped) -> None:
         if math.isfinite(msg.wrench.force.x):
-            self.obs.tension, self.obs.t_tension = msg.wrench.force.x, self.now_s()
+            self.obs.tension = msg.wrench.force.x
+            self.obs.t_tension = self.sample_time(msg.header.stamp)
 
     def on_energy(self, msg: Float64) -> None:
         self.obs.energy = msg.data
@@ -239,9 +253,17 @@ class BehaviorNode(Node):
         self.step()
 
     def on_estimate(self, msg: AnchorEstimate) -> None:
-        """capacity_node's estimate, as received (judged by the machine's evidence rule)."""
+        """capacity_node's estimate, as received (judged by the machine's evidence rule).
+
+        Its time is that of its underlying sample: the stamp it carries (its triggering
+        tension sample's, or capacity_node's clock for a heartbeat), and never newer than the
+        newest tension sample this node has seen, which every estimate is built on: a
+        heartbeat over a dead or late link ages with the link's data."""
         o, t = self.obs, self.now_s()
-        o.capacity, o.t_capacity = msg.capacity_n, t     # N along the tether; NaN: no value
+        sample = self.sample_time(msg.header.stamp)
+        if math.isfinite(o.t_tension):
+            sample = min(sample, o.t_tension)
+        o.capacity, o.t_capacity = msg.capacity_n, sample  # N along the tether; NaN: no value
         o.capacity_status = status_word(msg)
         o.assumed_inputs = frozenset(msg.assumed_inputs)
         tw = msg.slip_twist

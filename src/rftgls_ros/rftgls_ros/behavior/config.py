@@ -23,7 +23,7 @@ class BehaviorConfig:
     before resuming; reburrow: on a guard stop or a slip, re-burrow into a stronger mode if
     one suffices; tug_energy_window_s: the paper counts only the last 8 s of each tug.
 
-    Evidence (docs/design/tug-safety.md): estimate_timeout_s: age (receipt time) after which
+    Evidence (docs/design/tug-safety.md): estimate_timeout_s: age (of its sample) after which
     capacity_node's estimate is not evidence; the winch stops in the step that sees it, so
     the reel after the last estimate is at most (timeout + one step) x tug_speed_m_s.
     evidence_grace_s: after a *transient* loss (no estimate, too old, 'stale') the winch stays

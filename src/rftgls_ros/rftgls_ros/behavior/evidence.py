@@ -12,7 +12,8 @@ the accept-list). ``judge`` turns what behavior_node last received into a ``Verd
   once, and the attempt is aborted if the evidence is not back within the grace time. Every
   other failure is an explicit "no value" from capacity_node and aborts at once.
 
-Times in s on one clock (behavior_node's monotonic receipt times).
+Times in s on one clock (behavior_node's monotonic clock; an estimate's time is that of its
+underlying sample, by header stamp, so its age includes every delay before it arrived).
 """
 from __future__ import annotations
 

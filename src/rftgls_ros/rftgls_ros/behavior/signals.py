@@ -8,7 +8,8 @@ from dataclasses import dataclass, field
 
 @dataclass
 class Observation:
-    """What the robot and capacity_node last said, with receive times t_* (s, node clock).
+    """What the robot and capacity_node last said, with the times t_* (s, node clock) their
+    samples were taken (behavior_node: by header stamp, never the receipt time).
 
     legs: (thetaL1, thetaL2) rad (left/right averaged); theta_b rad; tension N; spool m
     reeled since MCU boot and spool_velocity m/s (reel-in positive); energy J since bridge
