@@ -289,3 +289,45 @@ def test_30_percent_weaker_sand_600g_dl_holds_without_false_alarm(predictor):
     assert 'slip_at_detect' not in seen
     assert plant.tug_slip < 1e-3
     assert m.records[0].mode == 'DL' and m.records[0].outcome == 'ok'
+
+
+# ------------------------------------------------------------------ every cycle leaves a row
+def _link_lost_mid_tug(predictor, **cfg_kw):
+    """400 g; 1 s into the reeling tug the robot link goes for good (the bridge killed: the
+    host hears nothing more). Returns the machine and the plant."""
+    import dataclasses
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1, **cfg_kw)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    plant = Plant(0.4, predictor)
+    advance = plant.advance
+    seen: dict = {}
+
+    def lost_advance(dt):
+        obs = advance(dt)
+        if 'lost' not in seen and m.state == State.TUG and m.elapsed() > 1.0:
+            seen['lost'] = obs
+        if 'lost' in seen:
+            return dataclasses.replace(seen['lost'], t=plant.t, link_ok=False)
+        return obs
+    plant.advance = lost_advance
+    return m, plant, seen
+
+
+def test_a_link_that_never_returns_leaves_the_cycle_row_with_its_reason(predictor):
+    m, plant, seen = _link_lost_mid_tug(predictor, link_wait_s=3.0)
+    run_loop(m, plant, t_max=40.0)
+    assert 'lost' in seen and m.state == State.FINISHED, m.reason
+    assert 'link did not come back' in m.reason and plant.winch_cmd == 0.0
+    rec = m.records[-1]
+    assert (rec.cycle, rec.outcome, rec.reason) == (1, 'aborted', 'link_stale'), rec
+
+
+def test_stopping_the_node_mid_wait_leaves_the_cycle_row(predictor):
+    m, plant, seen = _link_lost_mid_tug(predictor)
+    run_loop(m, plant, t_max=15.0)              # stopped while still waiting (link_wait_s 60)
+    assert m.state == State.WAIT_LINK and not m.records
+    m.close(m.open_reason())                    # what behavior_node does on SIGINT
+    assert [(r.outcome, r.reason) for r in m.records] == [('aborted', 'link_stale')]
+    assert m.winch == 0.0
+    m.close('shutdown')                         # once only
+    assert len(m.records) == 1

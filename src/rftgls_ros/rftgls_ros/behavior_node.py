@@ -341,6 +341,9 @@ def main(args=None) -> int:
     def safe_stop(node: BehaviorNode) -> None:
         if not node.finished:
             node.pub_winch.publish(Float64(data=0.0))
+            # The cycle in progress (waiting for a link that never came back, say) gets its
+            # row with the reason: every cycle leaves one.
+            node.machine.close(node.machine.open_reason())
             node.write_report()
 
     return run_node(BehaviorNode, 'behavior_node', tick=keep_going, on_exit=safe_stop,

@@ -20,7 +20,8 @@ class BehaviorConfig:
     tension/capacity at which the tug slows down / stops (margin guard); min_speed_fraction:
     slowest reel speed inside the slow band, as a fraction of tug_speed_m_s; input_timeout_s:
     joint_states/tension age that counts as lost; link_settle_s: time the link must be back
-    before resuming; reburrow: on a guard stop or a slip, re-burrow into a stronger mode if
+    before resuming; link_wait_s: time to wait for it, then the cycle is recorded aborted
+    (link_stale) and the run ends, winch braked; reburrow: on a guard stop or a slip, re-burrow into a stronger mode if
     one suffices; tug_energy_window_s: the paper counts only the last 8 s of each tug.
 
     Evidence (docs/design/tug-safety.md): estimate_timeout_s: age (of its sample) after which
@@ -71,6 +72,7 @@ class BehaviorConfig:
     capacity_wait_s: float = 1.0
     input_timeout_s: float = 0.6
     link_settle_s: float = 0.5
+    link_wait_s: float = 60.0
     reburrow: bool = True
     max_burrows_per_cycle: int = 3
     slacken_speed_m_s: float = 0.03

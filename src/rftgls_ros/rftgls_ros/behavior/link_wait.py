@@ -43,6 +43,11 @@ class LinkWait:
         m.winch = 0.0
         if not m.inputs_fresh():
             self.back_since = None
+            if m.elapsed() >= m.cfg.link_wait_s:
+                m.close('link_stale')
+                m.command('gait', 'stand')
+                m.go(State.FINISHED, f'giving up, winch braked: the link did not come back '
+                                     f'within {m.cfg.link_wait_s:.0f} s')
             return
         if self.back_since is None:
             self.back_since = m.obs.t

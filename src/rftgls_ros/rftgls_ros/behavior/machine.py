@@ -312,6 +312,27 @@ class BehaviorMachine:
             else 'stopped before slip'
         self.go(State.FINISHED, f'{what}, winch braked: {reason}')
 
+    def close(self, reason: str) -> None:
+        """The run ends here (the node stops, a link that never came back): winch braked, and
+        a cycle still in progress gets its row, ``aborted`` with ``reason`` (the wait it was
+        in, e.g. link_stale), so that no cycle goes unreported."""
+        self.winch = 0.0
+        c = self.cycle
+        if c is None or self.done or (self.records and self.records[-1].cycle == c.index):
+            return
+        c.outcome, c.reason = 'aborted', reason
+        if self.state == State.TUG:
+            self.tug.finish('aborted')
+        self.record()
+
+    def open_reason(self) -> str:
+        """The reason code a cycle cut off now would be recorded with."""
+        if self.state == State.WAIT_LINK:
+            return 'link_stale'
+        if self.state == State.WAIT_EVIDENCE:
+            return self.cycle.reason if self.cycle and self.cycle.reason else 'no_evidence'
+        return 'shutdown'
+
     @property
     def done(self) -> bool:
         return self.state in TERMINAL
