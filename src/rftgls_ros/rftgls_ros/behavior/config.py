@@ -21,8 +21,9 @@ class BehaviorConfig:
     slowest reel speed inside the slow band, as a fraction of tug_speed_m_s; input_timeout_s:
     joint_states/tension age that counts as lost; link_settle_s: time the link must be back
     before resuming; link_wait_s: time to wait for it, then the cycle is recorded aborted
-    (link_stale) and the run ends, winch braked; reburrow: on a guard stop or a slip, re-burrow into a stronger mode if
-    one suffices; tug_energy_window_s: the paper counts only the last 8 s of each tug.
+    (link_stale) and the run ends, winch braked; reburrow: on a guard stop or a slip,
+    re-burrow into a stronger mode if one suffices; tug_energy_window_s: the paper counts
+    only the last 8 s of each tug.
 
     Evidence (docs/design/tug-safety.md): estimate_timeout_s: age (of its sample) after which
     capacity_node's estimate is not evidence; the winch stops in the step that sees it, so
