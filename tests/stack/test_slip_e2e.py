@@ -53,4 +53,7 @@ def test_e2e_slip_on_weak_sand_is_detected_and_recorded(tmp_path, spawn, stop, g
         assert f'GAP {gap}' in sim_out, sim_out
     assert 'anchor slip detected (slip_' in log, log
     assert rows and rows[0]['mode'].startswith('SH'), (rows, log)
-    assert rows[0]['reason'].startswith('slip_'), (rows, log)
+    # The cycle's row keeps the slip, also when the tug on the re-burrowed anchor was then
+    # aborted (its reason is the abort's).
+    assert rows[0]['slip'].startswith('slip_'), (rows, log)
+    assert rows[0]['reason'].startswith('slip_') or rows[0]['outcome'] == 'aborted', rows

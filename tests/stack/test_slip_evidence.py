@@ -88,6 +88,7 @@ def test_slip_during_a_link_gap_is_detected_recorded_and_answered(predictor, ons
     assert seen.get('mode') == 'SH', texts                  # detected, on the SH anchor
     rec = m.records[0]
     assert rec.reason.startswith('slip_'), (rec, texts)    # recorded in the cycle's row
+    assert rec.slip == rec.reason, rec
     assert rec.mode.startswith('SH'), rec
     assert m.chooser.scale < 1.0                            # learned: the sand is weaker
     # answered by the policy: a stronger mode re-burrowed and the sled arrived, or stopped

@@ -65,7 +65,8 @@ BURROWED = {State.BURROW, State.CHECK, State.TUG, State.HOLD, State.SLACKEN, Sta
 @dataclass
 class CycleTally:
     """One cycle as it runs: modes burrowed (in order), energy (J) and time (s) per phase, the
-    sled's travel (m), how it ended (outcome, the CSV reason code, the hold cause), the
+    sled's travel (m), how it ended (outcome, the CSV reason code, the hold cause), the first
+    slip's reason code, the
     required force (N), the smallest margin (N) and the sliding tensions (N)."""
 
     index: int
@@ -80,6 +81,7 @@ class CycleTally:
     sled_distance: float = 0.0
     outcome: str = ''
     reason: str = ''          # the CSV reason code
+    slip: str = ''            # the first slip's reason code (kept whatever ends the cycle)
     cause: HoldCause = HoldCause.NONE
     need_n: float = 0.0
     min_margin: float = math.inf
@@ -279,7 +281,7 @@ class BehaviorMachine:
             need_n=self.need.value,
             tension_median_n=xs[len(xs) // 2] if xs else float('nan'),
             min_margin_n=c.min_margin if math.isfinite(c.min_margin) else float('nan'),
-            reason=c.reason))
+            reason=c.reason, slip=c.slip))
         self.event('cycle', self.records[-1].summary())
 
     def _do_cycle_done(self) -> None:

@@ -38,6 +38,8 @@ class CycleRecord:
     tension_median_n: float
     min_margin_n: float
     reason: str = ''     # safety reason code of the cycle ('' = none), e.g. estimate_timeout
+    slip: str = ''       # the slip recorded in this cycle ('' = none), e.g. slip_pitch: kept
+    #                      when a later stop or abort of the cycle sets `reason`
 
     @property
     def energy_j(self) -> float:
@@ -46,6 +48,7 @@ class CycleRecord:
     def summary(self) -> str:
         return (f'cycle {self.cycle} ({1e3 * self.sled_kg:.0f} g sled): {self.mode} '
                 f'{self.outcome}' + (f' ({self.reason})' if self.reason else '')
+                + (f' after {self.slip}' if self.slip and self.slip != self.reason else '')
                 + f'; energy walk {self.walk_j:.2f} J, burrow {self.burrow_j:.2f} J'
                 f', tug {self.tug_j:.2f} J (last window; whole tug {self.tug_total_j:.2f} J); '
                 f'walked ~{self.distance_m:.3f} m, sled moved {self.sled_distance_m:.3f} m')

@@ -245,6 +245,8 @@ class Tug:
         o = m.obs
         m.winch = 0.0
         m.slip.record(ev)
+        if m.cycle is not None and not m.cycle.slip:
+            m.cycle.slip = ev.reason       # the row keeps it whatever ends the cycle
         if m.state == State.TUG:
             self.pending_stop = PendingStop(SpoolAt(o.t, o.spool), ev.reason,
                                             'the slip was detected')
