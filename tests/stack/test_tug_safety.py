@@ -161,6 +161,36 @@ def test_check_without_an_answer_is_missing_evidence_not_an_insufficient_anchor(
     assert plant.winch_cmd == 0.0
 
 
+def test_choose_waits_for_an_unanswered_query_service_instead_of_refusing(predictor):
+    """capacity_node's query service is not up yet when the first walk ends: waiting for an
+    answer, not "no mode suffices"; once it answers, the map's choice (SH for 400 g)."""
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1, evidence_wait_s=5.0)
+    service = _Unreachable(predictor)
+    service.down = True
+    m = BehaviorMachine(cfg, ModeChooser(service, cfg.safety_factor, cfg.phis_rad))
+    plant = Plant(0.4, predictor)
+    seen = {}
+
+    def answer_later(p, mach):
+        if mach.state == State.CHOOSE:
+            seen.setdefault('t', p.t)
+            if p.t - seen['t'] > 2.0:
+                service.down = False
+    run_loop(m, plant, t_max=60.0, on_step=answer_later)
+    texts = [e['text'] for e in m.events]
+    assert any('query is unanswered' in t for t in texts), texts
+    assert m.decisions and m.decisions[0].mode == 'SH', texts
+    assert m.records[0].outcome == 'ok', m.records
+    # Never answered: refused once evidence_wait_s has passed, winch braked.
+    service2 = _Unreachable(predictor)
+    service2.down = True
+    m2 = BehaviorMachine(cfg, ModeChooser(service2, cfg.safety_factor, cfg.phis_rad))
+    plant2 = Plant(0.4, predictor)
+    run_loop(m2, plant2, t_max=30.0)
+    assert m2.state == State.REFUSED and plant2.winch_cmd == 0.0, m2.reason
+    assert m2.records[0].outcome == 'refused'
+
+
 def test_fallback_never_overrides_an_explicit_no_value(predictor):
     m, _plant, seen = _fault_mid_tug(predictor, FAULTS['unsupported'],
                                      own_capacity_fallback=True)

@@ -48,6 +48,7 @@ class Burrow:
         self.m = machine
         self.at_pose_since: float | None = None   # s: legs within tolerance of the final pose
         self.check = AnchorCheck()
+        self.choose_unanswered = False             # CHOOSE's questions unanswered (warned)
         self.hold_cause = HoldCause.NONE
         self.next: Reburrow | None = None
         self.on_enter = {State.BURROW: self._enter_burrow, State.CHECK: self._enter_check,
@@ -60,6 +61,16 @@ class Burrow:
     def _do_choose(self) -> None:
         m = self.m
         d = m.chooser.choose(m.need.value, m.energy)
+        if d.mode is None and m.elapsed() < m.cfg.evidence_wait_s and all(
+                s == str(Status.STALE) for c in d.candidates for s in c.statuses):
+            # Every question unanswered (capacity_node not up yet, or busy): missing
+            # evidence, not a weak ground. Wait for it, winch braked, as CHECK does.
+            if not self.choose_unanswered:
+                self.choose_unanswered = True
+                m.event('warn', 'choose: the capacity query is unanswered (stale); waiting '
+                                f'up to {m.cfg.evidence_wait_s:.0f} s before refusing')
+            return
+        self.choose_unanswered = False
         m.decide(d)
         if d.mode is None:
             m.refuse(d.reason)
