@@ -52,8 +52,9 @@ def test_e2e_slip_on_weak_sand_is_detected_and_recorded(tmp_path, spawn, stop, g
     if gap:
         assert f'GAP {gap}' in sim_out, sim_out
     assert 'anchor slip detected (slip_' in log, log
-    assert rows and rows[0]['mode'].startswith('SH'), (rows, log)
-    # The cycle's row keeps the slip, also when the tug on the re-burrowed anchor was then
-    # aborted (its reason is the abort's).
-    assert rows[0]['slip'].startswith('slip_'), (rows, log)
-    assert rows[0]['reason'].startswith('slip_') or rows[0]['outcome'] == 'aborted', rows
+    # The row of the cycle in which the slip was seen keeps it (column slip), also when a
+    # later abort ends that cycle (its reason is then the abort's). An attempt aborted for
+    # late evidence before the slip is a row of its own, and the retry is the next cycle.
+    slipped = [r for r in rows if r['slip'].startswith('slip_')]
+    assert slipped and slipped[0]['mode'].startswith('SH'), (rows, log)
+    assert slipped[0]['reason'] == slipped[0]['slip'] or slipped[0]['outcome'] == 'aborted'
