@@ -70,7 +70,7 @@ class BehaviorConfig:
     evidence_wait_s: float = 10.0
     max_aborts: int = 2
     accept_assumed_inputs: tuple[str, ...] = ()
-    capacity_wait_s: float = 1.0
+    capacity_wait_s: float = 3.0
     input_timeout_s: float = 0.6
     link_settle_s: float = 0.5
     link_wait_s: float = 60.0
