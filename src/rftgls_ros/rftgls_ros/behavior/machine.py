@@ -349,18 +349,18 @@ class BehaviorMachine:
             return
         c = self.cycle
         if self.state == State.TUG:
-            self._finish_tug('cancelled')
+            self.tug.finish('cancelled')
         elif c is not None and self.state == State.WALK:     # the walk so far counts
-            c.walk_j += self._energy_since_enter()
-            c.walk_s += self._elapsed()
+            c.walk_j += self.energy_since_enter()
+            c.walk_s += self.elapsed()
         elif c is not None and self.state == State.BURROW:   # the burrow so far counts
-            c.burrow_j += self._energy_since_enter()
-            c.burrow_s += self._elapsed()
+            c.burrow_j += self.energy_since_enter()
+            c.burrow_s += self.elapsed()
         if self.state == State.WALK or (self.state == State.WAIT_LINK
-                                        and self._resume == State.WALK):
-            self._oneshots.append(('gait', 'stand'))
-        self._winch = 0.0
+                                        and self.link.resume == State.WALK):
+            self.command('gait', 'stand')
+        self.winch = 0.0
         if c is not None and not (self.records and self.records[-1].cycle == c.index):
             c.outcome, c.reason = 'cancelled', 'cancelled'
-            self._record()
-        self._go(State.FINISHED, f'cancelled, winch braked: {why}')
+            self.record()
+        self.go(State.FINISHED, f'cancelled, winch braked: {why}')
