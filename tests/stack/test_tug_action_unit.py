@@ -31,7 +31,7 @@ def cancel_in(state: State, after_s: float):
     seen: dict = {}
 
     def hook(plant, m):
-        if 'cmd' not in seen and m.state == state and m._elapsed() >= after_s:
+        if 'cmd' not in seen and m.state == state and m.elapsed() >= after_s:
             seen['spool_v'] = plant.robot.winch.spool_velocity
             m.cancel('test')
             seen['cmd'] = m.step(plant.advance(0.002))
