@@ -98,6 +98,13 @@ class BuriedBody:
         return {'r': np.ascontiguousarray(r), 'n': f.normals, 'w': np.ascontiguousarray(w),
                 'wr': w[:, None] * r, 'stress': stress, 'len': len(w), 'fused': fused}
 
+    def bound(self) -> dict:
+        """The whole buried body as bound for evaluation (read it, never change it): r (F, 3)
+        facet centroids from ref, n normals, w area x depth (m^3), stress (the prepared
+        model) and fused (the fused kernel's arrays, or None): for evaluators of another
+        leading weight (multibody/smooth.py)."""
+        return self._full
+
     @property
     def fused(self) -> bool:
         """True when evaluation runs in the fused numba kernel."""

@@ -8,6 +8,7 @@
 | axle height above p | 10 mm | 10 mm | assumed |
 | lateral leg offsets (proximal, distal) | 40, 55 mm | 45, 45+10 mm | assumed (staggered so distal legs are not shadowed) |
 | centre of mass | midway between axles, at axle height | same | assumed |
+| body plate width, thickness (the multibody simulation's base body) | 60, 10 mm | same | assumed |
 """
 from __future__ import annotations
 
@@ -21,6 +22,8 @@ LEG_THICKNESS = 0.005      # m, paper
 LEG_WIDTH = 0.010          # m, assumed
 LEG_ARC_SEGMENTS = 24      # default mesh resolution along the arc (see README speed/accuracy)
 AXLE_HEIGHT = 0.010        # m above p along z_B, assumed
+PLATE_WIDTH = 0.060        # m across y_B, assumed (legs outside it: |y| >= 40 mm)
+PLATE_THICKNESS = 0.010    # m, z_B from 0 (p) up, assumed
 
 
 def _leg(n_arc: int):

@@ -1,0 +1,218 @@
+"""Gaits as inputs of the simulation: each leg's reference angle in time, and the tether.
+
+A gait gives, at time t (s from its start), every leg's reference joint value (rad,
+unwrapped: a walking leg turns on and on) and its rate (the feed-forward of the MCU's loop),
+the tether's tension and angle, and the name of its phase (energy is summed per phase). The
+servos then track the reference as far as their torque allows (simulate.py).
+
+- BurrowGait: the paper's burrowing sequence (sec. VI-B, Fig. 2): from standing to the
+  "retracting" pose, then to the "final" pose, then holding until the 8 s the paper measures
+  over. Each move runs every degree of freedom linearly in time so that all arrive together,
+  the one with the longest travel at `speed`. The paper gives no timing: the default speed is
+  the slow-arc speed of MiniRHex's walking clock (40 deg in 0.42 x 2 s = 47.6 deg/s), the
+  firmware's own pace for a leg pushing on the ground.
+- WalkGait: the Buehler clock MiniRHex walks with (the driver's sim models the same clock),
+  one clock per leg: a slow stance arc of `sweep` centred on `down` during duty x period,
+  recovery through the rest of the turn. MiniRHex's walk: period 2 s, duty 0.42, sweep 40 deg,
+  down 20 deg (robomechanics/MiniRHex gait parameters). Its angle grows in the direction the
+  leg turns to walk forward; here a leg walks forward when its toe moves toward -x_B under
+  the hip (the sand pushes it on), i.e. theta_L decreases, so the clock runs with
+  theta_L = -angle and the stance is centred on theta_L = -20 deg. WBT's MiniRQuad ambles
+  (footfalls a quarter cycle apart, lateral sequence LH, LF, RH, RF) and gives no period,
+  duty or sweep; those are MiniRHex's.
+- Hold: legs keep their angles while the tether pulls with a given tension (a tug).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .robot import Multibody
+
+TWO_PI = 2.0 * math.pi
+DEFAULT_BURROW_SPEED = math.radians(40.0) / (0.42 * 2.0)   # rad/s, MiniRHex stance speed
+BURROW_WINDOW = 8.0                                         # s, the paper's burrow window
+AMBLE = {'LH': 0.0, 'LF': 0.25, 'RH': 0.5, 'RF': 0.75}
+
+
+class GaitError(ValueError):
+    """A gait the robot cannot run (outside a joint's range, a leg through the body, ...)."""
+
+
+@dataclass(frozen=True)
+class BurrowGait:
+    """stand, retract, final: one joint value per degree of freedom (rad). speed: the rate
+    of the degree of freedom with the longest travel in each move, rad/s. duration: s."""
+
+    robot: Multibody
+    stand: tuple[float, ...]
+    retract: tuple[float, ...]
+    final: tuple[float, ...]
+    speed: float = DEFAULT_BURROW_SPEED
+    duration: float = BURROW_WINDOW
+
+    def __post_init__(self) -> None:
+        n = len(self.robot.dof_names)
+        for name in ('stand', 'retract', 'final'):
+            v = getattr(self, name)
+            if len(v) != n or not all(math.isfinite(x) for x in v):
+                raise GaitError(f'{name} pose needs {n} finite angles '
+                                f'({", ".join(self.robot.dof_names)}), got {v}')
+        if not (math.isfinite(self.speed) and self.speed > 0.0):
+            raise GaitError(f'burrow speed must be a positive rate, got {self.speed}')
+        if not (math.isfinite(self.duration) and self.duration > 0.0):
+            raise GaitError(f'duration must be positive, got {self.duration}')
+        if self.knots()[-1] > self.duration + 1e-12:
+            raise GaitError(f'the burrow needs {self.knots()[-1]:.2f} s at '
+                            f'{math.degrees(self.speed):.1f} deg/s, more than the '
+                            f'{self.duration:.2f} s window')
+
+    def _moves(self):
+        a, b, c = (np.asarray(x, dtype=float) for x in (self.stand, self.retract, self.final))
+        t1 = float(np.max(np.abs(b - a))) / self.speed
+        t2 = t1 + float(np.max(np.abs(c - b))) / self.speed
+        return a, b, c, t1, t2
+
+    def knots(self) -> list[float]:
+        _, _, _, t1, t2 = self._moves()
+        return [0.0, t1, t2]
+
+    def phase(self, t: float) -> str:
+        _, _, _, t1, t2 = self._moves()
+        return 'retract' if t < t1 else 'final' if t < t2 else 'hold'
+
+    def dof_reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        a, b, c, t1, t2 = self._moves()
+        if t < t1:
+            return a + (b - a) * (t / t1), (b - a) / t1
+        if t < t2:
+            return b + (c - b) * ((t - t1) / (t2 - t1)), (c - b) / (t2 - t1)
+        return c.copy(), np.zeros_like(c)
+
+    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(joint values, rates) per leg at t."""
+        q, r = self.dof_reference(t)
+        return self.robot.joint_values(q), self.robot.joint_values(r)
+
+    def tether(self, t: float) -> tuple[float, float]:
+        return 0.0, 0.0
+
+    def start(self) -> np.ndarray:
+        return self.robot.joint_values(self.stand)
+
+
+@dataclass(frozen=True)
+class WalkGait:
+    """Buehler clocks per leg (module doc). period s, duty (0, 1), sweep rad, down: the
+    stance centre as theta_L (rad); phases: fraction of a cycle per leg name (robot.leg_order)
+    or leg index; direction +1 walks forward (theta_L falls in stance), -1 backward."""
+
+    robot: Multibody
+    duration: float = 8.0
+    period: float = 2.0
+    duty: float = 0.42
+    sweep: float = math.radians(40.0)
+    down: float = math.radians(-20.0)
+    phases: dict = field(default_factory=lambda: dict(AMBLE))
+    direction: int = 1
+
+    def __post_init__(self) -> None:
+        for key, lo, hi in (('period', 0.0, math.inf), ('duty', 0.0, 1.0),
+                            ('sweep', 0.0, TWO_PI), ('duration', 0.0, math.inf)):
+            v = getattr(self, key)
+            if not (math.isfinite(v) and lo < v < hi):
+                raise GaitError(f'{key} must be in ({lo:g}, {hi:g}), got {v}')
+        if self.direction not in (1, -1):
+            raise GaitError(f'direction must be +1 or -1, got {self.direction}')
+        if len(self._phase_list()) != len(self.robot.legs):
+            raise GaitError('one phase per leg')
+
+    def _phase_list(self) -> list[float]:
+        out = [0.0] * len(self.robot.legs)
+        for key, ph in self.phases.items():
+            i = self.robot.leg_order.get(key, key) if isinstance(key, str) else key
+            if not isinstance(i, int) or not 0 <= i < len(out):
+                raise GaitError(f'no leg {key!r} (legs: {", ".join(self.robot.leg_order)})')
+            out[i] = float(ph) % 1.0
+        return out
+
+    def _clock(self, t: float, phase: float) -> tuple[float, float]:
+        """Clock angle (grows while walking) and its rate at t."""
+        cycles, tau = divmod(t / self.period + phase, 1.0)
+        start = -0.5 * self.sweep
+        if tau < self.duty:
+            return start + self.sweep * tau / self.duty, self.sweep / (self.duty * self.period)
+        rate = (TWO_PI - self.sweep) / ((1.0 - self.duty) * self.period)
+        return (start + self.sweep + (TWO_PI - self.sweep) * (tau - self.duty)
+                / (1.0 - self.duty) + TWO_PI * cycles), rate
+
+    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        q, r = [], []
+        s = -float(self.direction)
+        for ph in self._phase_list():
+            a, w = self._clock(t, ph)
+            a0, _ = self._clock(0.0, ph)
+            # unwrapped, starting within half a turn of zero
+            k = round((self.down + s * a0) / TWO_PI)
+            q.append(self.down + s * a - TWO_PI * k)
+            r.append(s * w)
+        return np.array(q), np.array(r)
+
+    def knots(self) -> list[float]:
+        out = set()
+        for ph in self._phase_list():
+            k = 0
+            while True:
+                for frac in (0.0, self.duty):
+                    t = (k + frac - ph) * self.period
+                    if 0.0 <= t <= self.duration:
+                        out.add(t)
+                if (k - ph) * self.period > self.duration:
+                    break
+                k += 1
+        return sorted(out | {0.0})
+
+    def phase(self, t: float) -> str:
+        return 'walk'
+
+    def tether(self, t: float) -> tuple[float, float]:
+        return 0.0, 0.0
+
+    def start(self) -> np.ndarray:
+        return self.reference(0.0)[0]
+
+    def stance(self, t: float) -> np.ndarray:
+        """Which legs are on their slow (stance) arc at t."""
+        return np.array([divmod(t / self.period + ph, 1.0)[1] < self.duty
+                         for ph in self._phase_list()])
+
+
+@dataclass(frozen=True)
+class HoldGait:
+    """Legs held at `pose` (one value per degree of freedom, rad) while the tether pulls with
+    `tension` N at `phi` rad (ramped linearly over `ramp` s)."""
+
+    robot: Multibody
+    pose: tuple[float, ...]
+    tension: float
+    phi: float = 0.0
+    ramp: float = 0.0
+    duration: float = 1.0
+
+    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        return self.robot.joint_values(self.pose), np.zeros(len(self.robot.legs))
+
+    def knots(self) -> list[float]:
+        return [0.0, self.ramp] if self.ramp > 0.0 else [0.0]
+
+    def phase(self, t: float) -> str:
+        return 'tug'
+
+    def tether(self, t: float) -> tuple[float, float]:
+        k = 1.0 if self.ramp <= 0.0 else min(1.0, t / self.ramp)
+        return k * self.tension, self.phi
+
+    def start(self) -> np.ndarray:
+        return self.robot.joint_values(self.pose)
