@@ -17,7 +17,7 @@ from .common import twist_count
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser('simulate', help='quasi-static trajectories (simulate pull ...)')
+    p = sub.add_parser('simulate', help='quasi-static trajectories (simulate pull, burrow, walk)')
     sub2 = p.add_subparsers(dest='what', required=True)
     q = sub2.add_parser('pull', help='slip of an anchor held at its capacity by a steady pull')
     add_state_args(q)
@@ -33,6 +33,8 @@ def add_parser(sub) -> None:
     q.add_argument('--out', required=True, help='CSV file')
     q.add_argument('--plot', help='PNG file (force, z and thetaB against x, like Fig. 8)')
     q.set_defaults(run=run)
+    from .simulate_gait import add_parsers
+    add_parsers(sub2)
 
 
 def run(args) -> int:

@@ -1,14 +1,14 @@
-"""Quasi-static multibody RFT simulation of a whole robot: a free sagittal base, legs turned
-by torque-limited servos, every buried part an RFT body (docs/design/walk-burrow-physics.md).
+"""Walk and burrow with physics: a whole robot on sand, every buried part an RFT body, the legs
+turned by torque-limited servos, the base free in the sagittal plane
+(docs/design/walk-burrow-physics.md).
 
-    robot.py      the robot as a base and hinged legs (presets; description.py for URDF+YAML)
-    contact.py    the buried parts of one pose and their wrenches
-    roots.py      the root of RFT's set-valued closure (Newton, then a shrinking tetrahedron)
-    support.py    resting parts: the resting check, their shares, the slip of a held robot
-    balance.py    one instant: servo limits, rest or move
+    robot.py      the robot as a base and hinged legs (presets); described.py (URDF + YAML)
+    contact.py    the buried parts of one pose; evaluate.py their wrenches in one pass
+    roots.py      the root of RFT's closure (ramped jumps, Levenberg-Marquardt); affine_root.py
+                  the same compiled for the balances the simulation solves
+    balance.py    one step: servo limits, the base twist that balances (inertia where it falls)
     servo.py      the XL330-M077-T datasheet and its motor line
-    gaits.py      burrow, walk (Buehler clock), hold/tug
+    gaits.py      burrow, walk (Buehler clock), hold/tug; validate.py gaits a robot cannot run
     energy.py     mechanical and electrical energy per phase
-    simulate.py   settle, then step through a gait
-    results.py    the trajectory, stalls, energies and status
+    simulate.py   put down, settle, step through a gait; results.py what a run returns
 """

@@ -1,25 +1,29 @@
-"""One quasi-static instant: the leg rates the servos manage and the base twist that balances.
+"""One step: the leg rates the servos manage and the base twist that balances.
 
-Given the posed robot, each leg's commanded rate, gravity and the tether, find
+Given the posed robot, each leg's commanded rate, gravity and the tether, the base twist xi
+(vx, vz, wy at p) of the step solves
 
-    sum_parts W_part(xi, qdot) + W_gravity + W_tether = 0            (3 equations, xi unknown)
+    sum_parts W_part(xi, qdot) + W_gravity + W_tether = M (xi - xi_prev) / dt         (1)
 
-on the set-valued closure of RFT (roots.py), after the resting check (support.py): if the
-resting parts (base, legs that do not turn) can supply what the turning legs and the loads
-need, the base stands still (xi = 0). Each servo then gives the torque its leg needs,
-tau = -J . W_leg (contact.Part.torque); where that exceeds its torque-speed line
-(servo.ServoSpec.torque_limit) the leg slows to the speed the line allows at that torque, and
-stalls when none is left. A stalled leg rests, held by its gear, while its commanded angle
-runs ahead (the velocity loop is saturated: the servo draws its stall current).
+on RFT's closure: each part's wrench W(xi + qdot J) is RFT with its two jumps resolved the way
+the closure allows (evaluate.py): a facet at its leading/trailing switch carries a fraction of
+its stress (a ramp of width 1e-3 in n . v_hat), and a facet at rest any fraction (a ramp of
+width `creep` in speed). M is the base's mass matrix at p.
 
-Resting parts carry a statically indeterminate share. The model (`hold_model`):
-'frozen' (default): a part that stops keeps the wrench it carried while moving (granular
-stresses stay locked in; the paper takes static and kinetic resistance as equal) and any
-change of the load is shared at the onset of slip (support.shares); 'proportional': the whole
-load is shared at the onset of slip, with no memory. A single resting part carries it all.
+Why the right side: the quasi-static balance (M = 0) has no finite root where the robot sits
+on the edge of its support and the legs' turn weakens it, as it does after every sinking: the
+base would have to move infinitely faster than the legs, i.e. fall. With M the fall is
+integrated (backward Euler, unconditionally stable) until the sand holds the robot again;
+wherever the robot moves steadily or rests the term vanishes and (1) is the quasi-static
+balance. Each step reports the inertial wrench M (xi - xi_prev) / dt so a reader sees where
+the motion was not quasi-static. The creep ramp makes resting parts carry their share as at
+the onset of slip under the load (they creep along the twist that would make them slip,
+at speeds below `creep`), one member of the set-valued closure at rest.
 
-When no leg turns (a hold, or every turning leg stalled) the robot rests if the resting parts
-hold the load, and otherwise slips (simulate.py integrates the slip).
+Each servo gives the torque its leg needs, tau = -J . W_leg (contact.Part.torque); where that
+exceeds its torque-speed line (servo.ServoSpec.torque_limit) the leg slows to the speed the
+line allows at that torque, and stalls when none is left: it rests, held by its gear, while its
+commanded angle runs ahead (the velocity loop saturated: the servo draws its stall current).
 """
 from __future__ import annotations
 
@@ -30,33 +34,38 @@ import numpy as np
 
 from ..rft.base import StressModel
 from ..surfaces.scaling import Scaling
-from . import support
+from .affine_root import affine_root
 from .contact import Contact, Part
 from .robot import PosedMultibody
-from .roots import closure_root
 from .servo import ServoSpec
 
-HOLD_MODELS = ('frozen', 'proportional')
-# |F| at which the root of the ramped map counts as found (roots.py), scaled units (forces by
-# the weight, the moment by weight x L_c).
-NEWTON_TOL = 1e-11
-# Equilibrium tolerance every step is held to: |residual| <= RESIDUAL_TOL x weight.
+# |residual of (1)| / weight that Newton aims at and at which a step is accepted.
+NEWTON_TOL = 1e-10
 RESIDUAL_TOL = 1e-8
+# Ramp schedules (roots.py) tried in turn from the last twist, from rest, from a free fall and
+# then from restarts around the last twist (a flat face of the base switches all its facets
+# at once: a jump the size of the face's force, with local minima of |residual| beside it).
+# The last width of a schedule is the closure the balance is certified on: a facet within
+# that distance of its leading/trailing switch in n . v_hat (1e-3: 0.06 deg; 1e-2: 0.6 deg;
+# the C-leg's neighbouring facets differ by 7.5 deg) carries a fraction of its stress.
+EPS = ((1e-3,), (3e-2, 1e-3), (1e-2,))
+RESTARTS = 8
 STALL_ITERATIONS = 4
 MIN_FRACTION = 1e-3    # a leg slowed below this fraction of its command stalls
 
 
 @dataclass
 class Balance:
-    """The outcome of one instant.
+    """The outcome of one step.
 
-    mode: 'move' (the base moves with xi), 'rest' (xi = 0, resting parts hold), 'hold'
-    (nothing turns; simulate.py decides rest or slip), 'no_contact', 'no_root'.
+    mode: 'move' (the base moves), 'rest' (the base creeps: slower than `creep`), 'fall'
+    (the inertial wrench exceeds 1 % of the weight), 'air' (nothing touches the sand).
     xi: base twist (vx, vz, wy) at p, m/s and rad/s. rates: each leg's rate, rad/s.
     torques: each servo's torque about its axis, N m (stall torque for a stalled leg).
-    stalled, slowed: per leg. residual: |sum of wrenches| on the closure, N (scaled by the
-    weight: forces in N, the moment divided by L_c). bridge: the jump the root sits on (same
-    units; ~0 on a smooth root). leg_wrench: each leg's sand wrench (one leg), base_wrench.
+    stalled, slowed: per leg. residual: |(1)|'s imbalance, N (forces in N, the moment
+    divided by L_c). inertial: |M (xi - xi_prev) / dt| the same way, N. bridge: how far the
+    exact (unramped) RFT at xi is from the ramped one, N (a root on a jump: about one facet's
+    force). leg_wrench: each leg's sand wrench (one leg); base_wrench.
     """
 
     mode: str
@@ -66,11 +75,12 @@ class Balance:
     stalled: np.ndarray
     slowed: np.ndarray
     residual: float = 0.0
+    inertial: float = 0.0
     bridge: float = 0.0
     leg_wrench: dict = field(default_factory=dict)
     base_wrench: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    converged: bool = True
     detail: str = ''
-    contact: Contact | None = None
 
 
 def scaling_of(posed: PosedMultibody) -> Scaling:
@@ -83,34 +93,18 @@ def tether_wrench(tension: float, phi: float) -> np.ndarray:
     return tension * np.array([-math.cos(phi), math.sin(phi), 0.0])
 
 
-def resting_shares(contact: Contact, resting: list[Part], w_need: np.ndarray,
-                   frozen: dict, scaling: Scaling, hold_model: str) -> list[np.ndarray]:
-    """The wrench each resting part carries when together they supply w_need (see module)."""
-    if len(resting) == 1:
-        return [np.asarray(w_need, dtype=float).copy()]
-    if hold_model == 'frozen':
-        kept = [_frozen(pt, frozen) for pt in resting]
-        delta = w_need - np.sum(kept, axis=0)
-        if np.linalg.norm(scaling.wrench_to_scaled(delta)) <= RESIDUAL_TOL:
-            return kept
-        extra = support.shares(resting, delta, scaling)
-        if extra is not None:
-            return [k + e for k, e in zip(kept, extra)]
-    shares = support.shares(resting, w_need, scaling)
-    if shares is None:
-        # The load cannot be held by these parts (the caller checked it can): equal shares.
-        return [w_need / len(resting) for _ in resting]
-    return shares
+def mass_matrix(posed: PosedMultibody) -> np.ndarray:
+    """The base's planar mass matrix at p for twists (vx, vz, wy): kinetic energy
+    m |v_c|^2 / 2 + I_c wy^2 / 2 with v_c = (vx + wy r_z, vz - wy r_x), r = c - p."""
+    rob = posed.robot
+    r = posed.com - posed.ref
+    m = rob.mass
+    return np.array([[m, 0.0, m * r[2]],
+                     [0.0, m, -m * r[0]],
+                     [m * r[2], -m * r[0], m * (r[0] ** 2 + r[2] ** 2) + rob.inertia]])
 
 
-def _frozen(pt: Part, frozen: dict) -> np.ndarray:
-    if pt.jac is None:
-        return np.asarray(frozen.get('base', np.zeros(3)), dtype=float)
-    return sum((np.asarray(frozen.get(i, np.zeros(3)), dtype=float) for i in pt.legs),
-               start=np.zeros(3))
-
-
-def _record(bal: Balance, contact: Contact, parts: list[Part], wrenches: list[np.ndarray]):
+def record(bal: Balance, parts: list[Part], wrenches) -> None:
     """Store each part's wrench per leg (and the base's) and the servo torques."""
     for pt, w in zip(parts, wrenches):
         if pt.jac is None:
@@ -122,98 +116,98 @@ def _record(bal: Balance, contact: Contact, parts: list[Part], wrenches: list[np
             bal.torques[i] = tau
 
 
-def equilibrium(posed: PosedMultibody, model: StressModel, rates: np.ndarray, load: np.ndarray,
-                frozen: dict, xi_guess: np.ndarray, hold_model: str = 'frozen',
-                backend: str = 'auto') -> Balance:
-    """Balance at fixed leg rates (rad/s): rest, move (xi from the closure root), or 'hold'
-    when no buried leg turns. load: gravity plus tether (N, N, N m about p)."""
+def step_balance(posed: PosedMultibody, model: StressModel, rates: np.ndarray, load: np.ndarray,
+                 xi_prev: np.ndarray, dt: float, creep: float, backend: str = 'auto'
+                 ) -> Balance:
+    """(1) at fixed leg rates (rad/s). load: gravity plus tether (N, N, N m about p)."""
     n = len(posed.legs)
-    bal = Balance('hold', np.zeros(3), np.asarray(rates, dtype=float).copy(), np.zeros(n),
-                  np.zeros(n, bool), np.zeros(n, bool))
-    contact = Contact(posed, model, rates, backend=backend)
-    bal.contact = contact
-    if not contact.any:
-        bal.mode = 'no_contact'
-        bal.detail = 'no part of the robot is below the free surface'
-        return bal
-    moving, resting = contact.moving(), contact.resting()
-    if not moving:
-        return bal
-    scaling = scaling_of(posed)
-    w_turn = contact.moving_at_rest()
-    w_need = -(w_turn + load)
-    if resting and support.rests(resting, w_need, scaling):
-        bal.mode = 'rest'
-        shares = resting_shares(contact, resting, w_need, frozen, scaling, hold_model)
-        _record(bal, contact, resting, shares)
-        _record(bal, contact, moving, [pt.wrenches(np.zeros((1, 3)))[0] for pt in moving])
-        return bal
+    rates = np.asarray(rates, dtype=float)
+    bal = Balance('move', np.zeros(3), rates.copy(), np.zeros(n), np.zeros(n, bool),
+                  np.zeros(n, bool))
+    mm = mass_matrix(posed)
     robot = posed.robot
-    v_ref = max(abs(pt.rate) for pt in moving) * robot.char_length
-    tscale = np.array([v_ref, v_ref, v_ref / robot.char_length])
-    fscale = scaling.diag
-
-    def f(x: np.ndarray, eps: float = 0.0) -> np.ndarray:
-        # each part's wrench rides along: the shares at the closure point (roots.Root.extra)
-        xi = x * tscale
-        per = [pt.smooth_wrenches(xi, eps) if eps else pt.wrenches(xi) for pt in contact.parts]
-        return np.column_stack([(np.sum(per, axis=0) + load) / fscale] + per)
-
-    x0 = np.asarray(xi_guess, dtype=float) / tscale
-    if not np.any(x0) and resting:
-        # Start off the resting parts' jump at zero, along the twist they would slip with.
-        res = support.fit(resting, np.zeros(3), scaling, direction=-w_need).capacity(0.0)
-        if res.slip_twist is not None:
-            t = np.asarray(res.slip_twist) / tscale
-            x0 = 1e-3 * t / np.linalg.norm(t)
-    root = closure_root(f, x0, NEWTON_TOL)
-    if not root.converged:
-        bal.mode = 'no_root'
-        bal.detail = (f'no balance of the turning legs found (|F| {root.pointwise:.3g} x '
-                      f'weight after {root.evaluations} evaluations)')
+    w = robot.weight
+    fscale = scaling_of(posed).diag
+    contact = Contact(posed, model, rates, backend=backend)
+    if not contact.any:
+        # in the air: it falls with what it had, gravity and the tether adding
+        bal.mode = 'air'
+        bal.xi = xi_prev + dt * np.linalg.solve(mm, load)
+        bal.inertial = float(np.linalg.norm(load / fscale)) * w
         return bal
-    bal.mode = 'move'
-    bal.xi = root.x * tscale
-    bal.residual = root.residual * robot.weight
-    bal.bridge = root.bridge * robot.weight
-    _record(bal, contact, contact.parts, list(root.extra.reshape(-1, 3)))
+    tips = [abs(pt.rate) for pt in contact.moving()]
+    v_ref = max(max(tips, default=0.0) * robot.char_length,
+                float(np.hypot(xi_prev[0], xi_prev[1])),
+                abs(float(xi_prev[2])) * robot.char_length, 1e3 * creep)
+    ts = np.array([v_ref, v_ref, v_ref / robot.char_length])
+    m_dt = mm / dt
+    # (W + load - M (xi - xi_prev) / dt) / (s_F, s_F, s_F L_c) = 0; each part rides along.
+    # From the last twist first, then from rest (where a root far from the last twist lies,
+    # e.g. a fall coming to rest, the ramps' first stages can lead the last twist astray).
+    last = np.asarray(xi_prev, dtype=float) / ts
+    falling = (xi_prev + dt * np.linalg.solve(mm, load)) / ts
+    tries = [(last, EPS[0]), (np.zeros(3), EPS[0]), (falling, EPS[0]), (last, EPS[1]),
+             (np.zeros(3), EPS[1])]
+    rng = np.random.default_rng(0)      # restarts: the same ones every run
+    spread = 0.3 * max(1.0, float(np.linalg.norm(last)))
+    tries += [(last + spread * rng.normal(size=3), e) for _ in range(RESTARTS)
+              for e in (EPS[0], EPS[2])]
+    for x0, eps in tries:
+        root = affine_root(contact, x0, ts, np.diag(1.0 / fscale), -m_dt / fscale[:, None],
+                           (load + m_dt @ xi_prev) / fscale, NEWTON_TOL, creep=creep, eps=eps)
+        if root.converged:
+            break
+    bal.xi = root.x * ts
+    bal.residual = root.residual * w
+    bal.bridge = root.bridge * w
+    bal.converged = root.converged
+    bal.inertial = float(np.linalg.norm(m_dt @ (bal.xi - xi_prev) / fscale)) * w
+    if not root.converged:
+        bal.detail = f'no balance found (|residual| {root.residual:.3g} x the weight)'
+    record(bal, contact.parts, root.extra.reshape(-1, 3))
+    speed = max(float(np.hypot(bal.xi[0], bal.xi[1])), abs(bal.xi[2]) * robot.char_length)
+    if bal.inertial > 0.01 * w:
+        bal.mode = 'fall'
+    elif speed < creep:
+        bal.mode = 'rest'
     return bal
 
 
 def balance(posed: PosedMultibody, model: StressModel, servo: ServoSpec, command: np.ndarray,
-            load: np.ndarray, frozen: dict, xi_guess: np.ndarray, hold_model: str = 'frozen',
+            load: np.ndarray, xi_prev: np.ndarray, dt: float, creep: float,
             backend: str = 'auto') -> Balance:
-    """Balance with torque-limited servos: legs whose torque exceeds the servo's line slow to
-    the speed the line allows, or stall (module doc). command: rate per leg, rad/s."""
-    if hold_model not in HOLD_MODELS:
-        raise ValueError(f'hold_model must be one of {", ".join(HOLD_MODELS)}, got '
-                         f'{hold_model!r}')
+    """(1) with torque-limited servos: legs whose torque exceeds the servo's line slow to the
+    speed the line allows, or stall (module doc). command: rate per leg, rad/s."""
     command = np.asarray(command, dtype=float)
     frac = np.where(command != 0.0, 1.0, 0.0)
     bal = None
     for it in range(STALL_ITERATIONS):
-        bal = equilibrium(posed, model, frac * command, load, frozen, xi_guess, hold_model,
-                          backend)
-        if bal.mode not in ('move', 'rest') or it == STALL_ITERATIONS - 1:
+        bal = step_balance(posed, model, frac * command, load, xi_prev, dt, creep, backend)
+        if bal.mode == 'air' or it == STALL_ITERATIONS - 1:
             break
-        new = frac.copy()
-        for i, c in enumerate(command):
-            if frac[i] == 0.0:
-                continue
-            tau = bal.torques[i]
-            if tau * c > 0.0 and abs(tau) > servo.torque_limit(frac[i] * c) * (1.0 + 1e-9):
-                slow = servo.speed_at(tau) / abs(c)
-                new[i] = min(frac[i], slow)
-                if new[i] < MIN_FRACTION:
-                    new[i] = 0.0
+        new = slowed(servo, command, frac, bal.torques)
         if np.array_equal(new, frac):
             break
         frac = new
-        if bal.mode == 'move':
-            xi_guess = bal.xi
     assert bal is not None
     bal.stalled = (command != 0.0) & (frac == 0.0)
     bal.slowed = (frac > 0.0) & (frac < 1.0)
     for i in np.flatnonzero(bal.stalled):
         bal.torques[i] = math.copysign(servo.stall_torque, command[i])
     return bal
+
+
+def slowed(servo: ServoSpec, command: np.ndarray, frac: np.ndarray, torques: np.ndarray
+           ) -> np.ndarray:
+    """New rate fractions: a leg whose torque (driving its motion) exceeds the servo's line at
+    its speed runs at the speed the line allows at that torque; below MIN_FRACTION it stalls."""
+    new = frac.copy()
+    for i, c in enumerate(command):
+        if frac[i] == 0.0:
+            continue
+        tau = torques[i]
+        if tau * c > 0.0 and abs(tau) > servo.torque_limit(frac[i] * c) * (1.0 + 1e-9):
+            new[i] = min(frac[i], servo.speed_at(tau) / abs(c))
+            if new[i] < MIN_FRACTION:
+                new[i] = 0.0
+    return new

@@ -143,7 +143,8 @@ class WalkGait:
         cycles, tau = divmod(t / self.period + phase, 1.0)
         start = -0.5 * self.sweep
         if tau < self.duty:
-            return start + self.sweep * tau / self.duty, self.sweep / (self.duty * self.period)
+            return (start + self.sweep * tau / self.duty + TWO_PI * cycles,
+                    self.sweep / (self.duty * self.period))
         rate = (TWO_PI - self.sweep) / ((1.0 - self.duty) * self.period)
         return (start + self.sweep + (TWO_PI - self.sweep) * (tau - self.duty)
                 / (1.0 - self.duty) + TWO_PI * cycles), rate
@@ -181,6 +182,7 @@ class WalkGait:
         return 0.0, 0.0
 
     def start(self) -> np.ndarray:
+        """Each leg on its clock at t = 0 (the robot is put down in the clock's first pose)."""
         return self.reference(0.0)[0]
 
     def stance(self, t: float) -> np.ndarray:

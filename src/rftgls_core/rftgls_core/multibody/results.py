@@ -23,8 +23,9 @@ from .energy import EnergyMeter
 class Sample:
     """One instant. t s; phase of the gait; mode: 'start', 'move', 'rest', 'hold', 'slip';
     base: origin x, z (m) and theta_b (rad); p: tether point (x, z), m; q, rates, torques,
-    power (W above standby) per leg; stalled per leg; residual and bridge: N (weight-scaled
-    closure residual of the balance, and the jump it sits on)."""
+    power (W above standby) per leg; stalled per leg; residual, bridge, inertial: N (the
+    balance's imbalance, the jump its root sits on, the inertial wrench of the step; forces in
+    N, moments divided by L_c: balance.py)."""
 
     t: float
     phase: str
@@ -41,6 +42,7 @@ class Sample:
     stalled: np.ndarray
     residual: float = 0.0
     bridge: float = 0.0
+    inertial: float = 0.0
 
 
 @dataclass
@@ -96,16 +98,23 @@ class SimResult:
     def max_residual(self) -> float:
         return max((s.residual for s in self.samples), default=0.0)
 
+    def max_inertial(self, phases=None) -> float:
+        return max((s.inertial for s in self.samples
+                    if phases is None or s.phase in phases), default=0.0)
+
     def summary(self) -> dict:
         """The JSON of `rftgls simulate burrow|walk` (SI names; degrees where the key says)."""
         d: dict = {'robot': self.robot, 'status': self.status.value, 'reason': self.reason,
-                   'detail': self.detail, 'duration_s': self.duration_s,
-                   'elapsed_s': self.elapsed_s, 'steps': len(self.samples),
-                   'max_residual_N': self.max_residual(),
-                   'stalled': self.stalls(), 'provenance': self.provenance}
+                   'detail': self.detail}
+        tail = {'stalled': self.stalls(), 'duration_s': self.duration_s,
+                'elapsed_s': self.elapsed_s, 'steps': len(self.samples),
+                'max_residual_N': self.max_residual(), 'max_inertial_N': self.max_inertial(),
+                'provenance': self.provenance}
         if not self.ok or not self.samples:
             d.update({k: None for k in ('h_m', 'theta_b_deg', 'energy_mech_J',
-                                        'energy_elec_J')})
+                                        'energy_elec_J', 'distance_m', 'mean_speed_mps',
+                                        'h_mean_m')})
+            d.update(tail)
             return d
         last = self.samples[-1]
         d['h_m'] = last.z
@@ -123,6 +132,11 @@ class SimResult:
         d['distance_m'] = last.px - first.px
         d['mean_speed_mps'] = d['distance_m'] / self.duration_s if self.duration_s else 0.0
         d['h_mean_m'] = time_mean([s.t for s in self.samples], [s.z for s in self.samples])
+        phases = d.pop('phases')
+        start = d.pop('start')
+        d.update(tail)
+        d['start'] = start
+        d['phases'] = phases
         return d
 
     # ------------------------------------------------------------------------- files
@@ -135,14 +149,16 @@ class SimResult:
             w.writerow(['t_s', 'phase', 'mode', 'x_m', 'h_m', 'theta_b_rad', 'p_x_m', 'p_z_m']
                        + [f'q_{n}_rad' for n in legs] + [f'rate_{n}_rad_s' for n in legs]
                        + [f'torque_{n}_Nm' for n in legs] + [f'power_{n}_W' for n in legs]
-                       + [f'stalled_{n}' for n in legs] + ['residual_N', 'bridge_N'])
+                       + [f'stalled_{n}' for n in legs]
+                       + ['residual_N', 'bridge_N', 'inertial_N'])
             for s in self.samples:
                 w.writerow([repr(s.t), s.phase, s.mode, repr(s.x), repr(s.z), repr(s.theta_b),
                             repr(s.px), repr(s.pz)] + [repr(float(v)) for v in s.q]
                            + [repr(float(v)) for v in s.rates]
                            + [repr(float(v)) for v in s.torques]
                            + [repr(float(v)) for v in s.power]
-                           + [int(v) for v in s.stalled] + [repr(s.residual), repr(s.bridge)])
+                           + [int(v) for v in s.stalled]
+                           + [repr(s.residual), repr(s.bridge), repr(s.inertial)])
         return path
 
 

@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..conventions import G  # m/s^2
+from rftgls_conventions import G  # m/s^2
+
 from ..geometry.mesh import Facets, TriMesh
 from ..geometry.shapes import box
 from ..geometry.transforms import rot_y
@@ -107,6 +108,8 @@ class Multibody:
     weight is in mass). tether: the tether point p in B, m. dof_names: the commanded degrees
     of freedom in order (the presets: theta_l1, theta_l2). char_length: L_c of the scaled
     metric, m. leg_order names which leg is LH, LF, RH, RF for the walking gaits.
+    inertia: the robot's moment of inertia about y through its centre of mass, kg m^2 (it only
+    matters where the robot falls, balance.py).
     """
 
     name: str
@@ -120,6 +123,7 @@ class Multibody:
     char_length: float
     surface_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     leg_order: dict = field(default_factory=dict)
+    inertia: float = 0.0
     notes: dict = field(default_factory=dict, compare=False)
 
     @property
@@ -231,13 +235,15 @@ def from_preset(robot, pull='backward') -> Multibody:
     ends = np.array([[0.0, 0.0, 0.0], [robot.plate_length, 0.0, 0.0]])
     notes = dict(robot.notes)
     notes.update(plate_width_m='assumed', plate_thickness_m='assumed',
-                 leg_mass='in the body (legs massless)')
+                 leg_mass='in the body (legs massless)',
+                 inertia='assumed: the mass spread over the body plate, m (L^2 + t^2) / 12')
     return Multibody(
         name=robot.name, base=plate.facets(), base_mesh=plate, legs=tuple(legs),
         mass=robot.mass, com=np.array([robot.com[0], 0.0, robot.com[1]]),
         tether=np.zeros(3), dof_names=('theta_l1', 'theta_l2'), char_length=robot.char_length,
         surface_points=ends,
-        leg_order={'LH': 0, 'LF': 1, 'RH': 2, 'RF': 3}, notes=notes)
+        leg_order={'LH': 0, 'LF': 1, 'RH': 2, 'RF': 3}, notes=notes,
+        inertia=robot.mass * (robot.plate_length ** 2 + PLATE_THICKNESS ** 2) / 12.0)
 
 
 def dof_range(robot: Multibody, dof: int) -> tuple[float, float] | None:

@@ -1,23 +1,22 @@
-"""Root of the set-valued closure of RFT's wrench map: F(x) = 0 for a base twist x (3 unknowns).
+"""Root of RFT's set-valued closure: F(x) = 0 for a base twist x (3 unknowns).
 
-RFT's wrench jumps where a facet switches between trailing (no stress) and leading; at the
-switch the facet may carry any fraction of its leading stress, as Coulomb friction at zero
-slip (docs/design/closure.md). A root of the closure is a twist at which 0 is one of the
-wrenches those fractions give. On a MiniRQuad leg one facet carries ~0.1-0.3 N against a 2.9 N
-weight, so a pointwise root often does not exist: the balance sits on a jump.
+RFT's wrench jumps where a facet switches between trailing (no stress) and leading, and at
+rest a facet may carry any fraction of its stress; at the switch the facet may carry any
+fraction of its leading stress, as Coulomb friction at zero slip (docs/design/closure.md). On
+a MiniRQuad leg one facet carries ~0.1-0.3 N against a 2.9 N weight, so a pointwise root often
+does not exist: the balance sits on a jump.
 
-`closure_root` ramps each facet's switch over a width eps of n . v_hat (smooth.py: every
-value on the ramp is one the closure allows) and follows the root of that continuous map down
-a schedule of widths with Levenberg-Marquardt, each stage starting from the last. At the final
-width (1e-6 by default) the root is certified: |F_eps(x)| <= 1e-9 (x the weight), where F_eps
-differs from RFT only in facets within 1e-6 of their switch, which carry the fraction of their stress the
-closure needs. That is the equilibrium residual every step is held to. `pointwise` (|F| of
-the unramped map at x) and `bridge` (their difference) tell a root on a jump (bridge ~ one
-facet's force) from a smooth one (bridge ~ 0).
+`closure_root` solves the map with each jump ramped (evaluate.py: every value on a ramp is one
+the closure allows there) with Levenberg-Marquardt (forward-difference Jacobian; the plain
+Newton step first, damped ones where it fails), following the root down a schedule of ramp
+widths, each stage from the last. The root is certified on the last width: |F_eps(x)| <=
+`accept`. `pointwise` (|F| of the unramped map at x) and `bridge` (their difference) tell a
+root on a jump (bridge ~ one facet's force) from a smooth one (bridge ~ 0). This is the
+reference (and the path without numba) of affine_root.py, which runs the same steps compiled.
 
 f may return more columns than the three it balances (K, 3 + m): they ride along and come back
-at the root (`Root.extra`), so quantities read there (each part's wrench, the crane's force)
-are those of the closure point, consistent with the balance.
+at the root (`Root.extra`), so quantities read there (each part's wrench) are those of the
+closure point, consistent with the balance.
 """
 from __future__ import annotations
 
@@ -27,9 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 
 # Ramp widths (in n . v_hat) the root is followed down; the last is the certificate's.
-EPS_SCHEDULE = (3e-2, 1e-3, 3e-5, 1e-6)
-# |F_eps| (scaled) at which a root is accepted: Newton aims at its tol, round-off in the
-# forward differences of a map this steep (a facet's ramp is 1e-6 wide) stops it near 1e-11.
+EPS_SCHEDULE = (3e-2, 1e-3)
+# |F_eps| (scaled) at which a root is accepted: Newton aims at its tol; round-off in the
+# forward differences of a map this steep stops it near 1e-11.
 ACCEPT = 1e-9
 
 
@@ -51,11 +50,13 @@ class Root:
 
 
 def newton(f: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, tol: float,
-           fd_step: float = 1e-7, max_iter: int = 40) -> tuple[np.ndarray, float, int]:
+           fd_step: float = 1e-7, max_iter: int = 40, bound: float = np.inf
+           ) -> tuple[np.ndarray, float, int]:
     """Levenberg-Marquardt on f: (K, 3) -> (K, >= 3) (batched; the first three columns are
     balanced), forward-difference Jacobian: Newton where the Jacobian is well conditioned,
     damped toward gradient steps where it is not (rate independence makes two rows nearly
-    parallel when the twist barely turns). Returns (x, |f(x)|, evaluations)."""
+    parallel when the twist barely turns). Stops when |x| exceeds `bound` (a root at
+    infinity). Returns (x, |f(x)|, evaluations)."""
     x = np.asarray(x0, dtype=float).copy()
     eye = np.eye(3)
 
@@ -66,7 +67,7 @@ def newton(f: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, tol: float,
     nf = float(np.linalg.norm(fs[0]))
     mu = 1e-6
     for _ in range(max_iter):
-        if nf <= tol:
+        if nf <= tol or float(np.linalg.norm(x)) > bound:
             break
         fx = fs[0]
         jac = (fs[1:] - fx).T / fd_step
@@ -100,21 +101,31 @@ def newton(f: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, tol: float,
 
 
 def closure_root(f: Callable[[np.ndarray, float], np.ndarray], x0: np.ndarray, tol: float,
-                 eps: tuple[float, ...] = EPS_SCHEDULE, accept: float = ACCEPT) -> Root:
+                 eps: tuple[float, ...] = EPS_SCHEDULE, accept: float = ACCEPT,
+                 bound: float = np.inf) -> Root:
     """Root of RFT's closure near x0 (module doc). f(x, eps): (K, 3) -> (K, 3 + m), batched,
     the map with its jumps ramped over eps (smooth.py); f(x, 0) the exact map.
 
     Newton follows the smoothed root down the schedule `eps` (aiming at `tol`); converged when
-    the balanced columns are below `accept` at the last (smallest) eps.
+    the balanced columns are below `accept` at the last (smallest) eps. A root beyond
+    `bound` (|x|) is given up at once: not converged.
     """
     x = np.asarray(x0, dtype=float)
     calls = 0
-    for e in eps:
+    for k, e in enumerate(eps):
         scale = max(1.0, float(np.linalg.norm(x)))
-        x, nf, c = newton(lambda y, e=e: f(y, e), x, tol, fd_step=min(1e-7, 1e-3 * e) * scale)
+        # a wide ramp's root only seeds the next stage: solve it to a fraction of its width
+        stage_tol = tol if k == len(eps) - 1 else max(tol, 1e-2 * e)
+        x, nf, c = newton(lambda y, e=e: f(y, e), x, stage_tol,
+                          fd_step=min(1e-7, 1e-3 * e) * scale, bound=bound)
         calls += c
+        if float(np.linalg.norm(x)) > bound:
+            last = f(x[None, :], e)[0]
+            return Root(x, float(np.linalg.norm(last[:3])), np.inf, np.inf, e, False, calls + 1,
+                        last[3:])
     last = f(x[None, :], eps[-1])[0]
     exact = f(x[None, :], 0.0)[0]
     res = float(np.linalg.norm(last[:3]))
-    return Root(x, res, float(np.linalg.norm(exact[:3])), float(np.linalg.norm(exact[:3] - last[:3])),
-                eps[-1], bool(res <= accept), calls + 2, last[3:])
+    return Root(x, res, float(np.linalg.norm(exact[:3])),
+                float(np.linalg.norm(exact[:3] - last[:3])), eps[-1], bool(res <= accept),
+                calls + 2, last[3:])
