@@ -35,6 +35,7 @@ from .servo import XL330_M077_5V, ServoSpec
 
 # Commanded rates below this (rad/s; a degree in five hours) are a leg holding its reference.
 STILL = 1e-9
+SETTLE_STEP = 0.01   # s, the largest step while the robot settles
 
 
 @dataclass(frozen=True)
@@ -113,7 +114,8 @@ class Simulator:
                 raise SimulationStop(Status.UNSUPPORTED, 'no_rest',
                                      f'the robot does not come to rest on the sand within '
                                      f'{self.options.settle_time:g} s of being put down')
-            b = self._substep(self.options.dt, self.q, hold, 0.0, 0.0, 'settle', book=False)
+            b = self._substep(min(self.options.dt, SETTLE_STEP), self.q, hold, 0.0, 0.0,
+                              'settle', book=False)
             rests = rests + 1 if b.mode == 'rest' else 0
         self.t = 0.0
         self.samples.clear()
@@ -153,7 +155,8 @@ class Simulator:
                 f'time step {dt:.4g} s needs more than {self.options.max_substeps} steps to keep '
                 f'legs within {math.degrees(self.options.joint_step):.3g} deg and the body '
                 f'within {self.options.body_step * 1e3:.3g} mm per step (t = {self.t:.3f} s); '
-                'use a smaller dt')
+                'use a smaller dt (or the robot falls or slips on without stopping: a tug beyond '
+                'its anchor)')
 
     def _substep(self, dt_max: float, q_ref, ff, tension: float, phi: float, phase: str,
                  book: bool = True) -> Balance:
@@ -163,6 +166,11 @@ class Simulator:
         # a leg on its reference (to round-off of the sums that brought it there) holds
         cmd[np.abs(cmd) < STILL] = 0.0
         posed = self.robot.pose(self.pose, self.q)
+        if self.robot.base is None and posed.surface_min_z < -opt.contact_depth:
+            raise SimulationStop(Status.UNSUPPORTED, 'base_in_sand',
+                                 f'the base (no mesh: nothing resists it) is '
+                                 f'{-posed.surface_min_z * 1e3:.1f} mm in the sand at '
+                                 f't = {self.t:.3f} s')
         load = posed.gravity + tether_wrench(tension, phi)
         # the step length first (from the last twist and the commands), then the balance of
         # that step; a twist that would overrun body_step shortens the step and is solved again

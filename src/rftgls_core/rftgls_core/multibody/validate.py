@@ -2,9 +2,10 @@
 
 - a joint outside its range: a leg whose joint has limits (robot.Leg.limits: URDF revolute
   joints narrower than a full turn) may not be sent outside them at any instant of the gait;
-- a leg through the body: no leg point may enter the base's mesh at any instant (the legs'
-  angles relative to the base are the gait's alone, so this is checked in the base frame,
-  sampled every `sample_deg` of the fastest leg's travel).
+- a leg through the body: no leg point may enter the base's mesh at any instant, except the
+  points inside it where the gait starts (where the leg is fastened: a servo horn in the
+  body). The legs' angles relative to the base are the gait's alone, so this is checked in the
+  base frame, sampled every `sample_deg` of the fastest leg's travel.
 """
 from __future__ import annotations
 
@@ -50,13 +51,20 @@ def check_gait(robot: Multibody, gait) -> None:
     if mesh is None:
         return
     lo_b, hi_b = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+
+    def inside(pts: np.ndarray) -> np.ndarray:
+        near = np.flatnonzero(np.all((pts > lo_b) & (pts < hi_b), axis=1))
+        out = np.zeros(len(pts), dtype=bool)
+        for j in near:
+            out[j] = winding_number(mesh.vertices, mesh.faces, pts[j]) > INSIDE
+        return out
+    fastened = [inside(robot.leg_points_in_base(i, float(qs[0, i])))
+                for i in range(len(robot.legs))]
     for k, t in enumerate(ts):
         for i, leg in enumerate(robot.legs):
             pts = robot.leg_points_in_base(i, float(qs[k, i]))
-            near = np.all((pts > lo_b) & (pts < hi_b), axis=1)
-            for p in pts[near]:
-                if winding_number(mesh.vertices, mesh.faces, p) > INSIDE:
-                    raise GaitError(f'the gait drives leg {leg.name} through the body at '
-                                    f't = {t:.2f} s (joint at {math.degrees(qs[k, i]):.1f} deg: '
-                                    f'point {np.round(p * 1e3, 1).tolist()} mm of the base '
-                                    'frame is inside the base)')
+            for p in pts[inside(pts) & ~fastened[i]]:
+                raise GaitError(f'the gait drives leg {leg.name} through the body at '
+                                f't = {t:.2f} s (joint at {math.degrees(qs[k, i]):.1f} deg: '
+                                f'point {np.round(p * 1e3, 1).tolist()} mm of the base frame '
+                                'is inside the base)')
