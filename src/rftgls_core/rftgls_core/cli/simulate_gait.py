@@ -45,6 +45,11 @@ def add_parsers(sub) -> None:
                    help='stance centre as theta_L, deg (MiniRHex\'s 20 deg, turned forward)')
     w.add_argument('--direction', type=int, choices=(1, -1), default=1)
     w.set_defaults(run=run_walk)
+    s = sub.add_parser('sensitivity', help='each prediction compared with the paper, with one '
+                       'input changed at a time (JSON and a chart)')
+    s.add_argument('--out', required=True, help='folder for sensitivity.json and .png')
+    s.add_argument('--no-walk', action='store_true', help='burrows only (faster)')
+    s.set_defaults(run=run_sensitivity)
 
 
 def _robot_args(p) -> None:
@@ -182,3 +187,16 @@ def _print(s: dict) -> None:
           f"{s['energy_mech_J']:.3f} J; stalls {len(s['stalled'])}")
     print(f"  {s['steps']} steps in {s['elapsed_s']:.2f} s; largest balance residual "
           f"{s['max_residual_N']:.2g} N, inertial {s['max_inertial_N']:.2g} N")
+
+
+def run_sensitivity(args) -> int:
+    from ..charts.sensitivity import plot_sensitivity
+    from ..multibody.sensitivity import run_sweeps
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    data = run_sweeps(walk=not args.no_walk,
+                      progress=lambda what: print(f'sensitivity: {what}', file=sys.stderr))
+    (out / 'sensitivity.json').write_text(json.dumps(_jsonable(data), indent=1) + '\n')
+    plot_sensitivity(data, out / 'sensitivity.png')
+    print(f'wrote {out / "sensitivity.json"} and {out / "sensitivity.png"}')
+    return 0

@@ -1,0 +1,82 @@
+"""One-at-a-time sensitivity of the predictions compared with the paper (Table II's h and
+theta_B of DH, DL and SH, the burrow energy ratios DH/SH and DL/SH, the walking distance in
+8 s) to the inputs that are not the paper's: the medium (xi_n, mu_surf), the servo's stall
+torque, the leg mesh, and the C-legs' orientation (which way the C opens is not in the
+paper). Nothing is fitted: every run uses the preset, the datasheet and the geometry, with one
+input changed. `rftgls simulate sensitivity --out DIR` regenerates the JSON and the chart.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+
+from ..rft.media import get_medium
+from ..robots.presets import get_robot
+from .gaits import BurrowGait, WalkGait
+from .robot import from_preset
+from .servo import XL330_M077_5V
+from .simulate import Simulator
+
+TABLE_II = {'DH': ((-75.0, -50.0), (-40.0, 30.0), 5.0, 0.034),
+            'DL': ((-75.0, -50.0), (-40.0, 0.0), 8.9, 0.036),
+            'SH': ((-40.0, -20.0), (-40.0, 30.0), 2.4, 0.047)}
+PAPER_RATIOS = {'DH/SH': 1.32, 'DL/SH': 1.26}
+PAPER_WALK_M = 1.0 / 3.0      # ~1 m over three 8 s walks (Fig. 12)
+
+# (label, parameter, values): the nominal run is shared; each value changes one input.
+SWEEPS = (
+    ('xi_n x', 'xi_scale', (0.5, 0.71, 1.41, 2.0)),
+    ('mu_surf', 'mu_surf', (0.1, 0.25, 0.55, 0.7)),
+    ('stall torque, N m', 'stall', (0.172, 0.18, 0.228, 0.258)),
+    ('arc segments', 'n_arc', (12, 48)),
+    ('C-leg orientation', 'pull', ('forward',)),
+)
+NOMINAL = {'xi_scale': 1.0, 'mu_surf': 0.4, 'stall': 0.215, 'n_arc': 24, 'pull': 'backward'}
+
+
+def predictions(params: dict, walk: bool = True) -> dict:
+    """Every prediction for one set of inputs (NOMINAL with some replaced)."""
+    p = {**NOMINAL, **params}
+    base = get_medium('m90_sand')
+    medium = dataclasses.replace(base, name=f'm90_sand x{p["xi_scale"]:g}',
+                                 xi_n=base.xi_n * p['xi_scale'], zeta=base.zeta * p['xi_scale'],
+                                 mu_surf=p['mu_surf'])
+    servo = XL330_M077_5V.scaled(p['stall'] / XL330_M077_5V.stall_torque)
+    robot = from_preset(get_robot('minirquad', int(p['n_arc'])), p['pull'])
+    out: dict = {'params': p}
+    for mode, (retract, final, _, _) in TABLE_II.items():
+        gait = BurrowGait(robot, (0.0, 0.0), tuple(map(math.radians, retract)),
+                          tuple(map(math.radians, final)))
+        res = Simulator(robot, medium, servo).run(gait)
+        s = res.summary()
+        out[mode] = {k: s.get(k) for k in ('h_m', 'theta_b_deg', 'energy_elec_J',
+                                           'energy_mech_J', 'status', 'reason')}
+        out[mode]['stalls'] = len(s['stalled'])
+    e_sh = out['SH']['energy_elec_J']
+    for key in PAPER_RATIOS:
+        mode = key.split('/')[0]
+        e = out[mode]['energy_elec_J']
+        out[key] = e / e_sh if e is not None and e_sh else None
+    if walk:
+        s = Simulator(robot, medium, servo).run(WalkGait(robot, duration=8.0)).summary()
+        out['walk'] = {k: s.get(k) for k in ('distance_m', 'h_mean_m', 'energy_elec_J',
+                                             'status', 'reason')}
+    return out
+
+
+def run_sweeps(walk: bool = True, progress: Callable[[str], None] | None = None) -> dict:
+    """The nominal predictions and one run per swept value."""
+    if progress:
+        progress('nominal')
+    data = {'nominal': predictions({}, walk), 'sweeps': []}
+    for label, key, values in SWEEPS:
+        for v in values:
+            if progress:
+                progress(f'{label} = {v}')
+            data['sweeps'].append({'label': label, 'param': key, 'value': v,
+                                   'result': predictions({key: v}, walk)})
+    data['paper'] = {'table_ii': {m: {'theta_b_deg': t[2], 'h_m': t[3]}
+                                  for m, t in TABLE_II.items()},
+                     'energy_ratios': PAPER_RATIOS, 'walk_m_per_8s': PAPER_WALK_M}
+    return data
