@@ -30,6 +30,7 @@ from .firmware_link import FirmwareLinkError
 from .firmware_mcu import FirmwareMcu
 from .ground import make_ground
 from .mcu import McuConfig, SimMcu
+from .physics import PhysicsBody
 from .plant import MotorWinch, PlantRobot
 from .pty_link import LinkPathError, PtyLink
 from .robot import SimRobot
@@ -64,6 +65,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help='s the link keeps being served after SIGINT/SIGTERM')
     p.add_argument('--duration', type=float, default=0.0, help='exit after this many s')
     t = p.add_argument_group('true ground (what the sand really holds; the stack never sees it)')
+    t.add_argument('--body', choices=('physics', 'scripted'), default='physics',
+                   help='physics: the legs, body and sand of rftgls_core\'s whole-robot '
+                        'simulation on the true robot and medium below (default); scripted: '
+                        'the body scripted to Table II\'s poses, the anchor from --ground')
     t.add_argument('--ground', choices=('live', 'map', 'table'), default='live',
                    help='live: rftgls_core solver (default); map: the shipped map the stack '
                         'predicts with; table: placeholder')
@@ -262,15 +267,30 @@ def _make_mcu(args: argparse.Namespace, ground, config: McuConfig, start: float,
     the host's commands itself: no command log)."""
     if args.mcu == 'firmware':
         return FirmwareMcu(robot_factory=lambda: PlantRobot(
-            ground=ground, winch=MotorWinch(sled_mass=args.sled_mass)),
+            ground=ground, winch=MotorWinch(sled_mass=args.sled_mass), physics=_physics(args)),
             config=config, on_telemetry=on_telemetry, now=start, binary=args.firmware)
     return SimMcu(robot_factory=lambda: SimRobot(ground=ground,
-                                                 winch=WinchSled(sled_mass=args.sled_mass)),
+                                                 winch=WinchSled(sled_mass=args.sled_mass),
+                                                 physics=_physics(args)),
                   config=config, on_telemetry=on_telemetry, now=start, on_command=on_command)
 
 
+def _physics(args: argparse.Namespace) -> PhysicsBody | None:
+    """A freshly powered robot's body (at start and at every MCU reset), or None for the
+    scripted body."""
+    if args.body != 'physics':
+        return None
+    return PhysicsBody(robot=args.true_robot, anchor=args.anchor, medium=args.true_medium,
+                       medium_scale=args.true_medium_scale, mass_scale=args.true_mass_scale)
+
+
 def _ground(args: argparse.Namespace):
-    """The true ground, built once so its cache outlives MCU resets."""
+    """The true ground, built once so its cache outlives MCU resets (the scripted body's)."""
+    if args.body == 'physics':
+        PhysicsBody(robot=args.true_robot, anchor=args.anchor, medium=args.true_medium,
+                    medium_scale=args.true_medium_scale,
+                    mass_scale=args.true_mass_scale)   # bad options fail here, before the link
+        return make_ground('table')
     if args.ground != 'live':
         return make_ground(args.ground)
     ground = make_ground('live', robot=args.true_robot, medium=args.true_medium,

@@ -2,8 +2,14 @@
 
 Sagittal model in the architecture's frames: world z up, surface z = 0; p (the winch point,
 at the rear of the body) at (x_p, h); body pitch theta_b positive nose up; legs measured from
--z_B, positive forward. Quasi-static: no body dynamics beyond the prescribed burrow motion
-and the anchor slip.
+-z_B, positive forward.
+
+Two bodies. With ``physics`` (a physics.PhysicsBody, what the simulator runs: ``--body
+physics``, the default) the legs track the MCU's references against the sand and the body
+moves as rftgls_core's whole-robot simulation makes it; the pose, the torques and the power
+emerge. Without it (the default of this class, kept for the behaviour tests that need a fast,
+scripted plant) the body is scripted: walking at ``walk_speed``, burrowing to Table II's mean
+pose, power from the calibrated ``PowerModel``, the anchor from ``ground``.
 
 Geometry numbers the paper does not give are assumptions, named in ``Geometry``.
 """
@@ -14,18 +20,22 @@ from dataclasses import dataclass, field
 
 from minirquad_driver.protocol.messages import BurrowMode, Flag, GaitKind, Mode
 from rftgls_conventions import G, tether_direction_xz
+from rftgls_core.multibody.gaits import BURROW_DWELL
+from rftgls_core.multibody.gaits import DEFAULT_BURROW_SPEED as BURROW_SPEED
 from rftgls_core.predictor import Predictor
 from rftgls_core.types import AnchorState
 
 from .burrow import TABLE_II
 from .gait import BuehlerClock, wrap_angle
 from .ground import default_ground, slip_per_m
+from .physics import PhysicsBody
 from .power import PowerModel
 from .servo import Servo
 from .winch import WinchSled
 
 PROXIMAL = (0, 1)
 DISTAL = (2, 3)
+BODY_ORDER = (0, 2, 1, 3)   # servo index of each of the physics body's legs (physics.py)
 
 
 @dataclass(frozen=True)
@@ -41,8 +51,8 @@ class Geometry:
     h_walk: float = 0.060
     walk_speed: float = 0.03      # m/s of body travel while walking (assumption)
     walk_leg_speed: float = 8.0   # servo speed limit in the air / walking, rad/s
-    burrow_leg_speed: float = 1.0 # servo speed limit while burrowing in sand, rad/s
-    settle_time: float = 0.5      # s held at the retracting pose before the final move
+    burrow_leg_speed: float = BURROW_SPEED  # servo slew while burrowing, rad/s (assumption)
+    settle_time: float = BURROW_DWELL       # s held at the retracting pose (assumption)
 
     def tip_depth(self, leg: int, h: float, theta_b: float, theta_l: float) -> float:
         """Depth (m, >= 0) of a leg tip below the surface; straight hub-to-tip model."""
@@ -65,9 +75,11 @@ class SimRobot:
     power_model: PowerModel = field(default_factory=PowerModel)
     winch: WinchSled = field(default_factory=WinchSled)
     mass: float = 0.296
+    physics: PhysicsBody | None = None
 
     def __post_init__(self) -> None:
         self.servos = [Servo(max_speed=self.geometry.walk_leg_speed) for _ in range(4)]
+        self.leg_rates = [0.0] * 4
         self.x_p = 0.0
         self.h = self.geometry.h_walk
         self.theta_b = 0.0
@@ -88,6 +100,10 @@ class SimRobot:
         self._span = 0.0             # leg distance to go when the current burrow phase began
         self._reached_at: float | None = None   # phase time the retract pose was reached
         self._unburrowing = False
+        self._rope = (0.0, 0.0)      # tension (N) and angle (rad) the tether last pulled with
+        if self.physics is not None:
+            self.physics.place(self._to_body([s.angle for s in self.servos]))
+            self.x_p, self.h, self.theta_b = self.physics.pose
 
     # ------------------------------------------------------------------ commands
     def set_legs(self, targets, mask: int = 0x0F) -> None:
@@ -165,7 +181,18 @@ class SimRobot:
 
     # ------------------------------------------------------------------ physics
     def leg_angles(self) -> list[float]:
+        """Each leg's angle as its encoder reads it, rad in (-pi, pi] (PL, PR, DL, DR)."""
+        if self.physics is not None:
+            return [wrap_angle(a) for a in self._from_body(self.physics.q)]
         return [wrap_angle(s.angle) for s in self.servos]
+
+    @staticmethod
+    def _to_body(values) -> list[float]:
+        """Servo order (PL, PR, DL, DR) -> the body's legs (left proximal, left distal, right
+        proximal, right distal); the same swap maps back."""
+        return [values[i] for i in BODY_ORDER]
+
+    _from_body = _to_body
 
     def anchor_state(self) -> AnchorState:
         a = self.leg_angles()
@@ -184,6 +211,10 @@ class SimRobot:
         self._drive_legs()
         for s in self.servos:
             s.step(dt)
+        if self.physics is not None:
+            self._step_physics(dt)
+            self.pitch_rate = (self.theta_b - theta_b0) / dt
+            return
         self._move_body(dt)
         self._resolve_rope(dt)
         self.pitch_rate = (self.theta_b - theta_b0) / dt
@@ -191,6 +222,44 @@ class SimRobot:
         winch = self.power_model.winch_power(self.winch.tension, self.winch.spool_velocity,
                                              self.winch.stalled)
         self.power = self.power_model.p_idle + legs + winch
+
+    def _step_physics(self, dt: float) -> None:
+        """The legs track the servos' references against the sand; the body, the rope and the
+        power follow (module doc)."""
+        body = self.physics
+        assert body is not None
+        x0 = self.x_p
+        tension, phi = self._rope
+        if self.estop or self.watchdog:
+            tension = 0.0 if self.winch.command == 0.0 else tension
+        mode = self.reported_mode().name.lower()
+        if body.advance(dt, self._to_body([s.angle for s in self.servos]),
+                        self._to_body([s.velocity for s in self.servos]),
+                        self._to_body([s.target for s in self.servos]), tension, phi, mode):
+            self.x_p, self.h, self.theta_b = body.pose
+            self.leg_rates = self._from_body(list(body.rates))
+        w = self.winch
+        if self.estop or self.watchdog:
+            w.command = 0.0
+        w.reel(dt)
+        dist, phi = w.geometry(self.x_p, self.h)
+        demand = w.rope_k * max(0.0, dist - w.free_length())
+        w.sled_moving = False
+        if demand > w.sled_friction:
+            # The sled slides toward p until the rope stretch matches its friction.
+            excess = (demand - w.sled_friction) / w.rope_k
+            dx, dz = self.x_p - w.sled_x, self.h - w.sled_z
+            w.sled_x += excess * dx / max(math.hypot(dx, dz), 1e-9)
+            demand = w.sled_friction
+            w.sled_moving = True
+        w.tension = demand
+        self._rope = (demand, phi)
+        if self._unburrowing and all(abs(s.target - s.angle) < 1e-3 for s in self.servos):
+            self._unburrowing = False
+        # the anchor gives way: p dragged toward the sled while the rope pulls
+        self.slipping = demand > 0.0 and self.x_p - x0 < -1e-5
+        winch = self.power_model.winch_power(w.tension, w.spool_velocity, w.stalled)
+        self.power = self.power_model.p_idle + body.elec_W + winch
 
     def _drive_legs(self) -> None:
         if self.mode == Mode.WALKING and self.clocks:

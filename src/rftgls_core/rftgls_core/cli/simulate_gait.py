@@ -63,6 +63,9 @@ def _robot_args(p) -> None:
                    help='C-leg mesh segments along the arc (presets; default 24)')
     p.add_argument('--stall-torque', type=finite_float, default=None,
                    help='servo stall torque, N m (default: the XL330-M077-T datasheet, 0.215)')
+    p.add_argument('--sled', type=finite_float, default=None, metavar='KG',
+                   help='tie p to a sled of this mass lying 0.5 m behind, the rope just taut '
+                        'at the start (multibody/sled.py; default: no rope)')
     p.add_argument('--dt', type=finite_float, default=0.02, help='largest time step, s')
     p.add_argument('--json', action='store_true', help='print the summary as JSON')
     p.add_argument('--out', help='folder for trajectory.csv, summary.json and a plot')
@@ -99,7 +102,12 @@ def build(args):
     if not (args.dt > 0.0 and args.dt <= args.duration):
         raise ValueError(f'--dt must be in (0, --duration], got {args.dt}')
     medium = medium_from_args(args)
-    return robot, Simulator(robot, medium, servo, SimOptions(dt=args.dt), model=args.model)
+    sled = None
+    if args.sled is not None:
+        from ..multibody.sled import Sled
+        sled = Sled(args.sled)
+    return robot, Simulator(robot, medium, servo, SimOptions(dt=args.dt), model=args.model,
+                            sled=sled)
 
 
 def run_burrow(args) -> int:

@@ -46,9 +46,11 @@ RESIDUAL_TOL = 1e-8
 # then from restarts around the last twist (a flat face of the base switches all its facets
 # at once: a jump the size of the face's force, with local minima of |residual| beside it).
 # The last width of a schedule is the closure the balance is certified on: a facet within
-# that distance of its leading/trailing switch in n . v_hat (1e-3: 0.06 deg; 1e-2: 0.6 deg;
-# the C-leg's neighbouring facets differ by 7.5 deg) carries a fraction of its stress.
-EPS = ((1e-3,), (3e-2, 1e-3), (1e-2,))
+# that distance of its leading/trailing switch in n . v_hat (1e-4: 0.006 deg; 1e-3: 0.06 deg;
+# 1e-2: 0.6 deg; the C-leg's neighbouring facets differ by 7.5 deg) carries a fraction of its
+# stress. A facet sitting right on a switch makes one width's |residual| a local minimum that
+# another width does not have, hence several widths from the last twist.
+EPS = ((1e-3,), (3e-2, 1e-3), (1e-2,), (1e-4,))
 RESTARTS = 8
 STALL_ITERATIONS = 4
 MIN_FRACTION = 1e-3    # a leg slowed below this fraction of its command stalls
@@ -147,7 +149,7 @@ def step_balance(posed: PosedMultibody, model: StressModel, rates: np.ndarray, l
     last = np.asarray(xi_prev, dtype=float) / ts
     falling = (xi_prev + dt * np.linalg.solve(mm, load)) / ts
     tries = [(last, EPS[0]), (np.zeros(3), EPS[0]), (falling, EPS[0]), (last, EPS[1]),
-             (np.zeros(3), EPS[1])]
+             (np.zeros(3), EPS[1]), (last, EPS[2]), (last, EPS[3])]
     rng = np.random.default_rng(0)      # restarts: the same ones every run
     spread = 0.3 * max(1.0, float(np.linalg.norm(last)))
     tries += [(last + spread * rng.normal(size=3), e) for _ in range(RESTARTS)

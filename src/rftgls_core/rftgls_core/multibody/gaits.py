@@ -6,11 +6,11 @@ the tether's tension and angle, and the name of its phase (energy is summed per 
 servos then track the reference as far as their torque allows (simulate.py).
 
 - BurrowGait: the paper's burrowing sequence (sec. VI-B, Fig. 2): from standing to the
-  "retracting" pose, then to the "final" pose, then holding until the 8 s the paper measures
-  over. Each move runs every degree of freedom linearly in time so that all arrive together,
-  the one with the longest travel at `speed`. The paper gives no timing: the default speed is
-  the slow-arc speed of MiniRHex's walking clock (40 deg in 0.42 x 2 s = 47.6 deg/s), the
-  firmware's own pace for a leg pushing on the ground.
+  "retracting" pose, a pause, then to the "final" pose, then holding until the 8 s the paper
+  measures over. Each leg slews to its target at `speed` on its own, as a position-controlled
+  servo does, so a leg with less to travel arrives first (the simulated firmware's burrow:
+  src/minirquad_sim). The paper gives no timing: speed 1 rad/s and a 0.5 s pause are
+  assumptions (the simulated firmware's), varied in the docs.
 - WalkGait: the Buehler clock MiniRHex walks with (the driver's sim models the same clock),
   one clock per leg: a slow stance arc of `sweep` centred on `down` during duty x period,
   recovery through the rest of the turn. MiniRHex's walk: period 2 s, duty 0.42, sweep 40 deg,
@@ -32,8 +32,9 @@ import numpy as np
 from .robot import Multibody
 
 TWO_PI = 2.0 * math.pi
-DEFAULT_BURROW_SPEED = math.radians(40.0) / (0.42 * 2.0)   # rad/s, MiniRHex stance speed
-BURROW_WINDOW = 8.0                                         # s, the paper's burrow window
+DEFAULT_BURROW_SPEED = 1.0   # rad/s, each leg's slew while burrowing (assumption)
+BURROW_DWELL = 0.5           # s at the retracting pose before the final move (assumption)
+BURROW_WINDOW = 8.0          # s, the paper's burrow window
 AMBLE = {'LH': 0.0, 'LF': 0.25, 'RH': 0.5, 'RF': 0.75}
 
 
@@ -43,14 +44,15 @@ class GaitError(ValueError):
 
 @dataclass(frozen=True)
 class BurrowGait:
-    """stand, retract, final: one joint value per degree of freedom (rad). speed: the rate
-    of the degree of freedom with the longest travel in each move, rad/s. duration: s."""
+    """stand, retract, final: one joint value per degree of freedom (rad). speed: each
+    degree of freedom's slew rate, rad/s. dwell: pause at the retracting pose, s. duration: s."""
 
     robot: Multibody
     stand: tuple[float, ...]
     retract: tuple[float, ...]
     final: tuple[float, ...]
     speed: float = DEFAULT_BURROW_SPEED
+    dwell: float = BURROW_DWELL
     duration: float = BURROW_WINDOW
 
     def __post_init__(self) -> None:
@@ -62,34 +64,45 @@ class BurrowGait:
                                 f'({", ".join(self.robot.dof_names)}), got {v}')
         if not (math.isfinite(self.speed) and self.speed > 0.0):
             raise GaitError(f'burrow speed must be a positive rate, got {self.speed}')
+        if not (math.isfinite(self.dwell) and self.dwell >= 0.0):
+            raise GaitError(f'dwell must be >= 0 s, got {self.dwell}')
         if not (math.isfinite(self.duration) and self.duration > 0.0):
             raise GaitError(f'duration must be positive, got {self.duration}')
-        if self.knots()[-1] > self.duration + 1e-12:
-            raise GaitError(f'the burrow needs {self.knots()[-1]:.2f} s at '
+        if self._moves()[4] > self.duration + 1e-12:
+            raise GaitError(f'the burrow needs {self._moves()[4]:.2f} s at '
                             f'{math.degrees(self.speed):.1f} deg/s, more than the '
                             f'{self.duration:.2f} s window')
 
     def _moves(self):
         a, b, c = (np.asarray(x, dtype=float) for x in (self.stand, self.retract, self.final))
         t1 = float(np.max(np.abs(b - a))) / self.speed
-        t2 = t1 + float(np.max(np.abs(c - b))) / self.speed
-        return a, b, c, t1, t2
+        t2 = t1 + self.dwell
+        t3 = t2 + float(np.max(np.abs(c - b))) / self.speed
+        return a, b, c, t1, t3
 
     def knots(self) -> list[float]:
-        _, _, _, t1, t2 = self._moves()
-        return [0.0, t1, t2]
+        a, b, c, t1, t3 = self._moves()
+        t2 = t1 + self.dwell
+        ends = [float(v) / self.speed for v in np.abs(b - a)]
+        ends += [t2 + float(v) / self.speed for v in np.abs(c - b)]
+        return sorted({0.0, t1, t2, t3, *ends})
 
     def phase(self, t: float) -> str:
-        _, _, _, t1, t2 = self._moves()
-        return 'retract' if t < t1 else 'final' if t < t2 else 'hold'
+        _, _, _, t1, t3 = self._moves()
+        return ('retract' if t < t1 else 'dwell' if t < t1 + self.dwell else
+                'final' if t < t3 else 'hold')
 
     def dof_reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        a, b, c, t1, t2 = self._moves()
-        if t < t1:
-            return a + (b - a) * (t / t1), (b - a) / t1
+        a, b, c, t1, t3 = self._moves()
+        t2 = t1 + self.dwell
         if t < t2:
-            return b + (c - b) * ((t - t1) / (t2 - t1)), (c - b) / (t2 - t1)
-        return c.copy(), np.zeros_like(c)
+            frm, to, tau = a, b, t
+        else:
+            frm, to, tau = b, c, t - t2
+        step = to - frm
+        done = np.abs(step) <= self.speed * tau
+        q = np.where(done, to, frm + np.sign(step) * self.speed * tau)
+        return q, np.where(done, 0.0, np.sign(step) * self.speed)
 
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(joint values, rates) per leg at t."""

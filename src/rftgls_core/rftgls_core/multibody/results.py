@@ -152,13 +152,15 @@ class SimResult:
                        + [f'stalled_{n}' for n in legs]
                        + ['residual_N', 'bridge_N', 'inertial_N'])
             for s in self.samples:
-                w.writerow([repr(s.t), s.phase, s.mode, repr(s.x), repr(s.z), repr(s.theta_b),
-                            repr(s.px), repr(s.pz)] + [repr(float(v)) for v in s.q]
+                # repr of a float: the shortest text that reads back to the same number
+                w.writerow([repr(float(s.t))] + [s.phase, s.mode]
+                           + [repr(float(v)) for v in (s.x, s.z, s.theta_b, s.px, s.pz)]
+                           + [repr(float(v)) for v in s.q]
                            + [repr(float(v)) for v in s.rates]
                            + [repr(float(v)) for v in s.torques]
                            + [repr(float(v)) for v in s.power]
                            + [int(v) for v in s.stalled]
-                           + [repr(s.residual), repr(s.bridge), repr(s.inertial)])
+                           + [repr(float(v)) for v in (s.residual, s.bridge, s.inertial)])
         return path
 
 

@@ -32,9 +32,11 @@ from .energy import EnergyMeter
 from .results import Sample, SimResult
 from .robot import BasePose, Multibody
 from .servo import XL330_M077_5V, ServoSpec
+from .sled import Rope, Sled
 
-# Commanded rates below this (rad/s; a degree in five hours) are a leg holding its reference.
-STILL = 1e-9
+# Goal velocities below half the Dynamixel's velocity unit (0.229 rev/min = 0.024 rad/s; the
+# XL330 control table) command no motion.
+STILL = 0.5 * 0.229 * 2.0 * math.pi / 60.0
 SETTLE_STEP = 0.01   # s, the largest step while the robot settles
 
 
@@ -50,7 +52,7 @@ class SimOptions:
     dt: float = 0.02
     joint_step: float = math.radians(1.0)
     body_step: float = 5e-4
-    max_substeps: int = 64
+    max_substeps: int = 256
     kp: float = 3.0
     creep: float = 1e-5
     contact_depth: float = 1e-3
@@ -81,7 +83,7 @@ class Simulator:
 
     def __init__(self, robot: Multibody, medium: Medium, servo: ServoSpec = XL330_M077_5V,
                  options: SimOptions | None = None, model: str = 'agarwal',
-                 backend: str = 'auto'):
+                 backend: str = 'auto', sled: Sled | None = None):
         self.robot = robot
         self.medium = medium
         self.servo = servo
@@ -95,6 +97,8 @@ class Simulator:
         self.t = 0.0
         self.xi = np.zeros(3)
         self.last: Balance | None = None
+        self.sled = sled
+        self.rope: Rope | None = None     # tied when the robot has settled (place)
 
     # ------------------------------------------------------------------ placing
     def place(self, q: np.ndarray, theta_b: float = 0.0, x: float = 0.0) -> None:
@@ -117,6 +121,9 @@ class Simulator:
             b = self._substep(min(self.options.dt, SETTLE_STEP), self.q, hold, 0.0, 0.0,
                               'settle', book=False)
             rests = rests + 1 if b.mode == 'rest' else 0
+        if self.sled is not None:
+            p = self.tether_point()
+            self.rope = Rope(self.sled, float(p[0]), float(p[2]))
         self.t = 0.0
         self.samples.clear()
         self._record('start', 'start', b)
@@ -143,12 +150,15 @@ class Simulator:
     def step(self, dt: float, gait) -> None:
         """Advance dt seconds (substepped for accuracy) along the gait's references."""
         end = self.t + dt
+        knots = [k for k in gait.knots() if self.t + 1e-12 < k < end - 1e-12]
         for _ in range(self.options.max_substeps):
             if self.t >= end - 1e-12:
                 return
             q_ref, ff = gait.reference(self.t)
             tension, phi = gait.tether(self.t)
-            self._substep(end - self.t, q_ref, ff, tension, phi, gait.phase(self.t))
+            # no step crosses a corner of the references (a leg reaching its target)
+            nxt = min([k for k in knots if k > self.t + 1e-12] + [end])
+            self._substep(nxt - self.t, q_ref, ff, tension, phi, gait.phase(self.t))
         if self.t < end - 1e-12:
             raise SimulationStop(
                 Status.INVALID_INPUT, 'step_too_coarse',
@@ -163,7 +173,8 @@ class Simulator:
         opt = self.options
         cmd = np.asarray(ff, dtype=float) + opt.kp * (np.asarray(q_ref) - self.q)
         cmd = np.clip(cmd, -self.servo.no_load_speed, self.servo.no_load_speed)
-        # a leg on its reference (to round-off of the sums that brought it there) holds
+        # the servo turns a goal velocity below half its unit into none: a leg that close to
+        # its reference holds (and a slow tail of the position loop ends)
         cmd[np.abs(cmd) < STILL] = 0.0
         posed = self.robot.pose(self.pose, self.q)
         if self.robot.base is None and posed.surface_min_z < -opt.contact_depth:
@@ -172,6 +183,9 @@ class Simulator:
                                  f'{-posed.surface_min_z * 1e3:.1f} mm in the sand at '
                                  f't = {self.t:.3f} s')
         load = posed.gravity + tether_wrench(tension, phi)
+        if self.rope is not None:
+            p = self.tether_point()
+            load = load + tether_wrench(*self.rope.pull(float(p[0]), float(p[2])))
         # the step length first (from the last twist and the commands), then the balance of
         # that step; a twist that would overrun body_step shortens the step and is solved again
         dt = self._step_length(dt_max, posed, cmd, self.xi)
@@ -217,8 +231,12 @@ class Simulator:
         return max(dt, dt_max / 2 ** 20)
 
     # ------------------------------------------------------------------ records
+    def tether_point(self) -> np.ndarray:
+        """p in world axes, m."""
+        return self.pose.origin + self.pose.rotation @ self.robot.tether
+
     def _record(self, phase: str, mode: str, b: Balance, power=None) -> None:
-        p = self.pose.origin + self.pose.rotation @ self.robot.tether
+        p = self.tether_point()
         n = len(self.q)
         self.samples.append(Sample(
             self.t, phase, mode, self.pose.x, self.pose.z, self.pose.theta_b, float(p[0]),
@@ -239,10 +257,13 @@ class Simulator:
         out = [f'medium {self.medium.name} (literature estimate)']
         out += [f'robot {k}' for k, v in self.robot.notes.items() if 'assum' in str(v)]
         out += [f'servo {k}' for k, v in self.servo.sources if 'assum' in v]
+        if self.sled is not None:
+            out += ['sled friction, distance and rope stiffness']
         return out
 
     def provenance(self) -> dict:
         return {'medium': self.medium.to_dict(), 'rft_model': self.model.describe(),
                 'servo': self.servo.describe(), 'robot': self.robot.describe(),
                 'options': {k: getattr(self.options, k) for k in
-                            self.options.__dataclass_fields__}}
+                            self.options.__dataclass_fields__},
+                'sled': None if self.sled is None else self.sled.describe()}
