@@ -7,7 +7,6 @@ import math
 import numpy as np
 import pytest
 
-from rftgls_core.anchor import AnchorModel
 from rftgls_core.description import load_description
 from rftgls_core.geometry.mesh import Facets
 from rftgls_core.multibody import balance
@@ -18,6 +17,7 @@ from rftgls_core.multibody.robot import BasePose, from_preset
 from rftgls_core.multibody.simulate import STILL, SimOptions, Simulator
 from rftgls_core.multibody.sled import Rope, Sled
 from rftgls_core.multibody.validate import check_gait
+from rftgls_core.predictor import PredictorSpec, build_predictor
 from rftgls_core.rft.engine import BuriedBody
 from rftgls_core.rft.media import get_medium
 from rftgls_core.rft.models import make_model
@@ -115,7 +115,7 @@ def test_tug_agrees_with_simulate_pull():
     res = Simulator(robot, SAND, options=SimOptions(dt=0.01)).run(gait)
     s0 = res.samples[0]
     start = AnchorState(s0.z, s0.theta_b, *pose)
-    model = AnchorModel(rm, SAND, method='direct')
+    model = build_predictor(PredictorSpec(robot='minirquad', medium=SAND, live_method='direct'))
     traj = simulate_pull(model, start, 0.0, 'backward',
                          lambda st: rm.pose(st, 'backward').plate_min_z, step=1e-3,
                          max_travel=0.01).as_array()

@@ -1,6 +1,6 @@
 """A described robot (URDF + YAML, description.py) as a Multibody: base_link and its legs.
 
-What the simulation needs beyond a capacity scene, and where it comes from:
+What the simulation needs beyond a posed anchor, and where it comes from:
 
 - the base: base_link's mesh (collision, else visual), an RFT body like the legs. Without one
   the YAML's `surface_points` mark where the base is; a run stops (unsupported,
@@ -16,7 +16,7 @@ What the simulation needs beyond a capacity scene, and where it comes from:
 - mass, centre of mass and inertia about y through it: the URDF inertials of all links (the
   legs' included; the simulation puts it all on the base);
 - the tether point: the origin of the YAML's tether_link; C-leg orientation: the YAML's
-  pull_scale for the pull, as the capacity scenes use it.
+  pull_scale for the pull, as the posed anchors use it.
 """
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from ..description import AnchorDescription, DescriptionError, Joint, urdf_bytes
+from ..description import AnchorDescription, DescriptionError, Joint
 from ..geometry.mesh import TriMesh
 from ..types import Pull
 from .robot import FULL_TURN_TOL, Leg, Multibody
@@ -35,7 +35,7 @@ def _limits(desc: AnchorDescription) -> dict[str, tuple[float, float]]:
     """URDF <limit lower upper> per revolute joint, rad (absent: no limit read)."""
     if desc.urdf_path is None:
         return {}
-    root = ET.fromstring(urdf_bytes(desc.urdf_path))
+    root = ET.fromstring(desc.urdf_text())
     out = {}
     for el in root.findall('joint'):
         lim = el.find('limit')
@@ -49,7 +49,7 @@ def _inertia(desc: AnchorDescription) -> dict[str, float]:
     """iyy of each link's inertial (about its centre of mass), kg m^2."""
     if desc.urdf_path is None:
         return {}
-    root = ET.fromstring(urdf_bytes(desc.urdf_path))
+    root = ET.fromstring(desc.urdf_text())
     out = {}
     for el in root.findall('link'):
         it = el.find('inertial/inertia')
@@ -155,17 +155,17 @@ def _mass(desc: AnchorDescription) -> tuple[float, np.ndarray, float]:
     of every link at joint values zero."""
     values = {v.name: 0.0 for v in desc.state}
     base = desc.base_pose(values)
-    scene = desc.scene(values)
-    mass = scene.mass
+    posed = desc.pose(values)
+    mass = posed.mass
     if not mass > 0.0:
         raise DescriptionError(f'{desc.source}: the URDF gives the robot no mass')
     rot, org = base[:3, :3], base[:3, 3]
-    com = rot.T @ (np.asarray(scene.com) - org)
+    com = rot.T @ (np.asarray(posed.com) - org)
     iyy = _inertia(desc)
     inertia = 0.0
     for link in desc.links.values():
         inertia += iyy.get(link.name, 0.0)
-    # parallel axes need each link's centre: the scene's composite is enough for the legs'
+    # parallel axes need each link's centre: the posed composite is enough for the legs'
     # mass near the axis of a small robot; the base's own iyy carries most of it
     return mass, com, inertia
 
