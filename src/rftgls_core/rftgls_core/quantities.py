@@ -88,6 +88,16 @@ ANGULAR_SPEED_RAD_S = Quantity('angular velocity', 'rad/s', -100.0, 100.0)
 PULL_SPEED_M_S = Quantity('pull speed', 'm/s', 1e-6, 1.0)
 SLIP_STEP_M = Quantity('slip step', 'm', 1e-6, 0.05)
 SLIP_TRAVEL_M = Quantity('slip travel', 'm', 1e-4, 1.0)
+# A servo's leg speed: the XL330 turns at most 40 rad/s (2300 deg/s) unloaded; 100 rad/s is
+# ANGULAR_SPEED's bound. Gait clocks run from a fraction of a second (a pronk) to a minute.
+LEG_SPEED_DEG_S = Quantity('leg speed', 'deg/s', 0.01, 5730.0)
+GAIT_PERIOD_S = Quantity('gait period', 's', 0.01, 60.0)
+GAIT_DUTY = Quantity('duty', '', 0.0, 1.0)
+# Simulated gaits: the paper's phases last 8 s; ten minutes of steps is hours of computing.
+SIM_DURATION_S = Quantity('simulated duration', 's', 1e-3, 600.0)
+SIM_STEP_S = Quantity('time step', 's', 1e-5, 1.0)
+# Hobby servos stall at 0.1..10 N m; the XL330-M077 at 0.215 N m (5 V).
+STALL_TORQUE_NM = Quantity('stall torque', 'N m', 1e-4, 100.0)
 
 # ------------------------------------------------------------------------------ media
 # xi_n = rho_c g (894 mu^3 - 386 mu^2 + 89 mu): rho_c 500..3000 kg/m^3 and mu_int 0.1..1.0

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..multibody.results import SimResult
 from ..multibody.robot import BasePose, Multibody
+from .figure_io import save
 
 
 def _outline(mesh, rot: np.ndarray, org: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -74,8 +75,6 @@ def plot_run(robot: Multibody, res: SimResult, path: str | Path, title: str = ''
     ax2.legend(fontsize=7)
     fig.suptitle(f'{title}  [{res.status.value}{": " + res.reason if not res.ok else ""}]',
                  fontsize=10)
-    fig.tight_layout()
     path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, dpi=110)    # atomic, through safe_write; closes the figure
     return path

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .figure_io import save
+
 PANELS = (('DH', 'h_m', 'DH h, mm', 1e3), ('DL', 'h_m', 'DL h, mm', 1e3),
           ('SH', 'h_m', 'SH h, mm', 1e3), ('DH', 'theta_b_deg', 'DH theta_B, deg', 1.0),
           ('DL', 'theta_b_deg', 'DL theta_B, deg', 1.0),
@@ -53,8 +55,6 @@ def plot_sensitivity(data: dict, path: str | Path) -> Path:
     axes[0, 0].legend(fontsize=7)
     fig.suptitle('MiniRQuad on M90 sand: each prediction with one input changed '
                  '(nothing fitted)', fontsize=11)
-    fig.tight_layout()
     path = Path(path)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save(fig, path, dpi=100)    # atomic, through safe_write; closes the figure
     return path

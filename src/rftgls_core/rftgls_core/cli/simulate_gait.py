@@ -7,7 +7,20 @@ import math
 import sys
 from pathlib import Path
 
-from .common import add_medium_args, finite_float, medium_from_args, print_json
+from rftgls_conventions.safe_write import output_folder, write_text
+
+from ..quantities import (
+    ANGLE_DEG,
+    GAIT_DUTY,
+    GAIT_PERIOD_S,
+    LEG_SPEED_DEG_S,
+    MASS_KG,
+    SIM_DURATION_S,
+    SIM_STEP_S,
+    STALL_TORQUE_NM,
+    bounded_int,
+)
+from .common import add_medium_args, medium_from_args, print_json
 
 # The paper's burrowing sequences (Table II): retracting and final (theta_L1, theta_L2), deg.
 TABLE_II = {'DH': ((-75.0, -50.0), (-40.0, 30.0)), 'DL': ((-75.0, -50.0), (-40.0, 0.0)),
@@ -21,27 +34,27 @@ def add_parsers(sub) -> None:
                        'the window ends. Prints the pose reached, stalls and energies.')
     _robot_args(b)
     b.add_argument('--mode', choices=sorted(TABLE_II), help='a burrow of the paper\'s Table II')
-    b.add_argument('--retract', nargs=2, type=finite_float, metavar=('DEG', 'DEG'),
+    b.add_argument('--retract', nargs=2, type=ANGLE_DEG.arg, metavar=('DEG', 'DEG'),
                    help='retracting pose, one angle per degree of freedom (deg)')
-    b.add_argument('--final', nargs=2, type=finite_float, metavar=('DEG', 'DEG'),
+    b.add_argument('--final', nargs=2, type=ANGLE_DEG.arg, metavar=('DEG', 'DEG'),
                    help='final pose (deg)')
-    b.add_argument('--stand', nargs=2, type=finite_float, default=(0.0, 0.0),
+    b.add_argument('--stand', nargs=2, type=ANGLE_DEG.arg, default=(0.0, 0.0),
                    metavar=('DEG', 'DEG'), help='standing pose the burrow starts from (deg)')
-    b.add_argument('--speed', type=finite_float, default=None,
+    b.add_argument('--speed', type=LEG_SPEED_DEG_S.arg, default=None,
                    help='leg speed of the moves, deg/s (default: MiniRHex\'s stance speed, '
                         '47.6 deg/s)')
-    b.add_argument('--duration', type=finite_float, default=8.0, help='window, s (paper: 8)')
+    b.add_argument('--duration', type=SIM_DURATION_S.arg, default=8.0, help='window, s (paper: 8)')
     b.set_defaults(run=run_burrow)
     w = sub.add_parser('walk', help='a robot walking with MiniRHex\'s Buehler clock',
                        description='Simulates a walk: one Buehler clock per leg (MiniRHex\'s '
                        'walk: period 2 s, duty 0.42, sweep 40 deg), amble phases. Prints the '
                        'distance, speed, energy and mean height.')
     _robot_args(w)
-    w.add_argument('--duration', type=finite_float, default=8.0, help='s')
-    w.add_argument('--period', type=finite_float, default=2.0, help='clock period, s')
-    w.add_argument('--duty', type=finite_float, default=0.42, help='stance fraction')
-    w.add_argument('--sweep', type=finite_float, default=40.0, help='stance sweep, deg')
-    w.add_argument('--down', type=finite_float, default=-20.0,
+    w.add_argument('--duration', type=SIM_DURATION_S.arg, default=8.0, help='s')
+    w.add_argument('--period', type=GAIT_PERIOD_S.arg, default=2.0, help='clock period, s')
+    w.add_argument('--duty', type=GAIT_DUTY.arg, default=0.42, help='stance fraction')
+    w.add_argument('--sweep', type=ANGLE_DEG.arg, default=40.0, help='stance sweep, deg')
+    w.add_argument('--down', type=ANGLE_DEG.arg, default=-20.0,
                    help='stance centre as theta_L, deg (MiniRHex\'s 20 deg, turned forward)')
     w.add_argument('--direction', type=int, choices=(1, -1), default=1)
     w.set_defaults(run=run_walk)
@@ -59,21 +72,23 @@ def _robot_args(p) -> None:
     g.add_argument('--anchor', help='a described robot: its description YAML')
     p.add_argument('--pull', choices=('backward', 'forward'), default='backward',
                    help='C-leg orientation (types.Pull; MiniRQuad walks and tugs backward)')
-    p.add_argument('--leg-segments', type=int, default=None,
+    p.add_argument('--leg-segments', type=bounded_int(4, 400, 'leg segments'), default=None,
                    help='C-leg mesh segments along the arc (presets; default 24)')
-    p.add_argument('--stall-torque', type=finite_float, default=None,
+    p.add_argument('--stall-torque', type=STALL_TORQUE_NM.arg, default=None,
                    help='servo stall torque, N m (default: the XL330-M077-T datasheet, 0.215)')
-    p.add_argument('--sled', type=finite_float, default=None, metavar='KG',
+    p.add_argument('--sled', type=MASS_KG.arg, default=None, metavar='KG',
                    help='tie p to a sled of this mass lying 0.5 m behind, the rope just taut '
                         'at the start (multibody/sled.py; default: no rope)')
-    p.add_argument('--dt', type=finite_float, default=0.02, help='largest time step, s')
+    p.add_argument('--dt', type=SIM_STEP_S.arg, default=0.02, help='largest time step, s')
     p.add_argument('--json', action='store_true', help='print the summary as JSON')
     p.add_argument('--out', help='folder for trajectory.csv, summary.json and a plot')
     add_medium_args(p)
 
 
 def build(args):
-    """(robot, medium, simulator) of the command line."""
+    """(robot, medium, simulator) of the command line; the output folder is checked first."""
+    if args.out:
+        output_folder(args.out, '--out')
     from ..multibody.robot import from_preset
     from ..multibody.servo import XL330_M077_5V
     from ..multibody.simulate import SimOptions, Simulator
@@ -155,9 +170,8 @@ def _finish(args, sim, gait, what: str) -> int:
     summary = res.summary()
     if args.out:
         out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
         res.write_csv(out / 'trajectory.csv')
-        (out / 'summary.json').write_text(json.dumps(_jsonable(summary), indent=2) + '\n')
+        write_text(out / 'summary.json', json.dumps(_jsonable(summary), indent=2) + '\n')
         from ..charts.multibody import plot_run
         plot_run(sim.robot, res, out / 'run.png', title=f'{sim.robot.name}: {what}')
         summary['files'] = [str(out / f) for f in ('trajectory.csv', 'summary.json', 'run.png')]
@@ -200,11 +214,10 @@ def _print(s: dict) -> None:
 def run_sensitivity(args) -> int:
     from ..charts.sensitivity import plot_sensitivity
     from ..multibody.sensitivity import run_sweeps
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_folder(args.out, '--out')
     data = run_sweeps(walk=not args.no_walk,
                       progress=lambda what: print(f'sensitivity: {what}', file=sys.stderr))
-    (out / 'sensitivity.json').write_text(json.dumps(_jsonable(data), indent=1) + '\n')
+    write_text(out / 'sensitivity.json', json.dumps(_jsonable(data), indent=1) + '\n')
     plot_sensitivity(data, out / 'sensitivity.png')
     print(f'wrote {out / "sensitivity.json"} and {out / "sensitivity.png"}')
     return 0

@@ -9,6 +9,7 @@ diagnosis but no final pose, energy or distance.
 from __future__ import annotations
 
 import csv
+import io
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -141,27 +142,27 @@ class SimResult:
 
     # ------------------------------------------------------------------------- files
     def write_csv(self, path: str | Path) -> Path:
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
+        """The trajectory, one row per step, written atomically (safe_write)."""
+        from rftgls_conventions.safe_write import write_text
         legs = self.leg_names
-        with open(path, 'w', newline='') as fh:
-            w = csv.writer(fh)
-            w.writerow(['t_s', 'phase', 'mode', 'x_m', 'h_m', 'theta_b_rad', 'p_x_m', 'p_z_m']
-                       + [f'q_{n}_rad' for n in legs] + [f'rate_{n}_rad_s' for n in legs]
-                       + [f'torque_{n}_Nm' for n in legs] + [f'power_{n}_W' for n in legs]
-                       + [f'stalled_{n}' for n in legs]
-                       + ['residual_N', 'bridge_N', 'inertial_N'])
-            for s in self.samples:
-                # repr of a float: the shortest text that reads back to the same number
-                w.writerow([repr(float(s.t))] + [s.phase, s.mode]
-                           + [repr(float(v)) for v in (s.x, s.z, s.theta_b, s.px, s.pz)]
-                           + [repr(float(v)) for v in s.q]
-                           + [repr(float(v)) for v in s.rates]
-                           + [repr(float(v)) for v in s.torques]
-                           + [repr(float(v)) for v in s.power]
-                           + [int(v) for v in s.stalled]
-                           + [repr(float(v)) for v in (s.residual, s.bridge, s.inertial)])
-        return path
+        buf = io.StringIO()
+        w = csv.writer(buf)
+        w.writerow(['t_s', 'phase', 'mode', 'x_m', 'h_m', 'theta_b_rad', 'p_x_m', 'p_z_m']
+                   + [f'q_{n}_rad' for n in legs] + [f'rate_{n}_rad_s' for n in legs]
+                   + [f'torque_{n}_Nm' for n in legs] + [f'power_{n}_W' for n in legs]
+                   + [f'stalled_{n}' for n in legs]
+                   + ['residual_N', 'bridge_N', 'inertial_N'])
+        for s in self.samples:
+            # repr of a float: the shortest text that reads back to the same number
+            w.writerow([repr(float(s.t))] + [s.phase, s.mode]
+                       + [repr(float(v)) for v in (s.x, s.z, s.theta_b, s.px, s.pz)]
+                       + [repr(float(v)) for v in s.q]
+                       + [repr(float(v)) for v in s.rates]
+                       + [repr(float(v)) for v in s.torques]
+                       + [repr(float(v)) for v in s.power]
+                       + [int(v) for v in s.stalled]
+                       + [repr(float(v)) for v in (s.residual, s.bridge, s.inertial)])
+        return write_text(path, buf.getvalue())
 
 
 def time_mean(t: list[float], v: list[float]) -> float:
