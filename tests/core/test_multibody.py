@@ -181,3 +181,16 @@ def test_no_support_is_a_status(tmp_path):
     res = Simulator(robot, SAND, options=SimOptions(settle_time=0.3)).run(gait)
     assert res.status is Status.UNSUPPORTED
     assert res.reason in ('no_rest', 'base_in_sand')
+
+
+def test_an_overturning_burrow_is_a_status():
+    """The paper's DH burrow without a tether: the final stroke vaults the robot over its nose
+    (docs/design/walk-burrow-physics.md). Past a quarter turn of pitch the run stops with a
+    reason, and no final pose or energy is reported as if it were an anchor."""
+    robot = from_preset(minirquad())
+    gait = BurrowGait(robot, (0.0, 0.0), deg(-75, -50), deg(-40, 30))
+    res = Simulator(robot, SAND).run(gait)
+    assert res.status is Status.UNSUPPORTED and res.reason == 'overturned', res.detail
+    assert abs(res.samples[-1].theta_b) > math.pi / 2
+    s = res.summary()
+    assert s['h_m'] is None and s['theta_b_deg'] is None and s['energy_elec_J'] is None

@@ -65,10 +65,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help='s the link keeps being served after SIGINT/SIGTERM')
     p.add_argument('--duration', type=float, default=0.0, help='exit after this many s')
     t = p.add_argument_group('true ground (what the sand really holds; the stack never sees it)')
-    t.add_argument('--body', choices=('physics', 'scripted'), default='physics',
-                   help='physics: the legs, body and sand of rftgls_core\'s whole-robot '
-                        'simulation on the true robot and medium below (default); scripted: '
-                        'the body scripted to Table II\'s poses, the anchor from --ground')
+    t.add_argument('--body', choices=('physics', 'scripted'), default='scripted',
+                   help='scripted: the body scripted to Table II\'s poses, the anchor from '
+                        '--ground (default); physics: the legs, body and sand of rftgls_core\'s '
+                        'whole-robot simulation on the true robot and medium below (slower than '
+                        'real time on this machine, and its burrows overturn the robot: '
+                        'docs/design/walk-burrow-physics.md)')
     t.add_argument('--ground', choices=('live', 'map', 'table'), default='live',
                    help='live: rftgls_core solver (default); map: the shipped map the stack '
                         'predicts with; table: placeholder')

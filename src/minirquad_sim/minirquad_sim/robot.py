@@ -4,12 +4,13 @@ Sagittal model in the architecture's frames: world z up, surface z = 0; p (the w
 at the rear of the body) at (x_p, h); body pitch theta_b positive nose up; legs measured from
 -z_B, positive forward.
 
-Two bodies. With ``physics`` (a physics.PhysicsBody, what the simulator runs: ``--body
-physics``, the default) the legs track the MCU's references against the sand and the body
-moves as rftgls_core's whole-robot simulation makes it; the pose, the torques and the power
-emerge. Without it (the default of this class, kept for the behaviour tests that need a fast,
-scripted plant) the body is scripted: walking at ``walk_speed``, burrowing to Table II's mean
-pose, power from the calibrated ``PowerModel``, the anchor from ``ground``.
+Two bodies. With ``physics`` (a physics.PhysicsBody: ``--body physics``) the legs track the
+MCU's references against the sand and the body moves as rftgls_core's whole-robot simulation
+makes it; the pose, the torques and the power emerge. Without it (the default, what the demo
+and the behaviour tests run: the physics is not yet real time here and its burrows overturn
+the robot, docs/design/walk-burrow-physics.md) the body is scripted: walking at
+``walk_speed``, burrowing to Table II's mean pose, power from the calibrated ``PowerModel``,
+the anchor from ``ground``.
 
 Geometry numbers the paper does not give are assumptions, named in ``Geometry``.
 """

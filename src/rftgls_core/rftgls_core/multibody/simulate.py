@@ -10,6 +10,8 @@ Each step (docs/design/walk-burrow-physics.md):
    tether point travels at most `body_step` (and L_c x the turn as much), and no step crosses
    a corner of the gait. A requested `dt` that needs more than `max_substeps` such steps is
    too coarse for that accuracy: status invalid_input, reason step_too_coarse.
+   A base pitched beyond 90 deg has overturned: status unsupported, reason overturned (its
+   pose is no anchor; the samples up to there are kept).
 4. Backward Euler for the base pose and the legs (the twists of the step's end).
 
 A robot is put down level with its lowest point `contact_depth` in the sand and settles (legs
@@ -38,6 +40,9 @@ from .sled import Rope, Sled
 # XL330 control table) command no motion.
 STILL = 0.5 * 0.229 * 2.0 * math.pi / 60.0
 SETTLE_STEP = 0.01   # s, the largest step while the robot settles
+# A base pitched beyond a quarter turn stands on one end or lies on its back: no gait of the
+# robots here recovers from it and no anchor state describes it, so the run stops there.
+OVERTURNED = 0.5 * math.pi
 
 
 @dataclass(frozen=True)
@@ -213,6 +218,10 @@ class Simulator:
         if book:
             self._record(phase, b.mode, b, power)
         self.last = b
+        if abs(self.pose.theta_b) > OVERTURNED:
+            raise SimulationStop(Status.UNSUPPORTED, 'overturned',
+                                 f'the base pitched to {math.degrees(self.pose.theta_b):.0f} deg '
+                                 f'at t = {self.t:.3f} s ({phase}, {b.mode})')
         return b
 
     def _step_length(self, dt_max: float, posed, rates: np.ndarray, xi: np.ndarray) -> float:
