@@ -111,6 +111,8 @@ CASES = {
     'walk duration 1e308': ['simulate', 'walk', '--duration', '1e308'],
     'walk period nan': ['simulate', 'walk', '--period', 'nan'],
     'walk duty 2': ['simulate', 'walk', '--duty', '2'],
+    'sensitivity modes XX': ['simulate', 'sensitivity', '--out', 'o', '--modes', 'XX'],
+    'sensitivity sled 1e308 kg': ['simulate', 'sensitivity', '--out', 'o', '--sled', '1e308'],
     'figure sled friction 1e308': ['figure', 'fig10b', '--sled-friction', '1e308', '--out',
                                    'x.png'],
     'map refine tol 1e308': ['map', 'refine', 'minirquad', '--tol', '1e308', '--out', 'x.h5'],

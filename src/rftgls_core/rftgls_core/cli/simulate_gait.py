@@ -62,6 +62,10 @@ def add_parsers(sub) -> None:
                        'input changed at a time (JSON and a chart)')
     s.add_argument('--out', required=True, help='folder for sensitivity.json and .png')
     s.add_argument('--no-walk', action='store_true', help='burrows only (faster)')
+    s.add_argument('--modes', default='DH,DL,SH',
+                   help='burrows to run, comma-separated (default DH,DL,SH)')
+    s.add_argument('--sled', type=MASS_KG.arg, default=None, metavar='KG',
+                   help='tie every burrow to a sled of this mass (as simulate burrow --sled)')
     s.set_defaults(run=run_sensitivity)
 
 
@@ -215,9 +219,16 @@ def run_sensitivity(args) -> int:
     from ..charts.sensitivity import plot_sensitivity
     from ..multibody.sensitivity import run_sweeps
     out = output_folder(args.out, '--out')
-    data = run_sweeps(walk=not args.no_walk,
+    modes = tuple(m.strip() for m in args.modes.split(',') if m.strip())
+    unknown = [m for m in modes if m not in TABLE_II]
+    if unknown or not modes:
+        raise ValueError(f'--modes: give burrows of {", ".join(sorted(TABLE_II))}, got '
+                         f'{args.modes!r}')
+    data = run_sweeps(walk=not args.no_walk, modes=modes, sled_kg=args.sled,
                       progress=lambda what: print(f'sensitivity: {what}', file=sys.stderr))
     write_text(out / 'sensitivity.json', json.dumps(_jsonable(data), indent=1) + '\n')
     plot_sensitivity(data, out / 'sensitivity.png')
+    from ..multibody.sensitivity import markdown_table
+    print(markdown_table(data))
     print(f'wrote {out / "sensitivity.json"} and {out / "sensitivity.png"}')
     return 0

@@ -17,6 +17,7 @@ from .gaits import BurrowGait, WalkGait
 from .robot import from_preset
 from .servo import XL330_M077_5V
 from .simulate import Simulator
+from .sled import Sled
 
 TABLE_II = {'DH': ((-75.0, -50.0), (-40.0, 30.0), 5.0, 0.034),
             'DL': ((-75.0, -50.0), (-40.0, 0.0), 8.9, 0.036),
@@ -35,8 +36,10 @@ SWEEPS = (
 NOMINAL = {'xi_scale': 1.0, 'mu_surf': 0.4, 'stall': 0.215, 'n_arc': 24, 'pull': 'backward'}
 
 
-def predictions(params: dict, walk: bool = True) -> dict:
-    """Every prediction for one set of inputs (NOMINAL with some replaced)."""
+def predictions(params: dict, walk: bool = True, modes=tuple(TABLE_II),
+                sled_kg: float | None = None) -> dict:
+    """Every prediction for one set of inputs (NOMINAL with some replaced): the burrows of
+    `modes`, each tied to a sled of sled_kg (None: no tether), and the walk."""
     p = {**NOMINAL, **params}
     base = get_medium('m90_sand')
     medium = dataclasses.replace(base, name=f'm90_sand x{p["xi_scale"]:g}',
@@ -45,18 +48,20 @@ def predictions(params: dict, walk: bool = True) -> dict:
     servo = XL330_M077_5V.scaled(p['stall'] / XL330_M077_5V.stall_torque)
     robot = from_preset(get_robot('minirquad', int(p['n_arc'])), p['pull'])
     out: dict = {'params': p}
-    for mode, (retract, final, _, _) in TABLE_II.items():
+    for mode in modes:
+        retract, final, _, _ = TABLE_II[mode]
         gait = BurrowGait(robot, (0.0, 0.0), tuple(map(math.radians, retract)),
                           tuple(map(math.radians, final)))
-        res = Simulator(robot, medium, servo).run(gait)
+        sled = None if sled_kg is None else Sled(sled_kg)
+        res = Simulator(robot, medium, servo, sled=sled).run(gait)
         s = res.summary()
         out[mode] = {k: s.get(k) for k in ('h_m', 'theta_b_deg', 'energy_elec_J',
                                            'energy_mech_J', 'status', 'reason')}
         out[mode]['stalls'] = len(s['stalled'])
-    e_sh = out['SH']['energy_elec_J']
+    e_sh = out['SH']['energy_elec_J'] if 'SH' in out else None
     for key in PAPER_RATIOS:
         mode = key.split('/')[0]
-        e = out[mode]['energy_elec_J']
+        e = out[mode]['energy_elec_J'] if mode in out else None
         out[key] = e / e_sh if e is not None and e_sh else None
     if walk:
         s = Simulator(robot, medium, servo).run(WalkGait(robot, duration=8.0)).summary()
@@ -65,18 +70,40 @@ def predictions(params: dict, walk: bool = True) -> dict:
     return out
 
 
-def run_sweeps(walk: bool = True, progress: Callable[[str], None] | None = None) -> dict:
-    """The nominal predictions and one run per swept value."""
+def run_sweeps(walk: bool = True, progress: Callable[[str], None] | None = None,
+               modes=tuple(TABLE_II), sled_kg: float | None = None) -> dict:
+    """The nominal predictions and one run per swept value (burrows of `modes`, tied to a
+    sled of sled_kg or untethered)."""
     if progress:
         progress('nominal')
-    data = {'nominal': predictions({}, walk), 'sweeps': []}
+    data = {'nominal': predictions({}, walk, modes, sled_kg), 'sweeps': [],
+            'modes': list(modes), 'sled_kg': sled_kg}
     for label, key, values in SWEEPS:
         for v in values:
             if progress:
                 progress(f'{label} = {v}')
             data['sweeps'].append({'label': label, 'param': key, 'value': v,
-                                   'result': predictions({key: v}, walk)})
+                                   'result': predictions({key: v}, walk, modes, sled_kg)})
     data['paper'] = {'table_ii': {m: {'theta_b_deg': t[2], 'h_m': t[3]}
                                   for m, t in TABLE_II.items()},
                      'energy_ratios': PAPER_RATIOS, 'walk_m_per_8s': PAPER_WALK_M}
     return data
+
+
+def markdown_table(data: dict) -> str:
+    """The sweeps as a Markdown table (theta_B and h per burrow, the energy ratios; a run that
+    ended without a value shows its reason), as docs/design/walk-burrow-physics.md lists it."""
+    modes = data.get('modes', list(TABLE_II))
+
+    def cells(r: dict) -> list[str]:
+        out = []
+        for m in modes:
+            x = r[m]
+            out.append(x['reason'] if x['h_m'] is None else
+                       f"{x['theta_b_deg']:.1f}°, {x['h_m'] * 1e3:.0f} mm")
+        out += [f'{r[k]:.2f}' if r.get(k) is not None else '-' for k in PAPER_RATIOS]
+        return out
+    head = ['input'] + [f'{m} θB, h' for m in modes] + [f'E {k}' for k in PAPER_RATIOS]
+    rows = [head, ['---'] * len(head), ['nominal'] + cells(data['nominal'])]
+    rows += [[f"{s['label']} = {s['value']}"] + cells(s['result']) for s in data['sweeps']]
+    return '\n'.join('| ' + ' | '.join(r) + ' |' for r in rows) + '\n'
