@@ -28,7 +28,8 @@ def plot_run(robot: Multibody, res: SimResult, path: str | Path, title: str = ''
     samples = res.samples
     fig = plt.figure(figsize=(11, 7.5))
     gs = fig.add_gridspec(2, instants, height_ratios=[1.0, 1.0])
-    picks = np.linspace(0, len(samples) - 1, instants).round().astype(int) if samples else []
+    picks: list[int] = (np.linspace(0, len(samples) - 1, instants).round().astype(int).tolist()
+                        if samples else [])
     colours = plt.get_cmap('tab10')
     for col, k in enumerate(picks):
         ax = fig.add_subplot(gs[0, col])

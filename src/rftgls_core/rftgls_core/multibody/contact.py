@@ -67,7 +67,7 @@ class Contact:
             twin = robot.legs[i].twin
             pair = (twin is not None and twin not in done and twin != i
                     and posed.q[twin] == posed.q[i] and self.rates[twin] == self.rates[i])
-            legs = (i, twin) if pair else (i,)
+            legs: tuple[int, ...] = (i, twin) if pair and twin is not None else (i,)
             done.update(legs)
             if not np.any(f.centroids[:, 2] < 0.0):
                 continue
@@ -102,7 +102,7 @@ class Contact:
         """Total planar wrench (K, 3) for base twists xs (K, 3)."""
         return self.part_wrenches(xs, eps, rates).sum(axis=1)
 
-    def moving_at_rest(self) -> np.ndarray:
+    def moving_at_rest(self) -> tuple[np.ndarray, np.ndarray]:
         """Wrench of the turning legs while the base stands still (xi = 0), and each part's
         (K = 1): (total (3,), per part (P, 3))."""
         per = self.part_wrenches(np.zeros((1, 3)))[0]

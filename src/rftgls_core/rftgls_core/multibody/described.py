@@ -39,9 +39,10 @@ def _limits(desc: AnchorDescription) -> dict[str, tuple[float, float]]:
     out = {}
     for el in root.findall('joint'):
         lim = el.find('limit')
-        if el.get('type') == 'revolute' and lim is not None and lim.get('lower') is not None \
-                and lim.get('upper') is not None:
-            out[el.get('name') or ''] = (float(lim.get('lower')), float(lim.get('upper')))
+        lower = None if lim is None else lim.get('lower')
+        upper = None if lim is None else lim.get('upper')
+        if el.get('type') == 'revolute' and lower is not None and upper is not None:
+            out[el.get('name') or ''] = (float(lower), float(upper))
     return out
 
 
@@ -53,8 +54,9 @@ def _inertia(desc: AnchorDescription) -> dict[str, float]:
     out = {}
     for el in root.findall('link'):
         it = el.find('inertial/inertia')
-        if it is not None and it.get('iyy') is not None:
-            out[el.get('name') or ''] = float(it.get('iyy'))
+        iyy = None if it is None else it.get('iyy')
+        if iyy is not None:
+            out[el.get('name') or ''] = float(iyy)
     return out
 
 
@@ -66,7 +68,7 @@ def from_description(desc: AnchorDescription, pull: Pull | str = Pull.BACKWARD) 
     for jt in desc.joints:
         by_parent.setdefault(jt.parent, []).append(jt)
     dof_of = {}
-    names = []
+    names: list[str] = []
     for v in desc.state:
         if v.joints:
             for j in v.joints:

@@ -116,7 +116,10 @@ def closure_root(f: Callable[[np.ndarray, float], np.ndarray], x0: np.ndarray, t
         scale = max(1.0, float(np.linalg.norm(x)))
         # a wide ramp's root only seeds the next stage: solve it to a fraction of its width
         stage_tol = tol if k == len(eps) - 1 else max(tol, 1e-2 * e)
-        x, nf, c = newton(lambda y, e=e: f(y, e), x, stage_tol,
+
+        def stage(y: np.ndarray, e: float = e) -> np.ndarray:
+            return f(y, e)
+        x, nf, c = newton(stage, x, stage_tol,
                           fd_step=min(1e-7, 1e-3 * e) * scale, bound=bound)
         calls += c
         if float(np.linalg.norm(x)) > bound:

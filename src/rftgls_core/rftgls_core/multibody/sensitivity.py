@@ -76,13 +76,14 @@ def run_sweeps(walk: bool = True, progress: Callable[[str], None] | None = None,
     sled of sled_kg or untethered)."""
     if progress:
         progress('nominal')
-    data = {'nominal': predictions({}, walk, modes, sled_kg), 'sweeps': [],
+    sweeps: list[dict] = []
+    data = {'nominal': predictions({}, walk, modes, sled_kg), 'sweeps': sweeps,
             'modes': list(modes), 'sled_kg': sled_kg}
     for label, key, values in SWEEPS:
         for v in values:
             if progress:
                 progress(f'{label} = {v}')
-            data['sweeps'].append({'label': label, 'param': key, 'value': v,
+            sweeps.append({'label': label, 'param': key, 'value': v,
                                    'result': predictions({key: v}, walk, modes, sled_kg)})
     data['paper'] = {'table_ii': {m: {'theta_b_deg': t[2], 'h_m': t[3]}
                                   for m, t in TABLE_II.items()},
