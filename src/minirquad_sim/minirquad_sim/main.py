@@ -269,7 +269,7 @@ def _make_mcu(args: argparse.Namespace, ground, config: McuConfig, start: float,
     the host's commands itself: no command log)."""
     if args.mcu == 'firmware':
         return FirmwareMcu(robot_factory=lambda: PlantRobot(
-            ground=ground, winch=MotorWinch(sled_mass=args.sled_mass), physics=_physics(args)),
+            ground=ground, winch=MotorWinch(sled_mass=args.sled_mass)),
             config=config, on_telemetry=on_telemetry, now=start, binary=args.firmware)
     return SimMcu(robot_factory=lambda: SimRobot(ground=ground,
                                                  winch=WinchSled(sled_mass=args.sled_mass),
@@ -288,6 +288,10 @@ def _physics(args: argparse.Namespace) -> PhysicsBody | None:
 
 def _ground(args: argparse.Namespace):
     """The true ground, built once so its cache outlives MCU resets (the scripted body's)."""
+    if args.body == 'physics' and args.mcu == 'firmware':
+        # the firmware's plant drives velocity servos whose targets only the burrow sets: the
+        # physics body's references would stop at stale targets while walking
+        raise ValueError('--body physics runs with the Python MCU (--mcu python) only')
     if args.body == 'physics':
         PhysicsBody(robot=args.true_robot, anchor=args.anchor, medium=args.true_medium,
                     medium_scale=args.true_medium_scale,
