@@ -2,11 +2,14 @@
 follows `rftgls simulate pull`, a described robot burrows, bad gaits are refused."""
 from __future__ import annotations
 
+import csv
+import json
 import math
 
 import numpy as np
 import pytest
 
+from rftgls_core.cli.main import main as rftgls
 from rftgls_core.description import load_description
 from rftgls_core.geometry.mesh import Facets
 from rftgls_core.multibody import balance
@@ -194,3 +197,29 @@ def test_an_overturning_burrow_is_a_status():
     assert abs(res.samples[-1].theta_b) > math.pi / 2
     s = res.summary()
     assert s['h_m'] is None and s['theta_b_deg'] is None and s['energy_elec_J'] is None
+
+
+def test_the_burrow_command_prints_its_pose_and_writes_its_files(tmp_path, capsys):
+    """`rftgls simulate burrow --json --out DIR`: the keys the command line promises
+    (docs/cli.md), the files it writes, and the exit status of a run with a value."""
+    out = tmp_path / 'sh'
+    code = rftgls(['simulate', 'burrow', '--robot', 'minirquad', '--mode', 'SH', '--sled', '0.4',
+                   '--duration', '3', '--json', '--out', str(out)])
+    s = json.loads(capsys.readouterr().out)
+    assert code == 0 and s['status'] == 'assumed'
+    for key in ('h_m', 'theta_b_deg', 'theta_l1_deg', 'theta_l2_deg', 'stalled',
+                'energy_mech_J', 'energy_elec_J', 'elapsed_s'):
+        assert key in s
+    assert s['theta_l2_deg'] == pytest.approx(30.0, abs=HOLD_DEG)
+    with open(out / 'trajectory.csv', newline='') as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == s['steps']
+    assert float(rows[-1]['p_z_m']) == s['h_m']
+    assert json.loads((out / 'summary.json').read_text())['h_m'] == s['h_m']
+    assert (out / 'run.png').stat().st_size > 0
+
+
+def test_an_overturning_burrow_command_prints_no_pose(capsys):
+    code = rftgls(['simulate', 'burrow', '--mode', 'SH', '--duration', '3', '--json'])
+    s = json.loads(capsys.readouterr().out)
+    assert code == 1 and s['reason'] == 'overturned' and s['h_m'] is None
