@@ -106,6 +106,13 @@ def test_simulate_pull_csv_and_plot(plant):
                 '--out', str(p.root / 's.csv'), '--plot', str(p.root / 's.png')]), p)
 
 
+def test_simulate_burrow_folder(plant):
+    """The whole-robot simulation's three files (a short tethered SH burrow)."""
+    p = plant(['sim/trajectory.csv', 'sim/summary.json', 'sim/run.png'])
+    _ok(rftgls(['simulate', 'burrow', '--mode', 'SH', '--sled', '0.4', '--duration', '2.5',
+                '--out', str(p.root / 'sim')]), p)
+
+
 def test_map_plot(plant):
     p = plant(['m.png'])
     _ok(rftgls(['map', 'plot', 'minirquad', '--n', '20', '--out', str(p.root / 'm.png')]), p)
