@@ -5,10 +5,8 @@ and the base twist xi itself:
 
     R(x) = A W(xi) + B xi + c,      xi = x * ts                           (x scaled, ts > 0)
 
-- a moving robot (balance.py): A = diag(1 / (s_F, s_F, s_F L_c)), B = 0, c = the loads
-  scaled: the sum of every wrench vanishes;
-- a lowering (settle.py): no side force, no moment about the centre of mass c, c sinking at
-  unit rate: A picks Fx and M_c = My - r_z Fx + r_x Fz, B the rate of c, c = (0, 0, 1).
+with (balance.py) A = diag(1 / (s_F, s_F, s_F L_c)), B = -M / dt scaled the same way (the
+inertia where the robot falls) and c = the loads and M xi_prev / dt, scaled.
 
 `affine_root` runs the very steps of roots.closure_root (Levenberg-Marquardt with
 forward-difference Jacobians down the ramp schedule, evaluate.py's ramped RFT) inside numba,

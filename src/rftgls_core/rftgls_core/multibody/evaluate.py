@@ -19,7 +19,7 @@ leg, whose normals are out of the plane, always do) and a facet at its switch ca
 fraction of its leading stress, as RFT's closure allows there (docs/design/closure.md). With
 creep > 0 a facet slower than `creep` (m/s) carries the fraction |v| / creep of its stress:
 the closure at rest (any fraction), resolved by speed. Both are the continuous companions the
-balance is solved on (step.py). The exact path (eps = creep = 0) matches
+balance is solved on (balance.py). The exact path (eps = creep = 0) matches
 BuriedBody.planar_wrench to round-off (tests/core).
 """
 from __future__ import annotations

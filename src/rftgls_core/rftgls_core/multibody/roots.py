@@ -104,7 +104,7 @@ def closure_root(f: Callable[[np.ndarray, float], np.ndarray], x0: np.ndarray, t
                  eps: tuple[float, ...] = EPS_SCHEDULE, accept: float = ACCEPT,
                  bound: float = np.inf) -> Root:
     """Root of RFT's closure near x0 (module doc). f(x, eps): (K, 3) -> (K, 3 + m), batched,
-    the map with its jumps ramped over eps (smooth.py); f(x, 0) the exact map.
+    the map with its jumps ramped over eps (evaluate.py); f(x, 0) the exact map.
 
     Newton follows the smoothed root down the schedule `eps` (aiming at `tol`); converged when
     the balanced columns are below `accept` at the last (smallest) eps. A root beyond

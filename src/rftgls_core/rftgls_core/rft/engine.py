@@ -102,7 +102,7 @@ class BuriedBody:
         """The whole buried body as bound for evaluation (read it, never change it): r (F, 3)
         facet centroids from ref, n normals, w area x depth (m^3), stress (the prepared
         model) and fused (the fused kernel's arrays, or None): for evaluators of another
-        leading weight (multibody/smooth.py)."""
+        leading weight (multibody/evaluate.py)."""
         return self._full
 
     @property

@@ -47,9 +47,8 @@ class Trajectory:
                           np.nan if p.force_N is None else p.force_N] for p in self.points])
 
 
-def slip_rate(result: CapacityResult) -> np.ndarray | None:
-    """d(x, z, thetaB)/ds from a slip twist, or None when there is no usable twist (also the
-    multibody simulation's slip steps, multibody/support.py)."""
+def _rate(result: CapacityResult) -> np.ndarray | None:
+    """d(x, z, thetaB)/ds from a slip twist, or None when there is no usable twist."""
     if not result.status.has_value or result.slip_twist is None:
         return None
     vx, vz, wy = result.slip_twist
@@ -89,7 +88,7 @@ def simulate_pull(predictor: Predictor, state: AnchorState, phi: float, pull: Pu
         if plate_min_z(st) <= 0.0:
             traj.stop_reason = 'body plate reached the surface'
             break
-        k1 = slip_rate(res)
+        k1 = _rate(res)
         if k1 is None:
             traj.stop_reason = (f'no quasi-static balance: {res.status.value}'
                                 + (f' ({res.reason})' if res.reason else ''))
@@ -102,7 +101,7 @@ def simulate_pull(predictor: Predictor, state: AnchorState, phi: float, pull: Pu
             delta = h * k1
         else:
             mid = predictor.predict(at(q[0] + h * k1[1], q[1] + h * k1[2]), phi, pull)
-            k2 = slip_rate(mid)
+            k2 = _rate(mid)
             delta = h * (0.5 * (k1 + k2) if k2 is not None else k1)
         x += delta[0]
         q = q + delta[1:]
