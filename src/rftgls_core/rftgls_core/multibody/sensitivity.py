@@ -1,15 +1,18 @@
 """One-at-a-time sensitivity of the predictions compared with the paper (Table II's h and
 theta_B of DH, DL and SH, the burrow energy ratios DH/SH and DL/SH, the walking distance in
 8 s) to the inputs that are not the paper's: the medium (xi_n, mu_surf), the servo's stall
-torque, the leg mesh, and the C-legs' orientation (which way the C opens is not in the
-paper). Nothing is fitted: every run uses the preset, the datasheet and the geometry, with one
-input changed. `rftgls simulate sensitivity --out DIR` regenerates the JSON and the chart.
+torque, the leg mesh, the C-legs' orientation (which way the C opens is not in the paper) and
+the centre of mass (assumed midway between the axles). Nothing is fitted: every run uses the
+preset, the datasheet and the geometry, with one input changed. `rftgls simulate sensitivity
+--out DIR` regenerates the JSON, the chart and the table.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
 from collections.abc import Callable
+
+import numpy as np
 
 from ..rft.media import get_medium
 from ..robots.presets import get_robot
@@ -31,9 +34,11 @@ SWEEPS = (
     ('mu_surf', 'mu_surf', (0.1, 0.25, 0.55, 0.7)),
     ('stall torque, N m', 'stall', (0.172, 0.18, 0.228, 0.258)),
     ('arc segments', 'n_arc', (12, 48)),
+    ('centre of mass x, mm', 'com_dx_mm', (-10.0, 10.0)),
     ('C-leg orientation', 'pull', ('forward',)),
 )
-NOMINAL = {'xi_scale': 1.0, 'mu_surf': 0.4, 'stall': 0.215, 'n_arc': 24, 'pull': 'backward'}
+NOMINAL = {'xi_scale': 1.0, 'mu_surf': 0.4, 'stall': 0.215, 'n_arc': 24, 'pull': 'backward',
+           'com_dx_mm': 0.0}
 
 
 def predictions(params: dict, walk: bool = True, modes=tuple(TABLE_II),
@@ -47,6 +52,10 @@ def predictions(params: dict, walk: bool = True, modes=tuple(TABLE_II),
                                  mu_surf=p['mu_surf'])
     servo = XL330_M077_5V.scaled(p['stall'] / XL330_M077_5V.stall_torque)
     robot = from_preset(get_robot('minirquad', int(p['n_arc'])), p['pull'])
+    if p['com_dx_mm']:
+        # the centre of mass (assumed midway between the axles) moved along x_B
+        robot = dataclasses.replace(robot, com=robot.com + np.array([1e-3 * p['com_dx_mm'],
+                                                                     0.0, 0.0]))
     out: dict = {'params': p}
     for mode in modes:
         retract, final, _, _ = TABLE_II[mode]
