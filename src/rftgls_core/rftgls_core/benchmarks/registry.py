@@ -27,9 +27,10 @@ SECTIONS: dict[str, str] = {
     'live': '.live:live_figures',
     'maps': '.maps:map_figures',
     'scaling': '.maps:scaling_figures',
+    'sim': '.sim:sim_figures',
 }
 # Sections that run only when named (--only): minutes of work for one figure each.
-ON_REQUEST = frozenset({'scaling'})
+ON_REQUEST = frozenset({'scaling', 'sim'})
 
 
 @dataclass

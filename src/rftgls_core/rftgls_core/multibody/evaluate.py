@@ -28,11 +28,23 @@ import numpy as np
 
 from ..rft import kernels
 from ..rft.engine import LEADING_TOL, BuriedBody
+from ..rft.kernel_pairs import _cap, _coefficients, _cubics, _jit
 
-_stress = kernels._stress
-_coefficients = kernels._coefficients
 REST_TOL = kernels.REST_TOL
 BLOCK = kernels.BLOCK
+
+
+@_jit(inline=True)
+def _stress(ux, uy, uz, nx, ny, nz, ndx, ndy, ndz, p, capped, mu, one):
+    """alpha / xi_n of one facet for the unit direction u: the fused kernels' arithmetic
+    (kernel_pairs: the three cubics of x1 = -u.z and x3 = n_d . u, then the friction cap)."""
+    f1, f2, f3 = _cubics(ndx * ux + ndy * uy + ndz * uz, uz, p)
+    ax = f1 * ndx + f2 * ux
+    ay = f1 * ndy + f2 * uy
+    az = f1 * ndz + f2 * uz - f3
+    if capped:
+        return _cap(ax, ay, az, nx, ny, nz, mu, one)
+    return ax, ay, az
 
 
 def _numpy(bound: dict, pid: np.ndarray, n_parts: int, xs: np.ndarray, offsets: np.ndarray,

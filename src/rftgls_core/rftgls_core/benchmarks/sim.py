@@ -1,19 +1,19 @@
 """Benchmarks of the whole-robot simulation (`rftgls bench --only sim`): one 8 s burrow and one
 8 s walk of MiniRQuad on one core, and the cost per step against the leg mesh (facets) and the
 step count. Figures are best of a few runs (timing.py), after a warm-up that compiles the
-kernels."""
+kernels. On request only (`--only sim`): the walk alone takes minutes."""
 from __future__ import annotations
 
 import math
 
+from ..multibody.gaits import BurrowGait, WalkGait
+from ..multibody.robot import from_preset
+from ..multibody.simulate import SimOptions, Simulator
+from ..multibody.sled import Sled
 from ..rft import kernels
 from ..rft.media import get_medium
 from ..robots.presets import get_robot
-from ..timing import Figure, best_time
-from .gaits import BurrowGait, WalkGait
-from .robot import from_preset
-from .simulate import SimOptions, Simulator
-from .sled import Sled
+from .timing import Figure, best_time
 
 # The deep, high-capacity burrow of the paper's Table II (DH), tied to a 400 g sled (untethered
 # it overturns after 3.2 s: docs/design/walk-burrow-physics.md; tethered it runs the whole 8 s),
@@ -44,7 +44,7 @@ def _span(res) -> str:
     return f'{t:.1f} of {res.duration_s:.0f} s simulated{end}'
 
 
-def bench_sim() -> list[Figure]:
+def sim_figures() -> list[Figure]:
     before = kernels.threads()
     if kernels.AVAILABLE:
         kernels.set_threads(1)
