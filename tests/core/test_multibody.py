@@ -222,4 +222,5 @@ def test_the_burrow_command_prints_its_pose_and_writes_its_files(tmp_path, capsy
 def test_an_overturning_burrow_command_prints_no_pose(capsys):
     code = rftgls(['simulate', 'burrow', '--mode', 'SH', '--duration', '3', '--json'])
     s = json.loads(capsys.readouterr().out)
-    assert code == 1 and s['reason'] == 'overturned' and s['h_m'] is None
+    assert code == 0 and s['status'] == 'unsupported' and s['reason'] == 'overturned'
+    assert s['h_m'] is None and s['energy_elec_J'] is None
