@@ -1,10 +1,11 @@
 """The teleoperated tug from its documented commands (src/rftgls_ros/behavior_README.md,
 "Teleop"): `make teleop-sim SLED=0.4` (simulator, bridge, capacity_node, state_publisher) and
-`ros2 run rftgls_ros teleop` on a pseudo-terminal, driven by key presses as a person would.
+`ros2 run rftgls_ros teleop --ros-args -p accept_assumed_inputs:=height` on a pseudo-terminal, driven by key presses as a person would.
 
 What is checked, on the screen and on the robot's own topics:
 - standing, nothing is usable and reeling in is refused;
-- burrowed DH, the estimate is a measured `ok` (teleop publishes the tether angle) and the
+- burrowed DH, the estimate is `assumed (height)`: teleop publishes the tether angle, and the
+  Table II height marked assumed, which the documented command accepts; and the
   winch reels in 50 mm of rope (spool encoder) below the guard, running only while the
   estimate is usable (no screen shows the winch running on an estimate that is not);
 - paid out and burrowed SH, reeling in approaches the 80 % guard: the winch stops at or above
@@ -212,7 +213,8 @@ def test_documented_teleop_path_tugs_guards_and_stops(tmp_path, ros_context):
         assert robot.spin(90.0, lambda: math.isfinite(robot.spool)
                           or stack.poll() is not None), 'no joint_states from the stack'
         assert stack.poll() is None, (tmp_path / 'teleop_sim.log').read_text()[-3000:]
-        term = Terminal(['ros2', 'run', 'rftgls_ros', 'teleop'], cwd=tmp_path)
+        term = Terminal(['ros2', 'run', 'rftgls_ros', 'teleop', '--ros-args', '-p',
+                         'accept_assumed_inputs:=height'], cwd=tmp_path)
         term.wait_for(r'MiniRQuad teleop tug', 20, robot.spin)
         # As a person would: keys only once the screen says the robot listens (discovery).
         term.wait_for(r'robot listening', 20, robot.spin)
@@ -222,15 +224,16 @@ def test_documented_teleop_path_tugs_guards_and_stops(tmp_path, ros_context):
         term.press('i')
         term.wait_for(r'refusing to pull harder', 5, robot.spin)
 
-        # DH holds ~5.5 N: 50 mm reeled in under a measured ok, below the guard.
+        # DH holds ~5.5 N: 50 mm reeled in under an estimate whose one assumption (the height)
+        # is named on the screen and accepted, below the guard.
         term.press('1')
         assert robot.burrowed('DH'), (robot.legs, term.screen())
-        term.wait_for(r'status ok\s', 20, robot.spin)
+        term.wait_for(r'status assumed \(height\)', 20, robot.spin)
         term.wait_for(r'prediction usable', 5, robot.spin)
         n = numbers(term.screen())
         assert 3.0 < n['capacity'] < 9.0, term.screen()
         print(f"DH burrowed: capacity {n['capacity']} N, tension {n['tension']} N")
-        # The winch runs only under a usable (measured ok) estimate: a late telemetry frame on
+        # The winch runs only under a usable estimate: a late telemetry frame on
         # a loaded machine makes an estimate stale and teleop stops the winch at once; the
         # operator presses i again once the screen says the prediction is usable.
         start = robot.spool
@@ -249,7 +252,7 @@ def test_documented_teleop_path_tugs_guards_and_stops(tmp_path, ros_context):
         term.press('3')
         term.wait_for(r'anchor SH', 5, robot.spin)
         assert robot.burrowed('SH'), (robot.legs, term.screen())
-        term.wait_for(r'status ok\s', 20, robot.spin)
+        term.wait_for(r'status assumed \(height\)', 20, robot.spin)
         reel_until(term, robot, lambda: 'winch stopped; press ! then i to override'
                    in term.screen(), 'i')
         n = numbers(term.screen())

@@ -2,12 +2,13 @@
 capacity_node and state_publisher (no behavior_node: teleop commands the winch instead).
 
     ros2 launch rftgls_ros teleop.launch.py sled_mass_kg:=0.6      # then, in a terminal:
-    ros2 run rftgls_ros teleop
+    ros2 run rftgls_ros teleop --ros-args -p accept_assumed_inputs:=height
 
 On the pip-wheel machines `make teleop-sim` runs this file with rftgls_ros.launch_run.
 capacity_node reads the tether angle teleop publishes (/winch/phi, from the rope paid out and
-the attachment height, the same rftgls_ros.behavior.model.TetherTracker as behavior_node), so
-its estimate is `ok` once the anchor is burrowed, not `assumed`.
+the attachment height, the same rftgls_ros.behavior.model.TetherTracker as behavior_node) and
+the height teleop sends marked assumed (MiniRQuad measures none), so its estimate is
+`assumed (height)` once the anchor is burrowed.
 """
 import os
 

@@ -2,9 +2,12 @@
 
 Subscribes /winch/tension, /joint_states (winch_rope) and /capacity_node/estimate (status,
 capacity, slip twist and the assumed inputs in one message, so they never mix two estimates);
-publishes /winch/speed, /burrow, /gait, /estop, and /winch/height, /winch/phi for capacity_node
-(h = Table II mean of the requested mode; phi from the tether paid out and the attachment
-height: rftgls_ros.behavior.model.TetherTracker, the one behavior_node uses).
+publishes /winch/speed, /burrow, /gait, /estop, and for capacity_node /winch/height_estimate
+(rftgls_interfaces/InputValue: h of p marked ASSUMED, the Table II mean of the requested mode
+with its spread, as behavior_node sends it; MiniRQuad measures no height) and /winch/phi (from
+the tether paid out and the attachment height: rftgls_ros.behavior.model.TetherTracker, the
+one behavior_node uses). capacity_node's estimate is therefore `assumed (height)`: a tug on it
+needs `-p accept_assumed_inputs:=height`, the same opt-in as behavior_node's.
 Run it alone with the robot (or simulator), bridge_node and capacity_node, not together with
 behavior_node (both would command the winch). On exit the session's capacity_node estimates are
 written as a time series to `report_dir` (default out/teleop; "" = none): teleop_tug.png/.csv
@@ -24,15 +27,16 @@ from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Bool, Float64, String
+from std_msgs.msg import Bool, Float64, Header, String
 
 from rftgls_conventions import WINCH_ROPE_JOINT
-from rftgls_interfaces.msg import AnchorEstimate
+from rftgls_core.types import Provenance
+from rftgls_interfaces.msg import AnchorEstimate, InputValue
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import declare
 
 from ..behavior.tug_series import write_tug_series
-from ..capacity_msgs import record_tug
+from ..capacity_msgs import input_value, record_tug
 from .model import TeleopConfig, TeleopModel
 
 # ROS parameter (unit in the name) -> (TeleopConfig field, meaning, lo, hi). Start-up only.
@@ -70,7 +74,7 @@ class TeleopNode(Node):
             'gait': self.create_publisher(String, 'gait', 10),
             'estop': self.create_publisher(Bool, 'estop', 10),
         }
-        self.pub_h = self.create_publisher(Float64, 'winch/height', 10)
+        self.pub_h = self.create_publisher(InputValue, 'winch/height_estimate', 10)
         self.pub_phi = self.create_publisher(Float64, 'winch/phi', 10)
         sensor = qos_profile_sensor_data
         self.create_subscription(WrenchStamped, 'winch/tension', self.on_tension, sensor)
@@ -124,7 +128,9 @@ class TeleopNode(Node):
         self.send(m.update(time.monotonic()))
         if m.winch != 0.0:   # refresh: the MCU's winch deadman stops a winch left unrefreshed
             self.pubs['winch'].publish(Float64(data=float(m.winch)))
-        self.pub_h.publish(Float64(data=m.height))
+        header = Header(stamp=self.get_clock().now().to_msg())
+        self.pub_h.publish(input_value(m.height, m.height_band, Provenance.ASSUMED,
+                                       m.height_source, header))
         self.pub_phi.publish(Float64(data=m.tether.phi(m.height)))
 
 

@@ -86,7 +86,20 @@ class TeleopModel:
 
     @property
     def height(self) -> float:
+        """h of p, m: an assumption (MiniRQuad measures no height), the Table II mean of the
+        burrowed mode, else the standing height parameter."""
         return ANCHOR_MODES[self.mode].h if self.mode else self.cfg.h_stand
+
+    @property
+    def height_band(self) -> float:
+        """Half-width of the range the assumed height lies in, m (the mode's Table II spread;
+        NaN standing: not stated)."""
+        return ANCHOR_MODES[self.mode].h_band if self.mode else math.nan
+
+    @property
+    def height_source(self) -> str:
+        return (f'Table II mean of {self.mode} (teleop)' if self.mode
+                else 'h_stand_m parameter, not burrowed (teleop)')
 
     # ------------------------------------------------------------------ inputs
     def key(self, ch: str, t: float) -> list[tuple[str, object]]:
@@ -212,13 +225,16 @@ class TeleopModel:
             robot = f'{RED}NOBODY LISTENS to {", ".join(self.unheard)}{RESET}'
         else:
             robot = 'robot listening'
+        # An assumed estimate names what it assumes on the status line itself.
+        assumed = (f' ({", ".join(sorted(self.assumed_inputs))})'
+                   if self.status == 'assumed' and self.assumed_inputs else '')
         evidence = ('prediction usable' if verdict.usable
                     else f'{GREY}not usable: {verdict.detail}{RESET}')
         lines = [
             f'{BOLD}MiniRQuad teleop tug{RESET}  i/o reel in/out  space stop  1/2/3 burrow '
             'DH/DL/SH  u unburrow  w/s walk/stand  ! override  x STOP ALL  r release  q quit',
             f'tension  {f(self.tension, "N")}   capacity {capacity}   margin '
-            f'{margin}   status {color}{self.status}{RESET}',
+            f'{margin}   status {color}{self.status}{assumed}{RESET}',
             f'load     {load} (limit {100 * limit:.0f} %)',
             f'evidence {evidence}',
             f'slip twist {twist}',
