@@ -1,6 +1,7 @@
 """The teleoperated tug from its documented commands (src/rftgls_ros/behavior_README.md,
 "Teleop"): `make teleop-sim SLED=0.4` (simulator, bridge, capacity_node, state_publisher) and
-`ros2 run rftgls_ros teleop --ros-args -p accept_assumed_inputs:=height` on a pseudo-terminal, driven by key presses as a person would.
+`ros2 run rftgls_ros teleop --ros-args -p accept_assumed_inputs:=height` on a
+pseudo-terminal, driven by key presses as a person would.
 
 What is checked, on the screen and on the robot's own topics:
 - standing, nothing is usable and reeling in is refused;
