@@ -34,7 +34,9 @@ ROSDEP = {
     'llvmlite': 'python3-numba',
 }
 ROS = {'rclpy', 'launch', 'launch_ros', 'ament_index_python', 'builtin_interfaces', 'xacro'}
-EXEMPT = {'setuptools'}
+# colcon_package: the repository's tests/colcon_package.py, which each package's test/ takes its
+# checks from (a package's colcon test runs the repository's tests anyway: no rosdep key).
+EXEMPT = {'setuptools', 'colcon_package'}
 OPTIONAL = {'dask'}      # distributed map builds only (rftgls_core/package.xml says so)
 RUN_TAGS = ('depend', 'exec_depend')
 TEST_TAGS = RUN_TAGS + ('test_depend',)
