@@ -177,6 +177,12 @@ class BehaviorNode(Node):
             f'ms with status ok' + (f' or assumed {",".join(self.cfg.accept_assumed_inputs)}'
                                     if self.cfg.accept_assumed_inputs else ''))
 
+    def destroy_node(self) -> None:
+        # The action server first, while the node's handle is still valid: left to the garbage
+        # collector it would reach for a destroyed node handle (a traceback at SIGINT).
+        self.tug_action.destroy()
+        super().destroy_node()
+
     def now_s(self) -> float:
         return time.monotonic()
 
