@@ -67,17 +67,16 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     p.add_argument('--states', type=int, default=200)
     args = p.parse_args(argv)
-    from rftgls_core.anchor import AnchorModel
     from rftgls_core.benchmarks.live import LIVE_PHI, live_stream
     from rftgls_core.benchmarks.machine import describe, machine_record, peak_gflops
     from rftgls_core.maps.build import BuildSpec, solve_chunk
     from rftgls_core.maps.grid import prototype_grid
     from rftgls_core.maps.query import CapacityMap
     from rftgls_core.maps.shipped import SHIPPED, maps_dir
+    from rftgls_core.predictor.live import RobotPredictor
     from rftgls_core.rft import kernels
     from rftgls_core.rft.media import get_medium
     from rftgls_core.robots.presets import minirquad
-    from rftgls_core.surfaces.warm import WarmAnchorModel
     from rftgls_core.types import Pull
 
     kernels.set_threads(1)
@@ -96,16 +95,16 @@ def main(argv=None) -> int:
     qs = [AnchorState(*map(float, x)) for x in lo + (hi - lo) * rng.random((args.states, 4))]
     rows['map query'] = count.measure(lambda i: cmap.query(qs[i], -0.2, 'backward'), len(qs))
 
-    warm = WarmAnchorModel(robot, medium)
-    warm.predict(stream[0], phi, Pull.BACKWARD)
-    warm = WarmAnchorModel(robot, medium)
+    warm = RobotPredictor(robot, medium, method='direct-warm')
+    warm.predict(stream[0], phi, Pull.BACKWARD)   # compile and cache, then start afresh
+    warm = RobotPredictor(robot, medium, method='direct-warm')
     rows['warm live step'] = count.measure(
         lambda i: warm.predict(stream[i], phi, Pull.BACKWARD), len(stream))
-    cold = AnchorModel(robot, medium, method='direct')
+    cold = RobotPredictor(robot, medium, method='direct')
     sample = stream[::10]
     rows['cold direct'] = count.measure(
         lambda i: cold.predict(sample[i], phi, Pull.BACKWARD), len(sample))
-    mesh = AnchorModel(robot, medium, method='twist-mesh')
+    mesh = RobotPredictor(robot, medium, method='twist-mesh')
     rows['twist-mesh'] = count.measure(
         lambda i: mesh.predict(sample[i], phi, Pull.BACKWARD), len(sample))
     grid = prototype_grid()

@@ -22,21 +22,8 @@ import math
 import os
 import subprocess
 import sys
-import time
 
 import numpy as np
-
-
-def _best_alternating(fns: dict, rounds: int) -> dict:
-    for fn in fns.values():
-        fn()
-    best = {k: math.inf for k in fns}
-    for _ in range(rounds):
-        for k, fn in fns.items():
-            t0 = time.perf_counter()
-            fn()
-            best[k] = min(best[k], time.perf_counter() - t0)
-    return best
 
 
 def _rel(a, b) -> float:
@@ -45,14 +32,13 @@ def _rel(a, b) -> float:
 
 
 def workloads():
-    from rftgls_core.anchor import AnchorModel
     from rftgls_core.benchmarks.engine import TYPICAL_STATE, sphere_workload, threads, unit_twists
     from rftgls_core.benchmarks.live import LIVE_PHI, live_stream
+    from rftgls_core.predictor.live import RobotPredictor
     from rftgls_core.rft.engine import BuriedBody
     from rftgls_core.rft.media import get_medium
     from rftgls_core.rft.models import make_model
     from rftgls_core.robots.presets import minirquad
-    from rftgls_core.surfaces.warm import WarmAnchorModel
     from rftgls_core.types import Pull
 
     robot, medium = minirquad(), get_medium('m90_sand')
@@ -71,7 +57,8 @@ def workloads():
         with threads(1):
             return body.wrench(twists)
 
-    cold = {b: AnchorModel(robot, medium, method='direct', backend=b) for b in ('auto', 'numpy')}
+    cold = {b: RobotPredictor(robot, medium, method='direct', backend=b)
+            for b in ('auto', 'numpy')}
 
     def direct(backend):
         r = cold[backend].predict(TYPICAL_STATE, math.radians(-20.0), Pull.BACKWARD)
@@ -80,7 +67,7 @@ def workloads():
     stream = live_stream(200)
 
     def live(backend):
-        warm = WarmAnchorModel(robot, medium, backend=backend)
+        warm = RobotPredictor(robot, medium, method='direct-warm', backend=backend)
         return [warm.predict(s, LIVE_PHI, Pull.BACKWARD).capacity_N for s in stream]
 
     return {'gls_cloud': (cloud, 1), 'sphere_6d': (sphere, 1), 'direct_cold': (direct, 1),
@@ -93,6 +80,7 @@ def main(argv=None) -> int:
     p.add_argument('--cpu', choices=('x86-64-v3', 'x86-64-v2'))
     args = p.parse_args(argv)
     from rftgls_core.benchmarks.machine import CPU_TARGETS, describe, machine_record
+    from rftgls_core.benchmarks.timing import best_times_alternating
     if args.cpu and os.environ.get('RFTGLS_BENCH_CPU_TARGET') != args.cpu:
         env = {**os.environ, **CPU_TARGETS[args.cpu], 'RFTGLS_BENCH_CPU_TARGET': args.cpu}
         return subprocess.call([sys.executable, __file__, '--rounds', str(args.rounds),
@@ -101,8 +89,9 @@ def main(argv=None) -> int:
     print(f'{"workload":<12} {"numba":>11} {"numpy":>11} {"ratio":>7}  answers apart (rel.)')
     for name, (fn, per) in workloads().items():
         out: dict = {}
-        best = _best_alternating({b: (lambda b=b, fn=fn, out=out: out.__setitem__(b, fn(b)))
-                                  for b in ('auto', 'numpy')}, args.rounds)
+        calls = {b: (lambda b=b, fn=fn, out=out: out.__setitem__(b, fn(b)))
+                 for b in ('auto', 'numpy')}
+        best = best_times_alternating(calls, args.rounds)
         fast, ref = best['auto'] / per, best['numpy'] / per
         print(f'{name:<12} {_fmt(fast):>11} {_fmt(ref):>11} {ref / fast:>6.1f}x  '
               f'{_rel(out["auto"], out["numpy"]):.1e}')

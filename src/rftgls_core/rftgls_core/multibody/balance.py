@@ -86,7 +86,7 @@ class Balance:
 
 
 def scaling_of(posed: PosedMultibody) -> Scaling:
-    """The scaled metric of the stack (anchor.AnchorModel): s_F = the weight, L_c."""
+    """The scaled metric of the stack (predictor/live.py RobotPredictor): s_F = the weight, L_c."""
     return Scaling(posed.robot.weight, posed.robot.char_length)
 
 
