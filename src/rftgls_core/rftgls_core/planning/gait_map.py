@@ -99,7 +99,7 @@ class GaitMap:
         """Every gait's runs at the tether angles `phis` (each one of the map's)."""
         idx = [int(np.argmin(np.abs(self.phis - p))) for p in phis]
         a = self.arrays
-        pairs = [tuple(int(v) for v in p) for p in a['pairs']]
+        pairs = [(int(p[0]), int(p[1])) for p in a['pairs']]
         labels = [str(s) for s in a['run_labels']]
         out = []
         for n in range(len(a['gaits'])):

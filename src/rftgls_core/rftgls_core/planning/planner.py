@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from ..maps.errors import MapFileError
 from .bound import answer
 from .gait_map import GaitMap, build_gait_map, load, shipped_path
 from .gaits import SHIPPED_GRID, GaitPoint, with_modes
@@ -18,11 +19,15 @@ def gait_space() -> list[GaitPoint]:
 
 
 def find_map(inputs: PlanInputs, path: str | Path | None) -> tuple[GaitMap | None, str]:
-    """The gait map to answer from and why: the given file (MapFileError if unreadable), or
-    the robot's shipped one; None (and why) when it does not answer for these inputs."""
+    """The gait map to answer from and why: the given file (MapFileError when it is unreadable
+    or does not answer for these inputs: the user asked for it), or the robot's shipped one
+    (None and why when it does not answer: the plan is then simulated live)."""
     if path is not None:
         gmap = load(path)
-        where = f'gait map {path}'
+        why = gmap.answers_for(inputs)
+        if why is not None:
+            raise MapFileError(f'{path} does not answer for these inputs: {why}')
+        return gmap, f'gait map {path}'
     else:
         shipped = None if inputs.anchor else shipped_path(inputs.robot)
         if shipped is None:

@@ -19,8 +19,8 @@ from functools import lru_cache
 import numpy as np
 
 from ..multibody.robot import Multibody
-from ..multibody.simulate import SimOptions, SimulationStop, Simulator
 from ..multibody.servo import XL330_M077_5V
+from ..multibody.simulate import SimOptions, SimulationStop, Simulator
 from ..rft.media import Medium
 from ..types import AnchorState, Status
 from .gaits import GaitPoint, why_not_runnable

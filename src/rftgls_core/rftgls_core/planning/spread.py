@@ -49,6 +49,15 @@ class Spread:
         if not (math.isfinite(self.stall_rel_sigma) and 0.0 <= self.stall_rel_sigma < 1.0):
             raise ValueError(f'stall torque sigma must be in [0, 1), got {self.stall_rel_sigma}')
 
+    @classmethod
+    def of(cls, cov, cov_source: str, stall_rel_sigma: float = STALL_REL_SIGMA) -> Spread:
+        """A Spread from a 2 x 2 array-like covariance."""
+        c = np.asarray(cov, dtype=float)
+        if c.shape != (2, 2):
+            raise ValueError('the medium covariance must be a finite 2 x 2 matrix')
+        return cls(((float(c[0, 0]), float(c[0, 1])), (float(c[1, 0]), float(c[1, 1]))),
+                   cov_source, stall_rel_sigma)
+
     def medium_axes(self) -> list[np.ndarray]:
         """One-sigma steps along the covariance's principal axes (xi_n, mu_surf), largest
         first; axes with zero variance are left out."""
