@@ -19,9 +19,10 @@ NEED_N = 1.96
 
 
 def _gait_map():
-    from ..planning.gait_map import load, shipped_path
-    path = shipped_path('minirquad')
-    if path is not None:
+    from ..planning.gait_map import load, shipped_paths
+    paths = shipped_paths('minirquad')
+    if paths:
+        path = paths[0]
         t0 = time.perf_counter()
         gmap = load(path)
         return gmap, time.perf_counter() - t0, f'shipped {path.name}'

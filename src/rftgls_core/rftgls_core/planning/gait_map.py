@@ -56,9 +56,11 @@ VOLATILE_ATTRS = ('build_time_utc',)
 STRING_SETS = ('gait_names', 'runnable', 'run_labels', 'status', 'reason', 'cap_reason')
 NUMBER_SETS = ('gaits', 'phi', 'pairs', 'pose', 'energy_elec_J', 'capacity_N', 'steps')
 
-# The shipped gait maps (in maps_dir()) and their content hashes, recorded when written
-# (maps/README.md has the command). `load` refuses a shipped file that does not match.
-SHIPPED = {'minirquad': 'minirquad_m90_sand_gaits.h5'}
+# The shipped gait maps (in maps_dir()), one per sled the robot burrows tied to, and their
+# content hashes, recorded when written (maps/README.md has the commands). `load` refuses a
+# shipped file that does not match.
+SHIPPED = {'minirquad': ('minirquad_m90_sand_gaits_sled400g.h5',
+                         'minirquad_m90_sand_gaits_sled600g.h5')}
 SHIPPED_SHA256: dict[str, str] = {}
 
 
@@ -287,10 +289,6 @@ def _read(f: h5py.File) -> GaitMap:
     return GaitMap(attrs, arrays)
 
 
-def shipped_path(robot: str) -> Path | None:
-    """The shipped gait map of a robot preset, if there is one."""
-    name = SHIPPED.get(robot)
-    if name is None:
-        return None
-    p = maps_dir() / name
-    return p if p.is_file() else None
+def shipped_paths(robot: str) -> list[Path]:
+    """The shipped gait maps of a robot preset that are installed."""
+    return [maps_dir() / n for n in SHIPPED.get(robot, ()) if (maps_dir() / n).is_file()]

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ..maps.errors import MapFileError
 from .bound import answer
-from .gait_map import GaitMap, build_gait_map, load, shipped_path
+from .gait_map import GaitMap, build_gait_map, load, shipped_paths
 from .gaits import SHIPPED_GRID, GaitPoint, with_modes
 from .plan import Plan, make_plan
 from .predict import PlanInputs
@@ -28,16 +28,17 @@ def find_map(inputs: PlanInputs, path: str | Path | None) -> tuple[GaitMap | Non
         if why is not None:
             raise MapFileError(f'{path} does not answer for these inputs: {why}')
         return gmap, f'gait map {path}'
-    else:
-        shipped = None if inputs.anchor else shipped_path(inputs.robot)
-        if shipped is None:
-            return None, 'no gait map given or shipped for this robot'
-        gmap = load(shipped)
-        where = f'shipped gait map {shipped.name}'
-    why = gmap.answers_for(inputs)
-    if why is not None:
-        return None, f'{where} does not answer: {why}'
-    return gmap, where
+    shipped = [] if inputs.anchor else shipped_paths(inputs.robot)
+    if not shipped:
+        return None, 'no gait map given or shipped for this robot'
+    whys = []
+    for p in shipped:
+        gmap = load(p)
+        why = gmap.answers_for(inputs)
+        if why is None:
+            return gmap, f'shipped gait map {p.name}'
+        whys.append(f'{p.name} {why}')
+    return None, 'no shipped gait map answers: ' + '; '.join(whys)
 
 
 def plan_burrow(inputs: PlanInputs, need_N: float, level: float, *,
