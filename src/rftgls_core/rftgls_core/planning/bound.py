@@ -59,18 +59,23 @@ class GaitAnswer:
         d['pose'] = ({'h_m': float(self.pose[0]), 'theta_b_deg': math.degrees(self.pose[1]),
                       'theta_l1_deg': math.degrees(self.pose[2]),
                       'theta_l2_deg': math.degrees(self.pose[3]),
-                      'h_sigma_m': float(self.pose_sigma[0]),
-                      'theta_b_sigma_deg': math.degrees(self.pose_sigma[1]),
+                      'h_sigma_m': _num(float(self.pose_sigma[0])),
+                      'theta_b_sigma_deg': _num(math.degrees(self.pose_sigma[1])),
                       'provenance': 'modelled'} if has_pose else None)
         d['lower_bound_N'] = self.lower_bound_N
         d['capacity_N'] = self.capacity_N
         d['energy_elec_J'] = self.energy_elec_J
         d['status'] = self.status
         d['reason'] = self.reason
-        d['per_phi'] = [{'phi_deg': math.degrees(p), 'capacity_N': c, 'sigma_N': s,
-                         'lower_bound_N': lo}
+        d['per_phi'] = [{'phi_deg': math.degrees(p), 'capacity_N': _num(c), 'sigma_N': _num(s),
+                         'lower_bound_N': _num(lo)}
                         for p, (c, s, lo) in zip(phis, self.per_phi)]
         return d
+
+
+def _num(v: float) -> float | None:
+    """JSON has no NaN: a value that is not there is null."""
+    return float(v) if math.isfinite(v) else None
 
 
 def z_of(level: float) -> float:
