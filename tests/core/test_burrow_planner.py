@@ -245,3 +245,17 @@ def test_the_command_says_when_no_gait_covers_the_need(tiny_map, capsys):
     d = json.loads(capsys.readouterr().out)
     assert code == 1 and d['status'] == 'unsupported' and d['chosen'] is None
     assert d['reason'].startswith('need_not_covered') and d['front']
+
+
+@pytest.mark.parametrize('name, sled', zip(gait_map.SHIPPED['minirquad'], (0.4, 0.6)))
+def test_the_shipped_gait_maps_answer_the_plans_they_are_for(name, sled):
+    """Loaded against the hash recorded in the package, and answering for what `rftgls plan
+    burrow --need-N 1.96|2.94 --phi 0,-20` asks (stale inputs: rebuild, maps/README.md)."""
+    from rftgls_core.maps.shipped import maps_dir
+    gmap = gait_map.load(maps_dir() / name)
+    assert gait_map.SHIPPED_SHA256[name] == gmap.attrs['content_sha256']
+    m = get_medium('m90_sand')
+    cov, src = medium_covariance(None, m.xi_n)
+    assert gmap.answers_for(PlanInputs('minirquad', m, Spread.of(cov, src), PHIS,
+                                       sled_kg=sled)) is None
+    assert {'DH', 'DL', 'SH'} <= set(gmap.arrays['gait_names'])
