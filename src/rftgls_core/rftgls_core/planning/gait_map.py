@@ -64,6 +64,8 @@ SHIPPED = {'minirquad': ('minirquad_m90_sand_gaits_sled400g.h5',
 SHIPPED_SHA256: dict[str, str] = {
     'minirquad_m90_sand_gaits_sled400g.h5':
         'c5bc0a6439c7a0675f4e76a4016df82df0cd1291cdda54d2340c22379b52a6a9',
+    'minirquad_m90_sand_gaits_sled600g.h5':
+        '1dc61b26261d145eb8d82f14edb3cd293902b9ca7551d0c15028cbfb09f032e8',
 }
 
 
