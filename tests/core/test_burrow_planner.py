@@ -135,7 +135,7 @@ def test_the_spread_runs_follow_the_covariance_axes():
 
 # ------------------------------------------------------------------ simulated gaits
 def test_an_overturning_gait_is_never_a_candidate():
-    """Untethered, SH vaults over its nose (walk-burrow-physics.md): status, no pose."""
+    """Untethered, SH vaults over its nose (docs/design/walk-burrow-physics.md): status, no pose."""
     r = predict_gait(_inputs(sled_kg=0.0), SH)
     a = answer(SH, r, 0.95)
     assert r.status[0] == 'unsupported' and r.reason[0] == 'overturned'
@@ -165,7 +165,7 @@ def test_a_map_answer_agrees_with_the_live_simulation(tiny_map):
     capacity. Tolerance: both are the same float64 computation; only the RFT kernels'
     thread count can reorder a facet sum (1 ulp per facet, 1e-13 relative over ~3,000
     facets), and a burrow of ~500 steps carries it on at most linearly: 1e-9 m and 1e-9 N
-    leave a margin of 10^3 (docs/design/burrow-planner.md, "Accuracy")."""
+    leave a margin of 10^3 (docs/design/burrow-planner.md, "The gait map")."""
     inputs, path = tiny_map
     gmap = gait_map.load(path)
     assert gmap.answers_for(inputs) is None
@@ -247,7 +247,7 @@ def test_the_command_says_when_no_gait_covers_the_need(tiny_map, capsys):
     assert d['reason'].startswith('need_not_covered') and d['front']
 
 
-@pytest.mark.parametrize('name, sled', zip(gait_map.SHIPPED['minirquad'], (0.4, 0.6)))
+@pytest.mark.parametrize('name, sled', list(zip(gait_map.SHIPPED['minirquad'], (0.4, 0.6))))
 def test_the_shipped_gait_maps_answer_the_plans_they_are_for(name, sled):
     """Loaded against the hash recorded in the package, and answering for what `rftgls plan
     burrow --need-N 1.96|2.94 --phi 0,-20` asks (stale inputs: rebuild, maps/README.md)."""

@@ -122,8 +122,9 @@ def answer(gait: GaitPoint, runs: GaitRuns, level: float) -> GaitAnswer:
     cap = min(p[0] for p in per_phi)
     lower = min(p[2] for p in per_phi)
     return GaitAnswer(gait, Status.ASSUMED.value, 'assumed inputs: the medium preset or '
-                      'calibration, the servo tolerance, robot geometry and sled (docs/design/'
-                      'burrow-planner.md)', pose0, sig, _energy(runs), cap, lower, per_phi)
+                      'calibration, the servo tolerance, robot geometry and sled '
+                      '(docs/design/burrow-planner.md)', pose0, sig, _energy(runs), cap, lower,
+                      per_phi)
 
 
 def _phi(runs: GaitRuns, k: int) -> float:

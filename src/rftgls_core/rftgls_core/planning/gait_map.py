@@ -19,10 +19,10 @@ Schema `rftgls.gait_map`, version 1 (N gaits, R runs of the spread, K tether ang
 
 The map stores the runs, not the bound: the planner computes each gait's answer from them
 (bound.answer) at the confidence asked, with the same code as the live planner, so a map
-answer equals the live one at its gaits (burrow-planner.md, "Accuracy"). It answers only its
-own gaits and tether angles and only for the inputs whose hash it carries; anything else goes
-to the live simulation. `load` recomputes content_sha256 and refuses a mismatch; a shipped map
-must also match the hash recorded here (SHIPPED_SHA256).
+answer equals the live one at its gaits (docs/design/burrow-planner.md, "The gait map"). It
+answers only its own gaits and tether angles and only for the inputs whose hash it carries;
+anything else goes to the live simulation. `load` recomputes content_sha256 and refuses a
+mismatch; a shipped map must also match the hash recorded here (SHIPPED_SHA256).
 """
 from __future__ import annotations
 

@@ -86,7 +86,8 @@ class GaitGrid:
 # The shipped gait space: proximal legs retracted to -60 or -40 deg, distal to -40 or -20 deg,
 # final proximal at -40 or -20 deg and distal at -20, 0 or +30 deg, at the default slew
 # (1 rad/s). 24 gaits, plus the paper's three modes; modest because one gait costs seven
-# simulations (the spread) and a deep tethered one can take a minute (burrow-planner.md).
+# simulations (the spread) and a deep tethered one can take a minute
+# (docs/design/burrow-planner.md).
 SHIPPED_GRID = GaitGrid((-60.0, -40.0), (-40.0, -20.0), (-40.0, -20.0), (-20.0, 0.0, 30.0))
 
 
