@@ -83,6 +83,7 @@ def test_e2e_400g_chooses_sh_and_tugs(tmp_path, spawn):
 
 
 @pytest.mark.slow
+@pytest.mark.campaign      # the same cycle as the test above, on the compiled firmware
 def test_e2e_400g_walk_burrow_tug_with_the_firmware_mcu(tmp_path, spawn, stop, firmware_build):
     """The same cycle with the compiled firmware as the robot's MCU (minirquad_sim --mcu
     firmware): the real bridge, capacity_node and behavior_node on the other end of the pty."""
@@ -115,6 +116,7 @@ def test_e2e_refuses_when_no_mode_suffices(tmp_path, spawn):
 
 
 @pytest.mark.slow
+@pytest.mark.campaign      # the margin guard: unit-tested in make test, here end to end
 def test_e2e_heavier_sled_mid_tug_stops_before_slip(tmp_path, spawn, stop):
     sim = [sys.executable, __file__, '--heavier-at', '0.10', '--heavier-mass', '0.6']
     log = run_stack(tmp_path, spawn, 0.4, sim=sim)
