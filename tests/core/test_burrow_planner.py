@@ -265,3 +265,25 @@ def test_the_shipped_gait_maps_answer_the_plans_they_are_for(name, sled):
     assert gmap.answers_for(PlanInputs('minirquad', m, Spread.of(cov, src), PHIS,
                                        sled_kg=sled)) is None
     assert {'DH', 'DL', 'SH'} <= set(gmap.arrays['gait_names'])
+
+
+def test_the_shipped_400g_map_still_matches_the_simulation():
+    """A change of the burrow simulation's physics leaves the inputs hash as it was: the
+    shipped map would then answer with the old physics. Its stored nominal SH run must equal
+    a fresh one (tolerance as in the live comparison above); if not, rebuild the shipped maps
+    with the commands in maps/README.md."""
+    from rftgls_core.maps.shipped import maps_dir
+    name = gait_map.SHIPPED['minirquad'][0]
+    gmap = gait_map.load(maps_dir() / name)
+    k = list(gmap.arrays['gait_names']).index('SH')
+    stored = gmap.runs(PHIS)[k]
+    m = get_medium('m90_sand')
+    cov, _src = medium_covariance(None, m.xi_n)
+    step = np.linalg.eigh(cov)[1][:, -1] * math.sqrt(np.linalg.eigh(cov)[0][-1])
+    one_axis = PlanInputs('minirquad', m, Spread.of(np.outer(step, step), 'assumed', 0.0),
+                          PHIS, sled_kg=0.4)
+    live = predict_gait(one_axis, SH)
+    assert stored.status[0] == live.status[0], (stored.status[0], live.status[0])
+    assert np.allclose(stored.pose[0], live.pose[0], rtol=0.0, atol=1e-9), \
+        (stored.pose[0], live.pose[0], f'{name} is stale: rebuild it (maps/README.md)')
+    assert np.allclose(stored.capacity_N[0], live.capacity_N[0], rtol=0.0, atol=1e-9)
