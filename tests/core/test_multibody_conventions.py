@@ -119,3 +119,23 @@ def test_the_loop_takes_the_short_way_round_for_legs_that_turn_fully():
     limited = robot.__class__(**{**robot.__dict__, 'legs': tuple(
         leg.__class__(**{**leg.__dict__, 'limits': (-4.0, 4.0)}) for leg in robot.legs)})
     assert np.allclose(position_error(limited, ref, q), math.radians(200.0))
+
+
+def test_a_servo_over_its_line_runs_where_torque_and_line_meet():
+    """A buried leg commanded at the no-load speed (where the line gives no torque) runs at the
+    largest rate its servo's line allows: its torque there is within the line, and 5 % more
+    rate (the search stops within balance.FRACTION_TOL = 2 %) is beyond it."""
+    from rftgls_core.multibody import balance as bal_mod
+    from rftgls_core.multibody.servo import XL330_M077_5V as servo
+    robot = from_preset(minirquad())
+    posed = robot.pose(BasePose(0.0, 0.03, 0.0), np.radians([-30.0, -30.0, -30.0, -30.0]))
+    command = np.array([servo.no_load_speed, 0.0, servo.no_load_speed, 0.0])
+    b = bal_mod.balance(posed, MODEL, servo, command, posed.gravity, np.zeros(3), 0.01, 1e-5)
+    i = 0
+    rate = b.rates[i]
+    assert 0.0 < rate < command[i] and not b.stalled[i]
+    assert abs(b.torques[i]) <= servo.torque_limit(rate) * (1.0 + 1e-9)
+    faster = min(command[i], rate + 0.05 * command[i])
+    rates = np.where(command != 0.0, faster, 0.0)
+    b2 = bal_mod.step_balance(posed, MODEL, rates, posed.gravity, np.zeros(3), 0.01, 1e-5)
+    assert abs(b2.torques[i]) > servo.torque_limit(faster)
