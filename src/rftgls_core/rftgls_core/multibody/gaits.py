@@ -201,8 +201,11 @@ class WalkGait:
         return 0.0, 0.0
 
     def start(self) -> np.ndarray:
-        """Each leg on its clock at t = 0 (the robot is put down in the clock's first pose)."""
-        return self.reference(0.0)[0]
+        """Standing: every leg at theta_L = 0, as MiniRHex stands before it walks (its STAND
+        holds each leg at desired_theta 0); the MCU's loop then brings each leg to its clock
+        the short way round (simulate.position_error). Put down with its legs already at four
+        clock phases (one pointing up) the robot would start on two legs, pitched."""
+        return np.zeros(len(self.robot.legs))
 
     def stance(self, t: float) -> np.ndarray:
         """Which legs are on their slow (stance) arc at t."""
