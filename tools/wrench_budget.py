@@ -41,18 +41,20 @@ def main() -> None:
     sim = sim_mod.Simulator(robot, get_medium('m90_sand'),
                             sled=None if a.sled is None else Sled(a.sled))
     rows: list = []
-    record = sim._record
-
-    def keep(phase, mode, b, power=None):
-        record(phase, mode, b, power)
-        s = sim.samples[-1]
-        posed = robot.pose(sim.pose, sim.q)
-        legs = np.array([b.leg_wrench.get(i, np.zeros(3)) for i in range(len(robot.legs))])
-        rows.append((s, legs, np.asarray(b.base_wrench), posed.gravity.copy()))
-    sim._record = keep
-    res = sim.run(gait)
-    print(f'status {res.status.value} {res.reason if res.status.value != "assumed" else ""} '
-          f'{res.detail}')
+    status = 'ran to its end'
+    try:
+        sim.place(gait.start())
+        knots = sorted(set(gait.knots()) | {gait.duration})
+        while sim.t < gait.duration - 1e-12:
+            nxt = min(k for k in knots if k > sim.t + 1e-12)
+            sim.step(min(sim.options.dt, nxt - sim.t), gait)
+            b = sim.last
+            posed = robot.pose(sim.pose, sim.q)
+            legs = np.array([b.leg_wrench.get(i, np.zeros(3)) for i in range(len(robot.legs))])
+            rows.append((sim.samples[-1], legs, np.asarray(b.base_wrench), posed.gravity.copy()))
+    except sim_mod.SimulationStop as stop:
+        status = f'{stop.status.value} {stop.reason}: {stop.detail}'
+    print(status)
     names = [leg.name.replace('_hip', '') for leg in robot.legs]
     print('t_s phase mode | p_x mm, h mm, thetaB deg | q deg | per leg (Fx, Fz, My) | base | '
           'gravity My | torques N m')
