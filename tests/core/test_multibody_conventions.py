@@ -139,3 +139,15 @@ def test_a_servo_over_its_line_runs_where_torque_and_line_meet():
     rates = np.where(command != 0.0, faster, 0.0)
     b2 = bal_mod.step_balance(posed, MODEL, rates, posed.gravity, np.zeros(3), 0.01, 1e-5)
     assert abs(b2.torques[i]) > servo.torque_limit(faster)
+
+
+def test_a_walk_starts_from_standing_level():
+    """MiniRHex stands (every leg at 0) before it walks: the robot is put down level, not in
+    its clocks' first pose (one leg up, two under it: 27 deg nose down)."""
+    from rftgls_core.multibody.simulate import Simulator
+    robot = from_preset(minirquad())
+    gait = WalkGait(robot, duration=1.0)
+    assert np.array_equal(gait.start(), np.zeros(4))
+    sim = Simulator(robot, get_medium('m90_sand'))
+    sim.place(gait.start())
+    assert abs(math.degrees(sim.pose.theta_b)) < 2.0
