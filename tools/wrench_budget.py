@@ -14,8 +14,8 @@ import math
 
 import numpy as np
 
-from rftgls_core.cli.simulate_gait import TABLE_II
 from rftgls_core.multibody import simulate as sim_mod
+from rftgls_core.multibody.gaits import TABLE_II_BURROWS as TABLE_II
 from rftgls_core.multibody.gaits import BurrowGait, WalkGait
 from rftgls_core.multibody.robot import from_preset
 from rftgls_core.multibody.sled import Sled
