@@ -12,8 +12,8 @@ from __future__ import annotations
 import math
 
 from rftgls_core.types import AnchorState
-from rftgls_ros.capacity.range_bound import range_minimum
 from rftgls_ros.behavior import BehaviorConfig, Observation
+from rftgls_ros.capacity.range_bound import range_minimum
 
 
 class Plant:
