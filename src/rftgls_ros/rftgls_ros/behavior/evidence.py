@@ -82,7 +82,8 @@ def judge(t: float, capacity: float | None, status: str, t_capacity: float,
         # message it is a broken estimate. The winch stops either way.
         return Verdict(False, NO_VALUE, True,
                        f'capacity_node status {status!r} without a finite capacity')
-    if capacity_lower is None or not math.isfinite(capacity_lower) or capacity_lower < 0.0:
+    if capacity_lower != math.inf and (capacity_lower is None or not math.isfinite(
+            capacity_lower) or capacity_lower < 0.0):
         # A decision uses the lower bound, never the point estimate: capacity_node publishes
         # one whenever an input is assumed (behavior_node's height always is) or a level is set.
         return Verdict(False, NO_LOWER_BOUND, False,
