@@ -270,6 +270,7 @@ class BehaviorNode(Node):
         if math.isfinite(o.t_tension):
             sample = min(sample, o.t_tension)
         o.capacity, o.t_capacity = msg.capacity_n, sample  # N along the tether; NaN: no value
+        o.capacity_lower = msg.capacity_lower_n           # what decisions use; NaN: none
         o.capacity_status = status_word(msg)
         o.assumed_inputs = frozenset(msg.assumed_inputs)
         tw = msg.slip_twist

@@ -137,15 +137,15 @@ class Burrow:
             if m.elapsed() >= m.cfg.capacity_wait_s:
                 m.retry.abort(v, in_tug=False)
             return
-        cap = m.obs.capacity * m.chooser.scale
+        cap = m.decision_capacity()
         required = m.cfg.safety_factor * m.need.value
         if cap < required:
-            m.event('decision', f'capacity_node: {m.mode} holds {cap:.2f} N < '
+            m.event('decision', f'capacity_node: {m.mode} holds {cap:.2f} N (lower bound) < '
                                 f'{required:.2f} N required', mode=m.mode)
             self.reselect(f'{m.mode} insufficient per capacity_node', cap)
             return
         m.go(State.TUG, f'{m.mode} holds at the measured pose ({self.check.why}; '
-                        f'capacity_node {cap:.2f} N >= {required:.2f} N)')
+                        f'capacity_node lower bound {cap:.2f} N >= {required:.2f} N)')
 
     def _check_prediction(self) -> None:
         m = self.m

@@ -194,7 +194,13 @@ class BehaviorMachine:
         o = self.obs
         return evidence.judge(o.t, o.capacity, o.capacity_status, o.t_capacity,
                               self.cfg.estimate_timeout_s, o.assumed_inputs,
-                              frozenset(self.cfg.accept_assumed_inputs))
+                              frozenset(self.cfg.accept_assumed_inputs), o.capacity_lower)
+
+    def decision_capacity(self) -> float:
+        """What capacity_node's usable estimate lets a decision count on, N: its lower bound
+        times the learned scale (call only on usable evidence)."""
+        assert self.obs.capacity_lower is not None
+        return self.obs.capacity_lower * self.chooser.scale
 
     def capacity_valid(self) -> bool:
         return self.evidence().usable
@@ -214,11 +220,13 @@ class BehaviorMachine:
         return AnchorState(m.h, tb, l1, l2)
 
     def own_capacity(self) -> tuple[float | None, str]:
-        """This node's map prediction (N, status) at the measured pose and estimated phi."""
+        """This node's map prediction (N, status) at the measured pose and estimated phi: its
+        lower end over the burrowed mode's height band."""
         state = self.measured_state()
-        if state is None:
+        if state is None or self.mode is None:
             return None, 'stale'
-        cap, status = self.chooser.capacity(state, self.tether.phi(self.height))
+        cap, status = self.chooser.lower_capacity(state, self.tether.phi(self.height),
+                                                  ANCHOR_MODES[self.mode].h_band)
         return cap, str(status)
 
     # ------------------------------------------------------------------ step

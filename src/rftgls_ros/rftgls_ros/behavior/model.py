@@ -15,6 +15,8 @@ from rftgls_conventions import G, tether_phi
 from rftgls_core.predictor import Predictor
 from rftgls_core.types import AnchorState, Pull, Status
 
+from ..capacity.range_bound import scan_points
+
 
 @dataclass(frozen=True)
 class AnchorMode:
@@ -185,7 +187,8 @@ class Decision:
 
 class ModeChooser:
     """Cheapest sufficient mode: a mode is sufficient when every pull angle in ``phis`` has a
-    valid prediction with capacity >= safety_factor * need (N). Ties go to the stronger.
+    valid prediction whose lower end over the mode's height band (``lower_capacity``) is
+    >= safety_factor * need (N). Ties go to the stronger.
 
     ``predictor``: any rftgls_core ``Predictor`` (the map capacity_node loads, or the live
     model), asked for ``pull`` (MiniRQuad's winch is on its back: 'backward').
@@ -208,10 +211,30 @@ class ModeChooser:
         r = self.predictor.predict(state, phi, self.pull)
         return (r.capacity_N if r.status.has_value else None), r.status
 
+    def lower_capacity(self, state: AnchorState, phi: float, h_band: float) -> Prediction:
+        """(smallest capacity N over h +- h_band, status): the height of p is not measured,
+        only known to lie in the band; the scan points are capacity_node's (range_bound.py).
+        A point without a value makes it 0 (the anchor may hold nothing there); the status
+        is the worst non-ok one met, else ok. h_band 0 or NaN: the state's h alone."""
+        hs = [state.h] if not (h_band > 0.0) else scan_points(state.h, h_band, 0.0, math.inf)
+        best: float | None = None
+        for h in hs:
+            cap, status = self.capacity(AnchorState(h, state.theta_b, state.theta_l1,
+                                                    state.theta_l2), phi)
+            if status == Status.STALE:
+                return None, status               # unanswered: no value, not a weak anchor
+            if status != Status.OK or cap is None or not math.isfinite(cap):
+                cap = 0.0
+            best = cap if best is None else min(best, cap)
+        return best, Status.OK
+
     def evaluate(self, mode: str, state: AnchorState, need: float, energy: float) -> Candidate:
+        """The mode at ``state``: per pull angle the lower capacity over the mode's height
+        band (a decision uses the lower bound, not the point estimate), times ``scale``."""
         caps, stats = [], []
+        band = self.modes[mode].h_band if mode in self.modes else 0.0
         for phi in self.phis:
-            cap, status = self.capacity(state, phi)
+            cap, status = self.lower_capacity(state, phi, band)
             ok = status == Status.OK and cap is not None and math.isfinite(cap)
             caps.append(cap * self.scale if ok else None)
             stats.append(str(status))
