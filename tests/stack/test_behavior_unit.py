@@ -322,3 +322,29 @@ def test_report_csv_and_png(tmp_path, predictor):
 def test_modes_match_table_ii():
     assert ANCHOR_MODES['DH'].expected_state().h == 0.034
     assert math.degrees(ANCHOR_MODES['SH'].retract[1]) == pytest.approx(-20)
+
+
+def test_burrow_modes_table_ii_runs_and_planned_is_refused_in_one_line():
+    assert BehaviorConfig().burrow_modes == 'table_ii'
+    with pytest.raises(ValueError) as planned:
+        BehaviorConfig(burrow_modes='planned').check()
+    assert str(planned.value) == ("burrow_modes 'planned': behavior_node has no burrow planner "
+                                  "yet; use 'table_ii'")
+    with pytest.raises(ValueError, match='burrow_modes must be one of table_ii, planned'):
+        BehaviorConfig(burrow_modes='paper').check()
+
+
+@pytest.mark.parametrize('status, lower, usable, reason', [
+    ('ok', 2.0, True, 'ok'),
+    ('modelled', 2.0, True, 'ok'),                    # its band is inside the lower bound
+    ('modelled', math.inf, False, 'lower_bound_missing'),   # never on the point estimate
+    ('modelled', float('nan'), False, 'lower_bound_missing'),
+    ('ok', float('nan'), False, 'lower_bound_missing'),
+    ('assumed', 2.0, False, 'assumed_not_accepted'),
+])
+def test_evidence_needs_a_lower_bound_and_takes_a_modelled_input(status, lower, usable,
+                                                                 reason):
+    from rftgls_ros.behavior import evidence
+    v = evidence.judge(1.0, 2.5, status, 1.0, 0.05, frozenset({'height'}), frozenset(),
+                       lower)
+    assert (v.usable, v.reason) == (usable, reason), v

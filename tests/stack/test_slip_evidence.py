@@ -2,13 +2,13 @@
 
 Closed loop with the simulator's robot model (tests/stack/plant.py) on a true sand 50 % weaker
 than the stack's map: the 800 g tug in the mode the map's lower bound chooses (DH: 4.73 N
-against 3.92 N needed) slips on and on (nothing is stronger than DH: the answer is a stop). A 0.4 s link gap is
-injected while the anchor slips, at several points of the slip, in two worst cases of what the
-MCU does meanwhile: it keeps reeling (a stalled host side: nothing reaches it, nothing comes
-back) or it stops on its winch deadman (0.1 s) as the firmware does. During the gap the machine
-sees only the frozen last observation with the link down. After it, the machine must still
-detect the slip against the anchor's references, record it in the cycle's row, learn from it
-and answer it by the slip policy (re-burrow stronger or stop).
+against 3.92 N needed) slips on and on (nothing is stronger than DH: the answer is a stop).
+A 0.4 s link gap is injected while the anchor slips, at several points of the slip, in two
+worst cases of what the MCU does meanwhile: it keeps reeling (a stalled host side: nothing
+reaches it, nothing comes back) or it stops on its winch deadman (0.1 s) as the firmware does.
+During the gap the machine sees only the frozen last observation with the link down. After it,
+the machine must still detect the slip against the anchor's references, record it in the
+cycle's row, learn from it and answer it by the slip policy (re-burrow stronger or stop).
 """
 from __future__ import annotations
 
