@@ -36,8 +36,8 @@ def test_demo_one_cycle_exits_and_writes_report(tmp_path):
     # its lower bound is 0 N although its point estimate (1.99 N) covers 1.96 N.
     assert 'decision (expected pose): DL' in text
     line = re.search(r'400 g sled -> DL: lower bound ([\d.]+) N \(decided on\), point estimate '
-                     r'([\d.]+) N, need ([\d.]+) N; burrow energy [\d.]+ J predicted, [\d.]+ J '
-                     r'measured', text)
+                     r'([\d.]+) N, need ([\d.]+) N; burrow energy [\d.]+ J above idle predicted, '
+                     r'[\d.]+ J measured', text)
     assert line, text
     lower, point, need = map(float, line.groups())
     assert point > lower >= need == pytest.approx(0.5 * 0.4 * G, abs=0.01)

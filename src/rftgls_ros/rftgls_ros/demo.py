@@ -279,8 +279,9 @@ def main(argv: list[str] | None = None) -> int:
 
 def sled_line(rows: list[CycleRecord]) -> str:
     """One sled's decision basis, from its cycle report rows: the modes chosen (or why not)
-    with the lower bound the choice was made on, the point estimate, the need and the
-    burrow energy predicted by the chooser and measured (means over the cycles)."""
+    with the lower bound the choice was made on, the point estimate, the need, the burrow
+    energy above idle the chooser predicted for the last choice, and the burrow phase's
+    measured energy (idle included, mean over the cycles)."""
     sled = f'{1e3 * rows[0].sled_kg:.0f} g sled'
     chosen = [r for r in rows if r.outcome != 'refused' and r.mode != '-']
     if not chosen:
@@ -292,7 +293,8 @@ def sled_line(rows: list[CycleRecord]) -> str:
     burrow = sum(r.burrow_j for r in chosen) / len(chosen)
     return (f'{sled} -> {", ".join(modes)}: lower bound {last.lower_n:.2f} N (decided on), '
             f'point estimate {last.point_n:.2f} N, need {last.need_n:.2f} N; burrow energy '
-            f'{last.energy_pred_j:.2f} J predicted, {burrow:.2f} J measured (mean)')
+            f'{last.energy_pred_j:.2f} J above idle predicted, {burrow:.2f} J measured (phase '
+            f'mean, idle included)')
 
 
 def below_need(records: list[CycleRecord]) -> list[CycleRecord]:

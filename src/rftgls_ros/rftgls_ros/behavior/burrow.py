@@ -1,11 +1,12 @@
 """The anchor: choose a burrowing mode, burrow, check the anchor at the measured pose, and after
 a stop re-burrow into a stronger mode (CHOOSE, BURROW, CHECK, HOLD, SLACKEN).
 
-The choice and the checks ask the ModeChooser (capacity at a mode's pose for every tether angle
-of ``phis_rad``, the cheapest sufficient mode in energy). The pose check uses the measured leg
-angles and pitch, and h from Table II (MiniRQuad does not measure it); the tug then starts only
-on capacity_node's live evidence (``machine.evidence``). At most ``max_burrows_per_cycle``
-burrows per cycle. Units: m, rad, N, J, s.
+The choice and the checks ask the ModeChooser (the lower bound over a mode's height band at its
+pose for every tether angle of ``phis_rad``, the cheapest sufficient mode in energy). The pose
+check uses the measured leg angles and pitch, and h from Table II (MiniRQuad does not measure
+it); the tug then starts only on capacity_node's live evidence (``machine.evidence``), its
+lower bound against the need. At most ``max_burrows_per_cycle`` burrows per cycle. Units: m,
+rad, N, J, s.
 """
 from __future__ import annotations
 
@@ -162,7 +163,7 @@ class Burrow:
                 f'deg, h {1e3 * state.h:.0f} mm (Table II mean, not measured)')
         caps = '/'.join(f'{x:.2f}' if x is not None else s
                         for x, s in zip(c.capacities, c.statuses))
-        m.event('decision', f'check {m.mode} at the {pose}: capacity {caps} N -> '
+        m.event('decision', f'check {m.mode} at the {pose}: lower bound {caps} N -> '
                             f'{"sufficient" if c.sufficient else "insufficient"} '
                             f'({c.why})', mode=m.mode, capacities=c.capacities)
         if c.sufficient:

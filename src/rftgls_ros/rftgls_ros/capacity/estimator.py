@@ -204,8 +204,8 @@ class Estimate:
 
     def provenance(self) -> dict[str, str]:
         """Every input's provenance word, INPUTS order ('measured', 'modelled', 'assumed')."""
-        return {n: ('assumed' if n in self.assumed else 'modelled' if n in self.modelled
-                    else 'measured') for n in INPUTS}
+        return {n: str(Provenance.ASSUMED if n in self.assumed else Provenance.MODELLED
+                       if n in self.modelled else Provenance.MEASURED) for n in INPUTS}
 
     @property
     def reason_codes(self) -> tuple[str, ...]:
