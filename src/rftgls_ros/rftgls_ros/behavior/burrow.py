@@ -223,7 +223,12 @@ class Burrow:
         self.m.winch = -self.m.cfg.slacken_speed_m_s
 
     def _do_slacken(self) -> None:
-        m = self.m
-        if m.elapsed() >= m.cfg.slacken_time_s:
+        """Pay out for at least slacken_time_s and until the tension is below taut_tension_N
+        (a heavy sled stretches the rope further than the minimum pays out, and a burrow under
+        a taut tether drags the robot), at most slacken_max_s."""
+        m, cfg = self.m, self.m.cfg
+        taut = (m.obs.tension or 0.0) > cfg.taut_tension_N
+        if m.elapsed() >= cfg.slacken_max_s or (m.elapsed() >= cfg.slacken_time_s
+                                                and not taut):
             m.winch = 0.0
             self.start(self.next.mode, self.next.reason)

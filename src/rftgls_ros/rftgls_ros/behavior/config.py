@@ -26,7 +26,9 @@ class BehaviorConfig:
     joint_states/tension age that counts as lost; link_settle_s: time the link must be back
     before resuming; link_wait_s: time to wait for it, then the cycle is recorded aborted
     (link_stale) and the run ends, winch braked; reburrow: on a guard stop or a slip,
-    re-burrow into a stronger mode if one suffices; tug_energy_window_s: the paper counts
+    re-burrow into a stronger mode if one suffices (first paying out at slacken_speed_m_s for
+    at least slacken_time_s and until the tension is below taut_tension_N, at most
+    slacken_max_s); tug_energy_window_s: the paper counts
     only the last 8 s of each tug.
 
     Evidence (docs/design/tug-safety.md): estimate_timeout_s: age (of its sample) after which
@@ -88,6 +90,7 @@ class BehaviorConfig:
     max_burrows_per_cycle: int = 3
     slacken_speed_m_s: float = 0.03
     slacken_time_s: float = 0.3
+    slacken_max_s: float = 2.0
     rope_length_m: float = 0.50
     attach_height_m: float = 0.01
     h_walk_m: float = 0.060
