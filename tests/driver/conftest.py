@@ -11,7 +11,9 @@ import pytest
 sys.path.insert(0, str(Path(__file__).parent))   # strategies.py
 
 
-@pytest.fixture(params=['python', 'firmware'])
+# The compiled firmware is the MCU a robot runs: `make test` drives it; the Python reference MCU
+# repeats every test in `make test-campaign`.
+@pytest.fixture(params=['firmware', pytest.param('python', marks=pytest.mark.campaign)])
 def sim(request, spawn, python_exe, tmp_path):
     """Start ``minirquad_sim`` (as ``python -m``) with extra args; returns a handle with the
     symlink path, the record file and a reader for its telemetry records. Every test that

@@ -72,7 +72,11 @@ def test_lock_step_replay_matches_core(ros_context, tmp_path, live_predictor):
         Parameter('imu_frame_id', value='base_link'),
         Parameter('tension_frame_id', value='base_link'),
         # recorded stamps are in the past: a replay is aged by receipt time
-        Parameter('freshness_source', value='receipt_time')])
+        Parameter('freshness_source', value='receipt_time'),
+        # lock step: each message waits for the node to take the one before, so an input's
+        # age measures this machine's load, not the data (a loaded CI runner took > 0.25 s)
+        *(Parameter(f'{name}_timeout_s', value=60.0)
+          for name in ('joint_states', 'pitch', 'tension', 'height'))])
     ex = SingleThreadedExecutor(context=ros_context)
     probe = Probe(ros_context, ex)
     ex.add_node(node)

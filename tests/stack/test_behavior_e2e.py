@@ -90,6 +90,7 @@ def test_e2e_400g_chooses_dl_on_the_lower_bound_and_tugs(tmp_path, spawn):
 
 
 @pytest.mark.slow
+@pytest.mark.campaign      # the same cycle as the test above, on the compiled firmware
 def test_e2e_400g_walk_burrow_tug_with_the_firmware_mcu(tmp_path, spawn, stop, firmware_build):
     """The same cycle with the compiled firmware as the robot's MCU (minirquad_sim --mcu
     firmware): the real bridge, capacity_node and behavior_node on the other end of the pty."""
@@ -123,6 +124,7 @@ def test_e2e_refuses_when_no_mode_suffices(tmp_path, spawn):
 
 
 @pytest.mark.slow
+@pytest.mark.campaign      # the margin guard: unit-tested in make test, here end to end
 def test_e2e_heavier_sled_mid_tug_stops_before_slip(tmp_path, spawn, stop):
     # 400 g burrows DL; 0.8 kg (3.92 N) reaches the margin guard on DL's lower bound (about
     # 3.6 N), and DH's lower bound (4.73 N) is the stronger mode.

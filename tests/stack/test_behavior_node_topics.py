@@ -39,7 +39,6 @@ def rig(ros_context):
     yield make
     for ex, node, probe in made:
         ex.shutdown()
-        node.machine.chooser.predictor.destroy()
         node.destroy_node()
         probe.destroy_node()
 

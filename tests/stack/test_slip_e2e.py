@@ -47,7 +47,8 @@ def slip_run(tmp_path, spawn, stop, gap: str | None):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize('gap', [None, 'stall', 'unplug'])
+@pytest.mark.parametrize('gap', [None, pytest.param('stall', marks=pytest.mark.campaign),
+                                 pytest.param('unplug', marks=pytest.mark.campaign)])
 def test_e2e_slip_on_weak_sand_is_detected_and_recorded(tmp_path, spawn, stop, gap):
     log, rows, sim_out = slip_run(tmp_path, spawn, stop, gap)
     assert re.search(r'decision \(expected pose\): DH:', log), log

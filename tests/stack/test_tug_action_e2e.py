@@ -192,6 +192,7 @@ def test_walk_burrow_tug_action_cancel_reject_abort_and_complete(tmp_path, spawn
         assert handle.accepted
         res = c.result(handle, 120.0)
         assert res.status == GoalStatus.STATUS_SUCCEEDED, res.result.reason
+        assert len(res.result.cycles) == 1, res.result.cycles
         (cycle,) = res.result.cycles
         assert (cycle.cycle, cycle.outcome, cycle.reason) == (1, CycleOutcome.OK, ''), cycle
         assert cycle.mode == 'DL' and cycle.sled_distance_m > 0.1 and cycle.energy_j > 0

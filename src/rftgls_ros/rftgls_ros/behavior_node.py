@@ -180,9 +180,12 @@ class BehaviorNode(Node):
                               if self.cfg.accept_assumed_inputs else ''))
 
     def destroy_node(self) -> None:
-        # The action server first, while the node's handle is still valid: left to the garbage
-        # collector it would reach for a destroyed node handle (a traceback at SIGINT).
+        # What this node owns goes first, while its handles and the context are still valid:
+        # left to the garbage collector (after the context is shut down) the action server and
+        # the query's own executor would reach for destroyed handles (a traceback at SIGINT).
         self.tug_action.destroy()
+        if isinstance(self.predictor, ServicePredictor):
+            self.predictor.destroy()
         super().destroy_node()
 
     def now_s(self) -> float:

@@ -68,8 +68,12 @@ class ServicePredictor:
         self.pull = pull
         self.timeout_s = timeout_s
         self.retry_s = retry_s
+        # Without the process's global ROS arguments: launch_ros passes `-r __node:=<name>`,
+        # which would rename this helper node to its owner's name (two nodes of one name, one
+        # rosout publisher between them). Its namespace and service name are given explicitly.
         self._node = rclpy.create_node(f'{node.get_name()}_capacity_query',
-                                       namespace=node.get_namespace(), context=node.context)
+                                       namespace=node.get_namespace(), context=node.context,
+                                       use_global_arguments=False)
         self._client = self._node.create_client(QueryCapacity, service)
         self._executor = SingleThreadedExecutor(context=node.context)
         self._executor.add_node(self._node)
@@ -126,6 +130,10 @@ class ServicePredictor:
         return self._no_value(phi, 'capacity_query_failed')
 
     def destroy(self) -> None:
+        """Release the query's node and executor (before the context is shut down: the
+        executor's SIGINT guard condition dies with the context, and an executor left to the
+        garbage collector would then fail to unregister it)."""
         self._executor.remove_node(self._node)
         self._node.destroy_node()
+        self._executor.shutdown(timeout_sec=0.0)
 
