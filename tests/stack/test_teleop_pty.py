@@ -86,8 +86,8 @@ def test_model_zero_lower_bound_holds_the_guard():
     """A lower bound of 0 N leaves nothing to pull against: i needs the override."""
     m = TeleopModel()
     _valid(m, 0.1, 2.5, lower=0.0)
-    assert m.key('i', 0.0) == [] and 'over 999 % of the lower bound' in m.message
-    assert 'over 999 %' in _plain(m.screen())
+    assert m.key('i', 0.0) == [] and 'lower bound 0 N, nothing to pull against' in m.message
+    assert '-- % of the lower bound (0 N: nothing to pull on)' in _plain(m.screen())
 
 
 def test_model_refuses_without_valid_status():

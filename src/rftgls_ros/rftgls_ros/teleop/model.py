@@ -43,9 +43,10 @@ class TeleopConfig:
     accept_assumed_inputs: tuple[str, ...] = ()   # inputs an 'assumed' estimate may assume
 
 
-def _percent(r: float) -> str:
-    """A load ratio as the screen and messages say it ('--' never occurs: r is a number)."""
-    return f'{100 * r:.0f} %' if math.isfinite(r) else 'over 999 %'
+def _load_words(r: float) -> str:
+    """The guard's reason in words: tension / lower bound (r, not NaN; inf: lower bound 0)."""
+    return (f'tension {100 * r:.0f} % of the lower bound' if math.isfinite(r)
+            else 'lower bound 0 N, nothing to pull against')
 
 
 class TeleopModel:
@@ -168,9 +169,8 @@ class TeleopModel:
                 return out
             r = self.ratio()
             if r >= self.cfg.limit_fraction and not self.overridden():
-                self.message = (f'tension {_percent(r)} of the lower bound >= '
-                                f'{100 * self.cfg.limit_fraction:.0f} %: press ! then i to '
-                                'override')
+                limit = f' >= {100 * self.cfg.limit_fraction:.0f} %' if math.isfinite(r) else ''
+                self.message = f'{_load_words(r)}{limit}: press ! then i to override'
                 self.alert = True
                 return out
             self.winch = min(self.cfg.max_speed, max(0.0, self.winch) + self.cfg.step)
@@ -193,7 +193,7 @@ class TeleopModel:
         r = self.ratio()
         if r >= self.cfg.limit_fraction and not self.overridden():
             self.winch = 0.0
-            self.message = (f'tension {_percent(r)} of the lower bound: winch stopped; '
+            self.message = (f'{_load_words(r)}: winch stopped; '
                             'press ! then i to override')
             self.alert = True
             return [('winch', 0.0)]
@@ -227,7 +227,7 @@ class TeleopModel:
         if math.isfinite(r):
             load = f'{color}[{bar}] {100 * r:5.0f} %{RESET} of the lower bound'
         elif math.isinf(r):
-            load = f'{RED}[{bar}] over 999 %{RESET} of the lower bound (lower bound 0 N)'
+            load = f'{RED}[{bar}]    -- %{RESET} of the lower bound (0 N: nothing to pull on)'
         else:
             why = ('tension not measured' if verdict.usable else 'no valid lower bound')
             load = f'{GREY}[{bar}]    -- %{RESET} of the lower bound ({why})'
