@@ -154,7 +154,8 @@ def test_no_nan_on_the_screen_in_any_state(status):
         verdict = m.verdict()
         both_valid = verdict.usable and math.isfinite(tension) and lower > 0
         assert bool(load) == both_valid, text
-        assert re.search(r'capacity\s+(-?[\d.]+|--)\s+N\s+lower bound\s+(-?[\d.]+|--)\s+N', text), text
+        both = r'capacity\s+(-?[\d.]+|--)\s+N\s+lower bound\s+(-?[\d.]+|--)\s+N'
+        assert re.search(both, text), text
         if not math.isfinite(lower):
             assert re.search(r'lower bound\s+--  N', text) and not verdict.usable, text
         if not verdict.usable:
