@@ -330,7 +330,7 @@ class BehaviorMachine:
     def open_reason(self) -> str:
         """The reason code a cycle cut off now would be recorded with."""
         if self.state == State.WAIT_LINK:
-            return 'link_stale'
+            return self.link.reason()
         if self.state == State.WAIT_EVIDENCE:
             return self.cycle.reason if self.cycle and self.cycle.reason else 'no_evidence'
         return 'shutdown'

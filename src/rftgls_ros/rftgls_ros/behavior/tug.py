@@ -291,10 +291,11 @@ class Tug:
                                 f'(nominal {m.need.nominal:.2f} N); required force now '
                                 f'{m.need.value:.2f} N')
 
-    def interrupted(self) -> None:
-        """The link went during the tug: report the reel from the last usable evidence."""
+    def interrupted(self, reason: str = 'link_stale') -> None:
+        """The link went (or became untrusted) during the tug: report the reel from the last
+        usable evidence under ``reason``."""
         if self.pending_stop is None:
-            self.pending_stop = PendingStop(self.attempt.good, 'link_stale',
+            self.pending_stop = PendingStop(self.attempt.good, reason,
                                             'the last usable estimate')
 
     def report_stop(self) -> None:
