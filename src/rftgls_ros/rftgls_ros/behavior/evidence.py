@@ -32,6 +32,8 @@ TIMEOUT = 'estimate_timeout'
 NO_VALUE = 'no_value'
 ASSUMED_NOT_ACCEPTED = 'assumed_not_accepted'
 ASSUMED_UNKNOWN = 'assumed_inputs_unknown'
+# The reasons of evidence that is only missing, late or inconsistent (Verdict.transient).
+TRANSIENT_REASONS = frozenset({NO_ESTIMATE, TIMEOUT, NO_VALUE, ASSUMED_UNKNOWN, 'status_stale'})
 
 
 def status_reason(status: str) -> str:

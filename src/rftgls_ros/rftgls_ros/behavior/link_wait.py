@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from . import evidence
 from .states import State
 
 if TYPE_CHECKING:
@@ -38,8 +39,11 @@ class LinkWait:
         reason = self.reason()
         if m.state == State.TUG:
             m.tug.interrupted(reason)
-            if m.cycle is not None and not m.cycle.reason:
-                m.cycle.reason = reason       # the row says why its tug stopped
+            # The row says why its tug stopped: the link, rather than the estimates that aged
+            # with it (a slip or an abort recorded before is kept).
+            if m.cycle is not None and (not m.cycle.reason
+                                        or m.cycle.reason in evidence.TRANSIENT_REASONS):
+                m.cycle.reason = reason
         what = m.obs.link_detail if not m.obs.link_ok else 'joint_states/tension stale'
         m.go(State.WAIT_LINK, f'{what} during {self.resume}: winch stopped, waiting')
 

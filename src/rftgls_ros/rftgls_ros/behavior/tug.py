@@ -232,6 +232,8 @@ class Tug:
         if a.gap is None:
             a.gap = SpoolAt(o.t, o.spool)
             self.pending_stop = PendingStop(a.good, v.reason, 'the last usable estimate')
+            if m.cycle is not None and not m.cycle.reason:
+                m.cycle.reason = v.reason      # the row says why its tug stopped, even briefly
             m.event('warn', f'tug evidence lost ({v.reason}: {v.detail}): winch stopped',
                     reason=v.reason)
         if not v.transient or o.t - a.gap.t >= m.cfg.evidence_grace_s:
