@@ -4,7 +4,7 @@ Closed loop with the simulator's robot model (tests/stack/plant.py) on a true sa
 than the stack's map: the 400 g tug in the mode the map chooses (SH) slips. A 0.4 s link gap is
 injected while the anchor slips, at several points of the slip, in two worst cases of what the
 MCU does meanwhile: it keeps reeling (a stalled host side: nothing reaches it, nothing comes
-back) or it stops on its winch deadman (0.1 s) as the firmware does. During the gap the machine
+back) or it stops on its winch deadman (0.08 s) as the firmware does. During the gap the machine
 sees only the frozen last observation with the link down. After it, the machine must still
 detect the slip against the anchor's references, record it in the cycle's row, learn from it
 and answer it by the slip policy (re-burrow stronger or stop).
@@ -23,7 +23,7 @@ from rftgls_ros.behavior.slip import SLIP_PITCH, SlipDetector
 from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
 
 GAP_S = 0.4               # the link gap the field campaign saw during a slip (0.24-0.40 s)
-DEADMAN_S = 0.1           # the MCU's winch deadman (minirquad_sim --winch-deadman default)
+DEADMAN_S = 0.08          # the MCU's winch deadman (minirquad_sim --winch-deadman default)
 # Where in the slip the gap starts: p's slip under the tug so far, m. Without a gap the stack
 # detects this slip at 1.2 mm (the first case below), so the onsets span the slip before
 # detection.

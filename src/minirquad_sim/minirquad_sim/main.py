@@ -50,7 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument('--telemetry-hz', type=int, default=100)
     p.add_argument('--power-hz', type=int, default=50)
     p.add_argument('--watchdog', type=float, default=0.5, help='host watchdog timeout, s')
-    p.add_argument('--winch-deadman', type=float, default=0.1,
+    p.add_argument('--winch-deadman', type=float, default=0.08,
                    help='winch deadman, s (0: off, to test the host watchdog alone)')
     p.add_argument('--clock-start-ms', type=lambda s: int(s, 0), default=0,
                    help='initial MCU clock (e.g. 0xFFFFF000 to cross the uint32 wrap)')

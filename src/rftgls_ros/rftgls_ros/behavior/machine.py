@@ -282,7 +282,9 @@ class BehaviorMachine:
             tension_median_n=xs[len(xs) // 2] if xs else float('nan'),
             min_margin_n=c.min_margin if math.isfinite(c.min_margin) else float('nan'),
             reason=c.reason, slip=c.slip))
-        self.event('cycle', self.records[-1].summary())
+        r = self.records[-1]
+        self.event('cycle', r.summary(), cycle=r.cycle, outcome=r.outcome, reason=r.reason,
+                   slip=r.slip)
 
     def _do_cycle_done(self) -> None:
         self.cycle.outcome = 'ok'
