@@ -62,6 +62,7 @@ from .capacity_msgs import input_value, status_word
 from .capacity_query import CAPACITY_SOURCES, ServicePredictor
 from .tug_action import TugActionServer
 
+EXPIRY_CHECK_S = 0.01   # s: how often a reeling winch's evidence is checked between steps
 WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's deadman (80 ms)
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -170,6 +171,9 @@ class BehaviorNode(Node):
         # The report's <stem>_tug.png time series (behavior/tug_series.py).
         self.tug_series = TugSeries()
         self.create_timer(1.0 / rate, self.step)
+        # While the winch reels, a step the moment the evidence expires, not at the next 50 Hz
+        # step: the host's share of the 0.1 s stop budget (tug-safety.md).
+        self.create_timer(EXPIRY_CHECK_S, self._on_expiry_check)
         self.tug_action = TugActionServer(self, self)
         self.get_logger().info(
             f'sled {1e3 * self.cfg.sled_mass_kg:.0f} g (mu {self.cfg.sled_mu}), {self.cfg.cycles} '
@@ -294,6 +298,13 @@ class BehaviorNode(Node):
         self.step()
 
     # ------------------------------------------------------------------ step
+    def _on_expiry_check(self) -> None:
+        """Step now if the winch reels on an estimate that has just aged past the timeout."""
+        if self.finished or not self._last_winch or self._last_winch <= 0.0:
+            return
+        if self.now_s() - self.obs.t_capacity > self.cfg.estimate_timeout_s:
+            self.step()
+
     def step(self) -> None:
         if self.finished:
             return
