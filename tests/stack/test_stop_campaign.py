@@ -75,9 +75,8 @@ STATUSES = {
 # On this shared 2-core machine under the hogs (load average 15-20 with the other work on it)
 # the robot's own samples and the estimates are often late: the link goes stale or the attempt
 # is aborted for late estimates before or after the injected fault, and the cycle's one reason
-# code is then that one (measured: see the campaign's figures in tug-safety.md). The row must
-# exist and carry the fault's own code or one of these; the test prints how many carried their
-# own.
+# code is then that one (the campaign's figures: docs/design/tug-safety.md). The row must exist
+# and carry the fault's own code or one of these; the test prints how many carried their own.
 LATE = {'estimate_timeout', 'link_stale'}
 CLASSES = ['capacity_killed', 'capacity_stopped', *STATUSES, 'bridge_killed', 'bridge_stopped',
            'latency_400ms', 'loss_40pct']
@@ -233,7 +232,7 @@ class Probe:
         self.lock = threading.Lock()
         self.state, self.winch, self.winch_since = '', 0.0, time.monotonic()
         self.events: list[dict] = []
-        self.estimates: list[tuple[float, int]] = []   # (stamp s, status code) from capacity_node
+        self.estimates: list[tuple[float, float]] = []   # (sample s, received s), capacity_node's
         self.injecting = False
         self.links: list[tuple[float, int, float]] = []  # (stamp s, state, loss)
         self.tension_stamp = 0.0
@@ -286,7 +285,7 @@ class Probe:
         if not self.injecting:
             with self.lock:
                 self.estimates.append((min(self._s(msg.header.stamp), self.tension_stamp),
-                                       msg.status_code))
+                                       time.time()))
 
     def _on_link(self, msg):
         with self.lock:
@@ -346,9 +345,11 @@ def _one_run(cls: str, stack: Stack, probe: Probe, record: Record, spawn) -> dic
     if cls in ('capacity_killed', 'capacity_stopped'):
         stack.capacity.send_signal(signal.SIGKILL if cls == 'capacity_killed'
                                    else signal.SIGSTOP)
+        signalled = time.time()
         time.sleep(0.3)        # every estimate already on its way has reached the probe
-        with probe.lock:
-            out['t0'] = max(s for s, code in probe.estimates)
+        with probe.lock:       # this run's: received in the last second before the signal
+            recent = [s for s, got in probe.estimates if signalled - 1.0 <= got]
+        out['t0'] = max(recent) if recent else signalled
     elif cls in STATUSES:
         code, word, cap, assumed, _reason = STATUSES[cls]
         stack.capacity.send_signal(signal.SIGSTOP)

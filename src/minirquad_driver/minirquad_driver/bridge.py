@@ -187,8 +187,8 @@ class BridgeCore:
         """('stale' | 'untrusted' | 'ok', loss ratio over the last trust_window s). Stale
         wins; untrusted when at least loss_error of the MCU's frames were lost (sequence gaps,
         a frame that failed its CRC included): the samples that do arrive are intact, but a
-        link losing that much is not one to act on (serial-time.md). Call it periodically:
-        each call marks the counters."""
+        link losing that much is not one to act on (docs/design/serial-time.md). Call it
+        periodically: each call marks the counters."""
         with self._lock:
             now, cfg = self.mono(), self.config
             q = self._trust_marks

@@ -172,7 +172,7 @@ class BehaviorNode(Node):
         self.tug_series = TugSeries()
         self.create_timer(1.0 / rate, self.step)
         # While the winch reels, a step the moment the evidence expires, not at the next 50 Hz
-        # step: the host's share of the 0.1 s stop budget (tug-safety.md).
+        # step: the host's share of the 0.1 s stop budget (docs/design/tug-safety.md).
         self.create_timer(EXPIRY_CHECK_S, self._on_expiry_check)
         self.tug_action = TugActionServer(self, self)
         self.get_logger().info(
