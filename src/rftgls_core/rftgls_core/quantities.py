@@ -121,6 +121,13 @@ IMAGE_NOISE = Quantity('image noise', 'grey levels', 0.0, 255.0)
 IMAGE_BLUR_PX = Quantity('image blur', 'px', 0.0, 20.0)
 PERCENT = Quantity('tolerance', '%', 0.0, 100.0)
 
+# ------------------------------------------------------------------------------ planning
+# The pull a burrowed anchor must hold: MiniRQuad's sleds need 2-3 N; 1 kN would tow a car.
+NEED_FORCE_N = Quantity('needed force', 'N', 0.0, 1000.0)
+# A one-sided confidence: below one half a lower bound would sit above the estimate; 1 is an
+# infinite bound.
+CONFIDENCE = Quantity('confidence', '', 0.5, 0.999999)
+
 
 def bounded_int(lo: int, hi: int, what: str = 'value'):
     """An argparse `type`: an integer in [lo, hi] (a one-line message otherwise)."""

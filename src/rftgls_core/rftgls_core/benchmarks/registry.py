@@ -28,6 +28,7 @@ SECTIONS: dict[str, str] = {
     'maps': '.maps:map_figures',
     'scaling': '.maps:scaling_figures',
     'sim': '.sim:sim_figures',
+    'plan': '.plan:plan_figures',
 }
 # Sections that run only when named (--only): minutes of work for one figure each.
 ON_REQUEST = frozenset({'scaling', 'sim'})

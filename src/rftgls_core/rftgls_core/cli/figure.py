@@ -11,7 +11,7 @@ from rftgls_conventions.safe_write import write_text
 from ..charts.figure_io import figure_path
 from ..predictor.live import RobotPredictor
 from ..quantities import ANGLE_DEG, FRICTION_SIGMA, RELATIVE_SIGMA, SLED_FRICTION
-from ..rft.media import get_medium
+from ..rft.media import ASSUMED_MU_SIGMA, ASSUMED_XI_REL_SIGMA, get_medium
 from ..robots.presets import get_robot
 from ..robots.robot import G
 from ..types import AnchorState, Pull
@@ -30,9 +30,9 @@ def add_parser(sub) -> None:
     p.add_argument('--medium', default=None,
                    help='fig10b: medium preset or a `rftgls calibrate` JSON; its covariance '
                         'gives the uncertainty band')
-    p.add_argument('--xi-rel-sigma', type=RELATIVE_SIGMA.arg, default=0.10,
+    p.add_argument('--xi-rel-sigma', type=RELATIVE_SIGMA.arg, default=ASSUMED_XI_REL_SIGMA,
                    help='fig10b without a calibration: relative 1-sigma of xi_n (assumed 10 %%)')
-    p.add_argument('--mu-sigma', type=FRICTION_SIGMA.arg, default=0.1,
+    p.add_argument('--mu-sigma', type=FRICTION_SIGMA.arg, default=ASSUMED_MU_SIGMA,
                    help='fig10b without a calibration: 1-sigma of mu_surf (assumed 0.1)')
     p.add_argument('--l1', type=ANGLE_DEG.arg, default=-40.0, help='fig8: thetaL1, deg')
     p.add_argument('--l2', type=ANGLE_DEG.arg, default=0.0, help='fig8: thetaL2, deg')
@@ -117,23 +117,6 @@ def _fig13(args, out: Path) -> int:
 
 def _medium_covariance(args):
     """(xi_n, mu_surf) covariance: from a calibration file, else the assumed sigmas."""
-    import numpy as np
-
-    from rftgls_conventions.safe_read import load_json
-
-    from ..rft.media import load_medium
-    if args.medium and args.medium.endswith('.json'):
-        doc = load_json(args.medium, 'medium', 'medium file')
-        cal = doc.get('calibration', {}) if isinstance(doc, dict) else {}
-        cov = cal.get('covariance') if isinstance(cal, dict) else None
-        if cov is not None:
-            try:
-                cov = np.asarray(cov, dtype=float)
-            except (TypeError, ValueError):
-                cov = None
-            if cov is None or cov.shape != (2, 2) or not np.all(np.isfinite(cov)):
-                raise ValueError(f'{args.medium}: calibration covariance must be a 2 x 2 '
-                                 'matrix of finite numbers')
-            return cov
+    from ..rft.media import load_medium, medium_covariance
     xi = load_medium(args.medium or 'm90_sand').xi_n
-    return np.diag([(args.xi_rel_sigma * xi) ** 2, args.mu_sigma ** 2])
+    return medium_covariance(args.medium, xi, args.xi_rel_sigma, args.mu_sigma)[0]

@@ -20,7 +20,8 @@ from importlib.metadata import entry_points
 from rftgls_conventions import one_line
 
 # sub-command -> module in rftgls_core.cli; each has add_parser(subparsers) and run(args).
-COMMANDS = ('wrench', 'capacity', 'plot', 'bench', 'demo', 'chart', 'map', 'simulate', 'figure')
+COMMANDS = ('wrench', 'capacity', 'plot', 'bench', 'demo', 'chart', 'map', 'simulate', 'plan',
+            'figure')
 EXIT_USAGE = 2      # bad input of any kind (the CLI contract)
 EXIT_INTERNAL = 3   # a bug: an exception the project does not define
 

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from rftgls_conventions.safe_write import output_folder, write_text
 
+from ..multibody.gaits import TABLE_II_BURROWS as TABLE_II
 from ..quantities import (
     ANGLE_DEG,
     GAIT_DUTY,
@@ -21,10 +22,6 @@ from ..quantities import (
     bounded_int,
 )
 from .common import add_medium_args, medium_from_args, print_json
-
-# The paper's burrowing sequences (Table II): retracting and final (theta_L1, theta_L2), deg.
-TABLE_II = {'DH': ((-75.0, -50.0), (-40.0, 30.0)), 'DL': ((-75.0, -50.0), (-40.0, 0.0)),
-            'SH': ((-40.0, -20.0), (-40.0, 30.0))}
 
 
 def add_parsers(sub) -> None:

@@ -36,6 +36,9 @@ DEFAULT_BURROW_SPEED = 1.0   # rad/s, each leg's slew while burrowing (assumptio
 BURROW_DWELL = 0.5           # s at the retracting pose before the final move (assumption)
 BURROW_WINDOW = 8.0          # s, the paper's burrow window
 AMBLE = {'LH': 0.0, 'LF': 0.25, 'RH': 0.5, 'RF': 0.75}
+# The paper's burrowing sequences (Table II): retracting and final (theta_L1, theta_L2), deg.
+TABLE_II_BURROWS = {'DH': ((-75.0, -50.0), (-40.0, 30.0)), 'DL': ((-75.0, -50.0), (-40.0, 0.0)),
+                    'SH': ((-40.0, -20.0), (-40.0, 30.0))}
 
 
 class GaitError(ValueError):

@@ -11,6 +11,8 @@ import os
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
+import numpy as np
+
 from rftgls_conventions import G  # m/s^2
 
 
@@ -143,3 +145,34 @@ def load_medium(spec: str) -> Medium:
         except MediumError as exc:
             raise MediumError(f'{spec}: {exc}') from None
     return get_medium(spec)
+
+
+# Without a calibration the medium's 1-sigma spread is assumed (`rftgls figure fig10b`'s
+# defaults): 10 % of xi_n and 0.1 of mu_surf. Neither is a measurement.
+ASSUMED_XI_REL_SIGMA = 0.10
+ASSUMED_MU_SIGMA = 0.1
+
+
+def medium_covariance(spec: str | None, xi_n: float, xi_rel_sigma: float = ASSUMED_XI_REL_SIGMA,
+                      mu_sigma: float = ASSUMED_MU_SIGMA) -> tuple[np.ndarray, str]:
+    """The (xi_n, mu_surf) covariance of a medium and where it comes from: the calibration
+    covariance of a medium JSON written by `rftgls calibrate` ('calibrated'), else the assumed
+    sigmas about xi_n ('assumed'). MediumError on a malformed calibration covariance."""
+    from rftgls_conventions.safe_read import load_json
+    if spec and spec.endswith('.json'):
+        try:
+            doc = load_json(spec, 'medium', 'medium file')
+        except ValueError as exc:
+            raise MediumError(str(exc)) from None
+        cal = doc.get('calibration', {}) if isinstance(doc, dict) else {}
+        cov = cal.get('covariance') if isinstance(cal, dict) else None
+        if cov is not None:
+            try:
+                arr = np.asarray(cov, dtype=float)
+            except (TypeError, ValueError):
+                arr = np.zeros(0)
+            if arr.shape != (2, 2) or not np.all(np.isfinite(arr)):
+                raise MediumError(f'{spec}: calibration covariance must be a 2 x 2 matrix of '
+                                  'finite numbers')
+            return arr, 'calibrated'
+    return np.diag([(xi_rel_sigma * xi_n) ** 2, mu_sigma ** 2]), 'assumed'
