@@ -255,31 +255,38 @@ def _map_min(h_lo: float, h_hi: float) -> float:
     return min(caps)
 
 
-@pytest.mark.parametrize('provenance, status, assumed, modelled, code', [
-    ('measured', Status.OK, (), (), None),
-    ('modelled', Status.OK, (), ('height',), 'modelled_input:height'),
-    ('assumed', Status.ASSUMED, ('height',), (), 'assumed_input:height'),
+@pytest.mark.parametrize('provenance, status, word, assumed, modelled, code', [
+    ('measured', Status.OK, 'ok', (), (), None),
+    ('modelled', Status.OK, 'modelled', (), ('height',), 'modelled_input:height'),
+    ('assumed', Status.ASSUMED, 'assumed', ('height',), (), 'assumed_input:height'),
 ])
-def test_every_estimate_says_which_inputs_were_not_measured(provenance, status, assumed,
+def test_every_estimate_says_which_inputs_were_not_measured(provenance, status, word, assumed,
                                                             modelled, code):
+    """Only an estimate whose every input was measured is published ``ok``: a modelled height
+    makes it ``modelled``, an assumed one ``assumed``; the diagnostics name every input's
+    provenance."""
     est = _map_estimator(lower_bound_level=0.0)
     feed(est, 0.0)
     est.update('height', 0.0, DH.h, provenance, 0.002)
     e = est.estimate(0.0)
-    assert (e.status, e.assumed, e.modelled) == (status, assumed, modelled)
-    assert e.has_value
+    assert (e.status, e.word, e.assumed, e.modelled) == (status, word, assumed, modelled)
+    assert e.has_value and est.outputs(e).status == word
+    d = est.diagnostic(e, 'x')
+    assert d.values['status'] == word and d.message.split(':')[0] == word
+    assert d.values['provenance'] == (f'joint_states:measured,pitch:measured,tension:measured,'
+                                      f'height:{provenance},phi:measured')
     if code is None:                           # measured: no range to cover, no bound asked
         assert e.reason == '' and e.capacity_lower_N is None
         assert not est.outputs(e).publish_lower
+        assert d.level == 0
         return
     assert code in e.reason_codes
     # The lower bound covers the stated band: the smallest capacity over h +- 2 mm.
     assert e.capacity_lower_N == pytest.approx(_map_min(DH.h - 0.002, DH.h + 0.002), abs=1e-9)
     assert e.capacity_lower_N < e.capacity_N
-    d = est.diagnostic(e, 'x')
     assert d.values[f'{provenance}_inputs'] == 'height'
     assert code in d.message
-    assert d.level == (1 if provenance == 'assumed' else 0)
+    assert d.level == 1                        # WARN: a value, on an input not measured
 
 
 def test_an_unstated_band_takes_the_configured_range_and_a_bad_one_is_refused():

@@ -82,31 +82,56 @@ def diag_values(probe) -> dict:
     return {kv.key: kv.value for kv in probe.last_diag().values}
 
 
+def provenance(est: AnchorEstimate) -> dict[str, str]:
+    """Every input's provenance as ~/estimate carries it (three lists, one per word)."""
+    out = {n: 'measured' for n in est.measured_inputs}
+    out.update({n: 'modelled' for n in est.modelled_inputs})
+    out.update({n: 'assumed' for n in est.assumed_inputs})
+    return out
+
+
+INPUTS = ('joint_states', 'pitch', 'tension', 'height', 'phi')
+
+
 def test_an_assumed_or_modelled_height_is_never_a_plain_ok(stack):
     node, probe = stack
     measured = estimate_for(node, probe, DH.h, InputValue.MEASURED)
     assert (measured.status_code, measured.status) == (AnchorEstimate.STATUS_OK, 'ok')
     assert list(measured.assumed_inputs) == list(measured.modelled_inputs) == []
+    assert provenance(measured) == dict.fromkeys(INPUTS, 'measured')
     assert math.isnan(measured.capacity_lower_n)          # nothing to cover, no bound asked
+    assert probe.spin_until(lambda: probe.last_diag() is not None
+                            and diag_values(probe)['provenance'].endswith('height:measured,'
+                                                                          'phi:measured'))
+    assert probe.last_diag().level == DiagnosticStatus.OK
 
+    # A modelled height (the burrow simulation's, say) is not a measurement: never `ok`.
     modelled = estimate_for(node, probe, DH.h, InputValue.MODELLED)
-    assert (modelled.status_code, modelled.status) == (AnchorEstimate.STATUS_OK, 'ok')
-    assert list(modelled.modelled_inputs) == ['height'] and not modelled.assumed_inputs
+    assert (modelled.status_code, modelled.status) == (AnchorEstimate.STATUS_MODELLED,
+                                                       'modelled')
+    assert modelled.has_value and list(modelled.modelled_inputs) == ['height']
+    assert not modelled.assumed_inputs
+    assert provenance(modelled) == {**dict.fromkeys(INPUTS, 'measured'), 'height': 'modelled'}
     assert 'modelled_input:height' in modelled.reason.split(';')
     assert modelled.capacity_lower_n == pytest.approx(map_min(DH.h, BAND), abs=1e-9)
     assert modelled.capacity_lower_n < modelled.capacity_n
     assert probe.spin_until(lambda: probe.last_diag() is not None
                             and diag_values(probe)['modelled_inputs'] == 'height')
+    assert probe.last_diag().message.startswith('modelled: ')
     assert 'modelled_input:height' in probe.last_diag().message
+    assert 'height:modelled' in diag_values(probe)['provenance']
+    assert probe.wait_diag_level(DiagnosticStatus.WARN)
 
     assumed = estimate_for(node, probe, DH.h, InputValue.ASSUMED)
     assert (assumed.status_code, assumed.status) == (AnchorEstimate.STATUS_ASSUMED, 'assumed')
     assert assumed.has_value and list(assumed.assumed_inputs) == ['height']
+    assert provenance(assumed) == {**dict.fromkeys(INPUTS, 'measured'), 'height': 'assumed'}
     assert 'assumed_input:height' in assumed.reason.split(';')
     assert assumed.capacity_lower_n == pytest.approx(map_min(DH.h, BAND), abs=1e-9)
+    assert probe.spin_until(lambda: diag_values(probe)['assumed_inputs'] == 'height')
     assert probe.wait_diag_level(DiagnosticStatus.WARN)
-    assert diag_values(probe)['assumed_inputs'] == 'height'
     assert diag_values(probe)['modelled_inputs'] == ''
+    assert 'height:assumed' in diag_values(probe)['provenance']
 
 
 def test_a_value_without_provenance_or_with_a_bad_band_is_refused(stack):

@@ -9,8 +9,11 @@ estimate's receipt time (capacity_node killed: no more messages).
 """
 from __future__ import annotations
 
+import math
+
 from rftgls_core.types import AnchorState
 from rftgls_ros.behavior import BehaviorConfig, Observation
+from rftgls_ros.capacity.range_bound import range_minimum
 
 
 class Plant:
@@ -32,7 +35,7 @@ class Plant:
         self.link_ok = True
         self.dead = False
         self.capacity_fault = None
-        self.h, self.phi = 0.06, 0.0
+        self.h, self.phi, self.h_band = 0.06, 0.0, math.nan
         self.t_capacity = -float('inf')
         self.winch_cmd = 0.0
 
@@ -46,7 +49,7 @@ class Plant:
                 r.burrow(int(getattr(self.burrow_modes, value)))
         r.set_winch(cmd.winch)
         self.winch_cmd = cmd.winch
-        self.h, self.phi = cmd.height, cmd.phi
+        self.h, self.phi, self.h_band = cmd.height, cmd.phi, cmd.height_band
 
     def advance(self, dt: float) -> Observation:
         r = self.robot
@@ -65,20 +68,27 @@ class Plant:
         res = self.predictor.predict(state, self.phi, 'backward')
         cap = res.capacity_N if res.status.has_value and res.capacity_N is not None \
             else float('nan')
+        # capacity_node's lower bound for the assumed height: the smallest capacity over the
+        # band behavior_node sends with it (range_bound.py), NaN without a value.
+        lower = range_minimum(lambda st, ph: self.predictor.predict(st, ph, 'backward'),
+                              state, self.phi, {'height': self.h_band}, (0.0, 1.0), math.pi) \
+            if math.isfinite(cap) and self.h_band > 0.0 else cap
         cap, status, assumed = cap, str(res.status), None
         if self.capacity_fault is not None:
             fault = self.capacity_fault(self)
             if fault is not None:
                 cap, status, assumed = fault
+                lower = cap       # a fault's value stands for both
         if not self.dead:
             self.t_capacity = self.t
-            self.last = (cap, status, assumed)
-        cap, status, assumed = self.last
+            self.last = (cap, lower, status, assumed)
+        cap, lower, status, assumed = self.last
         return Observation(
             t=self.t, legs=(state.theta_l1, state.theta_l2), t_legs=self.t,
             theta_b=r.theta_b, tension=r.winch.tension, t_tension=self.t,
             spool=r.winch.spool_position, spool_velocity=r.winch.spool_velocity,
-            energy=self.energy, link_ok=self.link_ok, capacity=cap, capacity_status=status,
+            energy=self.energy, link_ok=self.link_ok, capacity=cap, capacity_lower=lower,
+            capacity_status=status,
             t_capacity=self.t_capacity, assumed_inputs=assumed, slip_twist=(0.0, 0.0, 0.0))
 
 

@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from rftgls_core.surfaces.base import CapacityResult
-from rftgls_core.types import Status
+from rftgls_core.types import AnchorState, Status
 from rftgls_ros.behavior import (
     ANCHOR_MODES,
     BehaviorConfig,
@@ -56,24 +57,67 @@ def test_energy_model_prior_ratios_then_measured_scale():
     assert e.estimate('SH') == 4.0
 
 
-def test_chooser_paper_outcome_400g_sh(predictor):
-    d = ModeChooser(predictor, 1.0).choose(0.5 * 0.4 * G, EnergyModel())
-    assert d.mode == 'SH', d.table()
-    assert all(c.sufficient for c in d.candidates)
-    assert 'cheapest' in d.reason
+def band_lower(predictor, mode: str, phi: float) -> float:
+    """Reference lower bound of a mode, computed here from the map itself: the smallest
+    capacity at five heights across its Table II mean +- two standard deviations (a height
+    without a value counts 0: the anchor may hold nothing there)."""
+    m = ANCHOR_MODES[mode]
+    s = m.expected_state()
+    caps = []
+    for h in np.linspace(m.h - 2 * m.h_sd, m.h + 2 * m.h_sd, 5):
+        r = predictor.predict(AnchorState(float(h), s.theta_b, s.theta_l1, s.theta_l2), phi,
+                              'backward')
+        caps.append(r.capacity_N if r.status == Status.OK else 0.0)
+    return min(caps)
+
+
+PHIS = (0.0, math.radians(-20.0))
+
+
+def test_chooser_400g_is_dl_because_sh_band_reaches_an_unsupported_height(predictor):
+    # 400 g needs 0.5 x 0.4 x g = 1.96 N. SH's point estimate at its Table II pose (47 mm)
+    # is 1.99 N at -20 deg: the paper's point-estimate rule picks SH. But h is not measured,
+    # only known to lie in 47 +- 4 mm, and at 51 mm SH holds nothing (unsupported): its lower
+    # bound is 0 N. DL (36 +- 4 mm) keeps 3.59 N at 40 mm, and is cheaper than DH.
+    need = 0.5 * 0.4 * G
+    d = ModeChooser(predictor, 1.0).choose(need, EnergyModel())
+    assert d.mode == 'DL', d.table()
+    sh, dl, dh = (d.candidate(n) for n in ('SH', 'DL', 'DH'))
+    assert sh.point >= need and not sh.sufficient        # the point estimate would tug on SH
+    assert sh.weakest == 0.0 and 'no value somewhere in its height band' in sh.why
+    assert dl.weakest == pytest.approx(min(band_lower(predictor, 'DL', p) for p in PHIS))
+    assert dl.weakest < dl.point and dh.sufficient
+    assert 'cheapest' in d.reason and 'lower bound' in d.reason
 
 
 def test_chooser_600g_picks_dl_in_our_model(predictor):
-    # Our RFT-GLS map: DL holds 4.4 N, so it is the cheapest sufficient mode (the paper: DH).
+    # 600 g needs 2.94 N: DL's lower bound (3.59 N at 40 mm) covers it and DL is cheaper than
+    # DH (the paper: DH; our RFT-GLS map rates DL higher than the paper's Fig. 10(b)).
     d = ModeChooser(predictor, 1.0).choose(0.5 * 0.6 * G, EnergyModel())
     assert d.mode == 'DL', d.table()
-    sh = next(c for c in d.candidates if c.mode == 'SH')
-    assert not sh.sufficient
+    assert not d.candidate('SH').sufficient
 
 
-def test_chooser_safety_factor_rejects_marginal_sh(predictor):
-    d = ModeChooser(predictor, 1.1).choose(0.5 * 0.4 * G, EnergyModel())
-    assert d.mode == 'DL'
+def test_chooser_safety_factor_on_the_lower_bound(predictor):
+    # SF 1.9 x 1.96 N = 3.73 N: above DL's lower bound (3.59 N) though below its point
+    # estimate (4.37 N), so only DH (lower bound 4.73 N) suffices.
+    d = ModeChooser(predictor, 1.9).choose(0.5 * 0.4 * G, EnergyModel())
+    dl = d.candidate('DL')
+    assert dl.point >= 1.9 * 0.5 * 0.4 * G > dl.weakest
+    assert d.mode == 'DH', d.table()
+
+
+def test_chooser_refuses_1kg_although_dh_point_estimate_covers_it(predictor):
+    # 1 kg needs 4.90 N. DH's point estimate (5.24 N at 34 mm) covers it, its lower bound over
+    # 34 +- 2 mm (4.73 N at 36 mm) does not: no tug, and the reason names the shortfall.
+    need = 0.5 * 1.0 * G
+    d = ModeChooser(predictor, 1.0).choose(need, EnergyModel())
+    dh = d.candidate('DH')
+    assert d.mode is None, d.table()
+    assert dh.point >= need > dh.weakest
+    assert dh.weakest == pytest.approx(min(band_lower(predictor, 'DH', p) for p in PHIS))
+    assert d.reason == (f'no mode suffices: need {need:.2f} N x 1.00, strongest DH has a '
+                        f'lower bound of {dh.weakest:.2f} N')
 
 
 def test_chooser_refuses_with_reason(predictor):
@@ -111,13 +155,17 @@ def test_tether_length_and_phi():
 from plant import Plant, fast_config, run_loop  # noqa: E402  (tests/stack/plant.py)
 
 
-def test_machine_400g_chooses_sh_and_completes_cycles(predictor):
+def test_machine_400g_chooses_dl_on_the_lower_bound_and_completes_cycles(predictor):
+    # DL, not the paper's SH: SH's height band reaches an unsupported height (chooser tests).
     cfg = fast_config(sled_mass_kg=0.4)
     m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.4, predictor)
     run_loop(m, plant)
     assert m.state == State.FINISHED, m.reason
-    assert [r.mode for r in m.records] == ['SH', 'SH']
+    assert [r.mode for r in m.records] == ['DL', 'DL']
+    for r in m.records:      # the decision basis is in the row, and no reel ran below the need
+        assert r.point_n > r.lower_n >= cfg.safety_factor * 0.5 * 0.4 * G
+        assert r.reel_lower_margin_n >= 0.0 and 'DL: cheapest' in r.decision
     assert all(r.outcome == 'ok' for r in m.records)
     assert plant.tug_slip < 1e-3
     assert all(r.burrow_j > 0 and r.walk_j > 0 and r.tug_j > 0 for r in m.records)
@@ -143,7 +191,7 @@ def test_step_returns_its_events_once(predictor):
 
 def test_the_burrowed_height_is_sent_as_table_ii_with_its_band(predictor):
     """MiniRQuad does not measure h: after a burrow the machine sends the mode's Table II mean
-    with a band of two of its standard deviations (SH: 47 +- 2 mm SD -> +- 4 mm), and says so."""
+    with a band of two of its standard deviations (DL: 36 +- 2 mm SD -> +- 4 mm), and says so."""
     cfg = fast_config(sled_mass_kg=0.4, cycles=1)
     m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
     plant = Plant(0.4, predictor)
@@ -158,8 +206,8 @@ def test_the_burrowed_height_is_sent_as_table_ii_with_its_band(predictor):
     assert (walk.height, walk.height_source) == (cfg.h_walk_m, 'h_walk_m parameter (walking), '
                                                  'not measured')
     assert math.isnan(walk.height_band)
-    assert (tug.height, tug.height_band) == (pytest.approx(0.047), pytest.approx(0.004))
-    assert tug.height_source == 'Table II mean of SH (paper), not measured'
+    assert (tug.height, tug.height_band) == (pytest.approx(0.036), pytest.approx(0.004))
+    assert tug.height_source == 'Table II mean of DL (paper), not measured'
 
 
 @pytest.mark.parametrize('bad', [dict(cycles=0), dict(slow_ratio=0.99, stop_ratio=0.9),
@@ -192,12 +240,14 @@ def test_machine_refuses_too_heavy_sled(predictor):
 def test_machine_heavier_mid_tug_stops_then_reburrows(predictor):
     cfg = fast_config(sled_mass_kg=0.4, cycles=1)
     m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
-    plant = Plant(0.4, predictor, heavier_at=0.05, heavier_mass=0.6)
+    # 400 g burrows DL; at 0.8 kg (3.92 N) the tension reaches the margin guard on DL's lower
+    # bound (about 3.6 N), and only DH's lower bound (4.73 N) is stronger.
+    plant = Plant(0.4, predictor, heavier_at=0.05, heavier_mass=0.8)
     run_loop(m, plant)
     texts = [e['text'] for e in m.events]
     assert any('margin guard' in t for t in texts), texts
     assert plant.tug_slip < 2e-3
-    assert m.records[0].mode.startswith('SH+')
+    assert m.records[0].mode == 'DL+DH', m.records
     assert m.state == State.FINISHED and m.records[0].outcome == 'ok'
 
 
@@ -251,8 +301,8 @@ def test_machine_legs_moved_during_link_loss_reburrows(predictor):
             p.link_ok = True
     run_loop(m, plant, on_step=cut)
     texts = ' '.join(e['text'] for e in m.events)
-    assert 'left the SH pose during the outage' in texts, texts
-    assert m.records[0].mode == 'SH+SH' and m.records[0].outcome == 'ok', m.records
+    assert 'left the DL pose during the outage' in texts, texts
+    assert m.records[0].mode == 'DL+DL' and m.records[0].outcome == 'ok', m.records
 
 
 def test_report_csv_and_png(tmp_path, predictor):
@@ -261,10 +311,40 @@ def test_report_csv_and_png(tmp_path, predictor):
     run_loop(m, Plant(0.4, predictor))
     csv_path, png_path = write_report(m.records, tmp_path)
     rows = read_csv(csv_path)
-    assert rows[0].mode == 'SH' and rows[0].cycle == 1
+    assert rows[0].mode == 'DL' and rows[0].cycle == 1
+    got, want = rows[0], m.records[0]     # the decision basis survives the CSV (4 decimals)
+    assert (got.lower_n, got.point_n, got.energy_pred_j) == pytest.approx(
+        (want.lower_n, want.point_n, want.energy_pred_j), abs=1e-4)
+    assert got.decision == want.decision and got.decision.startswith('DL: cheapest')
     assert png_path.stat().st_size > 10_000
 
 
 def test_modes_match_table_ii():
     assert ANCHOR_MODES['DH'].expected_state().h == 0.034
     assert math.degrees(ANCHOR_MODES['SH'].retract[1]) == pytest.approx(-20)
+
+
+def test_burrow_modes_table_ii_runs_and_planned_is_refused_in_one_line():
+    assert BehaviorConfig().burrow_modes == 'table_ii'
+    with pytest.raises(ValueError) as planned:
+        BehaviorConfig(burrow_modes='planned').check()
+    assert str(planned.value) == ("burrow_modes 'planned': behavior_node has no burrow planner "
+                                  "yet; use 'table_ii'")
+    with pytest.raises(ValueError, match='burrow_modes must be one of table_ii, planned'):
+        BehaviorConfig(burrow_modes='paper').check()
+
+
+@pytest.mark.parametrize('status, lower, usable, reason', [
+    ('ok', 2.0, True, 'ok'),
+    ('modelled', 2.0, True, 'ok'),                    # its band is inside the lower bound
+    ('modelled', math.inf, False, 'lower_bound_missing'),   # never on the point estimate
+    ('modelled', float('nan'), False, 'lower_bound_missing'),
+    ('ok', float('nan'), False, 'lower_bound_missing'),
+    ('assumed', 2.0, False, 'assumed_not_accepted'),
+])
+def test_evidence_needs_a_lower_bound_and_takes_a_modelled_input(status, lower, usable,
+                                                                 reason):
+    from rftgls_ros.behavior import evidence
+    v = evidence.judge(1.0, 2.5, status, 1.0, 0.05, frozenset({'height'}), frozenset(),
+                       lower)
+    assert (v.usable, v.reason) == (usable, reason), v

@@ -1,4 +1,5 @@
-"""The demo launcher end to end: one short cycle, own domain id, report written, exits by itself."""
+"""The demo launcher end to end: one short cycle, own domain id, report written, exits by itself;
+every tug on the lower bound, and a sled no mode's lower bound holds refused cleanly."""
 from __future__ import annotations
 
 import os
@@ -8,22 +9,58 @@ from pathlib import Path
 
 import pytest
 
+from rftgls_ros.behavior.report import read_csv
+
 REPO = Path(__file__).resolve().parents[2]
+G = 9.81
+
+
+def demo(out: Path, sled: float) -> subprocess.CompletedProcess:
+    env = {k: v for k, v in os.environ.items() if k != 'ROS_DOMAIN_ID'}
+    return subprocess.run(
+        ['ros2', 'run', 'rftgls_ros', 'behavior_demo', '--out', str(out), '--sleds', str(sled),
+         '--cycles', '1', '--param', 'walk_time_s:=1.0', '--param', 'idle_measure_time_s:=0.5',
+         '--timeout', '60'],
+        cwd=REPO, env=env, capture_output=True, text=True, timeout=90)
 
 
 @pytest.mark.slow
 def test_demo_one_cycle_exits_and_writes_report(tmp_path):
-    env = {k: v for k, v in os.environ.items() if k != 'ROS_DOMAIN_ID'}
     out = tmp_path / 'demo'
-    proc = subprocess.run(
-        ['ros2', 'run', 'rftgls_ros', 'behavior_demo', '--out', str(out), '--sleds', '0.4',
-         '--cycles', '1', '--param', 'walk_time_s:=1.0', '--param', 'idle_measure_time_s:=0.5',
-         '--timeout', '60'],
-        cwd=REPO, env=env, capture_output=True, text=True, timeout=90)
+    proc = demo(out, 0.4)
     text = proc.stdout + proc.stderr
     assert proc.returncode == 0, text
     m = re.search(r'ROS_DOMAIN_ID=(\d+), DDS discovery LOCALHOST', text)
     assert m and 1 <= int(m.group(1)) <= 100, text
-    assert 'decision (expected pose): SH' in text
-    assert '400 g sled -> SH' in text
+    # DL, not the paper's SH: SH's height band (47 +- 4 mm) reaches an unsupported height, so
+    # its lower bound is 0 N although its point estimate (1.99 N) covers 1.96 N.
+    assert 'decision (expected pose): DL' in text
+    line = re.search(r'400 g sled -> DL: lower bound ([\d.]+) N \(decided on\), point estimate '
+                     r'([\d.]+) N, need ([\d.]+) N; burrow energy [\d.]+ J above idle predicted, '
+                     r'[\d.]+ J measured', text)
+    assert line, text
+    lower, point, need = map(float, line.groups())
+    assert point > lower >= need == pytest.approx(0.5 * 0.4 * G, abs=0.01)
     assert (out / 'cycle_report.csv').exists() and (out / 'cycle_report.png').exists()
+    # Never a reel-in below the need: the machine books capacity_node's lower bound against
+    # the need at every step that commanded the winch in (reel_lower_margin_n).
+    rows = read_csv(out / 'cycle_report.csv')
+    assert rows and all(r.outcome == 'ok' for r in rows), rows
+    assert all(r.reel_lower_margin_n >= 0.0 for r in rows), rows
+
+
+@pytest.mark.slow
+def test_demo_refuses_a_sled_no_lower_bound_covers(tmp_path):
+    # 1 kg needs 4.9 N: DH's point estimate (5.24 N) covers it, its lower bound over
+    # 34 +- 2 mm (4.73 N) does not. No burrow, no tug, exit 4 and the reason on stderr.
+    out = tmp_path / 'demo'
+    proc = demo(out, 1.0)
+    text = proc.stdout + proc.stderr
+    assert proc.returncode == 4, text
+    assert re.search(r'1000 g REFUSED, no tug: no mode suffices: need 4\.9\d N x 1\.00, '
+                     r'strongest DH has a lower bound of 4\.7\d N', proc.stderr), text
+    assert '1000 g sled -> REFUSED' in proc.stdout, text
+    (row,) = read_csv(out / 'cycle_report.csv')
+    assert (row.mode, row.outcome, row.reason) == ('-', 'refused', 'no_sufficient_mode')
+    assert row.point_n > row.need_n > row.lower_n
+    assert 'BURROW' not in text and '[live] tug' not in text

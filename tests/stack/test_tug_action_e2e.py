@@ -195,7 +195,7 @@ def test_walk_burrow_tug_action_cancel_reject_abort_and_complete(tmp_path, spawn
         assert len(res.result.cycles) == 1, res.result.cycles
         (cycle,) = res.result.cycles
         assert (cycle.cycle, cycle.outcome, cycle.reason) == (1, CycleOutcome.OK, ''), cycle
-        assert cycle.mode == 'SH' and cycle.sled_distance_m > 0.1 and cycle.energy_j > 0
+        assert cycle.mode == 'DL' and cycle.sled_distance_m > 0.1 and cycle.energy_j > 0
         assert res.result.final_state == 'FINISHED'
         # (10 Hz feedback: a state shorter than that, like CHECK, may not show)
         assert {'WALK', 'BURROW', 'TUG'} <= {f.state for f in c.feedback}

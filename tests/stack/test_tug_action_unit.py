@@ -75,7 +75,7 @@ def test_result_maps_every_outcome_and_success_needs_every_cycle_ok(predictor):
     assert run_succeeded(m)
     (rec,) = m.records
     out = cycle_outcome(rec)
-    assert (out.cycle, out.outcome, out.mode, out.reason) == (1, CycleOutcome.OK, 'SH', '')
+    assert (out.cycle, out.outcome, out.mode, out.reason) == (1, CycleOutcome.OK, 'DL', '')
     assert out.energy_j == pytest.approx(rec.walk_j + rec.burrow_j + rec.tug_j)
     assert out.sled_distance_m == rec.sled_distance_m > 0.1
     # Every outcome word of the cycle report has its own constant; an unknown one is 0.

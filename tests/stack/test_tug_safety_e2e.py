@@ -29,7 +29,7 @@ HERE = Path(__file__).resolve().parent
 @pytest.mark.slow
 def test_e2e_capacity_node_killed_mid_tug_stops_the_winch(tmp_path, spawn):
     run_stack(tmp_path, spawn, 0.4, params=['evidence_wait_s:=1.0'], timeout=60,
-              until=lambda t: re.search(r'\[live\] tug SH: T 1\.\d+ N', t) is not None)
+              until=lambda t: re.search(r'\[live\] tug DL: T 1\.\d+ N', t) is not None)
     procs = run_stack.procs
     assert procs['behavior'].poll() is None, (tmp_path / 'behavior.log').read_text()
     before = len((tmp_path / 'behavior.log').read_text())
@@ -59,14 +59,16 @@ def test_e2e_capacity_node_killed_mid_tug_stops_the_winch(tmp_path, spawn):
 @pytest.mark.slow
 def test_e2e_weaker_true_sand_slip_is_detected_and_stopped(tmp_path, spawn, stop):
     # The heavier-sled simulator script of test_behavior_e2e.py (never heavier here) counts
-    # the anchor's slip; the true medium is scaled to 0.7 of the stack's.
+    # the anchor's slip; the true medium is scaled to 0.5 of the stack's. 800 g needs 3.92 N:
+    # DH's lower bound on the map (4.73 N) covers it, the weaker sand does not, and nothing is
+    # stronger than DH. (1 kg is refused outright: DH's lower bound is 4.73 N < 4.9 N.)
     sim = [sys.executable, str(HERE / 'test_behavior_e2e.py'), '--heavier-at', '99',
-           '--heavier-mass', '1.0']
-    log = run_stack(tmp_path, spawn, 1.0, sim=sim, sim_args=['--true-medium-scale', '0.7'],
+           '--heavier-mass', '0.8']
+    log = run_stack(tmp_path, spawn, 0.8, sim=sim, sim_args=['--true-medium-scale', '0.5'],
                     timeout=60)
     assert re.search(r'decision \(expected pose\): DH:', log), log
-    assert 'anchor slip detected (slip_pitch' in log, log
-    assert re.search(r'cycle 1 \(1000 g sled\): DH stopped \(slip_pitch\)', log), log
+    assert 'anchor slip detected (slip_' in log, log
+    assert re.search(r'cycle 1 \(800 g sled\): DH stopped \(slip_\w+\)', log), log
     stop(run_stack.procs['sim'])   # SIGINT: the simulator prints its slip report
     sim_out = (tmp_path / 'sim.log').read_text()
     # Slip between the last reel-in command and the stop reaching the simulated MCU (the

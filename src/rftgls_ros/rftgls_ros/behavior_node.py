@@ -1,4 +1,5 @@
-"""``behavior_node``: walk-burrow-tug with the DH/DL/SH choice (paper section VI), thin rclpy shell.
+"""``behavior_node``: walk-burrow-tug, DH/DL/SH chosen on the lower bound (paper section VI), thin
+rclpy shell.
 
 The logic is ``rftgls_ros.behavior.BehaviorMachine``; this node converts messages into an
 ``Observation``, steps the machine (50 Hz and on every capacity output, so the margin guard
@@ -177,10 +178,11 @@ class BehaviorNode(Node):
         self.tug_action = TugActionServer(self, self)
         self.get_logger().info(
             f'sled {1e3 * self.cfg.sled_mass_kg:.0f} g (mu {self.cfg.sled_mu}), {self.cfg.cycles} '
-            f'cycles, safety factor {self.cfg.safety_factor}, map {predictor.path}; tugs only '
-            f'on capacity_node estimates younger than {1e3 * self.cfg.estimate_timeout_s:.0f} '
-            f'ms with status ok' + (f' or assumed {",".join(self.cfg.accept_assumed_inputs)}'
-                                    if self.cfg.accept_assumed_inputs else ''))
+            f'cycles, safety factor {self.cfg.safety_factor}, burrows {self.cfg.burrow_modes}, '
+            f'map {predictor.path}; decides on the lower bound; tugs only on capacity_node '
+            f'estimates younger than {1e3 * self.cfg.estimate_timeout_s:.0f} ms with status ok '
+            f'or modelled' + (f' or assumed {",".join(self.cfg.accept_assumed_inputs)}'
+                              if self.cfg.accept_assumed_inputs else ''))
 
     def destroy_node(self) -> None:
         # What this node owns goes first, while its handles and the context are still valid:
@@ -286,6 +288,7 @@ class BehaviorNode(Node):
         if math.isfinite(o.t_tension):
             sample = min(sample, o.t_tension)
         o.capacity, o.t_capacity = msg.capacity_n, sample  # N along the tether; NaN: no value
+        o.capacity_lower = msg.capacity_lower_n           # what decisions use; NaN: none
         o.capacity_status = status_word(msg)
         o.assumed_inputs = frozenset(msg.assumed_inputs)
         tw = msg.slip_twist

@@ -19,19 +19,21 @@ from rftgls_core.types import Provenance, Status
 from rftgls_interfaces.msg import AnchorEstimate, InputValue
 
 from .behavior.tug_series import TugSeries
-from .capacity.estimator import Estimate
+from .capacity.estimator import MODELLED, Estimate
 from .capacity.inputs import band_problem
 
 NAN = float('nan')
+# Status word (Estimate.word: rftgls_core's Status words and capacity_node's 'modelled') -> code.
 STATUS_CODES = {
-    Status.OK: AnchorEstimate.STATUS_OK, Status.ASSUMED: AnchorEstimate.STATUS_ASSUMED,
-    Status.STALE: AnchorEstimate.STATUS_STALE,
-    Status.INVALID_INPUT: AnchorEstimate.STATUS_INVALID_INPUT,
-    Status.OUT_OF_RANGE: AnchorEstimate.STATUS_OUT_OF_RANGE,
-    Status.UNSUPPORTED: AnchorEstimate.STATUS_UNSUPPORTED,
-    Status.DEGENERATE: AnchorEstimate.STATUS_DEGENERATE,
+    str(Status.OK): AnchorEstimate.STATUS_OK, MODELLED: AnchorEstimate.STATUS_MODELLED,
+    str(Status.ASSUMED): AnchorEstimate.STATUS_ASSUMED,
+    str(Status.STALE): AnchorEstimate.STATUS_STALE,
+    str(Status.INVALID_INPUT): AnchorEstimate.STATUS_INVALID_INPUT,
+    str(Status.OUT_OF_RANGE): AnchorEstimate.STATUS_OUT_OF_RANGE,
+    str(Status.UNSUPPORTED): AnchorEstimate.STATUS_UNSUPPORTED,
+    str(Status.DEGENERATE): AnchorEstimate.STATUS_DEGENERATE,
 }
-STATUS_OF_CODE = {code: status for status, code in STATUS_CODES.items()}
+STATUS_OF_CODE = {code: word for word, code in STATUS_CODES.items()}
 PROVENANCE_CODES = {Provenance.MEASURED: InputValue.MEASURED,
                     Provenance.MODELLED: InputValue.MODELLED,
                     Provenance.ASSUMED: InputValue.ASSUMED}
@@ -56,7 +58,7 @@ def estimate_msg(est: Estimate, header: Header, pull: str) -> AnchorEstimate:
     """The AnchorEstimate of one Estimate (NaN for every missing number)."""
     st = est.state
     return AnchorEstimate(
-        header=header, status_code=STATUS_CODES[est.status], status=str(est.status),
+        header=header, status_code=STATUS_CODES[est.word], status=est.word,
         reason=est.reason, detail=est.detail,
         has_value=est.has_value, capacity_n=num_or_nan(est.capacity_N),
         capacity_lower_n=num_or_nan(est.capacity_lower_N), tension_n=num_or_nan(est.tension_N),
@@ -66,16 +68,16 @@ def estimate_msg(est: Estimate, header: Header, pull: str) -> AnchorEstimate:
         theta_l1_rad=num_or_nan(st.theta_l1 if st else None),
         theta_l2_rad=num_or_nan(st.theta_l2 if st else None),
         assumed_inputs=list(est.assumed), modelled_inputs=list(est.modelled),
+        measured_inputs=[n for n, p in est.provenance().items() if p == 'measured'],
         stale_inputs=list(est.stale),
         warnings=list(est.warnings), method=est.predictor, pull=pull)
 
 
 def status_word(msg: AnchorEstimate) -> str:
-    """The rftgls_core Status word of an AnchorEstimate's status_code; 'unknown_<code>' for a
-    code this node does not know (0: nobody filled it in), which no consumer takes as a
-    value."""
-    status = STATUS_OF_CODE.get(msg.status_code)
-    return str(status) if status is not None else f'unknown_{msg.status_code}'
+    """The status word of an AnchorEstimate's status_code; 'unknown_<code>' for a code this
+    node does not know (0: nobody filled it in), which no consumer takes as a value."""
+    word = STATUS_OF_CODE.get(msg.status_code)
+    return word if word is not None else f'unknown_{msg.status_code}'
 
 
 def input_value(value: float, band: float, provenance: Provenance, source: str,

@@ -12,9 +12,16 @@ cycle report (CSV + PNG, like the paper's Fig. 12) under ``--out``.
 DDS stays on loopback (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST unless set) and the demo uses
 its own ROS_DOMAIN_ID when none is set (reserved like ROS 2's domain_coordinator).
 
-Exit status: 0 when every sled ran its cycles; 3 when a tug was aborted for lack of evidence
-(a cycle with outcome ``aborted``) unless ``--allow-aborts``; 1 when a sled produced no
-report (behavior_node did not finish); 130 on Ctrl-C.
+Every decision is made on the lower bound: the summary gives, per sled, the mode chosen with its
+lower bound (the number the choice was made on), its point estimate, the need and the predicted
+and measured burrow energy, and checks the cycle report: no cycle reeled in while capacity_node's
+lower bound was below the need.
+
+Exit status: 0 when every sled ran its cycles; 4 when a sled was refused (no mode's lower bound
+covers its need: no tug, the reason printed); 3 when a tug was aborted for lack of evidence (a
+cycle with outcome ``aborted``) unless ``--allow-aborts``; 5 when a cycle reeled in below the
+need (a broken safety rule); 1 when a sled produced no report (behavior_node did not finish);
+130 on Ctrl-C.
 """
 from __future__ import annotations
 
@@ -35,7 +42,7 @@ from rftgls_core.cli.main import RftglsParser, cli_contract
 from rftgls_core.quantities import MASS_KG, RUN_TIMEOUT_S, bounded_int
 from rftgls_node_base.node_main import program_args, stop_on_signals
 
-from .behavior.report import read_csv, write_report
+from .behavior.report import CycleRecord, read_csv, write_report
 
 _stop = threading.Event()
 
@@ -240,8 +247,7 @@ def main(argv: list[str] | None = None) -> int:
               f'{r.walk_j:>7.2f} {r.burrow_j:>8.2f} {r.tug_j:>6.2f} {r.distance_m:>7.3f}  '
               f'{r.reason}')
     for sled in sorted({r.sled_kg for r in records}):
-        modes = sorted({r.mode for r in records if r.sled_kg == sled})
-        print(f'{1e3 * sled:.0f} g sled -> {", ".join(modes)}')
+        print(sled_line([r for r in records if r.sled_kg == sled]))
     print(f'cycle report: {csv_path} and {png_path}')
     if _stop.is_set():
         return 130
@@ -249,13 +255,52 @@ def main(argv: list[str] | None = None) -> int:
     for r in aborted:
         print(f'behavior_demo: {1e3 * r.sled_kg:.0f} g cycle {r.cycle} ABORTED ({r.reason})',
               file=sys.stderr)
+    refused = [r for r in records if r.outcome == 'refused']
+    for r in refused:
+        print(f'behavior_demo: {1e3 * r.sled_kg:.0f} g REFUSED, no tug: {r.decision}',
+              file=sys.stderr)
+    below = below_need(records)
+    for r in below:
+        print(f'behavior_demo: {1e3 * r.sled_kg:.0f} g cycle {r.cycle} reeled in '
+              f'{-r.reel_lower_margin_n:.2f} N below the need on its lower bound',
+              file=sys.stderr)
     if missing:
         print('behavior_demo: no cycle report for '
               + ', '.join(f'{1e3 * m:.0f} g' for m in missing), file=sys.stderr)
         return 1
+    if below:
+        return 5
+    if refused:
+        return 4
     if aborted and not args.allow_aborts:
         return 3
     return 0
+
+
+def sled_line(rows: list[CycleRecord]) -> str:
+    """One sled's decision basis, from its cycle report rows: the modes chosen (or why not)
+    with the lower bound the choice was made on, the point estimate, the need, the burrow
+    energy above idle the chooser predicted for the last choice, and the burrow phase's
+    measured energy (idle included, mean over the cycles)."""
+    sled = f'{1e3 * rows[0].sled_kg:.0f} g sled'
+    chosen = [r for r in rows if r.outcome != 'refused' and r.mode != '-']
+    if not chosen:
+        r = rows[-1]
+        return (f'{sled} -> REFUSED: {r.decision} (point estimate {r.point_n:.2f} N; the '
+                f'point estimate is never decided on)')
+    modes = sorted({r.mode for r in chosen})
+    last = chosen[-1]
+    burrow = sum(r.burrow_j for r in chosen) / len(chosen)
+    return (f'{sled} -> {", ".join(modes)}: lower bound {last.lower_n:.2f} N (decided on), '
+            f'point estimate {last.point_n:.2f} N, need {last.need_n:.2f} N; burrow energy '
+            f'{last.energy_pred_j:.2f} J above idle predicted, {burrow:.2f} J measured (phase '
+            f'mean, idle included)')
+
+
+def below_need(records: list[CycleRecord]) -> list[CycleRecord]:
+    """The cycles that reeled in while capacity_node's lower bound was below the need
+    (reel_lower_margin_n < 0; NaN: the winch never reeled in)."""
+    return [r for r in records if r.reel_lower_margin_n < 0.0]
 
 
 if __name__ == '__main__':

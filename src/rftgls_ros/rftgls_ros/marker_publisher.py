@@ -94,7 +94,7 @@ class CapacityMarkers:
         self._last_markers = now
         st = est.state
         geoms = estimate_markers(
-            str(est.status), st.theta_b if st else None, est.phi_rad, est.capacity_N,
+            est.word, st.theta_b if st else None, est.phi_rad, est.capacity_N,
             est.tension_N, est.margin_N, est.slip_twist, est.slipping, self.curve(est),
             self.style, st.h if st else None, self.buried(est))
         mheader = Header(stamp=header.stamp, frame_id=self.frame_id)

@@ -2,7 +2,10 @@
 
 MiniRQuad in M90 sand: capacity of the paper's three burrowed anchors (Table II: DH, DL, SH)
 for a horizontal and a -20 deg tether, against the force two sleds need, and the limit-surface
-plot of the DH anchor. (The full walk-burrow-tug robot demo over ROS 2 comes later.)
+plot of the DH anchor. The `holds` column is the paper's point-estimate rule (the capacity at
+the Table II mean against the need), reproduced offline; the robot (behavior_node,
+`make demo`) decides on the lower bound over the burrow depth it does not measure, and never
+on this column.
 """
 from __future__ import annotations
 
@@ -47,7 +50,8 @@ def run(args) -> int:
     print(f'sled force needed (mu_sled = {SLED_FRICTION:.2f}): '
           + ', '.join(f'{1e3 * m:.0f} g -> {f:.2f} N' for m, f in needs.items()))
     print(f'{"mode":<5}{"h [mm]":>8}{"thetaB":>8}{"L1":>6}{"L2":>6}'
-          f'{"cap phi=0 [N]":>15}{"cap phi=-20 [N]":>17}  holds')
+          f'{"cap phi=0 [N]":>15}{"cap phi=-20 [N]":>17}  holds (paper\'s point-estimate rule, '
+          f'not the robot\'s)')
     rows = []
     t0 = time.perf_counter()
     for name, state in ANCHOR_MODES.items():

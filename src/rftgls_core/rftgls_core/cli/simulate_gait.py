@@ -38,8 +38,8 @@ def add_parsers(sub) -> None:
     b.add_argument('--stand', nargs=2, type=ANGLE_DEG.arg, default=(0.0, 0.0),
                    metavar=('DEG', 'DEG'), help='standing pose the burrow starts from (deg)')
     b.add_argument('--speed', type=LEG_SPEED_DEG_S.arg, default=None,
-                   help='leg speed of the moves, deg/s (default: MiniRHex\'s stance speed, '
-                        '47.6 deg/s)')
+                   help='leg speed of the moves, deg/s (default: 57.3 deg/s, i.e. 1 rad/s, an '
+                        'assumption: the paper gives no timing)')
     b.add_argument('--duration', type=SIM_DURATION_S.arg, default=8.0, help='window, s (paper: 8)')
     b.set_defaults(run=run_burrow)
     w = sub.add_parser('walk', help='a robot walking with MiniRHex\'s Buehler clock',

@@ -52,8 +52,9 @@ RESIDUAL_TOL = 1e-8
 # another width does not have, hence several widths from the last twist.
 EPS = ((1e-3,), (3e-2, 1e-3), (1e-2,), (1e-4,))
 RESTARTS = 8
-STALL_ITERATIONS = 4
+STALL_ITERATIONS = 6   # servo-line searches per step (balance)
 MIN_FRACTION = 1e-3    # a leg slowed below this fraction of its command stalls
+FRACTION_TOL = 0.02    # the servo-line search stops within 2 % of a leg's rate (balance)
 
 
 @dataclass
@@ -178,20 +179,38 @@ def step_balance(posed: PosedMultibody, model: StressModel, rates: np.ndarray, l
 def balance(posed: PosedMultibody, model: StressModel, servo: ServoSpec, command: np.ndarray,
             load: np.ndarray, xi_prev: np.ndarray, dt: float, creep: float,
             backend: str = 'auto') -> Balance:
-    """(1) with torque-limited servos: legs whose torque exceeds the servo's line slow to the
-    speed the line allows, or stall (module doc). command: rate per leg, rad/s."""
+    """(1) with torque-limited servos (module doc). command: rate per leg, rad/s.
+
+    A leg whose torque at its commanded rate exceeds the servo's line runs at the rate where
+    the two meet: the largest fraction f of its command with |tau(f)| <= line(f |command|).
+    The sand's torque on a leg depends on its rate through the body's response (the facets'
+    directions mix the leg's turn and the base's twist), so f is searched: bracketed between
+    a fraction known to be within the line and one known to exceed it, the first guess the
+    speed the line allows at the full-rate torque, then regula falsi. The step keeps the
+    largest fraction found within the line (0: stalled, held by its gear)."""
     command = np.asarray(command, dtype=float)
     frac = np.where(command != 0.0, 1.0, 0.0)
-    bal = None
-    for it in range(STALL_ITERATIONS):
-        bal = step_balance(posed, model, frac * command, load, xi_prev, dt, creep, backend)
-        if bal.mode == 'air' or it == STALL_ITERATIONS - 1:
+    lo = np.zeros_like(frac)                 # fractions known to be within the line
+    hi = np.full_like(frac, np.nan)          # fractions known to exceed it
+    g_lo = np.full_like(frac, -1.0)          # excess torque (N m) at lo and hi
+    g_hi = np.full_like(frac, np.nan)
+    bal = step_balance(posed, model, frac * command, load, xi_prev, dt, creep, backend)
+    for _ in range(STALL_ITERATIONS):
+        if bal.mode == 'air':
             break
-        new = slowed(servo, command, frac, bal.torques)
+        g = excess(servo, command, frac, bal.torques)
+        ok = g <= 0.0
+        lo, g_lo = np.where(ok, frac, lo), np.where(ok, g, g_lo)
+        hi, g_hi = np.where(ok, hi, frac), np.where(ok, g_hi, g)
+        new = next_fractions(servo, command, frac, bal.torques, lo, hi, g_lo, g_hi)
         if np.array_equal(new, frac):
             break
         frac = new
-    assert bal is not None
+        bal = step_balance(posed, model, frac * command, load, xi_prev, dt, creep, backend)
+    if bal.mode != 'air' and not np.array_equal(frac, lo):
+        # the search ended off its feasible end: the largest fraction known within the line
+        frac = lo
+        bal = step_balance(posed, model, frac * command, load, xi_prev, dt, creep, backend)
     bal.stalled = (command != 0.0) & (frac == 0.0)
     bal.slowed = (frac > 0.0) & (frac < 1.0)
     for i in np.flatnonzero(bal.stalled):
@@ -199,17 +218,42 @@ def balance(posed: PosedMultibody, model: StressModel, servo: ServoSpec, command
     return bal
 
 
-def slowed(servo: ServoSpec, command: np.ndarray, frac: np.ndarray, torques: np.ndarray
+def excess(servo: ServoSpec, command: np.ndarray, frac: np.ndarray, torques: np.ndarray
            ) -> np.ndarray:
-    """New rate fractions: a leg whose torque (driving its motion) exceeds the servo's line at
-    its speed runs at the speed the line allows at that torque; below MIN_FRACTION it stalls."""
-    new = frac.copy()
+    """Per leg, how far (N m) its torque exceeds the servo's line at its rate where the torque
+    drives the motion; negative (within) otherwise and for resting legs."""
+    out = np.full(len(command), -1.0)
     for i, c in enumerate(command):
-        if frac[i] == 0.0:
+        if frac[i] == 0.0 or c == 0.0:
             continue
         tau = torques[i]
-        if tau * c > 0.0 and abs(tau) > servo.torque_limit(frac[i] * c) * (1.0 + 1e-9):
-            new[i] = min(frac[i], servo.speed_at(tau) / abs(c))
-            if new[i] < MIN_FRACTION:
-                new[i] = 0.0
+        if tau * c > 0.0:
+            out[i] = abs(tau) - servo.torque_limit(frac[i] * c) * (1.0 + 1e-9)
+    return out
+
+
+def next_fractions(servo: ServoSpec, command: np.ndarray, frac: np.ndarray, torques: np.ndarray,
+                   lo: np.ndarray, hi: np.ndarray, g_lo: np.ndarray, g_hi: np.ndarray
+                   ) -> np.ndarray:
+    """The next rate fraction per leg (balance). A leg never refused keeps its fraction. A
+    refused one is searched inside (lo, hi): while nothing above 0 is known within the line,
+    the speed the line allows at the torque just refused; once both ends are known, regula
+    falsi on the excess torque; each guess kept 5 % of the bracket away from its ends. A
+    bracket narrower than FRACTION_TOL of its top ends the search at lo, and a leg refused
+    below MIN_FRACTION of its command stalls (lo = 0)."""
+    new = frac.copy()
+    for i, c in enumerate(command):
+        if c == 0.0 or math.isnan(hi[i]):
+            continue
+        width = hi[i] - lo[i]
+        if width <= FRACTION_TOL * hi[i] or hi[i] <= MIN_FRACTION:
+            new[i] = lo[i]
+            continue
+        if lo[i] > 0.0:
+            f = lo[i] + width * (-g_lo[i]) / (g_hi[i] - g_lo[i])
+        elif frac[i] == hi[i]:
+            f = servo.speed_at(torques[i]) / abs(c)
+        else:
+            f = 0.5 * hi[i]
+        new[i] = min(max(f, lo[i] + 0.05 * width), hi[i] - 0.05 * width)
     return new

@@ -35,7 +35,10 @@ TWO_PI = 2.0 * math.pi
 DEFAULT_BURROW_SPEED = 1.0   # rad/s, each leg's slew while burrowing (assumption)
 BURROW_DWELL = 0.5           # s at the retracting pose before the final move (assumption)
 BURROW_WINDOW = 8.0          # s, the paper's burrow window
-AMBLE = {'LH': 0.0, 'LF': 0.25, 'RH': 0.5, 'RF': 0.75}
+# A clock with phase ph starts its stance at t = (1 - ph) x period (mod period): a larger phase
+# is further ahead. Footfalls LH at 0, LF at 1/4, RH at 1/2, RF at 3/4 of a cycle (the lateral
+# sequence) therefore need these phases.
+AMBLE = {'LH': 0.0, 'LF': 0.75, 'RH': 0.5, 'RF': 0.25}
 # The paper's burrowing sequences (Table II): retracting and final (theta_L1, theta_L2), deg.
 TABLE_II_BURROWS = {'DH': ((-75.0, -50.0), (-40.0, 30.0)), 'DL': ((-75.0, -50.0), (-40.0, 0.0)),
                     'SH': ((-40.0, -20.0), (-40.0, 30.0))}
@@ -198,8 +201,11 @@ class WalkGait:
         return 0.0, 0.0
 
     def start(self) -> np.ndarray:
-        """Each leg on its clock at t = 0 (the robot is put down in the clock's first pose)."""
-        return self.reference(0.0)[0]
+        """Standing: every leg at theta_L = 0, as MiniRHex stands before it walks (its STAND
+        holds each leg at desired_theta 0); the MCU's loop then brings each leg to its clock
+        the short way round (simulate.position_error). Put down with its legs already at four
+        clock phases (one pointing up) the robot would start on two legs, pitched."""
+        return np.zeros(len(self.robot.legs))
 
     def stance(self, t: float) -> np.ndarray:
         """Which legs are on their slow (stance) arc at t."""

@@ -3,7 +3,8 @@
 Each step (docs/design/walk-burrow-physics.md):
 
 1. The MCU's loop turns each leg's reference into a commanded rate: feed-forward plus
-   kp x (reference - angle) (MiniRHex's pd_control with kd = 1), capped at the no-load speed.
+   kp x (reference - angle) (MiniRHex's pd_control with kd = 1; the error taken the short
+   way round for a leg that turns fully, as pd_control does), capped at the no-load speed.
 2. balance.balance: the rates the servos manage and the base twist that balances every buried
    part, gravity, the tether and (where the robot falls) its inertia.
 3. The step length: at most `dt`, a leg in or near the sand turns at most `joint_step`, the
@@ -43,6 +44,18 @@ SETTLE_STEP = 0.01   # s, the largest step while the robot settles
 # A base pitched beyond a quarter turn stands on one end or lies on its back: no gait of the
 # robots here recovers from it and no anchor state describes it, so the run stops there.
 OVERTURNED = 0.5 * math.pi
+
+
+def position_error(robot: Multibody, q_ref, q) -> np.ndarray:
+    """Reference minus angle per leg, rad, as MiniRHex's pd_controller takes it: the short
+    way round the circle for a leg that turns fully (robot.Leg.limits None), so a leg held
+    back more than half a turn (stalled in the sand while its clock runs on) is sent back the
+    other way, not on after a reference that has lapped it; the plain difference for a leg
+    with joint limits."""
+    err = np.asarray(q_ref, dtype=float) - np.asarray(q, dtype=float)
+    free = np.array([leg.limits is None for leg in robot.legs])
+    wrapped = np.mod(err + math.pi, 2.0 * math.pi) - math.pi
+    return np.where(free, wrapped, err)
 
 
 @dataclass(frozen=True)
@@ -176,7 +189,7 @@ class Simulator:
     def _substep(self, dt_max: float, q_ref, ff, tension: float, phi: float, phase: str,
                  book: bool = True) -> Balance:
         opt = self.options
-        cmd = np.asarray(ff, dtype=float) + opt.kp * (np.asarray(q_ref) - self.q)
+        cmd = np.asarray(ff, dtype=float) + opt.kp * position_error(self.robot, q_ref, self.q)
         cmd = np.clip(cmd, -self.servo.no_load_speed, self.servo.no_load_speed)
         # the servo turns a goal velocity below half its unit into none: a leg that close to
         # its reference holds (and a slow tail of the position loop ends)

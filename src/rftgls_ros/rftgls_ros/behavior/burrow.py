@@ -1,11 +1,12 @@
 """The anchor: choose a burrowing mode, burrow, check the anchor at the measured pose, and after
 a stop re-burrow into a stronger mode (CHOOSE, BURROW, CHECK, HOLD, SLACKEN).
 
-The choice and the checks ask the ModeChooser (capacity at a mode's pose for every tether angle
-of ``phis_rad``, the cheapest sufficient mode in energy). The pose check uses the measured leg
-angles and pitch, and h from Table II (MiniRQuad does not measure it); the tug then starts only
-on capacity_node's live evidence (``machine.evidence``). At most ``max_burrows_per_cycle``
-burrows per cycle. Units: m, rad, N, J, s.
+The choice and the checks ask the ModeChooser (the lower bound over a mode's height band at its
+pose for every tether angle of ``phis_rad``, the cheapest sufficient mode in energy). The pose
+check uses the measured leg angles and pitch, and h from Table II (MiniRQuad does not measure
+it); the tug then starts only on capacity_node's live evidence (``machine.evidence``), its
+lower bound against the need. At most ``max_burrows_per_cycle`` burrows per cycle. Units: m,
+rad, N, J, s.
 """
 from __future__ import annotations
 
@@ -137,15 +138,15 @@ class Burrow:
             if m.elapsed() >= m.cfg.capacity_wait_s:
                 m.retry.abort(v, in_tug=False)
             return
-        cap = m.obs.capacity * m.chooser.scale
+        cap = m.decision_capacity()
         required = m.cfg.safety_factor * m.need.value
         if cap < required:
-            m.event('decision', f'capacity_node: {m.mode} holds {cap:.2f} N < '
+            m.event('decision', f'capacity_node: {m.mode} holds {cap:.2f} N (lower bound) < '
                                 f'{required:.2f} N required', mode=m.mode)
             self.reselect(f'{m.mode} insufficient per capacity_node', cap)
             return
         m.go(State.TUG, f'{m.mode} holds at the measured pose ({self.check.why}; '
-                        f'capacity_node {cap:.2f} N >= {required:.2f} N)')
+                        f'capacity_node lower bound {cap:.2f} N >= {required:.2f} N)')
 
     def _check_prediction(self) -> None:
         m = self.m
@@ -162,7 +163,7 @@ class Burrow:
                 f'deg, h {1e3 * state.h:.0f} mm (Table II mean, not measured)')
         caps = '/'.join(f'{x:.2f}' if x is not None else s
                         for x, s in zip(c.capacities, c.statuses))
-        m.event('decision', f'check {m.mode} at the {pose}: capacity {caps} N -> '
+        m.event('decision', f'check {m.mode} at the {pose}: lower bound {caps} N -> '
                             f'{"sufficient" if c.sufficient else "insufficient"} '
                             f'({c.why})', mode=m.mode, capacities=c.capacities)
         if c.sufficient:
@@ -222,7 +223,12 @@ class Burrow:
         self.m.winch = -self.m.cfg.slacken_speed_m_s
 
     def _do_slacken(self) -> None:
-        m = self.m
-        if m.elapsed() >= m.cfg.slacken_time_s:
+        """Pay out for at least slacken_time_s and until the tension is below taut_tension_N
+        (a heavy sled stretches the rope further than the minimum pays out, and a burrow under
+        a taut tether drags the robot), at most slacken_max_s."""
+        m, cfg = self.m, self.m.cfg
+        taut = (m.obs.tension or 0.0) > cfg.taut_tension_N
+        if m.elapsed() >= cfg.slacken_max_s or (m.elapsed() >= cfg.slacken_time_s
+                                                and not taut):
             m.winch = 0.0
             self.start(self.next.mode, self.next.reason)

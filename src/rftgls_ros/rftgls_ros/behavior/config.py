@@ -5,6 +5,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+# Where the burrows the chooser picks from come from: 'table_ii' the paper's three modes (DH, DL,
+# SH) at their Table II poses; 'planned' the burrow planner's gaits (not in behavior_node yet:
+# refused). Either way the choice is made on the lower bound.
+BURROW_MODES = ('table_ii', 'planned')
 
 @dataclass
 class BehaviorConfig:
@@ -22,7 +26,9 @@ class BehaviorConfig:
     joint_states/tension age that counts as lost; link_settle_s: time the link must be back
     before resuming; link_wait_s: time to wait for it, then the cycle is recorded aborted
     (link_stale) and the run ends, winch braked; reburrow: on a guard stop or a slip,
-    re-burrow into a stronger mode if one suffices; tug_energy_window_s: the paper counts
+    re-burrow into a stronger mode if one suffices (first paying out at slacken_speed_m_s for
+    at least slacken_time_s and until the tension is below taut_tension_N, at most
+    slacken_max_s); tug_energy_window_s: the paper counts
     only the last 8 s of each tug.
 
     Evidence (docs/design/tug-safety.md): estimate_timeout_s: age (of its sample) after which
@@ -40,11 +46,17 @@ class BehaviorConfig:
     when) capacity_node has gone silent after a value-carrying status, use this node's map
     prediction at the Table II height; off by default, never over an explicit no-value status.
 
+    burrow_modes: where the candidate burrows come from (BURROW_MODES): 'table_ii' (the paper's
+    DH, DL, SH at their Table II poses) or 'planned' (the burrow planner's gaits; refused until
+    behavior_node has the planner). The choice is always the cheapest burrow whose lower bound
+    covers safety_factor x need.
+
     Slip (slip.py): slip_detect on/off, slip_pitch_rad, slip_leg_rad (change under load),
     slip_tension_drop (fraction below the tug's peak while reeling at least slip_min_reel_m).
     """
 
     cycles: int = 3
+    burrow_modes: str = 'table_ii'
     sled_mass_kg: float = 0.4
     sled_mu: float = 0.5
     safety_factor: float = 1.0
@@ -78,6 +90,7 @@ class BehaviorConfig:
     max_burrows_per_cycle: int = 3
     slacken_speed_m_s: float = 0.03
     slacken_time_s: float = 0.3
+    slacken_max_s: float = 2.0
     rope_length_m: float = 0.50
     attach_height_m: float = 0.01
     h_walk_m: float = 0.060
@@ -95,6 +108,12 @@ class BehaviorConfig:
 
     def check(self) -> BehaviorConfig:
         """ValueError (one line) on values the machine cannot run with; returns self."""
+        if self.burrow_modes == 'planned':
+            raise ValueError("burrow_modes 'planned': behavior_node has no burrow planner yet; "
+                             "use 'table_ii'")
+        if self.burrow_modes not in BURROW_MODES:
+            raise ValueError(f'burrow_modes must be one of {", ".join(BURROW_MODES)}, got '
+                             f'{self.burrow_modes!r}')
         if self.cycles < 1 or self.max_aborts < 0 or self.max_burrows_per_cycle < 1:
             raise ValueError('cycles and max_burrows_per_cycle must be >= 1, max_aborts >= 0')
         if not 0.0 < self.slow_ratio <= self.stop_ratio:

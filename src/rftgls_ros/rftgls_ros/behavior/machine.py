@@ -47,7 +47,15 @@ from . import evidence
 from .burrow import Burrow
 from .config import BehaviorConfig
 from .link_wait import LinkWait
-from .model import ANCHOR_MODES, Decision, EnergyModel, ForceNeed, ModeChooser, TetherTracker
+from .model import (
+    ANCHOR_MODES,
+    Candidate,
+    Decision,
+    EnergyModel,
+    ForceNeed,
+    ModeChooser,
+    TetherTracker,
+)
 from .report import CycleRecord
 from .retry import EvidenceRetry
 from .signals import Commands, Observation
@@ -67,7 +75,8 @@ class CycleTally:
     """One cycle as it runs: modes burrowed (in order), energy (J) and time (s) per phase, the
     sled's travel (m), how it ended (outcome, the CSV reason code, the hold cause), the first
     slip's reason code, the
-    required force (N), the smallest margin (N) and the sliding tensions (N)."""
+    required force (N), the smallest margin (N) and the sliding tensions (N); the chooser's
+    last pick and reason, and the smallest lower-bound margin the winch reeled in on (N)."""
 
     index: int
     modes: list[str] = field(default_factory=list)
@@ -86,6 +95,11 @@ class CycleTally:
     need_n: float = 0.0
     min_margin: float = math.inf
     tensions: list[float] = field(default_factory=list)
+    choice: Candidate | None = None     # the chooser's last pick (or strongest, refused)
+    decision: str = ''                  # the chooser's last reason, one line
+    # Smallest (capacity_node lower bound x scale - safety_factor x need), N, over the steps
+    # that commanded the winch to reel in: negative would be a tug below the need.
+    reel_lower_margin: float = math.inf
 
 
 class BehaviorMachine:
@@ -194,7 +208,13 @@ class BehaviorMachine:
         o = self.obs
         return evidence.judge(o.t, o.capacity, o.capacity_status, o.t_capacity,
                               self.cfg.estimate_timeout_s, o.assumed_inputs,
-                              frozenset(self.cfg.accept_assumed_inputs))
+                              frozenset(self.cfg.accept_assumed_inputs), o.capacity_lower)
+
+    def decision_capacity(self) -> float:
+        """What capacity_node's usable estimate lets a decision count on, N: its lower bound
+        times the learned scale (call only on usable evidence)."""
+        assert self.obs.capacity_lower is not None
+        return self.obs.capacity_lower * self.chooser.scale
 
     def capacity_valid(self) -> bool:
         return self.evidence().usable
@@ -214,11 +234,13 @@ class BehaviorMachine:
         return AnchorState(m.h, tb, l1, l2)
 
     def own_capacity(self) -> tuple[float | None, str]:
-        """This node's map prediction (N, status) at the measured pose and estimated phi."""
+        """This node's map prediction (N, status) at the measured pose and estimated phi: its
+        lower end over the burrowed mode's height band."""
         state = self.measured_state()
-        if state is None:
+        if state is None or self.mode is None:
             return None, 'stale'
-        cap, status = self.chooser.capacity(state, self.tether.phi(self.height))
+        cap, status = self.chooser.lower_capacity(state, self.tether.phi(self.height),
+                                                  ANCHOR_MODES[self.mode].h_band)
         return cap, str(status)
 
     # ------------------------------------------------------------------ step
@@ -231,6 +253,7 @@ class BehaviorMachine:
         if handler is not None:
             handler()
         self.tug.report_stop()
+        self._track_reel_basis()
         h, band, source = self.height_input()
         out = Commands(self._oneshots, self.winch, h, self.tether.phi(h), self._step_events,
                        band, source)
@@ -250,6 +273,19 @@ class BehaviorMachine:
         self.tether.update(obs.spool)
         self._last_spool = obs.spool
 
+    def _track_reel_basis(self) -> None:
+        """Book what the winch reels in on this step: capacity_node's lower bound (x the
+        learned scale) against the required force. Kept apart from the tug's own checks, so
+        the report shows whether a tug ever ran below its need."""
+        c, o = self.cycle, self.obs
+        if c is None or self.winch <= 0.0:
+            return
+        lower = o.capacity_lower
+        basis = lower * self.chooser.scale if lower is not None and math.isfinite(lower) \
+            else -math.inf
+        c.reel_lower_margin = min(c.reel_lower_margin,
+                                  basis - self.cfg.safety_factor * self.need.value)
+
     def _do_wait_inputs(self) -> None:
         if self.inputs_fresh() and self.obs.energy is not None:
             self.go(State.IDLE_MEASURE, 'robot link ok, sensors fresh')
@@ -262,6 +298,14 @@ class BehaviorMachine:
     def decide(self, d: Decision) -> None:
         """Keep and announce a mode decision (with its candidate table)."""
         self.decisions.append(d)
+        c = self.cycle
+        if c is not None:
+            c.decision = d.reason
+            if d.mode:
+                c.choice = d.candidate(d.mode)
+            elif not c.modes:        # refused before any burrow: the strongest it had
+                c.choice = max((x for x in d.candidates if x.weakest is not None),
+                               key=lambda x: x.weakest, default=None)
         self.event('decision', f'decision ({d.pose} pose): {d.reason}\n{d.table()}',
                    mode=d.mode, need_n=d.need_n,
                    candidates=[{'mode': c.mode, 'capacities': c.capacities,
@@ -281,7 +325,11 @@ class BehaviorMachine:
             need_n=self.need.value,
             tension_median_n=xs[len(xs) // 2] if xs else float('nan'),
             min_margin_n=c.min_margin if math.isfinite(c.min_margin) else float('nan'),
-            reason=c.reason, slip=c.slip))
+            reason=c.reason, slip=c.slip,
+            lower_n=_num(c.choice.weakest if c.choice else None),
+            point_n=_num(c.choice.point if c.choice else None),
+            energy_pred_j=_num(c.choice.energy_j if c.choice else None),
+            reel_lower_margin_n=_num(c.reel_lower_margin), decision=c.decision))
         r = self.records[-1]
         self.event('cycle', r.summary(), cycle=r.cycle, outcome=r.outcome, reason=r.reason,
                    slip=r.slip)
@@ -303,7 +351,7 @@ class BehaviorMachine:
         self.winch = 0.0
         self.command('gait', 'stand')
         if self.cycle:
-            self.cycle.outcome = 'refused'
+            self.cycle.outcome, self.cycle.reason = 'refused', 'no_sufficient_mode'
             self.record()
         self.go(State.REFUSED, f'not tugging: {reason}')
 
@@ -366,3 +414,8 @@ class BehaviorMachine:
             c.outcome, c.reason = 'cancelled', 'cancelled'
             self.record()
         self.go(State.FINISHED, f'cancelled, winch braked: {why}')
+
+
+def _num(x: float | None) -> float:
+    """A report number: NaN for None or infinite (nothing measured)."""
+    return x if x is not None and math.isfinite(x) else float('nan')

@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from rftgls_conventions import G, tether_phi
 from rftgls_core.predictor import Predictor
 from rftgls_core.types import AnchorState, Pull, Status
+
+from ..capacity.range_bound import scan_points
 
 
 @dataclass(frozen=True)
@@ -144,9 +146,23 @@ Prediction = tuple[float | None, Status]
 
 
 @dataclass(frozen=True)
+class BandScan:
+    """One pull angle over a height band: the lower bound (N, None without an answer), the
+    point estimate at the band's centre (N, None without a value), the status (stale: a
+    question went unanswered) and the first height without a value ('' = none)."""
+
+    lower: float | None
+    point: float | None
+    status: Status
+    gap: str = ''
+
+
+@dataclass(frozen=True)
 class Candidate:
-    """One mode as the chooser saw it: capacities (N) at each pull angle, statuses, the
-    weakest capacity, the energy estimate (J) and whether it is sufficient (and why not)."""
+    """One mode as the chooser saw it: per pull angle the lower bound it decides on (N, the
+    smallest capacity over the mode's height band) and the status, the weakest lower bound,
+    the weakest point estimate at the pose itself (``point``, N: reported, never decided on),
+    the energy estimate (J) and whether it is sufficient (and why not)."""
 
     mode: str
     capacities: tuple[float | None, ...]
@@ -155,6 +171,7 @@ class Candidate:
     energy_j: float
     sufficient: bool
     why: str
+    point: float | None = None
 
 
 @dataclass(frozen=True)
@@ -170,22 +187,28 @@ class Decision:
     reason: str
     pose: str = 'expected'
 
+    def candidate(self, mode: str) -> Candidate | None:
+        """The candidate of ``mode`` (None if it was not assessed)."""
+        return next((c for c in self.candidates if c.mode == mode), None)
+
     def table(self) -> str:
         phis = '/'.join(f'{math.degrees(p):.0f}' for p in self.phis)
         lines = [f'  need {self.need_n:.2f} N x SF {self.safety_factor:.2f} = '
-                 f'{self.need_n * self.safety_factor:.2f} N; capacity at phi {phis} deg '
-                 f'({self.pose} pose):']
+                 f'{self.need_n * self.safety_factor:.2f} N; lower bound over the height band '
+                 f'at phi {phis} deg ({self.pose} pose):']
         for c in self.candidates:
             caps = '/'.join(f'{x:.2f}' if x is not None else s
                             for x, s in zip(c.capacities, c.statuses))
-            lines.append(f'    {c.mode}: {caps} N, energy {c.energy_j:.2f} J -> '
-                         f'{"ok" if c.sufficient else "no"} ({c.why})')
+            point = f'{c.point:.2f} N' if c.point is not None else 'none'
+            lines.append(f'    {c.mode}: {caps} N (point estimate {point}), energy '
+                         f'{c.energy_j:.2f} J -> {"ok" if c.sufficient else "no"} ({c.why})')
         return '\n'.join(lines)
 
 
 class ModeChooser:
     """Cheapest sufficient mode: a mode is sufficient when every pull angle in ``phis`` has a
-    valid prediction with capacity >= safety_factor * need (N). Ties go to the stronger.
+    valid prediction whose lower end over the mode's height band (``lower_capacity``) is
+    >= safety_factor * need (N). Ties go to the stronger.
 
     ``predictor``: any rftgls_core ``Predictor`` (the map capacity_node loads, or the live
     model), asked for ``pull`` (MiniRQuad's winch is on its back: 'backward').
@@ -208,23 +231,64 @@ class ModeChooser:
         r = self.predictor.predict(state, phi, self.pull)
         return (r.capacity_N if r.status.has_value else None), r.status
 
+    def lower_capacity(self, state: AnchorState, phi: float, h_band: float) -> Prediction:
+        """(smallest capacity N over h +- h_band, status): the height of p is not measured,
+        only known to lie in the band; the scan points are capacity_node's (range_bound.py).
+        A point without a value makes it 0 (the anchor may hold nothing there). Status: stale
+        when a question went unanswered (no value: missing evidence, not a weak anchor), else
+        ok. h_band 0 or NaN: the state's h alone."""
+        scan = self.band_scan(state, phi, h_band)
+        return scan.lower, scan.status
+
+    def band_scan(self, state: AnchorState, phi: float, h_band: float) -> BandScan:
+        """``lower_capacity`` with the point estimate at the state's own h and the first
+        height without a value (the scan includes h itself: the point costs no question)."""
+        hs = [state.h] if not (h_band > 0.0) else scan_points(state.h, h_band, 0.0, math.inf)
+        lower: float | None = None
+        point: float | None = None
+        gap = ''
+        for h in hs:
+            cap, status = self.capacity(AnchorState(h, state.theta_b, state.theta_l1,
+                                                    state.theta_l2), phi)
+            if status == Status.STALE:            # unanswered: no value, not a weak anchor
+                return BandScan(None, None, status, f'{status} at h {1e3 * h:.0f} mm')
+            valid = status == Status.OK and cap is not None and math.isfinite(cap)
+            if not valid:
+                gap = gap or f'{status} at h {1e3 * h:.0f} mm'
+            elif h == state.h:
+                point = cap
+            cap = cap if valid else 0.0
+            lower = cap if lower is None else min(lower, cap)
+        return BandScan(lower, point, Status.OK, gap)
+
     def evaluate(self, mode: str, state: AnchorState, need: float, energy: float) -> Candidate:
-        caps, stats = [], []
+        """The mode at ``state``: per pull angle the lower capacity over the mode's height
+        band (a decision uses the lower bound, not the point estimate), times ``scale``; the
+        point estimate at the state's own h is kept for the report."""
+        caps, stats, points, gaps = [], [], [], []
+        band = self.modes[mode].h_band if mode in self.modes else 0.0
         for phi in self.phis:
-            cap, status = self.capacity(state, phi)
-            ok = status == Status.OK and cap is not None and math.isfinite(cap)
+            scan = self.band_scan(state, phi, band)
+            cap = scan.lower
+            ok = scan.status == Status.OK and cap is not None and math.isfinite(cap)
             caps.append(cap * self.scale if ok else None)
-            stats.append(str(status))
+            stats.append(str(scan.status))
+            points.append(scan.point * self.scale if scan.point is not None else None)
+            if scan.gap:
+                gaps.append(scan.gap)
+        weakest_point = None if any(p is None for p in points) else min(points)
         required = self.safety_factor * need
         if any(c is None for c in caps):
             bad = [s for c, s in zip(caps, stats) if c is None]
             return Candidate(mode, tuple(caps), tuple(stats), None, energy, False,
-                             f'no valid prediction: {", ".join(bad)}')
+                             f'no valid prediction: {", ".join(bad)}', weakest_point)
         weakest = min(caps)
         ok = weakest >= required
-        why = (f'weakest {weakest:.2f} N >= {required:.2f} N' if ok
-               else f'weakest {weakest:.2f} N < {required:.2f} N')
-        return Candidate(mode, tuple(caps), tuple(stats), weakest, energy, ok, why)
+        why = (f'lower bound {weakest:.2f} N >= {required:.2f} N' if ok
+               else f'lower bound {weakest:.2f} N < {required:.2f} N'
+               + (f': no value somewhere in its height band ({gaps[0]})' if gaps else ''))
+        return Candidate(mode, tuple(caps), tuple(stats), weakest, energy, ok, why,
+                         weakest_point)
 
     def choose(self, need: float, energy: EnergyModel,
                states: dict[str, AnchorState] | None = None,
@@ -239,25 +303,23 @@ class ModeChooser:
             state = (states or {}).get(name, mode.expected_state())
             c = self.evaluate(name, state, need, energy.estimate(name))
             if name in excluded:
-                c = Candidate(c.mode, c.capacities, c.statuses, c.weakest, c.energy_j, False,
-                              'excluded: ' + c.why)
+                c = replace(c, sufficient=False, why='excluded: ' + c.why)
             elif stronger_than is not None and c.sufficient and c.weakest <= stronger_than:
-                c = Candidate(c.mode, c.capacities, c.statuses, c.weakest, c.energy_j, False,
-                              f'not stronger than {stronger_than:.2f} N')
+                c = replace(c, sufficient=False, why=f'not stronger than {stronger_than:.2f} N')
             cands.append(c)
         ok = [c for c in cands if c.sufficient]
         if not ok:
             best = max((c for c in cands if c.weakest is not None),
                        key=lambda c: c.weakest, default=None)
             reason = (f'no mode suffices: need {need:.2f} N x {self.safety_factor:.2f}'
-                      + (f', strongest {best.mode} holds {best.weakest:.2f} N' if best else
-                         ', no valid prediction'))
+                      + (f', strongest {best.mode} has a lower bound of {best.weakest:.2f} N'
+                         if best else ', no valid prediction'))
             return Decision(None, need, self.safety_factor, self.phis, tuple(cands), reason,
                             pose)
         pick = min(ok, key=lambda c: (c.energy_j, -(c.weakest or 0.0)))
         others = [c.mode for c in ok if c is not pick]
         reason = (f'{pick.mode}: cheapest sufficient mode ({pick.energy_j:.2f} J, '
-                  f'{energy.source(pick.mode)}); weakest capacity {pick.weakest:.2f} N >= '
+                  f'{energy.source(pick.mode)}); lower bound {pick.weakest:.2f} N >= '
                   f'{self.safety_factor:.2f} x {need:.2f} N'
                   + (f'; also sufficient: {", ".join(others)}' if others else ''))
         return Decision(pick.mode, need, self.safety_factor, self.phis, tuple(cands), reason,

@@ -40,6 +40,17 @@ class CycleRecord:
     reason: str = ''     # safety reason code of the cycle ('' = none), e.g. estimate_timeout
     slip: str = ''       # the slip recorded in this cycle ('' = none), e.g. slip_pitch: kept
     #                      when a later stop or abort of the cycle sets `reason`
+    # The decision basis (NaN: none). lower_n: the lower bound of the mode chosen (refused: of
+    # the strongest mode), N, the number the choice was made on; point_n: its point estimate
+    # at the Table II pose, N (reported, never decided on); energy_pred_j: its predicted
+    # burrow energy, J; reel_lower_margin_n: the smallest (capacity_node lower bound - safety
+    # factor x need), N, over the steps the winch reeled in (negative: a tug below the need);
+    # decision: the chooser's reason, one line.
+    lower_n: float = float('nan')
+    point_n: float = float('nan')
+    energy_pred_j: float = float('nan')
+    reel_lower_margin_n: float = float('nan')
+    decision: str = ''
 
     @property
     def energy_j(self) -> float:

@@ -146,7 +146,7 @@ class Tug:
         m, a = self.m, self.attempt
         cfg, o = m.cfg, m.obs
         v = m.evidence()
-        capacity, source = o.capacity, 'capacity_node'
+        capacity, source = o.capacity_lower, 'capacity_node lower bound'
         if not v.usable and cfg.own_capacity_fallback and self.had_value \
                 and v.reason in (evidence.NO_ESTIMATE, evidence.TIMEOUT):
             # capacity_node went silent after a value: only then, and only when configured.
@@ -163,7 +163,7 @@ class Tug:
             self._evidence_gap(v)
             return None
         assert capacity is not None  # usable evidence carries a value (evidence.judge)
-        if source == 'capacity_node':
+        if source != 'own map':
             self.had_value = True
         if a.gap is not None:
             # Evidence back before the encoder showed the spool standing: nothing to report.

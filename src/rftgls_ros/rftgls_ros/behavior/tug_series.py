@@ -19,7 +19,7 @@ from pathlib import Path
 from rftgls_conventions.safe_write import write_text
 from rftgls_core.charts.figure_io import save
 
-USABLE = ('ok', 'assumed')
+USABLE = ('ok', 'modelled', 'assumed')
 
 
 @dataclass(frozen=True)
@@ -96,7 +96,7 @@ def plot_tug_series(samples, path: str | Path, slow_ratio: float | None = 0.90,
     names = sorted({s.status for s in samples}, key=lambda n: (n not in USABLE, n))
     level = {n: i for i, n in enumerate(names)}
     ax_s.scatter(t, [level[s.status] for s in samples], s=4,
-                 c=['tab:green' if s.status == 'ok' else 'tab:olive' if s.status == 'assumed'
+                 c=['tab:green' if s.status == 'ok' else 'tab:olive' if s.status in USABLE
                     else 'tab:red' for s in samples])
     ax_s.set_yticks(range(len(names)), names, fontsize=7)
     ax_s.set_ylim(-0.5, len(names) - 0.5)

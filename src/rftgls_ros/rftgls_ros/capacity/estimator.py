@@ -22,10 +22,12 @@ stamp where there is one, else the receipt time). A sample older than its timeou
 one stamped more than `clock_tolerance_s` in the future is invalid (future_stamp).
 
 Status precedence: stale > invalid_input > the predictor's status, then ok -> assumed when an
-input came from a parameter or arrived ASSUMED. A MODELLED input leaves the status ok, is named
-in `modelled` and in the reason (`modelled_input:height`), and the lower bound covers its band
-(as it covers an assumed input's range). A value (capacity, margin, slip twist) is present only
-for ok and assumed. Reasons are machine-readable `code:input` items joined by ';' (e.g.
+input came from a parameter or arrived ASSUMED. The published status word (Estimate.word) is
+never `ok` for an estimate built on an input that is not measured: `assumed` as above, else
+`modelled` when an input arrived MODELLED (named in `modelled` and in the reason,
+`modelled_input:height`). The lower bound covers a modelled input's band as it covers an
+assumed input's range. A value (capacity, margin, slip twist) is present only for ok, modelled
+and assumed. Reasons are machine-readable `code:input` items joined by ';' (e.g.
 `stale_input:tension`, `negative_tension:tension`, `assumed_input:height`); `detail` is prose.
 """
 from __future__ import annotations
@@ -162,7 +164,7 @@ class Estimate:
         is a value, `slipping` says whether the tension exceeds capacity.
     state, phi_rad, tension_N: the inputs used (None when missing or not finite).
     assumed: inputs taken from parameters or received as assumed ('height', 'phi').
-    modelled: inputs received as modelled (computed, not measured); the status stays ok.
+    modelled: inputs received as modelled (computed, not measured): the word is `modelled`.
     stale: inputs that are stale or were never received.
     warnings: non-fatal findings.
     """
@@ -192,18 +194,36 @@ class Estimate:
         return self.status in (Status.OK, Status.ASSUMED)
 
     @property
+    def word(self) -> str:
+        """The status capacity_node publishes: the status, except that an ``ok`` estimate
+        built on a modelled input is ``modelled`` (MODELLED): only an estimate whose every
+        input was measured is ``ok``."""
+        if self.status is Status.OK and self.modelled:
+            return MODELLED
+        return str(self.status)
+
+    def provenance(self) -> dict[str, str]:
+        """Every input's provenance word, INPUTS order ('measured', 'modelled', 'assumed')."""
+        return {n: str(Provenance.ASSUMED if n in self.assumed else Provenance.MODELLED
+                       if n in self.modelled else Provenance.MEASURED) for n in INPUTS}
+
+    @property
     def reason_codes(self) -> tuple[str, ...]:
         """The reason's items ('code:input', or a predictor's reason)."""
         return tuple(r for r in self.reason.split(';') if r)
 
 
 NAN = float('nan')
-# Diagnostic level per status (diagnostic_msgs/DiagnosticStatus: 0 OK, 1 WARN, 2 ERROR,
+# capacity_node's status word for an estimate with a value built on a modelled input (no input
+# assumed): not ok, and not an rftgls_core Status (a predictor never answers it).
+MODELLED = 'modelled'
+# Diagnostic level per status word (diagnostic_msgs/DiagnosticStatus: 0 OK, 1 WARN, 2 ERROR,
 # 3 STALE); a status not listed (e.g. the deprecated 'extrapolated') is an ERROR.
 OK_LEVEL, WARN_LEVEL, ERROR_LEVEL, STALE_LEVEL = 0, 1, 2, 3
-LEVELS = {Status.OK: OK_LEVEL, Status.ASSUMED: WARN_LEVEL, Status.OUT_OF_RANGE: ERROR_LEVEL,
-          Status.UNSUPPORTED: ERROR_LEVEL, Status.DEGENERATE: ERROR_LEVEL,
-          Status.INVALID_INPUT: ERROR_LEVEL, Status.STALE: STALE_LEVEL}
+LEVELS = {str(s): level for s, level in (
+    (Status.OK, OK_LEVEL), (Status.ASSUMED, WARN_LEVEL), (Status.OUT_OF_RANGE, ERROR_LEVEL),
+    (Status.UNSUPPORTED, ERROR_LEVEL), (Status.DEGENERATE, ERROR_LEVEL),
+    (Status.INVALID_INPUT, ERROR_LEVEL), (Status.STALE, STALE_LEVEL), (MODELLED, WARN_LEVEL))}
 
 
 @dataclass(frozen=True)
@@ -383,20 +403,21 @@ class CapacityEstimator:
             twist = est.slip_twist
         else:  # the anchor holds: predicted motion is zero
             twist = (0.0, 0.0, 0.0)
-        return Outputs(str(est.status), _along(est.capacity_N, d),
+        return Outputs(est.word, _along(est.capacity_N, d),
                        NAN if est.capacity_N is None else 0.0, _along(est.margin_N, d),
                        _along(est.capacity_lower_N, d),
                        self.config.lower_bound_level > 0.0 or bool(est.assumed)
                        or bool(est.modelled), twist)
 
     def diagnostic(self, est: Estimate, name: str, extra: Mapping[str, str] = {}) -> DiagStatus:
-        """The /diagnostics entry of `est`: level from LEVELS (WARN at least with warnings or
-        assumed inputs), message 'status: reason [warnings]', and the key/values (SI, the
-        unit in the key). `extra`: node-side values appended (timing, parameters)."""
-        level = LEVELS.get(est.status, ERROR_LEVEL)
-        if (est.warnings or est.assumed) and level == OK_LEVEL:
+        """The /diagnostics entry of `est`: level from LEVELS by its word (WARN at least with
+        warnings or an input not measured), message 'word: reason [warnings]', and the
+        key/values (SI, the unit in the key; `provenance` names every input's provenance).
+        `extra`: node-side values appended (timing, parameters)."""
+        level = LEVELS.get(est.word, ERROR_LEVEL)
+        if (est.warnings or est.assumed or est.modelled) and level == OK_LEVEL:
             level = WARN_LEVEL
-        message = str(est.status)
+        message = est.word
         if est.reason and est.reason != message:
             message += f': {est.reason}'
         if est.warnings:
@@ -405,7 +426,7 @@ class CapacityEstimator:
         twist = ('nan' if est.slip_twist is None
                  else ' '.join(f'{x:.4g}' for x in est.slip_twist))
         values = {
-            'status': str(est.status), 'detail': est.detail,
+            'status': est.word, 'detail': est.detail,
             'capacity_N': _fmt(est.capacity_N), 'capacity_lower_N': _fmt(est.capacity_lower_N),
             'tension_N': _fmt(est.tension_N),
             'margin_N': _fmt(est.margin_N), 'slipping': str(est.slipping).lower(),
@@ -417,6 +438,7 @@ class CapacityEstimator:
                                else ' '.join(f'{x:.4g}' for x in est.leg_spread_rad)),
             'slip_twist': twist,
             'assumed_inputs': ','.join(est.assumed), 'modelled_inputs': ','.join(est.modelled),
+            'provenance': ','.join(f'{n}:{p}' for n, p in est.provenance().items()),
             'stale_inputs': ','.join(est.stale),
             'reason': est.reason,
             'predictor': est.predictor, 'pull': str(self.pull),
