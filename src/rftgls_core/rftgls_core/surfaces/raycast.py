@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .mesh_loops import HAVE_NUMBA, as_mesh, mesh_winding
 from .newton import cross_rows
 
 
@@ -147,8 +148,19 @@ def winding_number(vertices: np.ndarray, faces: np.ndarray,
 
     Sum of the signed solid angles of the triangles seen from the point (Van Oosterom and
     Strackee) over 4 pi: 1 inside, 0 outside, fractional near or on the surface or when the
-    mesh is not closed. Robust where a ray-parity test is not (rays through edges).
+    mesh is not closed. Robust where a ray-parity test is not (rays through edges). One
+    compiled loop (mesh_loops.py) with numba, else winding_number_numpy.
     """
+    if not HAVE_NUMBA:
+        return winding_number_numpy(vertices, faces, point)
+    p = (0.0, 0.0, 0.0) if point is None else tuple(float(x) for x in point)
+    return float(mesh_winding(*as_mesh(vertices, faces), *p))
+
+
+def winding_number_numpy(vertices: np.ndarray, faces: np.ndarray,
+                         point: np.ndarray | None = None) -> float:
+    """winding_number as numpy expressions vectorised over the triangles (the reference of
+    the compiled loop; it sums pairwise, the loop in order: equal to ~F eps)."""
     p = np.zeros(3) if point is None else np.asarray(point, dtype=float)
     v = np.asarray(vertices, dtype=float) - p
     f = np.asarray(faces, dtype=np.intp)
