@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .mesh_loops import HAVE_NUMBA, as_mesh, mesh_winding
-from .newton import cross_rows
+from .newton import cross_rows, row_norms
 
 
 @dataclass(frozen=True)
@@ -49,8 +49,8 @@ def prepare_mesh(vertices: np.ndarray, faces: np.ndarray,
     e1, e2, q0 = v1 - v0, v2 - v0, o - v0
     q = cross_rows(q0, e1)
     # det is d . (e2 x e1) for a unit d; relative to |e1||e2| this is sin(angle(d, plane)).
-    det_tol = 1e-12 * np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
-    scale = float(np.max(np.linalg.norm(v - o, axis=1))) if len(v) else 1.0
+    det_tol = 1e-12 * row_norms(e1) * row_norms(e2)
+    scale = float(row_norms(v - o).max()) if len(v) else 1.0
     return PreparedMesh(origin=o, n_det=cross_rows(e2, e1), n_u=cross_rows(e2, q0), q=q,
                         s_num=np.einsum('ij,ij->i', e2, q), det_tol=det_tol,
                         length_scale=max(scale, np.finfo(float).tiny), n_faces=len(f))
