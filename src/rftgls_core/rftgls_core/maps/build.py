@@ -160,7 +160,14 @@ def edge_cell_corners(held: np.ndarray) -> np.ndarray:
     return out
 
 
-def chunk_indices(n_states: int, workers: int, per_worker: int = 8) -> list[np.ndarray]:
+# Chunks per worker in each pass: a pass ends when its last chunk does, so the other worker
+# idles for up to one chunk (~1.5 s of a prototype build at 16) while a chunk's task overhead
+# (pickling the spec and grid, the answers back) is milliseconds.
+CHUNKS_PER_WORKER = 16
+
+
+def chunk_indices(n_states: int, workers: int, per_worker: int = CHUNKS_PER_WORKER
+                  ) -> list[np.ndarray]:
     """About `per_worker` chunks per worker (load balance vs. task overhead), each every
     n-th state: neighbouring states cost alike (a contiguous chunk of support-checked or
     closure-searched states takes several times one of unsupported states), so strided chunks
@@ -338,7 +345,7 @@ def _edge_pass(run, grid: MapGrid, answers: _Answers, workers: int
             if len(pk) else np.zeros((0, 3), np.intp))
     grad = np.full((S, P, 4), np.nan)
     if len(jobs):
-        size = max(1, math.ceil(len(jobs) / max(1, workers * 8)))
+        size = max(1, math.ceil(len(jobs) / max(1, workers * CHUNKS_PER_WORKER)))
         for js, m1, g4 in run([jobs[i:i + size] for i in range(0, len(jobs), size)],
                               solve_grad_chunk):
             margin[js[:, 0], js[:, 1]] = m1
