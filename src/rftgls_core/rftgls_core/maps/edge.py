@@ -122,10 +122,14 @@ def signed_margin(ws: np.ndarray, sphere: TwistSphere, held: bool | None = None)
     return dist if held else -dist
 
 
-def fitted_wrenches(surface: LimitSurface | None, sphere: TwistSphere) -> np.ndarray | None:
+def fitted_wrenches(surface: LimitSurface | None, sphere: TwistSphere,
+                    support_check: bool = False) -> np.ndarray | None:
     """The scaled wrenches a fit evaluated on `sphere` (the same numbers node_support_margin
-    would compute again for that pose), or None when it evaluated none there."""
-    cloud = surface.cloud_ if surface is not None else None
+    would compute again for that pose), or None when it evaluated none there. support_check:
+    those of the fit's dense support check (surfaces/base.py) instead of its own sphere's."""
+    if surface is None:
+        return None
+    cloud = surface.support_samples_ if support_check else surface.cloud_
     return cloud[1] if cloud is not None and cloud[0] is sphere else None
 
 
