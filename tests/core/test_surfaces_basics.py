@@ -163,3 +163,15 @@ def test_cross_rows_is_np_cross_bitwise():
         a = rng.normal(size=(n, 3)) * 10.0 ** rng.uniform(-8, 8, (n, 1))
         b = rng.normal(size=(n, 3))
         assert np.array_equal(cross_rows(a, b), np.cross(a, b))
+
+
+def test_row_norms_is_np_linalg_norm_bitwise():
+    # row_norms replaces np.linalg.norm(x, axis=-1) in the solvers' hot loops with its own
+    # arithmetic (square root of the reduced squares): the very same numbers, any shape.
+    from rftgls_core.surfaces.newton import row_norms
+    rng = np.random.default_rng(4)
+    for shape in ((1, 3), (7, 3), (1000, 3), (200, 2), (5, 2, 2), (3,)):
+        x = rng.normal(size=shape) * 10.0 ** rng.uniform(-8, 8, shape)
+        for keep in (False, True):
+            got, want = row_norms(x, keep), np.linalg.norm(x, axis=-1, keepdims=keep)
+            assert np.shape(got) == np.shape(want) and np.array_equal(got, want)

@@ -29,7 +29,8 @@ def row_norms(x: np.ndarray, keepdims: bool = False) -> np.ndarray:
     arithmetic (a square root of the reduced squares, bitwise the same numbers) without its
     argument handling, which costs more than the work on the solvers' few-row arrays."""
     x = np.asarray(x, dtype=float)
-    return np.sqrt(np.add.reduce(x * x, axis=-1, keepdims=keepdims))
+    squares = np.add.reduce(x * x, axis=-1, keepdims=True)
+    return np.sqrt(squares if keepdims else squares[..., 0])
 
 
 def _tangent_basis(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
