@@ -218,6 +218,11 @@ def test_38_percent_frame_loss_is_an_error_and_nothing_damaged_goes_out(sim, har
     ratios = [float(v['loss_ratio']) for _, v in h.published(LINK)]
     assert 0.28 <= max(ratios) <= 0.5
     assert h.node.core.counters.dropped_frames > 100
+    # Samples still arrive fresh, but the link is untrusted (>= loss_error over the last
+    # trust_window_s): minirquad/link says so, and a tug stops on it (behavior_node).
+    assert 'untrusted' in {state for _, state in h.states}, h.states
+    word, loss = h.node.core.link_state()
+    assert word == 'untrusted' and 0.2 <= loss <= 0.6, (word, loss)
     _report('loss 38 %', h, _check_true_age(h, s))
 
 

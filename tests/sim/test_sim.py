@@ -162,7 +162,7 @@ def test_estop_refuses_motion():
 def test_winch_deadman_stops_a_winch_whose_commands_stop():
     # The bridge's heartbeats keep the link watchdog fed even when the node that commands the
     # winch is dead: the MCU stops a non-zero winch speed that is not refreshed in time.
-    mcu = SimMcu(config=McuConfig(watchdog_s=5.0, winch_deadman_s=0.3))  # (default 0.1 s)
+    mcu = SimMcu(config=McuConfig(watchdog_s=5.0, winch_deadman_s=0.3))  # (default 0.08 s)
     seq = 10
     mcu.receive(encode_frame(m.Winch(0.02), seq, 0), 0.0)
     out, t = [], 0.0

@@ -147,6 +147,7 @@ def test_e2e_heavier_sled_mid_tug_stops_before_slip(tmp_path, spawn, stop):
 
 
 @pytest.mark.slow
+@pytest.mark.campaign   # make test stops the bridge mid-tug in the stop campaign's run
 def test_e2e_disconnect_mid_tug_stops_and_waits(tmp_path, spawn):
     # Unplugged once the tug has reeled in 50 mm (after the walk paid out ~40 mm): mid-tug
     # whatever the load of the machine.

@@ -64,7 +64,7 @@ def test_reads_only_the_estimate_of_capacity_node_and_no_diagnostics(rig):
     assert '/diagnostics' not in subs, subs
     # The robot's own inputs, for comparison: the rest of what it reads.
     assert set(subs) == {'/capacity_node/estimate', '/joint_states', '/imu', '/winch/tension',
-                         '/energy', '/minirquad/link_state'}, subs
+                         '/energy', '/minirquad/link'}, subs
     # Its private node for capacity_node's query service is a client only.
     assert subscriptions(probe, 'behavior_node_capacity_query') == {}
 

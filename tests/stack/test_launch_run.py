@@ -213,7 +213,7 @@ def test_sigint_stops_the_stack_cleanly_with_the_winch_stopped_first(tmp_path, r
             if not stops() or stops()[-1]['speed'] != 0.0:
                 # Only a link that is down cannot carry the stop (a simulator stalled past the
                 # bridge's 1 s silence timeout under load): then the bridge says so, and the
-                # MCU's own winch deadman (0.1 s without a refresh) stops the spool.
+                # MCU's own winch deadman (80 ms without a refresh) stops the spool.
                 bridge = (tmp_path / f'logs{rep}' / 'bridge_node.log').read_text()
                 assert 'Winch not sent: link down' in bridge, (rep, stops(), bridge[-2000:])
                 link_down_stops += 1

@@ -5,7 +5,7 @@ than the stack's map: the 800 g tug in the mode the map's lower bound chooses (D
 against 3.92 N needed) slips on and on (nothing is stronger than DH: the answer is a stop).
 A 0.4 s link gap is injected while the anchor slips, at several points of the slip, in two
 worst cases of what the MCU does meanwhile: it keeps reeling (a stalled host side: nothing
-reaches it, nothing comes back) or it stops on its winch deadman (0.1 s) as the firmware does.
+reaches it, nothing comes back) or it stops on its winch deadman (0.08 s) as the firmware does.
 During the gap the machine sees only the frozen last observation with the link down. After it,
 the machine must still detect the slip against the anchor's references, record it in the
 cycle's row, learn from it and answer it by the slip policy (re-burrow stronger or stop).
@@ -26,7 +26,7 @@ from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
 SLED_KG = 0.8             # DH; lighter sleds get DL, which in this sand digs itself in
 
 GAP_S = 0.4               # the link gap the field campaign saw during a slip (0.24-0.40 s)
-DEADMAN_S = 0.1           # the MCU's winch deadman (minirquad_sim --winch-deadman default)
+DEADMAN_S = 0.08          # the MCU's winch deadman (minirquad_sim --winch-deadman default)
 # Where in the slip the gap starts: p's slip under the tug so far, m. Without a gap the stack
 # detects this slip at 4.5 mm (the first case below, measured), so the onsets lie in the slip
 # before detection.

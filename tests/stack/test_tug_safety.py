@@ -378,3 +378,45 @@ def test_stopping_the_node_mid_wait_leaves_the_cycle_row(predictor):
     assert m.winch == 0.0
     m.close('shutdown')                         # once only
     assert len(m.records) == 1
+
+
+def test_an_untrusted_link_stops_the_tug_and_the_row_says_why(predictor):
+    """The bridge counts >= 10 % of the MCU's frames lost (LinkState UNTRUSTED) for 1.5 s
+    mid-tug: the samples still arrive fresh, but the winch stops in the step that hears it,
+    and the cycle's row (resumed and finished after the link is trusted again) keeps the
+    reason."""
+    import dataclasses
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    plant = Plant(0.4, predictor)
+    advance = plant.advance
+    seen: dict = {}
+
+    def lossy_advance(dt):
+        obs = advance(dt)
+        if 'from' not in seen and m.state == State.TUG and plant.winch_cmd > 0.04 \
+                and m.elapsed() > 0.5:
+            seen['from'], seen['spool0'] = plant.t, plant.robot.winch.spool_position
+        if 'from' in seen and plant.t < seen['from'] + 1.5:
+            return dataclasses.replace(obs, link_ok=False, link_fault='link_untrusted',
+                                       link_detail='40 % of frames lost over 1.0 s')
+        return obs
+
+    def watch(p, mach):
+        if 'from' in seen and 'stop_t' not in seen and p.winch_cmd == 0.0:
+            seen['stop_t'] = p.t
+        if 'stand_t' not in seen and 'stop_t' in seen and p.robot.winch.spool_velocity == 0.0:
+            seen['stand_t'] = p.t
+            seen['reel'] = p.robot.winch.spool_position - seen['spool0']
+
+    plant.advance = lossy_advance
+    run_loop(m, plant, t_max=60.0, on_step=watch)
+    assert 'from' in seen and m.state == State.FINISHED, m.reason
+    assert seen['stop_t'] - seen['from'] <= 0.02 + 1e-9         # the next 10 ms control step
+    assert seen['stand_t'] - seen['from'] <= MAX_STOP_S
+    assert 0.0 <= seen['reel'] <= MAX_REEL_M, seen
+    stops = [e for e in m.events if e['kind'] == 'stop']
+    assert stops and stops[0]['reason'] == 'link_untrusted', stops
+    assert any('40 % of frames lost' in e['text'] for e in m.events)
+    rec = m.records[0]
+    assert (rec.cycle, rec.outcome, rec.reason) == (1, 'ok', 'link_untrusted'), rec

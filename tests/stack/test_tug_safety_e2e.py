@@ -27,6 +27,7 @@ HERE = Path(__file__).resolve().parent
 
 
 @pytest.mark.slow
+@pytest.mark.campaign   # make test kills capacity_node in the stop campaign's run
 def test_e2e_capacity_node_killed_mid_tug_stops_the_winch(tmp_path, spawn):
     run_stack(tmp_path, spawn, 0.4, params=['evidence_wait_s:=1.0'], timeout=60,
               until=lambda t: re.search(r'\[live\] tug DL: T 1\.\d+ N', t) is not None)

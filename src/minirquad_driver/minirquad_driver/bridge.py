@@ -44,7 +44,9 @@ class BridgeConfig:
     kept. diag_window: s over which delay and loss are graded. delay_warn/delay_error: s,
     the oldest sample age at hand-out in the window that makes the time status WARN/ERROR.
     loss_warn/loss_error: fraction of MCU frames lost in the window (sequence gaps) that
-    makes the link status WARN/ERROR."""
+    makes the link status WARN/ERROR; at loss_error the link is also untrusted
+    (``link_state``), counted over the shorter trust_window (s) so that a consumer stops
+    within a fraction of a second of the loss starting."""
 
     r_shunt: float = ina219.DEFAULT_SHUNT_OHM
     stale_timeout: float = 0.25
@@ -58,6 +60,7 @@ class BridgeConfig:
     delay_error: float = 0.3
     loss_warn: float = 0.02
     loss_error: float = 0.10
+    trust_window: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -130,6 +133,7 @@ class BridgeCore:
         self.last_stamp: float | None = None            # host s of the newest telemetry
         self._delays: deque = deque()                   # (mono at hand-out, age s)
         self._snapshots: deque = deque()                # (mono, counter totals)
+        self._trust_marks: deque = deque()              # (mono, frames, dropped)
         self.open_error: str | None = None              # why the port cannot be opened
         self.decoder = FrameDecoder()
         self.clock = McuClock()
@@ -162,6 +166,7 @@ class BridgeCore:
             self.energy.mark_discontinuity()
             self.sync.reset()
             self._hb_sent.clear()
+            self._trust_marks.clear()
             if connected:
                 self.open_error = None
 
@@ -177,6 +182,24 @@ class BridgeCore:
             if not self.connected or self.last_stamp is None:
                 return True
             return self.wall() - self.last_stamp > self.config.stale_timeout
+
+    def link_state(self) -> tuple[str, float]:
+        """('stale' | 'untrusted' | 'ok', loss ratio over the last trust_window s). Stale
+        wins; untrusted when at least loss_error of the MCU's frames were lost (sequence gaps,
+        a frame that failed its CRC included): the samples that do arrive are intact, but a
+        link losing that much is not one to act on (docs/design/serial-time.md). Call it
+        periodically: each call marks the counters."""
+        with self._lock:
+            now, cfg = self.mono(), self.config
+            q = self._trust_marks
+            q.append((now, self.decoder.stats.frames, self.counters.dropped_frames))
+            while len(q) > 2 and now - q[1][0] >= cfg.trust_window:
+                q.popleft()
+            frames, dropped = q[-1][1] - q[0][1], q[-1][2] - q[0][2]
+            loss = dropped / (frames + dropped) if frames + dropped else 0.0
+            if self.is_stale():
+                return 'stale', loss
+            return ('untrusted' if loss >= cfg.loss_error else 'ok'), loss
 
     # ------------------------------------------------------------------ MCU -> host
     def on_bytes(self, data: bytes, host_time: float) -> list:

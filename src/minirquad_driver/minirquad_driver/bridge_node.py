@@ -99,7 +99,9 @@ class BridgeNode(LifecycleNode):
                            loss_warn=p('loss_warn', 0.02, 'frame loss fraction that warns',
                                        0.0, 1.0),
                            loss_error=p('loss_error', 0.10, 'frame loss fraction that is an '
-                                        'error', 0.0, 1.0))
+                                        'error and makes the link untrusted', 0.0, 1.0),
+                           trust_window=p('trust_window_s', 1.0, 'window of the loss that '
+                                          'makes the link untrusted', 0.05, 60.0))
         self.core = BridgeCore(cfg)
         self.baud = baud
         self.transport = SerialTransport(
@@ -303,14 +305,19 @@ class BridgeNode(LifecycleNode):
         self._publish_state()
 
     def _publish_state(self) -> None:
-        state = LinkState.STALE if self.core.is_stale() else LinkState.OK
+        """minirquad/link on every change of state (ok, stale, untrusted), with the loss
+        ratio that decided it."""
+        word, loss = self.core.link_state()
+        state = {'stale': LinkState.STALE, 'untrusted': LinkState.UNTRUSTED}.get(word,
+                                                                              LinkState.OK)
         if state != self._state and self.active:
             self._state = state
-            msg = LinkState(state=state)
+            msg = LinkState(state=state, loss_ratio=float(loss),
+                            loss_window_s=float(self.core.config.trust_window))
             msg.header.stamp = self.get_clock().now().to_msg()
             self.pub_link.publish(msg)
             if self.pub_state is not None:
-                self.pub_state.publish(String(data='ok' if state == LinkState.OK else 'stale'))
+                self.pub_state.publish(String(data=word))
 
     def _on_diagnostics(self) -> None:
         arr = DiagnosticArray()

@@ -3,13 +3,18 @@
 Each outgoing frame may be preceded by junk bytes, dropped, or have 1-3 bits flipped on the
 wire (inside the frame, not the delimiters, so the damage is what a noisy line does to a
 frame rather than a framing change), and is released after a latency. Disconnects and
-resets are scheduled by time and handled by the loop in ``main.py``.
+resets are scheduled by time and handled by the loop in ``main.py``. ``FaultControl`` lets a
+test switch the per-frame faults on and off while the simulator runs (a fault that starts
+mid-tug), through a small JSON file.
 """
 from __future__ import annotations
 
+import os
 import random
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+
+from rftgls_conventions.safe_read import parse_json, read_text
 
 
 @dataclass
@@ -57,3 +62,37 @@ class FaultInjector:
             self.counts[fault] += 1
         delay = c.latency_ms + (rng.uniform(0.0, c.jitter_ms) if c.jitter_ms else 0.0)
         return now + delay * 1e-3, prefix + data, fault
+
+
+LIVE_FIELDS = ('garbage_rate', 'drop_rate', 'corrupt_rate', 'latency_ms', 'jitter_ms')
+
+
+class FaultControl:
+    """Per-frame faults switched while running: the file holds a JSON object of LIVE_FIELDS
+    (a missing field is 0, ``{}`` switches them all off). The file is looked at every
+    ``period`` s of the simulator's clock and applied when its modification time changes;
+    a file that does not parse keeps the faults as they were and says why on stderr."""
+
+    def __init__(self, path: str, period: float = 0.02):
+        self.path, self.period = path, period
+        self._next = 0.0
+        self._mtime: int | None = None
+
+    def poll(self, now: float, config: FaultConfig) -> FaultConfig | None:
+        """The new config when the file changed since the last look, else None."""
+        if now < self._next:
+            return None
+        self._next = now + self.period
+        try:
+            mtime = os.stat(self.path).st_mtime_ns
+        except OSError:
+            return None
+        if mtime == self._mtime:
+            return None
+        self._mtime = mtime
+        spec = parse_json(read_text(self.path, 'params', 'fault control'), self.path)
+        if not isinstance(spec, dict) or not set(spec) <= set(LIVE_FIELDS) or not all(
+                isinstance(v, (int, float)) and 0 <= v for v in spec.values()):
+            raise ValueError(f'{self.path}: a JSON object of {", ".join(LIVE_FIELDS)} '
+                             f'(numbers >= 0) expected, got {spec!r}')
+        return replace(config, **{k: float(spec.get(k, 0.0)) for k in LIVE_FIELDS})

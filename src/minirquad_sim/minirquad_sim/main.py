@@ -25,7 +25,7 @@ from minirquad_driver.protocol.codec import encode_frame
 from rftgls_conventions.safe_write import open_fresh
 from rftgls_node_base.node_main import finish, program_args, stop_on_signals
 
-from .faults import FaultConfig, FaultInjector
+from .faults import LIVE_FIELDS, FaultConfig, FaultControl, FaultInjector
 from .firmware_link import FirmwareLinkError
 from .firmware_mcu import FirmwareMcu
 from .ground import make_ground
@@ -50,7 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument('--telemetry-hz', type=int, default=100)
     p.add_argument('--power-hz', type=int, default=50)
     p.add_argument('--watchdog', type=float, default=0.5, help='host watchdog timeout, s')
-    p.add_argument('--winch-deadman', type=float, default=0.1,
+    p.add_argument('--winch-deadman', type=float, default=0.08,
                    help='winch deadman, s (0: off, to test the host watchdog alone)')
     p.add_argument('--clock-start-ms', type=lambda s: int(s, 0), default=0,
                    help='initial MCU clock (e.g. 0xFFFFF000 to cross the uint32 wrap)')
@@ -94,6 +94,11 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument('--disconnect-for', type=float, default=1.0, help='s')
     g.add_argument('--reset-at', type=float, help='MCU reset at this time, s')
     g.add_argument('--seed', type=int, default=1)
+    g.add_argument('--fault-control', metavar='FILE.json',
+                   help='switch the per-frame faults while running: a JSON object of '
+                        'garbage_rate, drop_rate, corrupt_rate, latency_ms, jitter_ms, read '
+                        'whenever the file changes (each switch printed as FAULTS {...} AT '
+                        '<host wall time s>)')
     return p
 
 
@@ -156,6 +161,7 @@ def run(args: argparse.Namespace) -> int:
         corrupt_rate=args.corrupt_rate, latency_ms=args.latency_ms, jitter_ms=args.jitter_ms,
         disconnect_at=args.disconnect_at, disconnect_for=args.disconnect_for,
         reset_at=args.reset_at, seed=args.seed))
+    control = FaultControl(args.fault_control) if args.fault_control else None
     recorder = _Recorder(args.record)
     pending_tel: list = []
     link = PtyLink(args.symlink, args.link_file)
@@ -209,6 +215,17 @@ def run(args: argparse.Namespace) -> int:
             if reconnect_at is not None and now >= reconnect_at and link.master is None:
                 link.open()
                 args.disconnect_at = None
+            if control is not None:
+                try:
+                    live = control.poll(now, faults.config)
+                except ValueError as exc:
+                    print(f'minirquad_sim: fault control: {exc}', file=sys.stderr, flush=True)
+                    live = None
+                if live is not None:
+                    faults.config = live
+                    spec = {k: v for k, v in vars(live).items() if k in LIVE_FIELDS and v}
+                    print(f'FAULTS {json.dumps(spec)} AT {now + wall_minus_mono:.6f}',
+                          flush=True)
             if args.reset_at is not None and not reset_done and t >= args.reset_at:
                 reset_done = True
                 # A reset cuts the frame in flight: half a frame with no closing delimiter.

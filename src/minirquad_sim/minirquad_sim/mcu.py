@@ -38,7 +38,7 @@ class McuConfig:
     telemetry_hz: int = 100
     power_hz: int = 50
     watchdog_s: float = 0.5
-    winch_deadman_s: float = 0.1   # 0 switches the winch deadman off
+    winch_deadman_s: float = 0.08  # 0 switches the winch deadman off
     clock_start_ms: int = 0
     physics_dt: float = 0.002   # s; the robot is stepped in substeps of at most this
 

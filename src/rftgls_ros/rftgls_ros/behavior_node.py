@@ -8,7 +8,8 @@ reacts at the tension rate), and publishes the commands, the state and every eve
 Subscribed: /joint_states (sensor_msgs/JointState: legs rad, ``winch_rope`` m / m/s),
   /imu (sensor_msgs/Imu: thetaB nose up positive, rftgls_conventions.quat_xyzw_to_pitch),
   /winch/tension (geometry_msgs/WrenchStamped, N), /energy (std_msgs/Float64, J),
-  /minirquad/link_state (std_msgs/String ok|stale), and of capacity_node only its whole
+  /minirquad/link (rftgls_interfaces/LinkState: ok, stale, or untrusted when the bridge counts
+  at least 10 % of the MCU's frames lost; both stop a tug), and of capacity_node only its whole
   estimate /capacity_node/estimate (rftgls_interfaces/AnchorEstimate: capacity N along the
   tether, lower bound, status code, assumed inputs, slip twist, in one message). Freshness is
   the age of the underlying sample by its header stamp, not the receipt time
@@ -45,7 +46,7 @@ from rftgls_conventions import (
     quat_xyzw_to_pitch,
 )
 from rftgls_core.types import Provenance
-from rftgls_interfaces.msg import AnchorEstimate, InputValue
+from rftgls_interfaces.msg import AnchorEstimate, InputValue, LinkState
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import declare
 
@@ -62,7 +63,8 @@ from .capacity_msgs import input_value, status_word
 from .capacity_query import CAPACITY_SOURCES, ServicePredictor
 from .tug_action import TugActionServer
 
-WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's deadman (0.1 s)
+EXPIRY_CHECK_S = 0.01   # s: how often a reeling winch's evidence is checked between steps
+WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's deadman (80 ms)
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
@@ -163,13 +165,16 @@ class BehaviorNode(Node):
         self.create_subscription(Imu, 'imu', self.on_imu, sensor)
         self.create_subscription(WrenchStamped, 'winch/tension', self.on_tension, sensor)
         self.create_subscription(Float64, 'energy', self.on_energy, 10)
-        self.create_subscription(String, 'minirquad/link_state', self.on_link, LATCHED)
+        self.create_subscription(LinkState, 'minirquad/link', self.on_link, LATCHED)
         # capacity_node: its whole estimate, nothing else (status, value and the names of the
         # assumed inputs arrive together, so they always belong to one estimate).
         self.create_subscription(AnchorEstimate, f'{cap_ns}/estimate', self.on_estimate, 10)
         # The report's <stem>_tug.png time series (behavior/tug_series.py).
         self.tug_series = TugSeries()
         self.create_timer(1.0 / rate, self.step)
+        # While the winch reels, a step the moment the evidence expires, not at the next 50 Hz
+        # step: the host's share of the 0.1 s stop budget (docs/design/tug-safety.md).
+        self.create_timer(EXPIRY_CHECK_S, self._on_expiry_check)
         self.tug_action = TugActionServer(self, self)
         self.get_logger().info(
             f'sled {1e3 * self.cfg.sled_mass_kg:.0f} g (mu {self.cfg.sled_mu}), {self.cfg.cycles} '
@@ -259,8 +264,16 @@ class BehaviorNode(Node):
     def on_energy(self, msg: Float64) -> None:
         self.obs.energy = msg.data
 
-    def on_link(self, msg: String) -> None:
-        self.obs.link_ok = msg.data == 'ok'
+    def on_link(self, msg: LinkState) -> None:
+        """The bridge's link state: anything but OK stops a tug (link_wait.py), with its
+        reason code; an untrusted link names the loss that made it so."""
+        self.obs.link_ok = msg.state == LinkState.OK
+        if msg.state == LinkState.UNTRUSTED:
+            self.obs.link_fault = 'link_untrusted'
+            self.obs.link_detail = (f'{100 * msg.loss_ratio:.0f} % of frames lost over '
+                                    f'{msg.loss_window_s:.1f} s')
+        elif msg.state != LinkState.OK:
+            self.obs.link_fault, self.obs.link_detail = 'link_stale', 'link stale'
         self.step()
 
     def on_estimate(self, msg: AnchorEstimate) -> None:
@@ -288,6 +301,13 @@ class BehaviorNode(Node):
         self.step()
 
     # ------------------------------------------------------------------ step
+    def _on_expiry_check(self) -> None:
+        """Step now if the winch reels on an estimate that has just aged past the timeout."""
+        if self.finished or not self._last_winch or self._last_winch <= 0.0:
+            return
+        if self.now_s() - self.obs.t_capacity > self.cfg.estimate_timeout_s:
+            self.step()
+
     def step(self) -> None:
         if self.finished:
             return

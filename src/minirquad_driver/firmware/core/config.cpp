@@ -9,7 +9,7 @@ Config default_config() {
   c.power_hz = 50;
   c.control_period_ms = 10;     // one cycle per 100 Hz telemetry sample
   c.host_watchdog_ms = 500;
-  c.winch_deadman_ms = 100;
+  c.winch_deadman_ms = 80;
 
   // Zero offsets as a zero-finder sketch would measure them; right legs mirrored.
   const LegMount legs[4] = {{1024, 1}, {3000, -1}, {2148, 1}, {500, -1}};

@@ -231,7 +231,7 @@ TEST(winch_deadman_is_not_fed_by_heartbeats) {
   CHECK_EQ(r.board.winch.duty, 0);
   CHECK(has_error(r, mrq::ERR_WINCH_DEADMAN));
   const Frame* e = r.last(mrq::MSG_ERROR);
-  CHECK(e && e->message.error.detail > 100 && e->message.error.detail <= 111);
+  CHECK(e && e->message.error.detail > 80 && e->message.error.detail <= 91);
   CHECK(!r.fw.watchdog_tripped());
 }
 

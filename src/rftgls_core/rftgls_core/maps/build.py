@@ -48,6 +48,7 @@ from .edge import (
     fitted_wrenches,
     node_margin_gradient,
     node_support_margin,
+    point_mesh_distance,
     signed_margin,
 )
 from .grid import MapGrid, default_grid
@@ -81,6 +82,9 @@ class ChunkResult:
     status: np.ndarray
     reason: list
     support_margin: np.ndarray      # (len(ks), P), maps/edge.py
+    # (len(ks), P): the origin's distance from the dense sphere's mesh where the fit's support
+    # check evaluated that sphere (the edge pass's margin there, unsigned), else NaN
+    dense_distance: np.ndarray
 
 
 _local = threading.local()   # per thread (Dask runs tasks on threads), per process
@@ -107,6 +111,8 @@ def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResul
     status = np.zeros((n, P, K), dtype=np.uint8)
     reason = [[[''] * K for _ in range(P)] for _ in range(n)]
     margin = np.full((n, P), np.nan)
+    dense_dist = np.full((n, P), np.nan)
+    dense_sphere = TwistSphere.build(max(EDGE_MARGIN_TWISTS, spec.n_twists))
     for a, k in enumerate(idx.tolist()):
         state = grid.state(k)
         for p, pull in enumerate(grid.pulls):
@@ -122,20 +128,31 @@ def solve_chunk(spec: BuildSpec, grid: MapGrid, ks: Sequence[int]) -> ChunkResul
             ws = fitted_wrenches(surface, sphere)
             margin[a, p] = (node_support_margin(predictor, sphere, state, pull, held) if ws is None
                             else signed_margin(ws, sphere, held))
-    return ChunkResult(idx, cap, ts, tr, status, reason, margin)
+            wsd = fitted_wrenches(surface, dense_sphere, support_check=True)
+            if wsd is not None:
+                dense_dist[a, p] = point_mesh_distance(wsd, dense_sphere.faces)
+    return ChunkResult(idx, cap, ts, tr, status, reason, margin, dense_dist)
 
 
-def solve_grad_chunk(spec: BuildSpec, grid: MapGrid, jobs: np.ndarray
+def solve_grad_chunk(spec: BuildSpec, grid: MapGrid,
+                     work: tuple[np.ndarray, np.ndarray]
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Edge-cell corners: support margin and its gradient on the dense EDGE_MARGIN_TWISTS
-    sphere (edge.py), for jobs (M, 3) = (flat state index, pull index, held 0/1):
-    (jobs, margins (M,), gradients (M, 4))."""
+    sphere (edge.py), for work = (jobs (M, 3) = (flat state index, pull index, held 0/1),
+    dense distances (M,): the first pass's, NaN where it has none): (jobs, margins (M,),
+    gradients (M, 4)). A known distance is the margin (signed by held) without posing and
+    evaluating the dense sphere once more: the same wrenches gave it."""
+    jobs, known = work
     predictor = _predictor(spec)
     sphere = TwistSphere.build(max(EDGE_MARGIN_TWISTS, spec.n_twists))
     out = np.full((len(jobs), 4), np.nan)
     marg = np.full(len(jobs), np.nan)
     for a, (k, p, held) in enumerate(np.asarray(jobs, dtype=np.intp).tolist()):
-        marg[a] = node_support_margin(predictor, sphere, grid.state(k), grid.pulls[p], bool(held))
+        if np.isfinite(known[a]):
+            marg[a] = known[a] if held else -known[a]
+        else:
+            marg[a] = node_support_margin(predictor, sphere, grid.state(k), grid.pulls[p],
+                                          bool(held))
         out[a] = node_margin_gradient(predictor, sphere, grid, k, grid.pulls[p])
     return np.asarray(jobs), marg, out
 
@@ -160,7 +177,14 @@ def edge_cell_corners(held: np.ndarray) -> np.ndarray:
     return out
 
 
-def chunk_indices(n_states: int, workers: int, per_worker: int = 8) -> list[np.ndarray]:
+# Chunks per worker in each pass: a pass ends when its last chunk does, so the other worker
+# idles for up to one chunk (~1.5 s of a prototype build at 16) while a chunk's task overhead
+# (pickling the spec and grid, the answers back) is milliseconds.
+CHUNKS_PER_WORKER = 16
+
+
+def chunk_indices(n_states: int, workers: int, per_worker: int = CHUNKS_PER_WORKER
+                  ) -> list[np.ndarray]:
     """About `per_worker` chunks per worker (load balance vs. task overhead), each every
     n-th state: neighbouring states cost alike (a contiguous chunk of support-checked or
     closure-searched states takes several times one of unsupported states), so strided chunks
@@ -299,6 +323,7 @@ class _Answers:
     status: np.ndarray
     reasons: np.ndarray
     support_margin: np.ndarray
+    dense_distance: np.ndarray     # (S, P), ChunkResult.dense_distance
 
 
 def _solve_states(run, spec: BuildSpec, grid: MapGrid, workers: int, progress: bool
@@ -307,6 +332,7 @@ def _solve_states(run, spec: BuildSpec, grid: MapGrid, workers: int, progress: b
     P, K, S = len(grid.pulls), len(grid.phi), grid.n_states
     cap, ts, tr, status, reasons = empty_answers((S, P, K), 3)
     margin = np.full((S, P), np.nan)
+    dense_dist = np.full((S, P), np.nan)
     from tqdm import tqdm
     with tqdm(total=S, unit='state', file=sys.stderr, disable=not progress,
               desc=f'map {spec.robot}/{spec.medium.name}', dynamic_ncols=True) as bar:
@@ -314,11 +340,12 @@ def _solve_states(run, spec: BuildSpec, grid: MapGrid, workers: int, progress: b
             cap[r.ks], ts[r.ks], tr[r.ks], status[r.ks] = (r.capacity_N, r.slip_twist_scaled,
                                                            r.slip_twist, r.status)
             margin[r.ks] = r.support_margin
+            dense_dist[r.ks] = r.dense_distance
             for a, k in enumerate(r.ks.tolist()):
                 for p in range(P):
                     reasons[k, p, :] = r.reason[a][p]
             bar.update(len(r.ks))
-    return _Answers(cap, ts, tr, status, reasons, margin)
+    return _Answers(cap, ts, tr, status, reasons, margin, dense_dist)
 
 
 def _edge_pass(run, grid: MapGrid, answers: _Answers, workers: int
@@ -338,9 +365,10 @@ def _edge_pass(run, grid: MapGrid, answers: _Answers, workers: int
             if len(pk) else np.zeros((0, 3), np.intp))
     grad = np.full((S, P, 4), np.nan)
     if len(jobs):
-        size = max(1, math.ceil(len(jobs) / max(1, workers * 8)))
-        for js, m1, g4 in run([jobs[i:i + size] for i in range(0, len(jobs), size)],
-                              solve_grad_chunk):
+        size = max(1, math.ceil(len(jobs) / max(1, workers * CHUNKS_PER_WORKER)))
+        known = answers.dense_distance[jobs[:, 0], jobs[:, 1]]
+        for js, m1, g4 in run([(jobs[i:i + size], known[i:i + size])
+                               for i in range(0, len(jobs), size)], solve_grad_chunk):
             margin[js[:, 0], js[:, 1]] = m1
             grad[js[:, 0], js[:, 1]] = g4
     return margin, grad

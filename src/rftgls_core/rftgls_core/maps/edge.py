@@ -30,6 +30,7 @@ import numpy as np
 
 from ..predictor.live import RobotPredictor
 from ..surfaces.base import SUPPORT_CHECK_TWISTS, LimitSurface
+from ..surfaces.mesh_loops import HAVE_NUMBA, as_mesh, mesh_distance
 from ..surfaces.raycast import winding_number
 from ..surfaces.twist_sphere import TwistSphere
 from ..types import AnchorState, Pull
@@ -49,8 +50,19 @@ EDGE_MARGIN_TWISTS = SUPPORT_CHECK_TWISTS
 
 def point_mesh_distance(vertices: np.ndarray, faces: np.ndarray,
                         point: np.ndarray | None = None) -> float:
-    """Euclidean distance from `point` (default origin) to a triangle mesh (vectorised over
-    triangles: closest point in the plane when it projects inside, else on an edge)."""
+    """Euclidean distance from `point` (default origin) to a triangle mesh: per triangle the
+    closest point in its plane when it projects inside, else on an edge. One compiled loop
+    (surfaces/mesh_loops.py) with numba, else point_mesh_distance_numpy (the same numbers)."""
+    if not HAVE_NUMBA:
+        return point_mesh_distance_numpy(vertices, faces, point)
+    p = (0.0, 0.0, 0.0) if point is None else tuple(float(x) for x in point)
+    return float(mesh_distance(*as_mesh(vertices, faces), *p))
+
+
+def point_mesh_distance_numpy(vertices: np.ndarray, faces: np.ndarray,
+                              point: np.ndarray | None = None) -> float:
+    """point_mesh_distance as numpy expressions vectorised over the triangles (the
+    reference of the compiled loop)."""
     p = np.zeros(3) if point is None else np.asarray(point, dtype=float)
     v = np.asarray(vertices, dtype=float) - p
     f = np.asarray(faces, dtype=np.intp)
@@ -110,10 +122,14 @@ def signed_margin(ws: np.ndarray, sphere: TwistSphere, held: bool | None = None)
     return dist if held else -dist
 
 
-def fitted_wrenches(surface: LimitSurface | None, sphere: TwistSphere) -> np.ndarray | None:
+def fitted_wrenches(surface: LimitSurface | None, sphere: TwistSphere,
+                    support_check: bool = False) -> np.ndarray | None:
     """The scaled wrenches a fit evaluated on `sphere` (the same numbers node_support_margin
-    would compute again for that pose), or None when it evaluated none there."""
-    cloud = surface.cloud_ if surface is not None else None
+    would compute again for that pose), or None when it evaluated none there. support_check:
+    those of the fit's dense support check (surfaces/base.py) instead of its own sphere's."""
+    if surface is None:
+        return None
+    cloud = surface.support_samples_ if support_check else surface.cloud_
     return cloud[1] if cloud is not None and cloud[0] is sphere else None
 
 

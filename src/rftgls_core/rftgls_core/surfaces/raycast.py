@@ -21,7 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .newton import cross_rows
+from .mesh_loops import HAVE_NUMBA, as_mesh, mesh_winding
+from .newton import cross_rows, row_norms
 
 
 @dataclass(frozen=True)
@@ -48,8 +49,8 @@ def prepare_mesh(vertices: np.ndarray, faces: np.ndarray,
     e1, e2, q0 = v1 - v0, v2 - v0, o - v0
     q = cross_rows(q0, e1)
     # det is d . (e2 x e1) for a unit d; relative to |e1||e2| this is sin(angle(d, plane)).
-    det_tol = 1e-12 * np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
-    scale = float(np.max(np.linalg.norm(v - o, axis=1))) if len(v) else 1.0
+    det_tol = 1e-12 * row_norms(e1) * row_norms(e2)
+    scale = float(row_norms(v - o).max()) if len(v) else 1.0
     return PreparedMesh(origin=o, n_det=cross_rows(e2, e1), n_u=cross_rows(e2, q0), q=q,
                         s_num=np.einsum('ij,ij->i', e2, q), det_tol=det_tol,
                         length_scale=max(scale, np.finfo(float).tiny), n_faces=len(f))
@@ -147,8 +148,19 @@ def winding_number(vertices: np.ndarray, faces: np.ndarray,
 
     Sum of the signed solid angles of the triangles seen from the point (Van Oosterom and
     Strackee) over 4 pi: 1 inside, 0 outside, fractional near or on the surface or when the
-    mesh is not closed. Robust where a ray-parity test is not (rays through edges).
+    mesh is not closed. Robust where a ray-parity test is not (rays through edges). One
+    compiled loop (mesh_loops.py) with numba, else winding_number_numpy.
     """
+    if not HAVE_NUMBA:
+        return winding_number_numpy(vertices, faces, point)
+    p = (0.0, 0.0, 0.0) if point is None else tuple(float(x) for x in point)
+    return float(mesh_winding(*as_mesh(vertices, faces), *p))
+
+
+def winding_number_numpy(vertices: np.ndarray, faces: np.ndarray,
+                         point: np.ndarray | None = None) -> float:
+    """winding_number as numpy expressions vectorised over the triangles (the reference of
+    the compiled loop; it sums pairwise, the loop in order: equal to ~F eps)."""
     p = np.zeros(3) if point is None else np.asarray(point, dtype=float)
     v = np.asarray(vertices, dtype=float) - p
     f = np.asarray(faces, dtype=np.intp)

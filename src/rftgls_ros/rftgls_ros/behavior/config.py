@@ -76,7 +76,7 @@ class BehaviorConfig:
     stop_ratio: float = 0.97
     min_speed_fraction: float = 0.1
     taut_tension_N: float = 0.3
-    estimate_timeout_s: float = 0.05
+    estimate_timeout_s: float = 0.04
     evidence_grace_s: float = 2.0
     evidence_settle_s: float = 0.3
     evidence_wait_s: float = 10.0

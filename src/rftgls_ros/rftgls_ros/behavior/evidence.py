@@ -36,6 +36,8 @@ NO_VALUE = 'no_value'
 NO_LOWER_BOUND = 'lower_bound_missing'
 ASSUMED_NOT_ACCEPTED = 'assumed_not_accepted'
 ASSUMED_UNKNOWN = 'assumed_inputs_unknown'
+# The reasons of evidence that is only missing, late or inconsistent (Verdict.transient).
+TRANSIENT_REASONS = frozenset({NO_ESTIMATE, TIMEOUT, NO_VALUE, ASSUMED_UNKNOWN, 'status_stale'})
 
 
 def status_reason(status: str) -> str:
@@ -67,6 +69,12 @@ def judge(t: float, capacity: float | None, status: str, t_capacity: float,
     """
     if not math.isfinite(t_capacity):
         return Verdict(False, NO_ESTIMATE, True, 'no capacity estimate received yet')
+    if status not in (MEASURED_OK, MODELLED, ASSUMED, STALE):
+        # unsupported, degenerate, out_of_range, invalid_input, extrapolated (deprecated: a
+        # clamped value is not evidence), or a word this node does not know: capacity_node
+        # said there is no value, however old the saying (on a loaded host it may also be late).
+        return Verdict(False, status_reason(status), False,
+                       f'capacity_node status {status!r}: no usable value')
     age = t - t_capacity
     if age > timeout_s:
         return Verdict(False, TIMEOUT, True, f'last capacity estimate {1e3 * age:.0f} ms old '
@@ -74,11 +82,6 @@ def judge(t: float, capacity: float | None, status: str, t_capacity: float,
     if status == STALE:
         return Verdict(False, status_reason(status), True,
                        'capacity_node reports stale inputs')
-    if status not in (MEASURED_OK, MODELLED, ASSUMED):
-        # unsupported, degenerate, out_of_range, invalid_input, extrapolated (deprecated: a
-        # clamped value is not evidence), or a word this node does not know.
-        return Verdict(False, status_reason(status), False,
-                       f'capacity_node status {status!r}: no usable value')
     if capacity is None or not math.isfinite(capacity) or capacity < 0.0:
         # Where status and value travel on two topics (teleop), a value-carrying status next
         # to a NaN is most often the other estimate's status read out of order. In one

@@ -1,5 +1,7 @@
-"""Link wait (WAIT_LINK): the robot's link went stale or its joint states / tension aged past
-``input_timeout_s`` in an active state. The winch stops in that step and the machine waits;
+"""Link wait (WAIT_LINK): the robot's link went stale or untrusted (the bridge counts at least
+10 % of the MCU's frames lost), or its joint states / tension aged past ``input_timeout_s``, in
+an active state. A tug so stopped leaves its reason code (link_stale, link_untrusted) in the
+cycle's row. The winch stops in that step and the machine waits;
 once the inputs have been fresh for ``link_settle_s`` it resumes where it was: a tug, hold,
 check or finished cycle first measures the anchor against its slip references (a slip during
 the outage is recorded and answered by the slip policy, never forgotten), then re-checks it
@@ -10,6 +12,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from . import evidence
 from .states import State
 
 if TYPE_CHECKING:
@@ -33,10 +36,21 @@ class LinkWait:
             m.walk.pause()
         self.resume = m.state
         m.winch = 0.0
+        reason = self.reason()
         if m.state == State.TUG:
-            m.tug.interrupted()
-        what = 'link stale' if not m.obs.link_ok else 'joint_states/tension stale'
+            m.tug.interrupted(reason)
+            # The row says why its tug stopped: the link, rather than the estimates that aged
+            # with it (a slip or an abort recorded before is kept).
+            if m.cycle is not None and (not m.cycle.reason
+                                        or m.cycle.reason in evidence.TRANSIENT_REASONS):
+                m.cycle.reason = reason
+        what = m.obs.link_detail if not m.obs.link_ok else 'joint_states/tension stale'
         m.go(State.WAIT_LINK, f'{what} during {self.resume}: winch stopped, waiting')
+
+    def reason(self) -> str:
+        """The reason code of the outage: the bridge's (link_stale, link_untrusted), or
+        link_stale when the robot's own inputs aged."""
+        return self.m.obs.link_fault if not self.m.obs.link_ok else 'link_stale'
 
     def _do_wait_link(self) -> None:
         m = self.m
@@ -44,7 +58,7 @@ class LinkWait:
         if not m.inputs_fresh():
             self.back_since = None
             if m.elapsed() >= m.cfg.link_wait_s:
-                m.close('link_stale')
+                m.close(self.reason())
                 m.command('gait', 'stand')
                 m.go(State.FINISHED, f'giving up, winch braked: the link did not come back '
                                      f'within {m.cfg.link_wait_s:.0f} s')

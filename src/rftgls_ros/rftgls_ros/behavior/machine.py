@@ -330,7 +330,9 @@ class BehaviorMachine:
             point_n=_num(c.choice.point if c.choice else None),
             energy_pred_j=_num(c.choice.energy_j if c.choice else None),
             reel_lower_margin_n=_num(c.reel_lower_margin), decision=c.decision))
-        self.event('cycle', self.records[-1].summary())
+        r = self.records[-1]
+        self.event('cycle', r.summary(), cycle=r.cycle, outcome=r.outcome, reason=r.reason,
+                   slip=r.slip)
 
     def _do_cycle_done(self) -> None:
         self.cycle.outcome = 'ok'
@@ -378,7 +380,7 @@ class BehaviorMachine:
     def open_reason(self) -> str:
         """The reason code a cycle cut off now would be recorded with."""
         if self.state == State.WAIT_LINK:
-            return 'link_stale'
+            return self.link.reason()
         if self.state == State.WAIT_EVIDENCE:
             return self.cycle.reason if self.cycle and self.cycle.reason else 'no_evidence'
         return 'shutdown'

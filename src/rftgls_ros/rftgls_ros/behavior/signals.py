@@ -13,11 +13,12 @@ class Observation:
 
     legs: (thetaL1, thetaL2) rad (left/right averaged); theta_b rad; tension N; spool m
     reeled since MCU boot and spool_velocity m/s (reel-in positive); energy J since bridge
-    start; power W; link_ok from /minirquad/link_state; capacity N along the tether, its lower
-    bound capacity_lower N (what every decision uses; None or NaN: none published) and its
-    status word from capacity_node; assumed_inputs the input names capacity_node reported
-    as assumed (None = not received); slip_twist (vx, vz, wy) unit direction in the anchor
-    frame.
+    start; power W; link_ok from /minirquad/link (rftgls_interfaces/LinkState) and, when it
+    is not ok, link_fault its reason code (link_stale, link_untrusted) and link_detail its
+    text; capacity N along the tether, its lower bound capacity_lower N (what every decision
+    uses; None or NaN: none published) and its status word from capacity_node;
+    assumed_inputs the input names capacity_node reported as assumed (None = not received);
+    slip_twist (vx, vz, wy) unit direction in the anchor frame.
     """
 
     t: float
@@ -31,6 +32,8 @@ class Observation:
     energy: float | None = None
     power: float | None = None
     link_ok: bool = False
+    link_fault: str = 'link_stale'
+    link_detail: str = 'link stale'
     capacity: float | None = None
     capacity_lower: float | None = None
     capacity_status: str = 'stale'

@@ -54,6 +54,7 @@ class TugAttempt:
     tensions: list[float] = field(default_factory=list)
     last_live: float = -math.inf
     gap: SpoolAt | None = None
+    gap_reason: str = ''
     fallback_warned: bool = False
 
 
@@ -230,12 +231,19 @@ class Tug:
         o = m.obs
         m.winch = 0.0
         if a.gap is None:
-            a.gap = SpoolAt(o.t, o.spool)
+            a.gap, a.gap_reason = SpoolAt(o.t, o.spool), v.reason
             self.pending_stop = PendingStop(a.good, v.reason, 'the last usable estimate')
+            if m.cycle is not None and not m.cycle.reason:
+                m.cycle.reason = v.reason      # the row says why its tug stopped, even briefly
             m.event('warn', f'tug evidence lost ({v.reason}: {v.detail}): winch stopped',
                     reason=v.reason)
-        if not v.transient or o.t - a.gap.t >= m.cfg.evidence_grace_s:
+        if not v.transient:
             m.retry.abort(v, in_tug=True)
+        elif o.t - a.gap.t >= m.cfg.evidence_grace_s:
+            # Recorded under what stopped the winch (a late 'stale' or no_value keeps its code
+            # when the estimates then also age), with what is seen now as the detail.
+            first = a.gap_reason or v.reason
+            m.retry.abort(evidence.Verdict(False, first, True, v.detail), in_tug=True)
 
     def _on_slip(self, ev: SlipEvent) -> None:
         """The anchor moved under load: stop, attribute the slip to the anchor, learn how much
@@ -291,10 +299,11 @@ class Tug:
                                 f'(nominal {m.need.nominal:.2f} N); required force now '
                                 f'{m.need.value:.2f} N')
 
-    def interrupted(self) -> None:
-        """The link went during the tug: report the reel from the last usable evidence."""
+    def interrupted(self, reason: str = 'link_stale') -> None:
+        """The link went (or became untrusted) during the tug: report the reel from the last
+        usable evidence under ``reason``."""
         if self.pending_stop is None:
-            self.pending_stop = PendingStop(self.attempt.good, 'link_stale',
+            self.pending_stop = PendingStop(self.attempt.good, reason,
                                             'the last usable estimate')
 
     def report_stop(self) -> None:
