@@ -13,8 +13,11 @@ from rftgls_ros.teleop import TeleopModel
 from rftgls_ros.teleop.model import GREY
 
 
-def _valid(m: TeleopModel, tension: float, capacity: float, t: float = 0.0) -> None:
+def _valid(m: TeleopModel, tension: float, capacity: float, t: float = 0.0,
+           lower: float | None = None) -> None:
+    """A usable estimate at t; its lower bound is the capacity unless given."""
     m.tension, m.capacity, m.status, m.t_capacity = tension, capacity, 'ok', t
+    m.capacity_lower = capacity if lower is None else lower
 
 
 def test_model_reels_in_below_limit():
@@ -37,6 +40,54 @@ def test_model_guard_needs_override_and_shows_red():
     assert m.key('i', 0.3) == [('winch', pytest.approx(0.01))]
     assert 'OVERRIDE' in ''.join(m.screen())
     assert m.update(6.0) == [('winch', 0.0)]            # override expired (5 s)
+
+
+def test_model_guard_trips_at_80_percent_of_the_lower_bound_not_the_point_estimate():
+    """capacity 2.5 N, lower bound 1.5 N: 1.3 N is 52 % of the point estimate (the old
+    guard would reel on) but 87 % of the lower bound, the number a decision uses."""
+    m = TeleopModel()
+    _valid(m, 1.0, 2.5, lower=1.5)                      # 67 % of the lower bound
+    assert m.key('i', 0.0) == [('winch', pytest.approx(0.01))]
+    m.tension = 1.3
+    assert m.tension / m.capacity < m.cfg.limit_fraction
+    assert m.update(0.1) == [('winch', 0.0)]
+    assert 'tension 87 % of the lower bound: winch stopped' in m.message, m.message
+    assert m.key('i', 0.1) == [] and 'of the lower bound >= 80 %' in m.message
+    text = _plain(m.screen())
+    assert re.search(r'capacity\s+2\.50 N\s+lower bound\s+1\.50 N', text), text
+    assert re.search(r'\]\s+87 % of the lower bound', text), text
+    assert re.search(r'margin\s+0\.20 N', text), text    # lower bound - tension
+    m.tension = 1.19                                    # 79 % of the lower bound: reels in
+    assert m.key('i', 0.2) == [('winch', pytest.approx(0.01))]
+
+
+@pytest.mark.parametrize('lower', [math.nan, math.inf, -math.inf, -0.1])
+def test_model_refuses_reel_in_without_a_lower_bound(lower):
+    """A valid point estimate without a finite lower bound is not evidence: i is refused
+    with the reason, a running reel-in stops, the screen greys both numbers and says why."""
+    m = TeleopModel()
+    _valid(m, 0.5, 2.5)
+    assert m.key('i', 0.0) == [('winch', pytest.approx(0.01))]
+    m.capacity_lower = lower
+    assert not m.verdict().usable and m.verdict().reason == 'lower_bound_missing'
+    assert m.update(0.05) == [('winch', 0.0)]
+    assert m.key('i', 0.05) == [] and m.winch == 0.0
+    assert 'refusing to pull harder' in m.message and 'without a lower bound' in m.message
+    lines = m.screen()
+    text = _plain(lines)
+    assert 'not usable: ' + m.verdict().detail in text, text
+    assert lines[1].count(GREY) >= 2, lines[1]          # capacity and lower bound greyed
+    assert re.search(r'lower bound\s+--  N' if math.isinf(lower) or math.isnan(lower)
+                     else r'lower bound\s+-0\.10 N', text), text
+    assert re.search(r'-- % of the lower bound \(no valid lower bound\)', text), text
+
+
+def test_model_zero_lower_bound_holds_the_guard():
+    """A lower bound of 0 N leaves nothing to pull against: i needs the override."""
+    m = TeleopModel()
+    _valid(m, 0.1, 2.5, lower=0.0)
+    assert m.key('i', 0.0) == [] and 'lower bound 0 N, nothing to pull against' in m.message
+    assert '-- % of the lower bound (0 N: nothing to pull on)' in _plain(m.screen())
 
 
 def test_model_refuses_without_valid_status():
@@ -68,25 +119,28 @@ def _plain(lines: list[str]) -> str:
     return re.sub(r'\x1b\[[\d;]*m', '', '\n'.join(lines))
 
 
-STATUSES = ['ok', 'assumed', 'stale', 'invalid_input', 'out_of_range', 'unsupported',
+STATUSES = ['ok', 'modelled', 'assumed', 'stale', 'invalid_input', 'out_of_range', 'unsupported',
             'degenerate', 'extrapolated', '']
 NUMBERS = [math.nan, math.inf, -math.inf, 0.0, 2.3]
+LOWERS = [math.nan, math.inf, 0.0, 1.5]
 
 
 @pytest.mark.parametrize('status', STATUSES)
 def test_no_nan_on_the_screen_in_any_state(status):
-    """Every combination of status, capacity, tension, slip twist, age, assumed inputs,
-    override and e-stop: no 'nan' or 'inf' on the screen; the load percentage appears only
-    when tension and capacity are both valid; a capacity that is not evidence is greyed and
+    """Every combination of status, capacity, lower bound (missing, 0, valid), tension, slip
+    twist, age, assumed inputs, override and e-stop: no 'nan' or 'inf' on the screen; capacity
+    and lower bound always both shown ('--' when missing); the load percentage appears only
+    when tension and lower bound are both valid; numbers that are not evidence are greyed and
     the reason is on the screen."""
-    combos = itertools.product(NUMBERS, NUMBERS, [(math.nan,) * 3, (0.0, 0.0, 0.0),
+    combos = itertools.product(NUMBERS, LOWERS, NUMBERS, [(math.nan,) * 3, (0.0, 0.0, 0.0),
                                                    (0.1, -0.2, 0.97)],
                                [0.0, 10.0], [None, frozenset(), frozenset({'phi'})],
                                [False, True], [False, True], [None, (), ('burrow',)])
     shown = 0
-    for cap, tension, twist, age, assumed, override, estop, unheard in combos:
+    for cap, lower, tension, twist, age, assumed, override, estop, unheard in combos:
         m = TeleopModel()
         m.status, m.capacity, m.tension, m.slip_twist = status, cap, tension, twist
+        m.capacity_lower = lower
         m.t_capacity, m.assumed_inputs, m.unheard = 0.0, assumed, unheard
         m.t = age
         if override:
@@ -98,13 +152,17 @@ def test_no_nan_on_the_screen_in_any_state(status):
         assert not re.search(r'\bnan\b|\binf\b', text, re.IGNORECASE), text
         load = re.search(r'\]\s+(\d+) %', text)
         verdict = m.verdict()
-        both_valid = verdict.usable and math.isfinite(tension) and cap > 0
+        both_valid = verdict.usable and math.isfinite(tension) and lower > 0
         assert bool(load) == both_valid, text
+        both = r'capacity\s+(-?[\d.]+|--)\s+N\s+lower bound\s+(-?[\d.]+|--)\s+N'
+        assert re.search(both, text), text
+        if not math.isfinite(lower):
+            assert re.search(r'lower bound\s+--  N', text) and not verdict.usable, text
         if not verdict.usable:
-            assert GREY in lines[1] and 'not usable: ' + verdict.detail in text, text
+            assert lines[1].count(GREY) >= 2 and 'not usable: ' + verdict.detail in text, text
             assert re.search(r'margin\s+--  N', text), text
         shown += 1
-    assert shown == len(NUMBERS) ** 2 * 3 * 2 * 3 * 2 * 2 * 3
+    assert shown == len(NUMBERS) ** 2 * len(LOWERS) * 3 * 2 * 3 * 2 * 2 * 3
 
 
 def test_an_assumed_input_is_named_and_refused_unless_accepted():

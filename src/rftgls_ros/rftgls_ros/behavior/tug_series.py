@@ -3,7 +3,8 @@
 One sample per capacity estimate: time (s since the first sample, behavior_node's clock),
 tension, capacity and its lower bound (N, NaN without a value), capacity_node's status and the
 behaviour state at that moment. ``plot_tug_series`` draws them with the margin guard lines the
-machine acts on (``slow_ratio`` and ``stop_ratio`` times the capacity), shades the time spent
+machine acts on (``slow_ratio`` and ``stop_ratio`` times the lower bound: a decision uses the
+lower bound, not the point estimate), shades the time spent
 in TUG and marks every estimate without a usable status; ``write_tug_series`` also writes the
 samples as CSV. The demo writes both next to the cycle report (``<stem>_tug.png/.csv``).
 """
@@ -80,13 +81,13 @@ def plot_tug_series(samples, path: str | Path, slow_ratio: float | None = 0.90,
         ax.axvspan(a, b, color='tab:green', alpha=0.08, label='TUG' if i == 0 else None)
     ax.plot(t, [s.tension_n for s in samples], color='tab:blue', lw=1.2, label='tension')
     ax.plot(t, cap, color='k', lw=1.2, label='capacity')
-    ax.plot(t, [s.capacity_lower_n if s.status in USABLE else math.nan for s in samples],
-            color='0.45', lw=1, ls='--', label='lower bound')
+    lower = [s.capacity_lower_n if s.status in USABLE else math.nan for s in samples]
+    ax.plot(t, lower, color='0.45', lw=1, ls='--', label='lower bound')
     if slow_ratio is not None:
-        ax.plot(t, [slow_ratio * c for c in cap], color='tab:orange', lw=0.8, ls=':',
-                label=f'slow down ({slow_ratio:.2f} C)')
-    ax.plot(t, [stop_ratio * c for c in cap], color='tab:red', lw=0.8, ls=':',
-            label=f'guard: stop ({stop_ratio:.2f} C)')
+        ax.plot(t, [slow_ratio * c for c in lower], color='tab:orange', lw=0.8, ls=':',
+                label=f'slow down ({slow_ratio:.2f} lower bound)')
+    ax.plot(t, [stop_ratio * c for c in lower], color='tab:red', lw=0.8, ls=':',
+            label=f'guard: stop ({stop_ratio:.2f} lower bound)')
     bad = [(s.t_s, s.tension_n) for s in samples if s.status not in USABLE]
     if bad:
         ax.plot(*zip(*bad), 'x', color='tab:red', ms=3, label='no usable estimate')

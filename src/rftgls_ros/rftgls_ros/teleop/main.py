@@ -1,7 +1,8 @@
 """``teleop``: terminal teleop of the tug with the live prediction (rclpy node + raw tty).
 
 Subscribes /winch/tension, /joint_states (winch_rope) and /capacity_node/estimate (status,
-capacity, slip twist and the assumed inputs in one message, so they never mix two estimates);
+capacity, its lower bound, slip twist and the assumed inputs in one message, so they never mix
+two estimates; the guard decides on the lower bound);
 publishes /winch/speed, /burrow, /gait, /estop, and for capacity_node /winch/height_estimate
 (rftgls_interfaces/InputValue: h of p marked ASSUMED, the Table II mean of the requested mode
 with its spread, as behavior_node sends it; MiniRQuad measures no height) and /winch/phi (from
@@ -43,7 +44,7 @@ from .model import TeleopConfig, TeleopModel
 PARAMETERS = {
     'step_m_s': ('step', 'winch speed change per key press', 0.0, 1.0),
     'max_speed_m_s': ('max_speed', 'largest winch speed', 0.0, 1.0),
-    'limit_fraction': ('limit_fraction', 'tension/capacity beyond which pulling needs the '
+    'limit_fraction': ('limit_fraction', 'tension/lower bound beyond which pulling needs the '
                        'override', 0.0, 1.0),
     'override_window_s': ('override_window', 'time the override stays armed', 0.0, 600.0),
     'stale_after_s': ('stale_after', 'capacity output age that is not valid', 0.0, 60.0),
@@ -113,6 +114,7 @@ class TeleopNode(Node):
         m = self.model
         m.status = msg.status
         m.capacity = msg.capacity_n if msg.has_value else math.nan
+        m.capacity_lower = msg.capacity_lower_n if msg.has_value else math.nan   # NaN: none
         m.assumed_inputs = frozenset(msg.assumed_inputs)
         tw = msg.slip_twist
         # The estimate carries the slip direction even while the anchor holds: shown only
@@ -172,7 +174,7 @@ class Terminal:
             termios.tcsetattr(self.fd, termios.TCSADRAIN, self.old)
         node.send([('winch', 0.0)])
         if node.report_dir:
-            # The teleop guard: reeling in beyond limit_fraction x C needs the override.
+            # The teleop guard: reeling in beyond limit_fraction x lower bound needs the override.
             out = write_tug_series(node.tug_series, node.report_dir, 'teleop', None,
                                    node.model.cfg.limit_fraction,
                                    'teleop session: capacity_node estimates')

@@ -1,14 +1,15 @@
 """Keys, guard and screen of the teleoperated tug, without ROS or a terminal.
 
-Guard: reeling in while tension >= ``limit_fraction`` x capacity needs a deliberate override
-(press ``!`` then reel in within ``override_window`` s); the screen shows it in red. When the
-estimate is not evidence (``behavior.evidence.judge``: status other than a measured ``ok``, or
-``assumed`` with an input outside ``accept_assumed_inputs`` (default none), no finite value, or
-older than ``stale_after``), reeling in is refused and a running reel-in is stopped; paying
-out and stopping always work. ``extrapolated`` is never accepted.
-Screen: a number is shown only when it is one; a capacity that is not evidence is greyed with
-the reason, the load percentage and the margin only when tension and capacity are both valid.
-Units: N, m/s (reel-in positive), s.
+Guard: a decision uses the lower bound, not the point estimate. Reeling in while tension >=
+``limit_fraction`` x the estimate's lower bound needs a deliberate override (press ``!`` then
+reel in within ``override_window`` s); the screen shows it in red. When the estimate is not
+evidence (``behavior.evidence.judge``: status other than ``ok`` or ``modelled``, or ``assumed``
+with an input outside ``accept_assumed_inputs`` (default none), no finite value, no finite
+lower bound, or older than ``stale_after``), reeling in is refused and a running reel-in is
+stopped; paying out and stopping always work. ``extrapolated`` is never accepted.
+Screen: a number is shown only when it is one; capacity and lower bound that are not evidence
+are greyed with the reason, the load percentage and the margin only when tension and lower
+bound are both valid. Units: N, m/s (reel-in positive), s.
 """
 from __future__ import annotations
 
@@ -33,13 +34,19 @@ KEYS = {
 class TeleopConfig:
     step: float = 0.01            # m/s per key press
     max_speed: float = 0.05       # m/s
-    limit_fraction: float = 0.8   # of capacity, beyond which pulling needs the override
+    limit_fraction: float = 0.8   # of the lower bound, beyond which pulling needs the override
     override_window: float = 5.0  # s the override stays armed
     stale_after: float = 0.5      # s without a capacity output -> not valid
     rope_length: float = 0.50     # m, tether paid out at start (for phi)
     attach_height: float = 0.01   # m
     h_stand: float = 0.060        # m, height of p when not burrowed
     accept_assumed_inputs: tuple[str, ...] = ()   # inputs an 'assumed' estimate may assume
+
+
+def _load_words(r: float) -> str:
+    """The guard's reason in words: tension / lower bound (r, not NaN; inf: lower bound 0)."""
+    return (f'tension {100 * r:.0f} % of the lower bound' if math.isfinite(r)
+            else 'lower bound 0 N, nothing to pull against')
 
 
 class TeleopModel:
@@ -49,7 +56,8 @@ class TeleopModel:
         self.cfg = config or TeleopConfig()
         self.winch = 0.0
         self.tension = math.nan
-        self.capacity = math.nan
+        self.capacity = math.nan          # point estimate, N (shown, never decided on)
+        self.capacity_lower = math.nan    # its lower bound, N (what the guard uses; NaN: none)
         self.status = 'stale'
         self.t_capacity = -math.inf
         self.assumed_inputs: frozenset[str] | None = None
@@ -69,17 +77,22 @@ class TeleopModel:
     # ------------------------------------------------------------------ state
     def verdict(self):
         """behavior.evidence.judge on the last estimate: usable, reason code, detail."""
+        # Any non-finite lower bound is "none" (judge's default inf would leave it out).
+        lower = self.capacity_lower if math.isfinite(self.capacity_lower) else math.nan
         return judge(self.t, self.capacity, self.status, self.t_capacity, self.cfg.stale_after,
-                     self.assumed_inputs, frozenset(self.cfg.accept_assumed_inputs))
+                     self.assumed_inputs, frozenset(self.cfg.accept_assumed_inputs), lower)
 
     def valid(self) -> bool:
         return self.verdict().usable
 
     def ratio(self) -> float:
-        """tension / capacity; NaN unless both are valid (never shown as a number then)."""
-        if not self.valid() or self.capacity <= 0 or not math.isfinite(self.tension):
+        """tension / lower bound; NaN unless both are valid (never shown as a number then);
+        inf on a lower bound of 0 N (nothing to pull against: the guard holds)."""
+        if not self.valid() or not math.isfinite(self.tension):
             return math.nan
-        return self.tension / self.capacity
+        if self.capacity_lower <= 0.0:
+            return math.inf
+        return self.tension / self.capacity_lower
 
     def overridden(self) -> bool:
         return self.t < self.override_until
@@ -156,9 +169,8 @@ class TeleopModel:
                 return out
             r = self.ratio()
             if r >= self.cfg.limit_fraction and not self.overridden():
-                self.message = (f'tension {100 * r:.0f} % of capacity >= '
-                                f'{100 * self.cfg.limit_fraction:.0f} %: press ! then i to '
-                                'override')
+                limit = f' >= {100 * self.cfg.limit_fraction:.0f} %' if math.isfinite(r) else ''
+                self.message = f'{_load_words(r)}{limit}: press ! then i to override'
                 self.alert = True
                 return out
             self.winch = min(self.cfg.max_speed, max(0.0, self.winch) + self.cfg.step)
@@ -181,7 +193,7 @@ class TeleopModel:
         r = self.ratio()
         if r >= self.cfg.limit_fraction and not self.overridden():
             self.winch = 0.0
-            self.message = (f'tension {100 * r:.0f} % of capacity: winch stopped; '
+            self.message = (f'{_load_words(r)}: winch stopped; '
                             'press ! then i to override')
             self.alert = True
             return [('winch', 0.0)]
@@ -189,30 +201,36 @@ class TeleopModel:
 
     # ------------------------------------------------------------------ screen
     def screen(self) -> list[str]:
-        """The lines of one redraw. No 'nan' anywhere: a missing number is '--', a capacity
-        that is not evidence is greyed with the reason, the load only from two valid numbers."""
+        """The lines of one redraw. No 'nan' anywhere: a missing number is '--', capacity and
+        lower bound that are not evidence are greyed with the reason, the load (tension / lower
+        bound) only from two valid numbers."""
         verdict = self.verdict()
         r = self.ratio()
         limit = self.cfg.limit_fraction
-        over = math.isfinite(r) and r >= limit
+        over = r >= limit     # False for NaN
         color = RED if over or not verdict.usable else GREEN
         f = lambda x, u: f'{x:6.2f} {u}' if math.isfinite(x) else '   --  ' + u  # noqa: E731
         if verdict.usable:
             capacity = f(self.capacity, 'N')
-            margin = f(self.capacity - self.tension, 'N')
+            lower = f(self.capacity_lower, 'N')
+            margin = f(self.capacity_lower - self.tension, 'N')
         else:
             capacity = f'{GREY}{f(self.capacity, "N")}{RESET}'
+            lower = f'{GREY}{f(self.capacity_lower, "N")}{RESET}'
             margin = f(math.nan, 'N')
         width = 30
-        fill = 0 if not math.isfinite(r) else min(width, int(round(r * width)))
+        fill = 0 if math.isnan(r) else max(0, min(width, round(r * width))) if math.isfinite(r) \
+            else width
         bar = '#' * fill + '-' * (width - fill)
         mark = int(limit * width)
         bar = bar[:mark] + '|' + bar[mark:]
         if math.isfinite(r):
-            load = f'{color}[{bar}] {100 * r:5.0f} %{RESET} of capacity'
+            load = f'{color}[{bar}] {100 * r:5.0f} %{RESET} of the lower bound'
+        elif math.isinf(r):
+            load = f'{RED}[{bar}]    -- %{RESET} of the lower bound (0 N: nothing to pull on)'
         else:
-            why = ('tension not measured' if verdict.usable else 'no valid capacity')
-            load = f'{GREY}[{bar}]    -- %{RESET} of capacity ({why})'
+            why = ('tension not measured' if verdict.usable else 'no valid lower bound')
+            load = f'{GREY}[{bar}]    -- %{RESET} of the lower bound ({why})'
         tw = self.slip_twist
         twist = ('holds (no slip predicted)' if all(math.isfinite(x) for x in tw)
                  and not any(tw) else
@@ -233,8 +251,8 @@ class TeleopModel:
         lines = [
             f'{BOLD}MiniRQuad teleop tug{RESET}  i/o reel in/out  space stop  1/2/3 burrow '
             'DH/DL/SH  u unburrow  w/s walk/stand  ! override  x STOP ALL  r release  q quit',
-            f'tension  {f(self.tension, "N")}   capacity {capacity}   margin '
-            f'{margin}   status {color}{self.status}{assumed}{RESET}',
+            f'tension  {f(self.tension, "N")}   capacity {capacity}   lower bound {lower}'
+            f'   margin {margin}   status {color}{self.status}{assumed}{RESET}',
             f'load     {load} (limit {100 * limit:.0f} %)',
             f'evidence {evidence}',
             f'slip twist {twist}',
