@@ -1,34 +1,26 @@
 """ROS-free core of capacity_node: timestamped inputs in, a status-carrying estimate out.
 
-Inputs (SI, the conventions of docs/design/architecture.md#frames-and-signs; rules and tolerances in
-docs/design/capacity-inputs.md):
-  joints   leg angles, rad, from -z_B about the axles: proximal_left/right (theta_L1),
-           distal_left/right (theta_L2). Raw angles beyond +-leg_limit_rad are
-           `invalid_input` (outside_limits), judged before wrapping; then angles are wrapped
-           to [-pi, pi); the two legs of one axle are combined on the circle and must agree
-           within `leg_tolerance_rad`, otherwise the estimate is `invalid_input`
-           (leg_disagreement): never an average of two legs that are somewhere else.
-  pitch    body pitch theta_B, rad, positive when the axle end of the body is above p.
-  tension  winch tension T, N, signed along the load cell axis (positive pulls p toward the
-           sled); below -tension_deadband_N it is `invalid_input` (negative_tension).
-  height   h, m, height of the winch point p above the sand surface (optional topic; the
-           `height_m` parameter is ASSUMED until the first sample arrives).
-  phi      tether angle, rad: tension along (-cos phi, 0, sin phi) in world axes
-           (optional topic; `phi_rad` parameter ASSUMED until the first sample arrives).
-Every sample carries its provenance (inputs.Provenance): height and phi may arrive MODELLED or
-ASSUMED with an uncertainty band (half-width); the other inputs are measurements.
-Times are seconds on one clock: the time each sample was taken (the node uses the header
-stamp where there is one, else the receipt time). A sample older than its timeout is stale;
-one stamped more than `clock_tolerance_s` in the future is invalid (future_stamp).
+Inputs (SI, frames of docs/design/architecture.md#frames-and-signs; the rules, limits and
+tolerances of each in docs/design/capacity-inputs.md):
+  joints   leg angles, rad (theta_L1 proximal, theta_L2 distal, left/right): raw angles beyond
+           +-leg_limit_rad are `invalid_input` before wrapping to [-pi, pi); the legs of one
+           axle must agree within `leg_tolerance_rad` (else leg_disagreement), never averaged.
+  pitch    theta_B, rad, positive when the axle end of the body is above p.
+  tension  T, N along the load cell, positive pulling p toward the sled (below
+           -tension_deadband_N: negative_tension).
+  height   h of p above the sand, m;  phi  tether angle, rad: tension along (-cos phi, 0,
+           sin phi) in world axes. Both fall back to their parameters (ASSUMED) until a sample
+           arrives, and may arrive MODELLED or ASSUMED with a band (half-width); the other
+           inputs are measurements (inputs.Provenance).
+Times: seconds on one clock, when each sample was taken (header stamp, else receipt time); a
+sample older than its timeout is stale, one over `clock_tolerance_s` in the future invalid.
 
-Status precedence: stale > invalid_input > the predictor's status, then ok -> assumed when an
-input came from a parameter or arrived ASSUMED. The published status word (Estimate.word) is
-never `ok` for an estimate built on an input that is not measured: `assumed` as above, else
-`modelled` when an input arrived MODELLED (named in `modelled` and in the reason,
-`modelled_input:height`). The lower bound covers a modelled input's band as it covers an
-assumed input's range. A value (capacity, margin, slip twist) is present only for ok, modelled
-and assumed. Reasons are machine-readable `code:input` items joined by ';' (e.g.
-`stale_input:tension`, `negative_tension:tension`, `assumed_input:height`); `detail` is prose.
+Status precedence: stale > invalid_input > the predictor's status. The published word
+(Estimate.word) is `ok` only when every input is measured: `assumed` when one came from a
+parameter or arrived ASSUMED, else `modelled` when one arrived MODELLED (reason
+`modelled_input:height`); the lower bound covers such an input's band. A value (capacity,
+margin, slip twist) is present only for ok, modelled and assumed. Reasons are `code:input`
+items joined by ';' (e.g. `stale_input:tension`, `assumed_input:height`); `detail` is prose.
 """
 from __future__ import annotations
 
@@ -87,9 +79,7 @@ class EstimatorConfig:
     phi_limit_rad: float = math.pi / 2
     tension_max_N: float = 200.0
     tension_deadband_N: float = 0.05  # a load cell reads slightly below 0 at zero load
-    # A stamp up to this far ahead of the estimator's clock is accepted (clock offset between
-    # the stamping host clock and this node's clock; both are the same host clock normally).
-    clock_tolerance_s: float = 0.05
+    clock_tolerance_s: float = 0.05   # a stamp this far ahead of our clock is accepted
     # Half-widths of the range an assumed input may really take: the lower bound is the
     # smallest capacity over it (docs/design/capacity-inputs.md).
     assumed_height_range_m: float = 0.01
