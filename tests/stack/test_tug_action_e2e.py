@@ -194,8 +194,9 @@ def test_walk_burrow_tug_action_cancel_reject_abort_and_complete(tmp_path, spawn
         assert res.status == GoalStatus.STATUS_SUCCEEDED, res.result.reason
         assert len(res.result.cycles) == 1, res.result.cycles
         (cycle,) = res.result.cycles
-        # reason: '' or the code of a safety stop the tug resumed from (an estimate 40 ms late
-        # stops the winch until the next fresh one: estimate_timeout_s in behavior_README.md)
+        # reason: '' or the code of a safety stop the tug resumed from (an estimate 40 ms
+        # late stops the winch until the next fresh one: estimate_timeout_s in
+        # src/rftgls_ros/behavior_README.md)
         assert (cycle.cycle, cycle.outcome) == (1, CycleOutcome.OK), cycle
         assert cycle.reason in ('', 'estimate_timeout', 'link_stale'), cycle
         assert cycle.mode == 'DL' and cycle.sled_distance_m > 0.1 and cycle.energy_j > 0
