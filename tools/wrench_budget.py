@@ -41,19 +41,14 @@ def main() -> None:
     sim = sim_mod.Simulator(robot, get_medium('m90_sand'),
                             sled=None if a.sled is None else Sled(a.sled))
     rows: list = []
-    status = 'ran to its end'
-    try:
-        sim.place(gait.start())
-        knots = sorted(set(gait.knots()) | {gait.duration})
-        while sim.t < gait.duration - 1e-12:
-            nxt = min(k for k in knots if k > sim.t + 1e-12)
-            sim.step(min(sim.options.dt, nxt - sim.t), gait)
-            b = sim.last
-            posed = robot.pose(sim.pose, sim.q)
-            legs = np.array([b.leg_wrench.get(i, np.zeros(3)) for i in range(len(robot.legs))])
-            rows.append((sim.samples[-1], legs, np.asarray(b.base_wrench), posed.gravity.copy()))
-    except sim_mod.SimulationStop as stop:
-        status = f'{stop.status.value} {stop.reason}: {stop.detail}'
+
+    def record(_t: float) -> None:      # after every step of the simulation's own run loop
+        b = sim.last
+        posed = robot.pose(sim.pose, sim.q)
+        legs = np.array([b.leg_wrench.get(i, np.zeros(3)) for i in range(len(robot.legs))])
+        rows.append((sim.samples[-1], legs, np.asarray(b.base_wrench), posed.gravity.copy()))
+    result = sim.run(gait, progress=record)
+    status = f'{result.status.value} {result.reason}: {result.detail}'
     print(status)
     names = [leg.name.replace('_hip', '') for leg in robot.legs]
     print('t_s phase mode | p_x mm, h mm, thetaB deg | q deg | per leg (Fx, Fz, My) | base | '
