@@ -28,6 +28,7 @@ from rftgls_node_base.node_main import finish, program_args, stop_on_signals
 from .faults import LIVE_FIELDS, FaultConfig, FaultControl, FaultInjector
 from .firmware_link import FirmwareLinkError
 from .firmware_mcu import FirmwareMcu
+from .gait_pose import GaitPoses
 from .ground import make_ground
 from .mcu import McuConfig, SimMcu
 from .physics import PhysicsBody
@@ -288,9 +289,10 @@ def _make_mcu(args: argparse.Namespace, ground, config: McuConfig, start: float,
         return FirmwareMcu(robot_factory=lambda: PlantRobot(
             ground=ground, winch=MotorWinch(sled_mass=args.sled_mass)),
             config=config, on_telemetry=on_telemetry, now=start, binary=args.firmware)
+    poses = GaitPoses.for_sled(args.sled_mass) if args.body == 'scripted' else None
     return SimMcu(robot_factory=lambda: SimRobot(ground=ground,
                                                  winch=WinchSled(sled_mass=args.sled_mass),
-                                                 physics=_physics(args)),
+                                                 physics=_physics(args), gait_poses=poses),
                   config=config, on_telemetry=on_telemetry, now=start, on_command=on_command)
 
 

@@ -28,6 +28,7 @@ from rftgls_core.types import AnchorState
 
 from .burrow import TABLE_II
 from .gait import BuehlerClock, wrap_angle
+from .gait_pose import GaitPoses
 from .ground import default_ground, slip_per_m
 from .physics import PhysicsBody
 from .power import PowerModel
@@ -77,6 +78,9 @@ class SimRobot:
     winch: WinchSled = field(default_factory=WinchSled)
     mass: float = 0.296
     physics: PhysicsBody | None = None
+    # Scripted body: where a burrow run leg by leg (SetLegs) settles (gait_pose.py); None:
+    # SetLegs moves the legs only.
+    gait_poses: GaitPoses | None = None
 
     def __post_init__(self) -> None:
         self.servos = [Servo(max_speed=self.geometry.walk_leg_speed) for _ in range(4)]
@@ -102,6 +106,8 @@ class SimRobot:
         self._reached_at: float | None = None   # phase time the retract pose was reached
         self._unburrowing = False
         self._rope = (0.0, 0.0)      # tension (N) and angle (rad) the tether last pulled with
+        self._retract: tuple[float, float] | None = None   # most retracted leg targets (L1, L2)
+        self._leg_pose: tuple[float, float] | None = None  # (h, theta_b) a SetLegs burrow ends in
         if self.physics is not None:
             self.physics.place(self._to_body([s.angle for s in self.servos]))
             self.x_p, self.h, self.theta_b = self.physics.pose
@@ -114,9 +120,24 @@ class SimRobot:
             if mask & (1 << i):
                 s.max_speed = self.geometry.walk_leg_speed
                 s.target = _nearest(s.angle, targets[i])
+        if self.gait_poses is not None and self.physics is None:
+            self._leg_burrow()
+
+    def _leg_burrow(self) -> None:
+        """A burrow run leg by leg: the body settles, as the legs arrive, at the pose the
+        gait map predicts for (most retracted legs, targets) (gait_pose.py)."""
+        assert self.gait_poses is not None
+        t = [wrap_angle(s.target) for s in self.servos]
+        final = (0.5 * (t[0] + t[1]), 0.5 * (t[2] + t[3]))
+        self._retract = final if self._retract is None else (
+            min(self._retract[0], final[0]), min(self._retract[1], final[1]))
+        self._leg_pose = self.gait_poses.pose(self._retract, final)
+        self._body_from = (self.h, self.theta_b)
+        self._span = max(abs(s.target - s.angle) for s in self.servos)
 
     def set_gait(self, kind: int, period: float, duty: float, sweep: float, down: float,
                  phases, direction: int) -> None:
+        self._retract = self._leg_pose = None
         for s in self.servos:
             s.max_speed = self.geometry.walk_leg_speed
         if kind == GaitKind.STAND:
@@ -137,6 +158,7 @@ class SimRobot:
 
     def burrow(self, mode: int) -> None:
         self.clocks = None
+        self._retract = self._leg_pose = None
         self._phase_t = 0.0
         self._body_from = (self.h, self.theta_b)
         for s in self.servos:
@@ -300,6 +322,11 @@ class SimRobot:
                 b1 = 0.5 * seq.theta_b
             else:
                 h1, b1 = seq.h, seq.theta_b
+            k = self._leg_progress()
+            self.h = h0 + (h1 - h0) * k
+            self.theta_b = b0 + (b1 - b0) * k
+        elif self.mode == Mode.IDLE and self._leg_pose is not None:
+            (h0, b0), (h1, b1) = self._body_from, self._leg_pose
             k = self._leg_progress()
             self.h = h0 + (h1 - h0) * k
             self.theta_b = b0 + (b1 - b0) * k

@@ -14,11 +14,14 @@ Subscribed: /joint_states (sensor_msgs/JointState: legs rad, ``winch_rope`` m / 
   tether, lower bound, status code, assumed inputs, slip twist, in one message). Freshness is
   the age of the underlying sample by its header stamp, not the receipt time
   (docs/design/tug-safety.md, "Freshness by sample age").
-Published: /gait, /burrow (std_msgs/String), /winch/speed (std_msgs/Float64, m/s reel-in
-  positive), /winch/height_estimate (rftgls_interfaces/InputValue: h of p in m, ASSUMED: the
-  burrowed mode's Table II mean with a band of two of its standard deviations; MiniRQuad does
-  not measure it), /winch/phi (Float64, rad: tether angle from the tether length), ~/state
-  (String, transient local), ~/events (String, one JSON object per event).
+Published: /gait, /burrow (std_msgs/String: a Table II mode's name), /leg_targets
+  (sensor_msgs/JointState, rad: a planned gait's leg targets, streamed at the step rate so the
+  legs slew at the gait's speed), /winch/speed (std_msgs/Float64, m/s reel-in
+  positive), /winch/height_estimate (rftgls_interfaces/InputValue: h of p in m; MiniRQuad does
+  not measure it: in a planned gait the burrow simulation's predicted h, MODELLED, with a band
+  of two of its standard deviations; in a Table II mode its Table II mean, ASSUMED, band two of
+  the paper's standard deviations), /winch/phi (Float64, rad: tether angle from the tether
+  length), ~/state (String, transient local), ~/events (String, one JSON object per event).
 Action: ~/walk_burrow_tug (rftgls_interfaces/WalkBurrowTug: goal sled mass and cycles, feedback
   state and margin, result per cycle; cancel stops the winch at once; tug_action.py).
   With ``autostart`` (default, kept one release) the node also runs the sled_mass_kg/cycles
@@ -39,13 +42,13 @@ from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, Header, String
 
 from rftgls_conventions import (
+    LEG_JOINT_NAMES,
     LEG_KEYS,
     WINCH_ROPE_JOINT,
     axle_angles,
     leg_keys_from_joint_names,
     quat_xyzw_to_pitch,
 )
-from rftgls_core.types import Provenance
 from rftgls_interfaces.msg import AnchorEstimate, InputValue, LinkState
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import declare
@@ -57,6 +60,7 @@ from .behavior import (
     Observation,
     write_report,
 )
+from .behavior.planned import GaitChooser, sled_map
 from .behavior.tug_series import TugSample, TugSeries, write_tug_series
 from .capacity.node_predictor import DEFAULT_MAP, node_predictor
 from .capacity_msgs import input_value, status_word
@@ -73,7 +77,7 @@ LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
 _RANGES = {'_m_s': (0.0, 1.0), '_s': (0.0, 3600.0), '_kg': (0.0, 50.0), '_N': (0.0, 1000.0),
            '_J': (0.0, 1e6)}
 _RATIOS = ('slow_ratio', 'stop_ratio', 'min_speed_fraction', 'slip_tension_drop', 'need_alpha',
-           'sled_mu')
+           'sled_mu', 'plan_confidence')
 
 
 def param_range(name: str) -> tuple[float | None, float | None]:
@@ -141,8 +145,7 @@ class BehaviorNode(Node):
         else:
             predictor = ServicePredictor(self, f'{cap_ns}/query_capacity')
         self.predictor = predictor
-        self.machine = BehaviorMachine(
-            self.cfg, ModeChooser(predictor, self.cfg.safety_factor, self.cfg.phis_rad))
+        self.machine = BehaviorMachine(self.cfg, self.chooser(self.cfg))
         self.obs = Observation(t=self.now_s())
         # Without autostart the node idles (as after a run) until a walk_burrow_tug goal.
         self.finished = not declare(self, 'autostart', True, 'run the sled_mass_kg/cycles '
@@ -154,6 +157,7 @@ class BehaviorNode(Node):
 
         self.pub_gait = self.create_publisher(String, 'gait', 10)
         self.pub_burrow = self.create_publisher(String, 'burrow', 10)
+        self.pub_legs = self.create_publisher(JointState, 'leg_targets', 10)
         self.pub_winch = self.create_publisher(Float64, 'winch/speed', 10)
         self.pub_height = self.create_publisher(InputValue, 'winch/height_estimate', 10)
         self.pub_phi = self.create_publisher(Float64, 'winch/phi', 10)
@@ -183,6 +187,14 @@ class BehaviorNode(Node):
             f'estimates younger than {1e3 * self.cfg.estimate_timeout_s:.0f} ms with status ok '
             f'or modelled' + (f' or assumed {",".join(self.cfg.accept_assumed_inputs)}'
                               if self.cfg.accept_assumed_inputs else ''))
+
+    def chooser(self, cfg: BehaviorConfig) -> ModeChooser:
+        """The chooser of ``burrow_modes``: the paper's modes, or the planner's gaits from the
+        gait map of the sled (ValueError, one line, when there is none)."""
+        if cfg.burrow_modes == 'planned':
+            return GaitChooser(self.predictor, sled_map('minirquad', cfg.sled_mass_kg),
+                               cfg.safety_factor, cfg.phis_rad, cfg.plan_confidence)
+        return ModeChooser(self.predictor, cfg.safety_factor, cfg.phis_rad)
 
     def destroy_node(self) -> None:
         # What this node owns goes first, while its handles and the context are still valid:
@@ -220,8 +232,7 @@ class BehaviorNode(Node):
                              f'{sled_mass_kg!r} kg and {cycles} cycles')
         cfg = replace(self.cfg, sled_mass_kg=float(sled_mass_kg), cycles=int(cycles)).check()
         tether = self.machine.tether      # the same rope: its free length carries over
-        self.machine = BehaviorMachine(
-            cfg, ModeChooser(self.predictor, cfg.safety_factor, cfg.phis_rad))
+        self.machine = BehaviorMachine(cfg, self.chooser(cfg))
         self.machine.tether = tether
         self.finished, self._state_sent = False, None
 
@@ -324,8 +335,14 @@ class BehaviorNode(Node):
             self.pub_winch.publish(Float64(data=float(cmd.winch)))
             self._last_winch, self._last_winch_t = cmd.winch, t
         header = Header(stamp=self.get_clock().now().to_msg())
-        self.pub_height.publish(input_value(cmd.height, cmd.height_band, Provenance.ASSUMED,
-                                            cmd.height_source, header))
+        if cmd.legs is not None:      # a planned burrow: both legs of each axle alike
+            l1, l2 = cmd.legs
+            pos = {'proximal_left': l1, 'proximal_right': l1, 'distal_left': l2,
+                   'distal_right': l2}
+            self.pub_legs.publish(JointState(header=header, name=list(LEG_JOINT_NAMES),
+                                             position=[float(pos[k]) for k in LEG_KEYS]))
+        self.pub_height.publish(input_value(cmd.height, cmd.height_band,
+                                            cmd.height_provenance, cmd.height_source, header))
         self.pub_phi.publish(Float64(data=float(cmd.phi)))
         for ev in cmd.events:
             if ev['kind'] == 'warn':

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 from rftgls_core.types import Status
 
 from . import evidence
-from .model import ANCHOR_MODES
+from .gait_motion import gait_targets
 from .states import REBURROW_WHY, HoldCause, State
 
 if TYPE_CHECKING:
@@ -48,6 +48,7 @@ class Burrow:
     def __init__(self, machine: BehaviorMachine):
         self.m = machine
         self.at_pose_since: float | None = None   # s: legs within tolerance of the final pose
+        self.legs_from: tuple[float, float] | None = None   # planned gait: legs at its start
         self.check = AnchorCheck()
         self.choose_unanswered = False             # CHOOSE's questions unanswered (warned)
         self.hold_cause = HoldCause.NONE
@@ -86,21 +87,35 @@ class Burrow:
         m.go(State.BURROW, f'burrow {mode}: {reason.split(";")[0]}')
 
     def _enter_burrow(self) -> None:
-        self.m.winch = 0.0
+        m = self.m
+        m.winch = 0.0
         self.at_pose_since = None
-        self.m.slip.reset()          # a new anchor: its slip references start afresh
-        self.m.command('burrow', self.m.mode)
+        m.slip.reset()          # a new anchor: its slip references start afresh
+        if m.planned_gait() is None:
+            m.command('burrow', m.mode)     # a Table II mode: the MCU runs its sequence
+            return
+        # A planned gait: this node streams its leg targets (gait_motion.py) from here.
+        self.legs_from = m.obs.legs
+        self._drive_gait()
+
+    def _drive_gait(self) -> None:
+        """This step's leg targets of the planned gait being burrowed."""
+        m, g = self.m, self.m.planned_gait()
+        if g is None or self.legs_from is None:
+            return
+        m.leg_targets = gait_targets(m.elapsed(), self.legs_from, g.retract, g.final, g.speed)
 
     def at_final_pose(self) -> bool:
         """The measured legs are within burrow_tolerance_rad of the mode's final pose."""
         m = self.m
-        legs, mode = m.obs.legs, ANCHOR_MODES.get(m.mode or '')
+        legs, mode = m.obs.legs, m.burrow_mode()
         return mode is not None and legs is not None and max(
             abs(legs[0] - mode.final[0]), abs(legs[1] - mode.final[1])) \
             <= m.cfg.burrow_tolerance_rad
 
     def _do_burrow(self) -> None:
         m, cfg = self.m, self.m.cfg
+        self._drive_gait()
         at = self.at_final_pose()
         if at and self.at_pose_since is None:
             self.at_pose_since = m.obs.t
@@ -114,9 +129,11 @@ class Burrow:
             m.cycle.burrow_s += dt
             above_idle = de - m.idle_power * dt
             m.energy.update(m.mode, above_idle)
+            shown = [m.mode] if m.planned_gait() is not None else list(m.energy.ratios)
             m.event('info', f'burrow {m.mode}: {de:.2f} J in {dt:.1f} s '
                             f'({above_idle:.2f} J above idle); energy estimates now '
-                    + ', '.join(f'{k} {m.energy.estimate(k):.2f} J' for k in ANCHOR_MODES))
+                    + ', '.join(f'{k} {m.energy.estimate(k):.2f} J' for k in shown),
+                    mode=m.mode, energy_j=above_idle)
             m.go(State.CHECK, 'at the final pose' if done else
                  f'burrow timeout ({cfg.burrow_timeout_s:.0f} s): checking the pose reached')
 
@@ -160,7 +177,7 @@ class Burrow:
             return
         pose = (f'measured pose thetaL1 {math.degrees(state.theta_l1):.1f}, thetaL2 '
                 f'{math.degrees(state.theta_l2):.1f}, thetaB {math.degrees(state.theta_b):.1f} '
-                f'deg, h {1e3 * state.h:.0f} mm (Table II mean, not measured)')
+                f'deg, h {1e3 * state.h:.0f} mm ({m.height_input()[2]})')
         caps = '/'.join(f'{x:.2f}' if x is not None else s
                         for x, s in zip(c.capacities, c.statuses))
         m.event('decision', f'check {m.mode} at the {pose}: lower bound {caps} N -> '

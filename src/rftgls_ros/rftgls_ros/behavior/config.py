@@ -6,8 +6,8 @@ import math
 from dataclasses import dataclass
 
 # Where the burrows the chooser picks from come from: 'table_ii' the paper's three modes (DH, DL,
-# SH) at their Table II poses; 'planned' the burrow planner's gaits (not in behavior_node yet:
-# refused). Either way the choice is made on the lower bound.
+# SH) at their Table II poses; 'planned' the burrow planner's gaits (the shipped gait map of the
+# configured sled, planned.py). Either way the choice is made on the lower bound.
 BURROW_MODES = ('table_ii', 'planned')
 
 @dataclass
@@ -47,9 +47,10 @@ class BehaviorConfig:
     prediction at the Table II height; off by default, never over an explicit no-value status.
 
     burrow_modes: where the candidate burrows come from (BURROW_MODES): 'table_ii' (the paper's
-    DH, DL, SH at their Table II poses) or 'planned' (the burrow planner's gaits; refused until
-    behavior_node has the planner). The choice is always the cheapest burrow whose lower bound
-    covers safety_factor x need.
+    DH, DL, SH at their Table II poses) or 'planned' (the burrow planner's gaits from the
+    gait map of the configured sled; planned.py). The choice is always the cheapest burrow
+    whose lower bound covers safety_factor x need; plan_confidence: the one-sided confidence
+    of a planned gait's lower bound.
 
     Slip (slip.py): slip_detect on/off, slip_pitch_rad, slip_leg_rad (change under load),
     slip_tension_drop (fraction below the tug's peak while reeling at least slip_min_reel_m).
@@ -57,6 +58,7 @@ class BehaviorConfig:
 
     cycles: int = 3
     burrow_modes: str = 'table_ii'
+    plan_confidence: float = 0.95
     sled_mass_kg: float = 0.4
     sled_mu: float = 0.5
     safety_factor: float = 1.0
@@ -108,12 +110,11 @@ class BehaviorConfig:
 
     def check(self) -> BehaviorConfig:
         """ValueError (one line) on values the machine cannot run with; returns self."""
-        if self.burrow_modes == 'planned':
-            raise ValueError("burrow_modes 'planned': behavior_node has no burrow planner yet; "
-                             "use 'table_ii'")
         if self.burrow_modes not in BURROW_MODES:
             raise ValueError(f'burrow_modes must be one of {", ".join(BURROW_MODES)}, got '
                              f'{self.burrow_modes!r}')
+        if not 0.5 <= self.plan_confidence < 1.0:
+            raise ValueError(f'plan_confidence must be in [0.5, 1), got {self.plan_confidence}')
         if self.cycles < 1 or self.max_aborts < 0 or self.max_burrows_per_cycle < 1:
             raise ValueError('cycles and max_burrows_per_cycle must be >= 1, max_aborts >= 0')
         if not 0.0 < self.slow_ratio <= self.stop_ratio:

@@ -41,14 +41,14 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from rftgls_core.types import AnchorState
+from rftgls_core.types import AnchorState, Provenance
 
 from . import evidence
 from .burrow import Burrow
 from .config import BehaviorConfig
 from .link_wait import LinkWait
 from .model import (
-    ANCHOR_MODES,
+    AnchorMode,
     Candidate,
     Decision,
     EnergyModel,
@@ -56,6 +56,7 @@ from .model import (
     ModeChooser,
     TetherTracker,
 )
+from .planned import GaitChooser, PlannedGait
 from .report import CycleRecord
 from .retry import EvidenceRetry
 from .signals import Commands, Observation
@@ -100,6 +101,7 @@ class CycleTally:
     # Smallest (capacity_node lower bound x scale - safety_factor x need), N, over the steps
     # that commanded the winch to reel in: negative would be a tug below the need.
     reel_lower_margin: float = math.inf
+    plan: PlannedGait | None = None     # the planned gait chosen last ('planned' burrows)
 
 
 class BehaviorMachine:
@@ -111,6 +113,8 @@ class BehaviorMachine:
         self.chooser = chooser
         self.need = ForceNeed(config.sled_mass_kg, config.sled_mu, alpha=config.need_alpha)
         self.energy = EnergyModel(prior_sh=config.energy_prior_sh_J)
+        if isinstance(chooser, GaitChooser):    # energy per planned gait, not per mode
+            self.energy = chooser.energy_model(self.energy)
         self.tether = TetherTracker(config.rope_length_m, config.attach_height_m)
         self.state = State.WAIT_INPUTS
         self.reason = 'waiting for the robot and capacity_node'
@@ -121,6 +125,7 @@ class BehaviorMachine:
         self.cycle: CycleTally | None = None
         self.mode: str | None = None          # the mode burrowed (or being burrowed)
         self.winch = 0.0                      # reel-in set-point, m/s; held until changed
+        self.leg_targets: tuple[float, float] | None = None   # this step's (L1, L2), rad
         self.idle_power = 0.0                 # W, measured standing at start
         self.weakest: float | None = None     # N: the anchor's weakest capacity, or what it held
         self._oneshots: list[tuple[str, str]] = []
@@ -186,16 +191,32 @@ class BehaviorMachine:
 
     @property
     def height(self) -> float:
-        """Height of p (m): not measured on MiniRQuad; the burrowed mode's Table II mean."""
+        """Height of p (m): not measured on MiniRQuad; the burrow's predicted or Table II h."""
         return self.height_input()[0]
 
-    def height_input(self) -> tuple[float, float, str]:
-        """(h m, band m, source) of the assumed height of p: the burrowed mode's Table II
-        mean within H_BAND_SDS of its standard deviations, else h_walk_m (band not stated)."""
-        if self.mode and self.state in BURROWED:
-            m = ANCHOR_MODES[self.mode]
-            return m.h, m.h_band, f'Table II mean of {m.name} (paper), not measured'
-        return self.cfg.h_walk_m, math.nan, 'h_walk_m parameter (walking), not measured'
+    def burrow_mode(self) -> AnchorMode | None:
+        """The burrow burrowed into (or being burrowed): a Table II mode or a planned gait."""
+        return self.chooser.modes.get(self.mode or '')
+
+    def planned_gait(self) -> PlannedGait | None:
+        """The planned gait burrowed into (None for a Table II mode)."""
+        gaits = getattr(self.chooser, 'gaits', {})
+        return gaits.get(self.mode or '')
+
+    def height_input(self) -> tuple[float, float, str, Provenance]:
+        """(h m, band m, source, provenance) of the height of p. Burrowed in a planned gait:
+        the burrow simulation's predicted h within H_BAND_SDS of its standard deviations,
+        modelled; in a Table II mode: the mode's Table II mean within H_BAND_SDS of its
+        standard deviations, assumed; else h_walk_m (band not stated), assumed."""
+        m = self.burrow_mode()
+        if m is not None and self.state in BURROWED:
+            if self.planned_gait() is not None:
+                return (m.h, m.h_band, f'burrow simulation of gait {m.name} (planner), '
+                        'not measured', Provenance.MODELLED)
+            return m.h, m.h_band, f'Table II mean of {m.name} (paper), not measured', \
+                Provenance.ASSUMED
+        return self.cfg.h_walk_m, math.nan, 'h_walk_m parameter (walking), not measured', \
+            Provenance.ASSUMED
 
     def inputs_fresh(self) -> bool:
         """The link is up and the robot's joint states and tension are recent."""
@@ -222,9 +243,9 @@ class BehaviorMachine:
     def measured_state(self) -> AnchorState | None:
         """The anchor state of the burrowed mode at the measured legs and pitch (leg angles
         within pose_snap_rad of Table II taken as Table II), h from Table II."""
-        if self.mode is None or self.obs.legs is None:
+        m = self.burrow_mode()
+        if m is None or self.obs.legs is None:
             return None
-        m = ANCHOR_MODES[self.mode]
         tb = self.obs.theta_b if self.obs.theta_b is not None else m.theta_b
         l1, l2 = self.obs.legs
         if abs(l1 - m.final[0]) <= self.cfg.pose_snap_rad:
@@ -236,11 +257,11 @@ class BehaviorMachine:
     def own_capacity(self) -> tuple[float | None, str]:
         """This node's map prediction (N, status) at the measured pose and estimated phi: its
         lower end over the burrowed mode's height band."""
-        state = self.measured_state()
-        if state is None or self.mode is None:
+        state, mode = self.measured_state(), self.burrow_mode()
+        if state is None or mode is None:
             return None, 'stale'
         cap, status = self.chooser.lower_capacity(state, self.tether.phi(self.height),
-                                                  ANCHOR_MODES[self.mode].h_band)
+                                                  mode.h_band)
         return cap, str(status)
 
     # ------------------------------------------------------------------ step
@@ -254,10 +275,10 @@ class BehaviorMachine:
             handler()
         self.tug.report_stop()
         self._track_reel_basis()
-        h, band, source = self.height_input()
+        h, band, source, provenance = self.height_input()
         out = Commands(self._oneshots, self.winch, h, self.tether.phi(h), self._step_events,
-                       band, source)
-        self._oneshots, self._step_events = [], []
+                       band, source, provenance, self.leg_targets)
+        self._oneshots, self._step_events, self.leg_targets = [], [], None
         return out
 
     def _track_spool(self, obs: Observation) -> None:
@@ -299,7 +320,10 @@ class BehaviorMachine:
         """Keep and announce a mode decision (with its candidate table)."""
         self.decisions.append(d)
         c = self.cycle
+        gait = getattr(self.chooser, 'gaits', {}).get(d.mode or '')
+        extra = {'plan': gait.report(self.cfg.phis_rad)} if gait is not None else {}
         if c is not None:
+            c.plan = gait or c.plan
             c.decision = d.reason
             if d.mode:
                 c.choice = d.candidate(d.mode)
@@ -311,7 +335,7 @@ class BehaviorMachine:
                    candidates=[{'mode': c.mode, 'capacities': c.capacities,
                                 'statuses': c.statuses, 'energy_j': c.energy_j,
                                 'sufficient': c.sufficient, 'why': c.why}
-                               for c in d.candidates])
+                               for c in d.candidates], **extra)
 
     def record(self) -> None:
         """The cycle's report row (and its summary event)."""
@@ -329,7 +353,8 @@ class BehaviorMachine:
             lower_n=_num(c.choice.weakest if c.choice else None),
             point_n=_num(c.choice.point if c.choice else None),
             energy_pred_j=_num(c.choice.energy_j if c.choice else None),
-            reel_lower_margin_n=_num(c.reel_lower_margin), decision=c.decision))
+            reel_lower_margin_n=_num(c.reel_lower_margin), decision=c.decision,
+            **plan_columns(c.plan)))
         r = self.records[-1]
         self.event('cycle', r.summary(), cycle=r.cycle, outcome=r.outcome, reason=r.reason,
                    slip=r.slip)
@@ -419,3 +444,13 @@ class BehaviorMachine:
 def _num(x: float | None) -> float:
     """A report number: NaN for None or infinite (nothing measured)."""
     return x if x is not None and math.isfinite(x) else float('nan')
+
+
+def plan_columns(gait: PlannedGait | None) -> dict:
+    """The report's columns of a planned gait (NaN for a Table II mode): its predicted h and
+    one sigma (m), predicted pitch (rad) and the probability that it holds."""
+    if gait is None:
+        return {}
+    a = gait.answer
+    return {'h_pred_m': float(a.pose[0]), 'h_pred_sigma_m': float(a.pose_sigma[0]),
+            'theta_b_pred_rad': float(a.pose[1]), 'p_hold': gait.p_hold}

@@ -51,6 +51,12 @@ class CycleRecord:
     energy_pred_j: float = float('nan')
     reel_lower_margin_n: float = float('nan')
     decision: str = ''
+    # A planned gait's prediction (NaN for a Table II mode): h of p and its sigma, m; pitch,
+    # rad; the probability that it holds the required pull (the lower bound's normal model).
+    h_pred_m: float = float('nan')
+    h_pred_sigma_m: float = float('nan')
+    theta_b_pred_rad: float = float('nan')
+    p_hold: float = float('nan')
 
     @property
     def energy_j(self) -> float:

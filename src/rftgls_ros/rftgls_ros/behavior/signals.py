@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from rftgls_core.types import Provenance
+
 
 @dataclass
 class Observation:
@@ -46,9 +48,11 @@ class Observation:
 class Commands:
     """To publish after a step: one-shot ``gait``/``burrow`` commands (in order), the winch
     reel-in set-point (m/s, 0 brakes), h (m) and phi (rad) for capacity_node, and the events
-    of this step (to log and publish, in order). h is assumed, never measured (MiniRQuad has
-    no sensor for it): height_band is the half-width of its range (m, NaN = not stated) and
-    height_source says where the number comes from."""
+    of this step (to log and publish, in order). h is never measured (MiniRQuad has no sensor
+    for it): assumed (Table II, walking) or modelled (a planned gait's prediction),
+    height_provenance; height_band is the half-width of its range (m, NaN = not stated) and
+    height_source says where the number comes from. legs: the leg targets of a planned burrow
+    this step (published on leg_targets), None otherwise."""
 
     oneshots: list[tuple[str, str]]
     winch: float
@@ -57,3 +61,5 @@ class Commands:
     events: list[dict] = field(default_factory=list)
     height_band: float = math.nan
     height_source: str = ''
+    height_provenance: Provenance = Provenance.ASSUMED
+    legs: tuple[float, float] | None = None   # leg targets (theta_L1, theta_L2), rad, or None

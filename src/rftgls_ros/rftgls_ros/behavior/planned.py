@@ -1,0 +1,201 @@
+"""Planned burrows: the burrow planner's gaits as the chooser's candidates.
+
+``burrow_modes: planned``. At CHOOSE the planner answers every gait of the shipped gait map for
+the configured sled (rftgls_core.planning: the burrow simulation over the medium's and the
+servos' spread, and the capacity at each predicted pose over the tether angles in use) at the
+configured one-sided confidence, and the cheapest gait whose lower bound, times the learned
+scale, covers safety_factor x need is chosen. The gait becomes a burrow the machine runs like a
+Table II mode (``AnchorMode``): its final pose, its *predicted* burrowed h and pitch, and a band
+of H_BAND_SDS of the predicted h's standard deviations. The gait map is per sled (the sled is
+tied to p while the robot burrows); with no map for the sled the planner refuses at start-up.
+
+The probability that a gait holds is read from the same normal model as its lower bound: per
+tether angle the capacity is N(C0, sigma) (bound.py), and P(C >= required) = Phi((C0 -
+required) / sigma); over the angles the smallest (a tug passes through all of them).
+
+Units: SI inside (m, rad, N, J); degrees only in the gait's name and the event text.
+"""
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from statistics import NormalDist
+
+from rftgls_core.planning.bound import GaitAnswer
+from rftgls_core.planning.gait_map import GaitMap, load, shipped_paths
+from rftgls_core.planning.planner import plan_from_map
+from rftgls_core.predictor import Predictor
+
+from .model import AnchorMode, Candidate, Decision, EnergyModel, ModeChooser
+
+SLED_MATCH_KG = 0.005   # a gait map answers for a sled within 5 g of its own (weighed to grams)
+
+
+class PlanUnavailable(ValueError):
+    """No gait map answers for this configuration (one line: why)."""
+
+
+@dataclass(frozen=True)
+class PlannedGait:
+    """A gait as behavior_node runs it: retract and final (theta_L1, theta_L2), rad; speed,
+    rad/s; the planner's answer (predicted pose, lower bound, energy) at the plan's
+    confidence; p_hold: the probability that it holds the required pull."""
+
+    name: str
+    retract: tuple[float, float]
+    final: tuple[float, float]
+    speed: float
+    answer: GaitAnswer
+    p_hold: float
+
+    @property
+    def h_sigma(self) -> float:
+        return float(self.answer.pose_sigma[0])
+
+    def report(self, phis: Sequence[float]) -> dict:
+        """The chosen gait for the events and the report: the planner's JSON and p_hold."""
+        d = self.answer.to_json(tuple(phis))
+        d.pop('per_phi', None)
+        d['gait'] = self.name
+        d['p_hold'] = self.p_hold
+        return d
+
+
+def gait_name(answer: GaitAnswer) -> str:
+    """'SH' for a paper mode, else 'g<retract l1>/<l2>><final l1>/<l2>' in whole degrees
+    (no comma: the name goes into the report's CSV)."""
+    g = answer.gait
+    if g.name:
+        return g.name
+    r = [round(math.degrees(a)) for a in (*g.retract, *g.final)]
+    return f'g{r[0]}/{r[1]}>{r[2]}/{r[3]}'
+
+
+def sled_map(robot: str, sled_kg: float, paths: Iterable[Path] | None = None) -> GaitMap:
+    """The shipped gait map built for this sled (kg); PlanUnavailable naming the sleds there
+    are maps for when none matches."""
+    found = []
+    for p in (shipped_paths(robot) if paths is None else paths):
+        gmap = load(p)
+        kg = float(json.loads(str(gmap.attrs['inputs_json']))['sled_kg'])
+        if abs(kg - sled_kg) <= SLED_MATCH_KG:
+            return gmap
+        found.append(f'{1e3 * kg:.0f} g')
+    raise PlanUnavailable(
+        f"burrow_modes 'planned': no gait map for a {1e3 * sled_kg:.0f} g sled (the gait maps "
+        f"are per sled; shipped for {robot}: {', '.join(found) or 'none'}); use 'table_ii' or "
+        "build one with `rftgls plan build-map`")
+
+
+def p_hold(answer: GaitAnswer, required: float, scale: float = 1.0) -> float:
+    """P(capacity x scale >= required) under the gait's normal model, the smallest over its
+    tether angles (0 without a value)."""
+    if not answer.per_phi or not answer.candidate:
+        return 0.0
+    ps = []
+    for c0, sigma, _ in answer.per_phi:
+        c0, sigma = c0 * scale, sigma * scale
+        if not math.isfinite(c0):
+            return 0.0
+        if not (sigma > 0.0):
+            ps.append(1.0 if c0 >= required else 0.0)
+        else:
+            ps.append(1.0 - NormalDist(c0, sigma).cdf(required))
+    return min(ps)
+
+
+def energy_source(energy: EnergyModel, name: str) -> str:
+    """Where a gait's energy estimate comes from, in words."""
+    if name in energy.measured:
+        return 'measured'
+    return 'predicted x measured scale' if energy.measured else 'predicted'
+
+
+class GaitChooser(ModeChooser):
+    """A ModeChooser whose candidates are the gait map's gaits (module doc). ``modes`` holds
+    the gaits chosen so far as AnchorModes (name -> predicted pose and band), so the machine's
+    pose check, the height it publishes and capacity queries read them as a Table II mode;
+    ``gaits`` the same gaits with their plan."""
+
+    def __init__(self, predictor: Predictor, gait_map: GaitMap, safety_factor: float = 1.0,
+                 phis: Sequence[float] = (0.0, math.radians(-20.0)), confidence: float = 0.95,
+                 pull: str = 'backward'):
+        super().__init__(predictor, safety_factor, phis, modes={}, pull=pull)
+        self.gait_map = gait_map
+        self.confidence = confidence
+        self.gaits: dict[str, PlannedGait] = {}
+        missing = [p for p in self.phis if not any(abs(p - q) < 1e-9 for q in gait_map.phis)]
+        if missing:
+            raise PlanUnavailable(
+                f"burrow_modes 'planned': the gait map holds tether angles "
+                f"{[round(math.degrees(q), 1) for q in gait_map.phis]} deg, not "
+                f"{[round(math.degrees(p), 1) for p in missing]} (phis_rad)")
+
+    def energy_model(self, prior: EnergyModel) -> EnergyModel:
+        """An energy model over the gaits: each gait's predicted electrical energy (J) is its
+        prior, scaled by what the robot has measured (EnergyModel's rule)."""
+        ratios = {gait_name(a): float(a.energy_elec_J) for a in self._answers()
+                  if a.candidate and a.energy_elec_J is not None}
+        return EnergyModel(prior_sh=1.0, alpha=prior.alpha, ratios=ratios)
+
+    def _answers(self) -> list[GaitAnswer]:
+        return plan_from_map(self.gait_map, self.phis, 0.0, self.confidence).answers
+
+    def choose(self, need: float, energy: EnergyModel, states=None,
+               exclude: Iterable[str] = (), stronger_than: float | None = None,
+               pose: str = 'expected') -> Decision:
+        """The cheapest gait whose lower bound x scale covers safety_factor x need (and is
+        above ``stronger_than``, N, after a stop), not in ``exclude``. Energies from
+        ``energy`` (the predicted energy scaled by the measured ones). ``states`` is unused:
+        a gait's pose is its prediction."""
+        required = self.safety_factor * need
+        plan = plan_from_map(self.gait_map, self.phis, required / self.scale, self.confidence)
+        excluded = set(exclude)
+        cands: list[tuple[Candidate, GaitAnswer]] = []
+        for a in plan.answers:
+            if not a.candidate:
+                continue
+            name = gait_name(a)
+            lower = (a.lower_bound_N or 0.0) * self.scale
+            caps = tuple(lo * self.scale for _, _, lo in a.per_phi)
+            e = energy.estimate(name) if name in energy.ratios else float(a.energy_elec_J or 0)
+            ok, why = lower >= required, (f'lower bound {lower:.2f} N '
+                                          f'{">=" if lower >= required else "<"} '
+                                          f'{required:.2f} N')
+            if ok and name in excluded:
+                ok, why = False, 'excluded: ' + why
+            elif ok and stronger_than is not None and lower <= stronger_than:
+                ok, why = False, f'not stronger than {stronger_than:.2f} N'
+            cands.append((Candidate(name, caps, tuple('ok' for _ in caps), lower, e, ok, why,
+                                    (a.capacity_N or 0.0) * self.scale), a))
+        ok = [(c, a) for c, a in cands if c.sufficient]
+        # Shown in the decision: the Pareto front (and the pick, when the front's was excluded).
+        front = {id(a) for a in plan.front}
+        pick = min(ok, key=lambda ca: (ca[0].energy_j, -(ca[0].weakest or 0.0)), default=None)
+        shown = tuple(c for c, a in cands if id(a) in front or (pick and c is pick[0]))
+        phis_txt = '/'.join(f'{math.degrees(p):.0f}' for p in self.phis)
+        if pick is None:
+            best = max((c for c, _ in cands), key=lambda c: c.weakest or 0.0, default=None)
+            reason = (f'no planned gait suffices: need {need:.2f} N x {self.safety_factor:.2f}'
+                      f' (scale {self.scale:.2f}) at {self.confidence:.0%} over phi '
+                      f'{phis_txt} deg' + (f', strongest {best.mode} has a lower bound of '
+                                           f'{best.weakest:.2f} N' if best else ''))
+            return Decision(None, need, self.safety_factor, self.phis, shown, reason, 'planned')
+        pick, answer = pick
+        gait = PlannedGait(pick.mode, answer.gait.retract, answer.gait.final, answer.gait.speed,
+                           answer, p_hold(answer, required, self.scale))
+        self.gaits[pick.mode] = gait
+        self.modes[pick.mode] = AnchorMode(
+            pick.mode, gait.retract, gait.final, float(answer.pose[0]),
+            float(answer.pose[1]), 1.0, gait.h_sigma)
+        reason = (f'{pick.mode}: cheapest sufficient planned gait ({pick.energy_j:.2f} J, '
+                  f'{energy_source(energy, pick.mode)}'
+                  f'); lower bound {pick.weakest:.2f} N >= {self.safety_factor:.2f} x '
+                  f'{need:.2f} N at {self.confidence:.0%}, holds with p {gait.p_hold:.3f}; '
+                  f'predicted h {1e3 * answer.pose[0]:.1f} +- '
+                  f'{1e3 * gait.h_sigma:.1f} mm, pitch {math.degrees(answer.pose[1]):.1f} deg')
+        return Decision(pick.mode, need, self.safety_factor, self.phis, shown, reason,
+                        'planned')
