@@ -18,14 +18,14 @@ from rftgls_ros.capacity.range_bound import range_minimum
 
 class Plant:
     def __init__(self, sled_mass: float, predictor, heavier_at: float | None = None,
-                 heavier_mass: float = 0.0, ground=None):
+                 heavier_mass: float = 0.0, ground=None, gait_poses=None):
         from minirquad_driver.gaits import GAITS
         from minirquad_driver.protocol.messages import BurrowMode
         from minirquad_sim.robot import SimRobot
         from minirquad_sim.winch import WinchSled
         self.gaits, self.burrow_modes = GAITS, BurrowMode
         kw = {'ground': ground} if ground is not None else {}
-        self.robot = SimRobot(winch=WinchSled(sled_mass=sled_mass), **kw)
+        self.robot = SimRobot(winch=WinchSled(sled_mass=sled_mass), gait_poses=gait_poses, **kw)
         self.predictor = predictor
         self.t = 0.0
         self.energy = 0.0
@@ -47,6 +47,9 @@ class Plant:
                 r.set_gait(g.kind, g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
             else:
                 r.burrow(int(getattr(self.burrow_modes, value)))
+        if cmd.legs is not None:      # a planned gait's leg targets (leg_targets -> SetLegs)
+            l1, l2 = cmd.legs
+            r.set_legs((l1, l1, l2, l2))
         r.set_winch(cmd.winch)
         self.winch_cmd = cmd.winch
         self.h, self.phi, self.h_band = cmd.height, cmd.phi, cmd.height_band

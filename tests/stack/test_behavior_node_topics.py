@@ -115,16 +115,17 @@ def test_one_estimate_message_is_what_the_machine_judges(rig):
     assert node.machine.evidence().reason == evidence.NO_LOWER_BOUND
 
 
-def test_burrow_modes_planned_is_refused_in_one_line(spawn):
-    """The planner's mode is declared but not there yet: the node refuses to start, one line."""
+def test_burrow_modes_planned_without_a_gait_map_for_the_sled_is_refused_in_one_line(spawn):
+    """The gait maps are per sled: a sled without one is refused at start, one line."""
     import subprocess
     proc = spawn(['ros2', 'run', 'rftgls_ros', 'behavior_node', '--ros-args', '-p',
-                  'burrow_modes:=planned'], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                 text=True)
+                  'burrow_modes:=planned', '-p', 'sled_mass_kg:=0.5'], stdout=subprocess.PIPE,
+                 stderr=subprocess.PIPE, text=True)
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 2, (out, err)
-    assert err.strip() == ("behavior_node: error: burrow_modes 'planned': behavior_node has no "
-                           "burrow planner yet; use 'table_ii'"), err
+    assert err.strip().startswith("behavior_node: error: burrow_modes 'planned': no gait map "
+                                  "for a 500 g sled"), err
+    assert len(err.strip().splitlines()) == 1, err
 
 
 def test_the_height_it_sends_is_marked_assumed(rig):

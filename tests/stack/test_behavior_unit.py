@@ -324,12 +324,9 @@ def test_modes_match_table_ii():
     assert math.degrees(ANCHOR_MODES['SH'].retract[1]) == pytest.approx(-20)
 
 
-def test_burrow_modes_table_ii_runs_and_planned_is_refused_in_one_line():
-    assert BehaviorConfig().burrow_modes == 'table_ii'
-    with pytest.raises(ValueError) as planned:
-        BehaviorConfig(burrow_modes='planned').check()
-    assert str(planned.value) == ("burrow_modes 'planned': behavior_node has no burrow planner "
-                                  "yet; use 'table_ii'")
+def test_burrow_modes_are_table_ii_or_planned():
+    assert BehaviorConfig(burrow_modes='table_ii').check().burrow_modes == 'table_ii'
+    assert BehaviorConfig(burrow_modes='planned').check().burrow_modes == 'planned'
     with pytest.raises(ValueError, match='burrow_modes must be one of table_ii, planned'):
         BehaviorConfig(burrow_modes='paper').check()
 

@@ -1,0 +1,132 @@
+"""Planned burrows without ROS: the gait chooser on the shipped gait maps (planned.py), the leg
+ramp (gait_motion.py), the simulator's gait poses (minirquad_sim/gait_pose.py) and the machine
+running a planned gait in closed loop with the simulator's robot model (plant.py).
+
+References: the chosen gait is checked against the planner itself (`plan_from_map`, the code
+`rftgls plan burrow` runs) on the same map; the probability of holding against the normal
+CDF written out here with math.erf.
+"""
+from __future__ import annotations
+
+import math
+
+import pytest
+from plant import Plant, fast_config, run_loop
+
+from minirquad_sim.gait_pose import GaitPoses
+from rftgls_core.planning.planner import plan_from_map
+from rftgls_core.types import Provenance
+from rftgls_ros.behavior import BehaviorConfig, BehaviorMachine, EnergyModel, State
+from rftgls_ros.behavior.gait_motion import gait_duration, gait_targets
+from rftgls_ros.behavior.planned import GaitChooser, PlanUnavailable, p_hold, sled_map
+from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
+
+PHIS = (0.0, math.radians(-20.0))
+G = 9.81
+
+
+@pytest.fixture(scope='module')
+def predictor():
+    # As capacity_node runs it (ros2_ws/params/capacity_node.yaml): the map, answered live
+    # next to its support edge.
+    return node_predictor(DEFAULT_MAP, robot=None, medium=None, edge_live_method='direct-warm')
+
+
+@pytest.mark.parametrize('sled', [0.4, 0.6])
+def test_chooses_the_planners_cheapest_covering_gait(predictor, sled):
+    gmap = sled_map('minirquad', sled)
+    ch = GaitChooser(predictor, gmap, 1.0, PHIS, 0.95)
+    need = 0.5 * sled * G
+    d = ch.choose(need, ch.energy_model(EnergyModel()))
+    plan = plan_from_map(gmap, PHIS, need, 0.95)
+    assert plan.chosen is not None and d.mode is not None
+    g = ch.gaits[d.mode]
+    assert g.answer.gait.same_motion(plan.chosen.gait)
+    assert g.answer.lower_bound_N >= need
+    # The burrow as the machine sees it: the predicted pose and a 2-sigma band of its h.
+    mode = ch.modes[d.mode]
+    assert mode.h == pytest.approx(plan.chosen.pose[0]) and mode.final == g.final
+    assert mode.h_band == pytest.approx(2 * plan.chosen.pose_sigma[0])
+    assert 0.5 < g.p_hold <= 1.0
+
+
+def test_p_hold_is_the_normal_tail_at_the_weakest_angle(predictor):
+    ch = GaitChooser(predictor, sled_map('minirquad', 0.6), 1.0, PHIS, 0.95)
+    d = ch.choose(2.94, ch.energy_model(EnergyModel()))
+    a = ch.gaits[d.mode].answer
+    want = min(0.5 * (1 - math.erf((2.94 - c) / (s * math.sqrt(2)))) for c, s, _ in a.per_phi)
+    assert p_hold(a, 2.94) == pytest.approx(want, abs=1e-9)
+    assert p_hold(a, 2.94, scale=0.7) < p_hold(a, 2.94)
+
+
+def test_after_a_slip_it_replans_stronger_or_refuses(predictor):
+    ch = GaitChooser(predictor, sled_map('minirquad', 0.4), 1.0, PHIS, 0.95)
+    energy = ch.energy_model(EnergyModel())
+    first = ch.choose(1.96, energy)
+    weakest = first.candidate(first.mode).weakest
+    ch.scale = 0.7                          # the anchor slipped at 70 % of the prediction
+    again = ch.choose(1.96, energy, exclude=[first.mode], stronger_than=weakest * 0.7)
+    assert again.mode not in (None, first.mode)
+    assert ch.gaits[again.mode].answer.lower_bound_N * 0.7 >= 1.96
+    ch.scale = 0.2                          # nothing in the gait space holds that
+    assert ch.choose(1.96, energy).mode is None
+
+
+def test_no_gait_map_for_the_sled_is_refused_in_one_line(predictor):
+    with pytest.raises(PlanUnavailable) as e:
+        sled_map('minirquad', 0.5)
+    assert str(e.value).startswith("burrow_modes 'planned': no gait map for a 500 g sled")
+    assert '\n' not in str(e.value) and '400 g, 600 g' in str(e.value)
+    with pytest.raises(PlanUnavailable, match='tether angles'):
+        GaitChooser(predictor, sled_map('minirquad', 0.4), 1.0, (math.radians(-35.0),))
+
+
+def test_config_accepts_planned_and_checks_its_confidence():
+    assert BehaviorConfig(burrow_modes='planned').check().burrow_modes == 'planned'
+    with pytest.raises(ValueError, match='plan_confidence'):
+        BehaviorConfig(burrow_modes='planned', plan_confidence=1.0).check()
+
+
+def test_leg_ramp_runs_at_the_gait_speed_through_retract_to_final():
+    start, retract, final, speed = (0.0, 0.0), (-1.0, -0.4), (-0.4, 0.5), 1.0
+    dt = 0.01
+    t_end = gait_duration(start, retract, final, speed)
+    ts = [i * dt for i in range(int(t_end / dt) + 50)]
+    xs = [gait_targets(t, start, retract, final, speed) for t in ts]
+    steps = [max(abs(b[0] - a[0]), abs(b[1] - a[1])) for a, b in zip(xs, xs[1:])]
+    assert max(steps) <= speed * dt + 1e-12            # never faster than the gait
+    assert min(x[0] for x in xs) == pytest.approx(-1.0)  # reaches the retract
+    assert xs[-1] == pytest.approx(final)
+    with pytest.raises(ValueError):
+        gait_targets(0.0, start, retract, final, 0.0)
+
+
+def test_sim_gait_poses_match_map_gaits_only():
+    poses = GaitPoses.for_sled(0.4)
+    assert poses is not None and GaitPoses.for_sled(0.5) is None
+    r = math.radians
+    h, tb = poses.pose((r(-40), r(-20)), (r(-40), r(-20)))
+    assert 0.03 < h < 0.06 and tb > 0.0
+    assert poses.pose((r(-40), r(-20)), (r(-30), r(-20))) is None
+
+
+@pytest.mark.slow
+def test_planned_gait_closed_loop_modelled_height_and_holds(predictor):
+    plant = Plant(0.4, predictor, gait_poses=GaitPoses.for_sled(0.4))
+    cfg = fast_config(burrow_modes='planned', cycles=1).check()
+    m = BehaviorMachine(cfg, GaitChooser(predictor, sled_map('minirquad', 0.4), 1.0,
+                                         cfg.phis_rad, cfg.plan_confidence))
+    seen = {}
+
+    def watch(plant, machine):
+        if machine.state == State.TUG:
+            seen['height'] = machine.height_input()
+    run_loop(m, plant, t_max=60, on_step=watch)
+    r = m.records[0]
+    assert r.outcome == 'ok', [e['text'] for e in m.events][-10:]
+    gait = m.chooser.gaits[r.mode]
+    h, band, _, prov = seen['height']
+    assert prov is Provenance.MODELLED and h == pytest.approx(gait.answer.pose[0])
+    assert band == pytest.approx(2 * gait.h_sigma)
+    assert r.p_hold == pytest.approx(gait.p_hold) and r.reel_lower_margin_n >= 0.0
+    assert plant.tug_slip < 0.002
