@@ -72,12 +72,13 @@ def test_planned_on_weaker_sand_replans_or_stops_within_20_mm(tmp_path, spawn, s
     assert rows, log
     plans = _plans(log)
     assert plans, log
-    slipped = 'anchor slip detected' in log
-    if slipped:
-        # Seen, stopped, and then a stronger plan (scaled need) or a refusal.
+    # The tug ran (the sled moved) and the anchor never slipped 20 mm under it.
+    assert sum(float(r['sled_distance_m']) for r in rows) > 0.05, (rows, log)
+    assert total < SLIP_LIMIT_M, f'slipped {1e3 * total:.1f} mm\n{log}'
+    if 'anchor slip detected' in log:
+        # Seen and stopped, then a stronger plan (the need over the learned scale) or none.
         assert len(plans) >= 2 or 'no planned gait suffices' in log, log
-        assert total < SLIP_LIMIT_M, f'slipped {1e3 * total:.1f} mm\n{log}'
-    else:
-        assert total < SLIP_LIMIT_M and rows[-1]['outcome'] in ('ok', 'stopped'), (rows, log)
+    # Never a reel-in on a lower bound below the need (however the cycle ended: under load
+    # the link or the evidence may abort it, which is the tug-safety rule, not a failure).
     assert all(float(r['reel_lower_margin_n']) >= 0.0 for r in rows
                if r['reel_lower_margin_n'] not in ('', 'nan')), rows
