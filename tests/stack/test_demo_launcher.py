@@ -15,12 +15,13 @@ REPO = Path(__file__).resolve().parents[2]
 G = 9.81
 
 
-def demo(out: Path, sled: float) -> subprocess.CompletedProcess:
+def demo(out: Path, sled: float, *params: str) -> subprocess.CompletedProcess:
     env = {k: v for k, v in os.environ.items() if k != 'ROS_DOMAIN_ID'}
+    extra = [a for kv in params for a in ('--param', kv)]
     return subprocess.run(
         ['ros2', 'run', 'rftgls_ros', 'behavior_demo', '--out', str(out), '--sleds', str(sled),
          '--cycles', '1', '--param', 'walk_time_s:=1.0', '--param', 'idle_measure_time_s:=0.5',
-         '--timeout', '60'],
+         *extra, '--timeout', '60'],
         cwd=REPO, env=env, capture_output=True, text=True, timeout=90)
 
 
@@ -32,10 +33,11 @@ def test_demo_one_cycle_exits_and_writes_report(tmp_path):
     assert proc.returncode == 0, text
     m = re.search(r'ROS_DOMAIN_ID=(\d+), DDS discovery LOCALHOST', text)
     assert m and 1 <= int(m.group(1)) <= 100, text
-    # DL, not the paper's SH: SH's height band (47 +- 4 mm) reaches an unsupported height, so
-    # its lower bound is 0 N although its point estimate (1.99 N) covers 1.96 N.
-    assert 'decision (expected pose): DL' in text
-    line = re.search(r'400 g sled -> DL: lower bound ([\d.]+) N \(decided on\), point estimate '
+    # The default burrows are planned: the cheapest gait of the 400 g gait map whose lower
+    # bound covers 1.96 N (docs/design/burrow-planner.md: (-40, -20) -> (-40, -20), 2.74 N).
+    assert 'decision (planned pose): g-40/-20>-40/-20' in text
+    line = re.search(r'400 g sled -> g-40/-20>-40/-20: lower bound ([\d.]+) N \(decided on\), '
+                     r'point estimate '
                      r'([\d.]+) N, need ([\d.]+) N; burrow energy [\d.]+ J above idle predicted, '
                      r'[\d.]+ J measured', text)
     assert line, text
@@ -54,7 +56,7 @@ def test_demo_refuses_a_sled_no_lower_bound_covers(tmp_path):
     # 1 kg needs 4.9 N: DH's point estimate (5.24 N) covers it, its lower bound over
     # 34 +- 2 mm (4.73 N) does not. No burrow, no tug, exit 4 and the reason on stderr.
     out = tmp_path / 'demo'
-    proc = demo(out, 1.0)
+    proc = demo(out, 1.0, 'burrow_modes:=table_ii')   # no gait map for a 1 kg sled
     text = proc.stdout + proc.stderr
     assert proc.returncode == 4, text
     assert re.search(r'1000 g REFUSED, no tug: no mode suffices: need 4\.9\d N x 1\.00, '
@@ -64,3 +66,12 @@ def test_demo_refuses_a_sled_no_lower_bound_covers(tmp_path):
     assert (row.mode, row.outcome, row.reason) == ('-', 'refused', 'no_sufficient_mode')
     assert row.point_n > row.need_n > row.lower_n
     assert 'BURROW' not in text and '[live] tug' not in text
+
+
+@pytest.mark.slow
+def test_demo_planned_refuses_a_sled_without_a_gait_map(tmp_path):
+    proc = demo(tmp_path / 'demo', 1.0)
+    text = proc.stdout + proc.stderr
+    assert proc.returncode != 0, text
+    assert "burrow_modes 'planned': no gait map for a 1000 g sled" in text, text
+    assert '[live] tug' not in text

@@ -132,7 +132,7 @@ class Stack:
         for kv in ('sled_mass_kg:=0.4', 'cycles:=1000', 'max_aborts:=1000',
                    'evidence_wait_s:=60.0', 'link_wait_s:=60.0', 'walk_time_s:=2.5',
                    'idle_measure_time_s:=0.5', 'idle_settle_time_s:=0.3',
-                   f'report_dir:={tmp / "report"}'):
+                   'burrow_modes:=table_ii', f'report_dir:={tmp / "report"}'):
             argv += ['-p', kv]
         self.behavior = spawn(argv, stdout=open(tmp / 'behavior.log', 'w'),
                               stderr=subprocess_stdout(), cwd=REPO, env=ENV)

@@ -57,7 +57,8 @@ def start_stack(tmp_path: Path, spawn) -> dict:
            'ros2_ws/params/capacity_node.yaml', '-p', 'phi_topic:=/winch/phi'],
           stdout=logs['capacity'], stderr=logs['capacity'], cwd=REPO, env=ENV)
     argv = ['ros2', 'run', 'rftgls_ros', 'behavior_node', '--ros-args', '--params-file',
-            'ros2_ws/params/behavior_node.yaml', '-p', 'autostart:=false']
+            'ros2_ws/params/behavior_node.yaml', '-p', 'autostart:=false',
+            '-p', 'burrow_modes:=table_ii']
     for kv in FAST:
         argv += ['-p', kv]
     files['behavior'] = spawn(argv, stdout=logs['behavior'], stderr=logs['behavior'], cwd=REPO,

@@ -25,6 +25,7 @@ need (a broken safety rule); 1 when a sled produced no report (behavior_node did
 """
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import signal
@@ -289,12 +290,22 @@ def sled_line(rows: list[CycleRecord]) -> str:
         return (f'{sled} -> REFUSED: {r.decision} (point estimate {r.point_n:.2f} N; the '
                 f'point estimate is never decided on)')
     modes = sorted({r.mode for r in chosen})
-    last = chosen[-1]
+    # The last cycle that chose (a retried cycle re-checks the anchor without a new choice).
+    last = next((r for r in reversed(chosen) if math.isfinite(r.lower_n)), chosen[-1])
     burrow = sum(r.burrow_j for r in chosen) / len(chosen)
     return (f'{sled} -> {", ".join(modes)}: lower bound {last.lower_n:.2f} N (decided on), '
             f'point estimate {last.point_n:.2f} N, need {last.need_n:.2f} N; burrow energy '
             f'{last.energy_pred_j:.2f} J above idle predicted, {burrow:.2f} J measured (phase '
-            f'mean, idle included)')
+            f'mean, idle included)' + _plan_text(last))
+
+
+def _plan_text(r: CycleRecord) -> str:
+    """A planned gait's predicted pose and probability of holding ('' for a Table II mode)."""
+    if not math.isfinite(r.p_hold):
+        return ''
+    return (f'; planned gait: predicted h {1e3 * r.h_pred_m:.1f} +- '
+            f'{1e3 * r.h_pred_sigma_m:.1f} mm, pitch {math.degrees(r.theta_b_pred_rad):.1f} deg,'
+            f' holds with p {r.p_hold:.3f}')
 
 
 def below_need(records: list[CycleRecord]) -> list[CycleRecord]:

@@ -57,7 +57,7 @@ class BehaviorConfig:
     """
 
     cycles: int = 3
-    burrow_modes: str = 'table_ii'
+    burrow_modes: str = 'planned'
     plan_confidence: float = 0.95
     sled_mass_kg: float = 0.4
     sled_mu: float = 0.5
