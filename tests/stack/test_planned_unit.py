@@ -113,7 +113,8 @@ def test_sim_gait_poses_match_map_gaits_only():
 @pytest.mark.slow
 def test_planned_gait_closed_loop_modelled_height_and_holds(predictor):
     plant = Plant(0.4, predictor, gait_poses=GaitPoses.for_sled(0.4))
-    cfg = fast_config(burrow_modes='planned', cycles=1).check()
+    # The shipped walk (2.5 s): it leaves the legs further back than the gait's retract.
+    cfg = fast_config(burrow_modes='planned', cycles=1, walk_time_s=2.5).check()
     m = BehaviorMachine(cfg, GaitChooser(predictor, sled_map('minirquad', 0.4), 1.0,
                                          cfg.phis_rad, cfg.plan_confidence))
     seen = {}
@@ -121,6 +122,7 @@ def test_planned_gait_closed_loop_modelled_height_and_holds(predictor):
     def watch(plant, machine):
         if machine.state == State.TUG:
             seen['height'] = machine.height_input()
+            seen['pitch'] = plant.robot.theta_b
     run_loop(m, plant, t_max=60, on_step=watch)
     r = m.records[0]
     assert r.outcome == 'ok', [e['text'] for e in m.events][-10:]
@@ -128,5 +130,7 @@ def test_planned_gait_closed_loop_modelled_height_and_holds(predictor):
     h, band, _, prov = seen['height']
     assert prov is Provenance.MODELLED and h == pytest.approx(gait.answer.pose[0])
     assert band == pytest.approx(2 * gait.h_sigma)
+    # The simulated body settled where the gait map predicts (gait_pose.py).
+    assert seen['pitch'] == pytest.approx(gait.answer.pose[1], abs=1e-3)
     assert r.p_hold == pytest.approx(gait.p_hold) and r.reel_lower_margin_n >= 0.0
     assert plant.tug_slip < 0.002

@@ -36,6 +36,8 @@ from .servo import Servo
 from .winch import WinchSled
 
 PROXIMAL = (0, 1)
+# s: targets held this long are a gait's retracting pose (the host dwells BURROW_DWELL there)
+DWELL_SEEN = 0.8 * BURROW_DWELL
 DISTAL = (2, 3)
 BODY_ORDER = (0, 2, 1, 3)   # servo index of each of the physics body's legs (physics.py)
 
@@ -107,6 +109,8 @@ class SimRobot:
         self._unburrowing = False
         self._rope = (0.0, 0.0)      # tension (N) and angle (rad) the tether last pulled with
         self._retract: tuple[float, float] | None = None   # most retracted leg targets (L1, L2)
+        self._held: tuple[tuple[float, float], float] | None = None   # targets, since (s)
+        self._dwelt: tuple[float, float] | None = None     # targets last held for a dwell
         self._leg_pose: tuple[float, float] | None = None  # (h, theta_b) a SetLegs burrow ends in
         if self.physics is not None:
             self.physics.place(self._to_body([s.angle for s in self.servos]))
@@ -131,13 +135,22 @@ class SimRobot:
         final = (0.5 * (t[0] + t[1]), 0.5 * (t[2] + t[3]))
         self._retract = final if self._retract is None else (
             min(self._retract[0], final[0]), min(self._retract[1], final[1]))
-        self._leg_pose = self.gait_poses.pose(self._retract, final)
+        if self._held is None or max(abs(a - b) for a, b in zip(self._held[0], final)) > 1e-4:
+            if self._held is not None and self.time - self._held[1] >= DWELL_SEEN:
+                self._dwelt = self._held[0]
+            self._held = (final, self.time)
+        # The retract pose: the one the legs dwelt at, else the most retracted since standing
+        # (a walk can leave the legs further back than the gait's retract).
+        self._leg_pose = None
+        for retract in (self._dwelt, self._retract, final):
+            if retract is not None and self._leg_pose is None:
+                self._leg_pose = self.gait_poses.pose(retract, final)
         self._body_from = (self.h, self.theta_b)
         self._span = max(abs(s.target - s.angle) for s in self.servos)
 
     def set_gait(self, kind: int, period: float, duty: float, sweep: float, down: float,
                  phases, direction: int) -> None:
-        self._retract = self._leg_pose = None
+        self._retract = self._leg_pose = self._held = self._dwelt = None
         for s in self.servos:
             s.max_speed = self.geometry.walk_leg_speed
         if kind == GaitKind.STAND:
@@ -158,7 +171,7 @@ class SimRobot:
 
     def burrow(self, mode: int) -> None:
         self.clocks = None
-        self._retract = self._leg_pose = None
+        self._retract = self._leg_pose = self._held = self._dwelt = None
         self._phase_t = 0.0
         self._body_from = (self.h, self.theta_b)
         for s in self.servos:
