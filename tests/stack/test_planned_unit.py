@@ -134,3 +134,30 @@ def test_planned_gait_closed_loop_modelled_height_and_holds(predictor):
     assert seen['pitch'] == pytest.approx(gait.answer.pose[1], abs=1e-3)
     assert r.p_hold == pytest.approx(gait.p_hold) and r.reel_lower_margin_n >= 0.0
     assert plant.tug_slip < 0.002
+
+
+def test_a_measured_burrow_updates_its_gait_and_its_neighbours_more_than_far_gaits(predictor):
+    ch = GaitChooser(predictor, sled_map('minirquad', 0.4), 1.0, PHIS, 0.95)
+    e = ch.energy_model(EnergyModel())
+    r = math.radians
+    names = {tuple(round(math.degrees(x)) for x in v): k for k, v in e.gaits.items()}
+    here = names[(-40, -20, -40, -20)]
+    near = names[(-40, -20, -20, -20)]           # one grid step (20 deg) away
+    far = names[(-60, -40, -20, 30)] if (-60, -40, -20, 30) in names else None
+    before = {k: e.estimate(k) for k in e.ratios}
+    assert before[here] == pytest.approx(e.ratios[here])   # the prediction until measured
+    e.update(here, 2.0 * e.ratios[here])                   # twice what the model said
+    assert e.estimate(here) == pytest.approx(2.0 * e.ratios[here])
+    # The robot-wide scale is 2 and the neighbour's own evidence too: both say x2.
+    assert e.estimate(near) == pytest.approx(2.0 * e.ratios[near])
+    e.update(names[(-60, -20, -40, -20)], 1.0 * e.ratios[names[(-60, -20, -40, -20)]])
+    # Two measurements (x2 here, x1 at (-60,-20)->(-40,-20)): a gait next to the x2 one leans
+    # to 2, and the weights follow exp(-d^2 / (2 (20 deg)^2)) written out here.
+    w_here = math.exp(-0.5 * (r(20) / r(20)) ** 2)         # near is 20 deg from here
+    w_other = math.exp(-0.5 * (r(20) / r(20)) ** 2)        # and 20 deg from the other
+    scale = (2.0 + 1.0) / 2
+    want = (1.0 * scale + w_here * 2.0 + w_other * 1.0) / (1.0 + w_here + w_other)
+    assert e.estimate(near) / e.ratios[near] == pytest.approx(want)
+    if far is not None:
+        assert e.source(far) == 'predicted x measured ratio nearby'
+    assert e.source(here) == 'measured'

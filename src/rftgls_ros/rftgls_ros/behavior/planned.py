@@ -29,6 +29,7 @@ from rftgls_core.planning.gait_map import GaitMap, load, shipped_paths
 from rftgls_core.planning.planner import plan_from_map
 from rftgls_core.predictor import Predictor
 
+from .gait_energy import GaitEnergyModel
 from .model import AnchorMode, Candidate, Decision, EnergyModel, ModeChooser
 
 SLED_MATCH_KG = 0.005   # a gait map answers for a sled within 5 g of its own (weighed to grams)
@@ -107,13 +108,6 @@ def p_hold(answer: GaitAnswer, required: float, scale: float = 1.0) -> float:
     return min(ps)
 
 
-def energy_source(energy: EnergyModel, name: str) -> str:
-    """Where a gait's energy estimate comes from, in words."""
-    if name in energy.measured:
-        return 'measured'
-    return 'predicted x measured scale' if energy.measured else 'predicted'
-
-
 class GaitChooser(ModeChooser):
     """A ModeChooser whose candidates are the gait map's gaits (module doc). ``modes`` holds
     the gaits chosen so far as AnchorModes (name -> predicted pose and band), so the machine's
@@ -134,12 +128,13 @@ class GaitChooser(ModeChooser):
                 f"{[round(math.degrees(q), 1) for q in gait_map.phis]} deg, not "
                 f"{[round(math.degrees(p), 1) for p in missing]} (phis_rad)")
 
-    def energy_model(self, prior: EnergyModel) -> EnergyModel:
-        """An energy model over the gaits: each gait's predicted electrical energy (J) is its
-        prior, scaled by what the robot has measured (EnergyModel's rule)."""
-        ratios = {gait_name(a): float(a.energy_elec_J) for a in self._answers()
-                  if a.candidate and a.energy_elec_J is not None}
-        return EnergyModel(prior_sh=1.0, alpha=prior.alpha, ratios=ratios)
+    def energy_model(self, prior: EnergyModel) -> GaitEnergyModel:
+        """An energy model over the gaits (gait_energy.py): each gait's predicted electrical
+        energy (J) is its prior, corrected by the burrows measured at it and near it."""
+        cands = [a for a in self._answers() if a.candidate and a.energy_elec_J is not None]
+        return GaitEnergyModel(prior_sh=1.0, alpha=prior.alpha,
+                               ratios={gait_name(a): float(a.energy_elec_J) for a in cands},
+                               gaits={gait_name(a): a.gait.as_array()[:4] for a in cands})
 
     def _answers(self) -> list[GaitAnswer]:
         return plan_from_map(self.gait_map, self.phis, 0.0, self.confidence).answers
@@ -192,7 +187,7 @@ class GaitChooser(ModeChooser):
             pick.mode, gait.retract, gait.final, float(answer.pose[0]),
             float(answer.pose[1]), 1.0, gait.h_sigma)
         reason = (f'{pick.mode}: cheapest sufficient planned gait ({pick.energy_j:.2f} J, '
-                  f'{energy_source(energy, pick.mode)}'
+                  f'{energy.source(pick.mode)}'
                   f'); lower bound {pick.weakest:.2f} N >= {self.safety_factor:.2f} x '
                   f'{need:.2f} N at {self.confidence:.0%}, holds with p {gait.p_hold:.3f}; '
                   f'predicted h {1e3 * answer.pose[0]:.1f} +- '
