@@ -161,3 +161,14 @@ def test_a_measured_burrow_updates_its_gait_and_its_neighbours_more_than_far_gai
     if far is not None:
         assert e.source(far) == 'predicted x measured ratio nearby'
     assert e.source(here) == 'measured'
+
+
+def test_a_live_lower_bound_below_the_need_is_kept_for_later_plans(predictor):
+    ch = GaitChooser(predictor, sled_map('minirquad', 0.6), 1.0, PHIS, 0.95)
+    energy = ch.energy_model(EnergyModel())
+    first = ch.choose(2.94, energy)
+    ch.observe(first.mode, 2.83)            # capacity_node at the measured pose: short
+    again = ch.choose(2.94, energy)
+    assert again.mode not in (None, first.mode)
+    assert ch.choose(2.5, energy).mode == first.mode    # still good for a need it covers
+    assert 'DL' not in ch.modes and len(ch.modes) == 2  # its own table, not Table II's

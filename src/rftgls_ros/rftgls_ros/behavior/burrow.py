@@ -156,6 +156,7 @@ class Burrow:
                 m.retry.abort(v, in_tug=False)
             return
         cap = m.decision_capacity()
+        m.chooser.observe(m.mode, m.obs.capacity_lower)
         required = m.cfg.safety_factor * m.need.value
         if cap < required:
             m.event('decision', f'capacity_node: {m.mode} holds {cap:.2f} N (lower bound) < '

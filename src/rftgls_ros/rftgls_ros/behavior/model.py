@@ -226,6 +226,10 @@ class ModeChooser:
         self.pull = Pull(pull)
         self.scale = 1.0
 
+    def observe(self, mode: str, lower: float) -> None:
+        """capacity_node's live lower bound (N) for `mode` at the measured pose, seen at
+        CHECK. The Table II modes are judged at the measured pose each time: nothing kept."""
+
     def capacity(self, state: AnchorState, phi: float) -> Prediction:
         """(capacity N along d(phi) or None without a value, status) of the predictor."""
         r = self.predictor.predict(state, phi, self.pull)

@@ -117,10 +117,13 @@ class GaitChooser(ModeChooser):
     def __init__(self, predictor: Predictor, gait_map: GaitMap, safety_factor: float = 1.0,
                  phis: Sequence[float] = (0.0, math.radians(-20.0)), confidence: float = 0.95,
                  pull: str = 'backward'):
-        super().__init__(predictor, safety_factor, phis, modes={}, pull=pull)
+        super().__init__(predictor, safety_factor, phis, pull=pull)
+        self.modes = {}     # its own: the gaits chosen (never the Table II table)
         self.gait_map = gait_map
         self.confidence = confidence
         self.gaits: dict[str, PlannedGait] = {}
+        # The smallest live lower bound (N, unscaled) capacity_node gave each gait burrowed.
+        self.observed: dict[str, float] = {}
         missing = [p for p in self.phis if not any(abs(p - q) < 1e-9 for q in gait_map.phis)]
         if missing:
             raise PlanUnavailable(
@@ -135,6 +138,13 @@ class GaitChooser(ModeChooser):
         return GaitEnergyModel(prior_sh=1.0, alpha=prior.alpha,
                                ratios={gait_name(a): float(a.energy_elec_J) for a in cands},
                                gaits={gait_name(a): a.gait.as_array()[:4] for a in cands})
+
+    def observe(self, mode: str, lower: float) -> None:
+        """Keep capacity_node's live lower bound for a burrowed gait (N): a later plan counts
+        on the smaller of it and the planner's, so a gait the live bound found short is not
+        chosen again for a need it does not cover."""
+        if math.isfinite(lower):
+            self.observed[mode] = min(lower, self.observed.get(mode, math.inf))
 
     def _answers(self) -> list[GaitAnswer]:
         return plan_from_map(self.gait_map, self.phis, 0.0, self.confidence).answers
@@ -154,8 +164,9 @@ class GaitChooser(ModeChooser):
             if not a.candidate:
                 continue
             name = gait_name(a)
-            lower = (a.lower_bound_N or 0.0) * self.scale
-            caps = tuple(lo * self.scale for _, _, lo in a.per_phi)
+            seen = self.observed.get(name, math.inf)
+            lower = min(a.lower_bound_N or 0.0, seen) * self.scale
+            caps = tuple(min(lo, seen) * self.scale for _, _, lo in a.per_phi)
             e = energy.estimate(name) if name in energy.ratios else float(a.energy_elec_J or 0)
             ok, why = lower >= required, (f'lower bound {lower:.2f} N '
                                           f'{">=" if lower >= required else "<"} '
