@@ -15,8 +15,8 @@ same inputs give the same arrays on 1 worker, N local workers or a Dask cluster.
 build_time_utc attribute differs between builds.
 
 Executors: workers == 1 runs in this process; workers > 1 uses this process and workers - 1
-'spawn' processes (no fork of a parent that may hold threads: tqdm's monitor, Dask, ROS),
-`local_workers`; `scheduler` sends the same chunks to a Dask distributed scheduler at that
+processes forked from a clean fork server (`worker_context`; never a fork of this process,
+which may hold threads: tqdm's monitor, Dask, ROS), `local_workers`; `scheduler` sends the same chunks to a Dask distributed scheduler at that
 address.
 """
 from __future__ import annotations
@@ -199,8 +199,8 @@ def _run_inline(spec, grid, chunks, fn=solve_chunk) -> Iterator:
 
 
 class LocalWorkers:
-    """`workers` workers for every pass of one build: this process and workers - 1 'spawn'
-    processes started once. A process's start (imports, cached kernels) costs ~1.5 s of CPU
+    """`workers` workers for every pass of one build: this process and workers - 1 worker
+    processes (`worker_context`) started once. A process's start (imports, cached kernels) costs ~1.5 s of CPU
     and 3-10 s of wall time on a busy machine, so the process that has them already works
     too (its kernels on one thread meanwhile, as the others' are), and when it runs out of
     chunks it also takes the ones still queued at a process that has not finished them (the
@@ -237,12 +237,33 @@ class LocalWorkers:
                 fut.cancel()
 
 
+# Modules a worker process imports before its first task (maps/build.py's worker functions,
+# the described and gait map builds'): ~0.9 s of CPU per process, paid once per session in the
+# fork server (below) instead of once per process.
+WORKER_MODULES = ['rftgls_core.maps.build', 'rftgls_core.maps.described_build',
+                  'rftgls_core.planning.gait_map']
+
+
+def worker_context() -> multiprocessing.context.BaseContext:
+    """The start method of local worker processes: 'forkserver' where there is one (Linux,
+    macOS), else 'spawn'. The fork server is a fresh single-threaded process started from
+    scratch like a spawned one (so nothing of this process's threads is forked) that imports
+    WORKER_MODULES once; each worker is then a fork of it and starts with them imported. The
+    server lives as long as this process, so a session's later pools (the bench's second
+    build, a gait map after a capacity map) start their workers in milliseconds."""
+    if 'forkserver' not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context('spawn')
+    ctx = multiprocessing.get_context('forkserver')
+    # read when the server starts (this process's first forkserver pool); later calls no-ops
+    ctx.set_forkserver_preload(WORKER_MODULES)
+    return ctx
+
+
 @contextmanager
 def local_workers(workers: int) -> Iterator[LocalWorkers]:
     """LocalWorkers for a build on `workers` >= 2 workers (on leaving, chunks not started are
     cancelled and a chunk still running elsewhere is not waited for)."""
-    ctx = multiprocessing.get_context('spawn')
-    pool = ProcessPoolExecutor(max_workers=workers - 1, mp_context=ctx)
+    pool = ProcessPoolExecutor(max_workers=workers - 1, mp_context=worker_context())
     try:
         with _one_thread():
             yield LocalWorkers(pool, workers - 1)
