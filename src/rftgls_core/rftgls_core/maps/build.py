@@ -14,9 +14,10 @@ Determinism: chunks are fixed by the grid and chunk size, results are placed by 
 same inputs give the same arrays on 1 worker, N local workers or a Dask cluster. Only the
 build_time_utc attribute differs between builds.
 
-Executors: workers == 1 runs in this process; workers > 1 uses this process and workers - 1
-processes forked from a clean fork server (`worker_context`; never a fork of this process,
-which may hold threads: tqdm's monitor, Dask, ROS), `local_workers`; `scheduler` sends the same chunks to a Dask distributed scheduler at that
+Executors: workers == 1 runs in this process, its kernels on one thread; workers > 1 uses
+this process and workers - 1 processes forked from a clean fork server (`worker_context`;
+never a fork of this process, which may hold threads: tqdm's monitor, Dask, ROS),
+`local_workers`; `scheduler` sends the same chunks to a Dask distributed scheduler at that
 address.
 """
 from __future__ import annotations
@@ -200,8 +201,10 @@ def _run_inline(spec, grid, chunks, fn=solve_chunk) -> Iterator:
 
 class LocalWorkers:
     """`workers` workers for every pass of one build: this process and workers - 1 worker
-    processes (`worker_context`) started once. A process's start (imports, cached kernels) costs ~1.5 s of CPU
-    and 3-10 s of wall time on a busy machine, so the process that has them already works
+    processes (`worker_context`) started once. A process's start (loading the cached kernels,
+    building its predictor) costs ~0.3 s of CPU (~1.3 s with its imports, paid once per session
+    in the fork server) and more wall time on a busy machine, so the process that has them
+    already works
     too (its kernels on one thread meanwhile, as the others' are), and when it runs out of
     chunks it also takes the ones still queued at a process that has not finished them (the
     same numbers, whoever computes them first): a pass never waits for a slow start."""
@@ -265,16 +268,18 @@ def local_workers(workers: int) -> Iterator[LocalWorkers]:
     cancelled and a chunk still running elsewhere is not waited for)."""
     pool = ProcessPoolExecutor(max_workers=workers - 1, mp_context=worker_context())
     try:
-        with _one_thread():
+        with one_thread():
             yield LocalWorkers(pool, workers - 1)
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
 
 
 @contextmanager
-def _one_thread() -> Iterator[None]:
-    """The RFT kernels of this thread on one thread inside the block (the other workers take
-    the other cores)."""
+def one_thread() -> Iterator[None]:
+    """The RFT kernels of this thread on one thread inside the block: a worker of a build is
+    one core, whether the others are processes (they take the other cores) or there are none
+    (`workers=1`: otherwise its large kernel calls, about half of a prototype build's CPU, would
+    run on every core, and one worker would not be one)."""
     from ..rft import kernels
     before = kernels.threads()
     if kernels.AVAILABLE:
@@ -428,6 +433,8 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
     with ExitStack() as stack:
         local = (stack.enter_context(local_workers(min(workers, grid.n_states)))
                  if workers > 1 and not scheduler else None)
+        if local is None and not scheduler:
+            stack.enter_context(one_thread())   # one worker is one core, as in a pool
 
         def run(chunks, fn=solve_chunk) -> Iterator:
             if scheduler:
