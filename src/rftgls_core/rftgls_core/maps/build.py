@@ -6,8 +6,8 @@ finish together). For each state, each pull orientation is fitted once and queri
 stored pull angle, and the node's support margin is taken on the fit's own wrenches, so a
 node costs P surface fits. Each worker process (or Dask worker thread) builds its RobotPredictor
 once and keeps it (`_predictor` cache), because the twist sphere and the numba kernels are
-the expensive part to set up; the local pool is started once for both passes of a build
-(a worker's start, imports and cached kernels, costs ~1.5 s of CPU).
+the expensive part to set up; the local pool is started once for both passes of a build,
+its workers forked from a server that has the imports and kernels loaded (`worker_context`).
 
 Determinism: chunks are fixed by the grid and chunk size, results are placed by state index
 (never by completion order), the RFT kernels are serial, and nothing random is drawn, so the
@@ -201,10 +201,9 @@ def _run_inline(spec, grid, chunks, fn=solve_chunk) -> Iterator:
 
 class LocalWorkers:
     """`workers` workers for every pass of one build: this process and workers - 1 worker
-    processes (`worker_context`) started once. A process's start (loading the cached kernels,
-    building its predictor) costs ~0.3 s of CPU (~1.3 s with its imports, paid once per session
-    in the fork server) and more wall time on a busy machine, so the process that has them
-    already works
+    processes (`worker_context`) started once. A worker's start costs little once the fork
+    server runs (~1.2 s of CPU for the server's imports and kernels, once per session; more
+    wall time on a busy machine), and the process that has them already works
     too (its kernels on one thread meanwhile, as the others' are), and when it runs out of
     chunks it also takes the ones still queued at a process that has not finished them (the
     same numbers, whoever computes them first): a pass never waits for a slow start."""
@@ -241,10 +240,10 @@ class LocalWorkers:
 
 
 # Modules a worker process imports before its first task (maps/build.py's worker functions,
-# the described and gait map builds'): ~0.9 s of CPU per process, paid once per session in the
-# fork server (below) instead of once per process.
+# the described and gait map builds', and worker_preload, which loads the compiled kernels):
+# ~0.9 s + ~0.2 s of CPU per process, paid once per session in the fork server (below).
 WORKER_MODULES = ['rftgls_core.maps.build', 'rftgls_core.maps.described_build',
-                  'rftgls_core.planning.gait_map']
+                  'rftgls_core.planning.gait_map', 'rftgls_core.maps.worker_preload']
 
 
 def worker_context() -> multiprocessing.context.BaseContext:
