@@ -19,11 +19,11 @@ from rftgls_ros.behavior import (
     ModeChooser,
     Observation,
     State,
-    TetherTracker,
     write_report,
 )
 from rftgls_ros.behavior.report import read_csv
 from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
+from rftgls_ros.tether import TetherTracker
 
 G = 9.81
 

@@ -91,6 +91,6 @@ def mode_pose(mode: str, sled_kg: float, robot: str = 'minirquad',
         raise ValueError(f'the gait map has no mode {mode!r} (it has '
                          f'{", ".join(n for n in names if n)})')
     k = names.index(mode)
-    runs = gait_map.runs(gait_map.phis[:1])[k]
+    runs = gait_map.runs([float(gait_map.phis[0])])[k]
     return burrowed_pose(answer(gaits[k], runs, _LEVEL),
                          f'burrow simulation of {mode}, sled {1e3 * sled_kg:.0f} g ({where})')
