@@ -9,8 +9,8 @@ What is checked, on the screen and on the robot's own topics:
   pitch lies inside the modelled band, and the winch reels in 50 mm of rope (spool encoder)
   below the 80 % guard, running only while the estimate is usable;
 - burrowed DH, the measured pitch (the simulator's Table II 5 deg) lies far outside the
-  modelled DH pitch (the burrow simulation vaults DH nose-down): flagged on the screen, and
-  reeling in is refused;
+  modelled DH pitch (the burrow simulation vaults DH nose-down): flagged on the screen and in
+  teleop's log, and reeling in is refused;
 - restarted with the documented stricter guard (`-p limit_fraction:=0.5`, the rope now paid
   out as `rope_length_m`) and burrowed SH again, `i` is refused by the guard on the lower
   bound (the 400 g sled slides at ~60 % of SH's modelled lower bound: the simulated sand
@@ -281,6 +281,8 @@ def test_documented_teleop_path_tugs_guards_and_stops(tmp_path, ros_context):
         term.press('1')
         assert robot.burrowed('DH'), (robot.legs, term.screen())
         term.wait_for(r'PITCH CHECK FAILED: burrow DH not as modelled', 20, robot.spin)
+        with term.lock:                    # and in teleop's log (same terminal)
+            assert re.search(r'\[WARN\].*\[teleop\]: burrow DH not as modelled', term.raw)
         term.press('i')
         term.wait_for(r'refusing to pull harder', 5, robot.spin)
         term.press('q')
