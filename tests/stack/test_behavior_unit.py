@@ -19,11 +19,11 @@ from rftgls_ros.behavior import (
     ModeChooser,
     Observation,
     State,
-    TetherTracker,
     write_report,
 )
 from rftgls_ros.behavior.report import read_csv
 from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
+from rftgls_ros.tether import TetherTracker
 
 G = 9.81
 
@@ -368,14 +368,11 @@ def test_burrow_modes_table_ii_runs_and_planned_is_refused_in_one_line():
 
 @pytest.mark.parametrize('status, lower, usable, reason', [
     ('ok', 2.0, True, 'ok'),
-    ('modelled', 2.0, True, 'ok'),                    # its band is inside the lower bound
-    ('modelled', math.inf, False, 'lower_bound_missing'),   # never on the point estimate
-    ('modelled', float('nan'), False, 'lower_bound_missing'),
-    ('ok', float('nan'), False, 'lower_bound_missing'),
+    ('ok', float('nan'), False, 'lower_bound_missing'),     # never on the point estimate
+    ('ok', None, False, 'lower_bound_missing'),
     ('assumed', 2.0, False, 'assumed_not_accepted'),
 ])
-def test_evidence_needs_a_lower_bound_and_takes_a_modelled_input(status, lower, usable,
-                                                                 reason):
+def test_evidence_needs_a_lower_bound(status, lower, usable, reason):
     from rftgls_ros.behavior import evidence
     v = evidence.judge(1.0, 2.5, status, 1.0, 0.05, frozenset({'height'}), frozenset(),
                        lower)

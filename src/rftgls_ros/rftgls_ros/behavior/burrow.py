@@ -6,8 +6,8 @@ pose for every tether angle of ``phis_rad``, the cheapest sufficient mode in ene
 check uses the measured leg angles and pitch, and h from Table II (MiniRQuad does not measure
 it); the tug then starts only on capacity_node's live evidence (``machine.evidence``), its
 lower bound against the need. A re-check at a pose within the slip thresholds of the anchor's
-last sufficient check keeps that check (``_still_passed``). At most ``max_burrows_per_cycle`` burrows per cycle. Units: m,
-rad, N, J, s.
+last sufficient check keeps that check (``_still_passed``). At most ``max_burrows_per_cycle``
+burrows per cycle. Units: m, rad, N, J, s.
 """
 from __future__ import annotations
 
