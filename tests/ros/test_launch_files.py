@@ -91,7 +91,10 @@ def test_an_integer_sled_mass_arrives_as_a_float(tmp_path):
     behavior = launch_check.parse(path, {'sled_mass_kg': '1'}).nodes[-1]
     value = behavior.parameters[1]['sled_mass_kg']
     assert value == 1.0 and isinstance(value, float)
-    assert launch_check.check(path, {'sled_mass_kg': '1', 'port': str(tmp_path / 'tty')}) == []
+    # The float arrives; a 1 kg sled has no gait map, so the planned burrows (the default)
+    # refuse it at start, in their own words, and nothing else is wrong.
+    problems = launch_check.check(path, {'sled_mass_kg': '1', 'port': str(tmp_path / 'tty')})
+    assert all("no gait map for a 1000 g sled" in p for p in problems), problems
     # Without the conversion the node refuses it, and the checker says so.
     bare = tmp_path / 'bare.launch.py'
     bare.write_text(textwrap.dedent('''

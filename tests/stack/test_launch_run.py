@@ -111,7 +111,8 @@ def test_launch_file_runs_and_stops_like_ros2_launch(name, tmp_path, ros_context
     probe = Probe(ros_context)
     log = tmp_path / 'commands.jsonl'
     args = {'bringup.launch.py': {'port': str(tmp_path / 'no_such_tty')},
-            'sim.launch.py': {'port': str(tmp_path / 'tty'), 'sled_mass_kg': '1'},
+            # a sled with a gait map: behavior_node's planned burrows refuse one without
+            'sim.launch.py': {'port': str(tmp_path / 'tty'), 'sled_mass_kg': '0.6'},
             'replay.launch.py': {'bag': str(SAMPLE_BAG)},
             'teleop.launch.py': {'port': str(tmp_path / 'tty'), 'sled_mass_kg': '1'}}[name]
 
