@@ -225,6 +225,8 @@ class Burrow:
             self.passed = PassedCheck(m.mode, state, m.need.value, m.chooser.scale, c.why)
             self._do_check()
             return
+        if c.weakest is not None and m.chooser.scale > 0.0:   # kept for later plans
+            m.chooser.observe(m.mode, c.weakest / m.chooser.scale)
         self.reselect(f'{m.mode} insufficient at the measured pose', c.weakest)
 
     def _check_missing_evidence(self) -> None:

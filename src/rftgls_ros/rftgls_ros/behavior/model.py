@@ -227,8 +227,9 @@ class ModeChooser:
         self.scale = 1.0
 
     def observe(self, mode: str, lower: float) -> None:
-        """capacity_node's live lower bound (N) for `mode` at the measured pose, seen at
-        CHECK. The Table II modes are judged at the measured pose each time: nothing kept."""
+        """A lower bound (N, unscaled) for `mode` at its measured pose, seen at CHECK (the
+        pose check's or capacity_node's live one). The Table II modes are judged at the
+        measured pose each time: nothing kept."""
 
     def capacity(self, state: AnchorState, phi: float) -> Prediction:
         """(capacity N along d(phi) or None without a value, status) of the predictor."""

@@ -140,9 +140,9 @@ class GaitChooser(ModeChooser):
                                gaits={gait_name(a): a.gait.as_array()[:4] for a in cands})
 
     def observe(self, mode: str, lower: float) -> None:
-        """Keep capacity_node's live lower bound for a burrowed gait (N): a later plan counts
-        on the smaller of it and the planner's, so a gait the live bound found short is not
-        chosen again for a need it does not cover."""
+        """Keep a lower bound seen for a burrowed gait at its measured pose (N: the pose
+        check's or capacity_node's live one): a later plan counts on the smaller of it and the
+        planner's, so a gait found short is not chosen again for a need it does not cover."""
         if math.isfinite(lower):
             self.observed[mode] = min(lower, self.observed.get(mode, math.inf))
 
