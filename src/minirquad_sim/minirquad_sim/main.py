@@ -84,6 +84,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help='multiplies the true medium stress scale (0.7 = 30%% weaker sand)')
     t.add_argument('--true-mass-scale', type=float, default=1.0,
                    help='multiplies the true robot mass seen by the live ground')
+    t.add_argument('--ground-fit', choices=('background', 'inline'), default='background',
+                   help='background: the live ground fits a new pose in a thread of its own '
+                        'and answers from the nearest fitted pose meanwhile, so the MCU loop '
+                        'keeps its period (default); inline: the MCU loop waits for the fit')
     g = p.add_argument_group('fault injection')
     g.add_argument('--garbage-rate', type=float, default=0.0)
     g.add_argument('--drop-rate', type=float, default=0.0)
@@ -155,6 +159,10 @@ def run(args: argparse.Namespace) -> int:
         print(f'minirquad_sim: error: true ground: {exc}', file=sys.stderr)
         return 2
     stop = stop_on_signals()
+    # The ground's fitter thread (--ground-fit background) holds the GIL between its numpy
+    # calls; a 1 ms switch interval (Python's default: 5 ms) hands it back to a woken MCU loop
+    # sooner.
+    sys.setswitchinterval(1e-3)
 
     faults = FaultInjector(FaultConfig(
         garbage_rate=args.garbage_rate, drop_rate=args.drop_rate,
@@ -318,7 +326,7 @@ def _ground(args: argparse.Namespace):
         return make_ground(args.ground)
     ground = make_ground('live', robot=args.true_robot, medium=args.true_medium,
                          medium_scale=args.true_medium_scale, mass_scale=args.true_mass_scale,
-                         anchor=args.anchor)
+                         anchor=args.anchor, background=args.ground_fit == 'background')
     ground.warm_up()   # compile and cache before the link opens: no stall mid-run
     return ground
 

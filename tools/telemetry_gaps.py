@@ -1,0 +1,54 @@
+"""Gaps between the simulated MCU's telemetry frames, from its record.
+
+    minirquad_sim --record out/tel.jsonl ...        # or behavior_demo --sim-arg=--record=...
+    python tools/telemetry_gaps.py out/tel.jsonl
+
+A real MCU sends a frame every 10 ms (100 Hz) whatever the ground does; a gap longer than a
+few periods is the simulator's loop standing still. Prints the gap percentiles (ms, host
+wall time between consecutive frames) over the whole record, while the winch was loaded
+(tension above 0.3 N) and while the anchor slipped (the frame's ANCHOR_SLIPPING flag, and
+the second after each slipping frame), and the number of gaps of 50 ms or more.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import numpy as np
+
+from minirquad_driver.protocol.messages import Flag
+
+PCTS = (50, 99, 100)
+
+
+def gaps(path: str) -> dict:
+    rows = [json.loads(x) for x in open(path) if x.strip()]
+    t = np.array([r['host_s'] for r in rows])
+    gap = np.diff(t)
+    loaded = np.array([r['tension'] > 300 for r in rows])[:-1]      # mN
+    slip_t = t[np.array([bool(r['flags'] & int(Flag.ANCHOR_SLIPPING)) for r in rows])]
+    near_slip = np.zeros(len(gap), dtype=bool)
+    for s in slip_t:
+        near_slip |= (t[:-1] >= s) & (t[:-1] <= s + 1.0)
+
+    def stats(v: np.ndarray) -> dict:
+        if len(v) == 0:
+            return {'frames': 0}
+        return {'frames': int(len(v)),
+                **{f'p{p}_ms': round(1e3 * float(np.percentile(v, p)), 1) for p in PCTS},
+                'gaps_ge_50ms': int(np.sum(v >= 0.05))}
+    return {'all': stats(gap), 'loaded': stats(gap[loaded]), 'slipping': stats(gap[near_slip]),
+            'slipping_frames': int(len(slip_t))}
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog='telemetry_gaps', description=__doc__.split('\n\n')[0])
+    p.add_argument('record', help="minirquad_sim --record file (JSON lines)")
+    args = p.parse_args(argv)
+    print(json.dumps(gaps(args.record), indent=1))
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
