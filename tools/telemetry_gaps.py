@@ -5,9 +5,10 @@
 
 A real MCU sends a frame every 10 ms (100 Hz) whatever the ground does; a gap longer than a
 few periods is the simulator's loop standing still. Prints the gap percentiles (ms, host
-wall time between consecutive frames) over the whole record, while the winch was loaded
-(tension above 0.3 N) and while the anchor slipped (the frame's ANCHOR_SLIPPING flag, and
-the second after each slipping frame), and the number of gaps of 50 ms or more.
+wall time between consecutive frames) once the host is linked (not in WATCHDOG mode) and while
+the anchored robot is loaded (ANCHORED, tension above 0.3 N: the tug, a slip and the stop,
+when the ground solver is asked about new poses), the number of gaps of 50 ms or more, and
+how many frames carried the ANCHOR_SLIPPING flag.
 """
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ import sys
 
 import numpy as np
 
-from minirquad_driver.protocol.messages import Flag
+from minirquad_driver.protocol.messages import Flag, Mode
 
 PCTS = (50, 99, 100)
 
@@ -26,11 +27,13 @@ def gaps(path: str) -> dict:
     rows = [json.loads(x) for x in open(path) if x.strip()]
     t = np.array([r['host_s'] for r in rows])
     gap = np.diff(t)
-    loaded = np.array([r['tension'] > 300 for r in rows])[:-1]      # mN
+    first = rows[:-1]
+    # The anchored robot under load (a tug, a slip, the stop after it): what the ground solver
+    # is asked about; frames before the host connected (WATCHDOG mode) are left out of 'all'.
+    linked = np.array([r['mode'] != int(Mode.WATCHDOG) for r in first])
+    anchored = np.array([r['mode'] == int(Mode.ANCHORED) and r['tension'] > 300   # mN
+                         for r in first])
     slip_t = t[np.array([bool(r['flags'] & int(Flag.ANCHOR_SLIPPING)) for r in rows])]
-    near_slip = np.zeros(len(gap), dtype=bool)
-    for s in slip_t:
-        near_slip |= (t[:-1] >= s) & (t[:-1] <= s + 1.0)
 
     def stats(v: np.ndarray) -> dict:
         if len(v) == 0:
@@ -38,7 +41,7 @@ def gaps(path: str) -> dict:
         return {'frames': int(len(v)),
                 **{f'p{p}_ms': round(1e3 * float(np.percentile(v, p)), 1) for p in PCTS},
                 'gaps_ge_50ms': int(np.sum(v >= 0.05))}
-    return {'all': stats(gap), 'loaded': stats(gap[loaded]), 'slipping': stats(gap[near_slip]),
+    return {'linked': stats(gap[linked]), 'anchored_loaded': stats(gap[anchored]),
             'slipping_frames': int(len(slip_t))}
 
 

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import threading
 from collections import OrderedDict
 
 from rftgls_conventions import G
@@ -140,13 +139,6 @@ class LiveGround:
     says 'degenerate' at some states that do hold). h_step (m) and angle_step (rad): the
     state grid the answers are cached on; each grid state is fitted once and every pull
     angle (phi_step grid) is asked of that fit, so a quasi-static tug costs one fit.
-
-    background: fit new states in a thread of their own instead of in the caller's (the
-    simulated MCU loop). A state not fitted yet is then answered at once from the nearest
-    fitted state (max-norm distance on the quantised grid) while its own fit runs, so the
-    ground lags the pose by one fit (5-200 ms) and the MCU loop keeps its period whatever the
-    ground does (docs/design/tug-safety.md, "The simulated MCU keeps its period"). Only the
-    newest state asked for is queued: a slipping anchor passes states faster than they fit.
     """
 
     def __init__(self, robot: str = 'minirquad', medium: str = 'm90_sand',
@@ -154,7 +146,7 @@ class LiveGround:
                  fallback_method: str | None = 'twist-mesh',
                  h_step: float = 1e-3, angle_step: float = math.radians(1.0),
                  phi_step: float = math.radians(1.0), cache_size: int = 512,
-                 anchor: str = '', background: bool = False):
+                 anchor: str = ''):
         from rftgls_core.rft.media import load_medium
         if not (math.isfinite(medium_scale) and medium_scale > 0.0):
             raise ValueError(f'medium_scale must be a positive number, got {medium_scale}')
@@ -176,13 +168,6 @@ class LiveGround:
         self._fits: OrderedDict = OrderedDict()      # (state key, pull) -> [(surface, failure)]
         self._answers: dict = {}                      # (state key, pull, phi key) -> answer
         self.fits = 0                                 # count of states fitted (for tests)
-        self.stand_ins = 0        # answers given from a neighbour while a fit ran (for tests)
-        self._lock = threading.Lock()                 # the caches, between caller and fitter
-        self._wanted = threading.Condition(self._lock)
-        self._next: tuple | None = None               # (state key, pull) the fitter does next
-        self.background = background
-        if background:
-            threading.Thread(target=self._fitter, name='ground-fitter', daemon=True).start()
 
     def describe(self) -> str:
         first = self.predictors[0]
@@ -195,9 +180,7 @@ class LiveGround:
         """Answer each Table II final pose once (JIT compilation, twist-sphere build, and the
         poses a tug starts from), so the first tug does not stall a real-time loop."""
         for seq in TABLE_II.values():
-            state = AnchorState(seq.h, seq.theta_b, *seq.final)
-            self._fit(self._key(state), Pull(pull).value)   # here, never a stand-in
-            self.predict(state, 0.0, pull)
+            self.predict(AnchorState(seq.h, seq.theta_b, *seq.final), 0.0, pull)
 
     def _key(self, state: AnchorState) -> tuple[int, int, int, int]:
         h, a, _ = self.steps
@@ -205,59 +188,29 @@ class LiveGround:
                 round(state.theta_l2 / a))
 
     def _fit(self, key, pull: str):
-        """The fits of a grid state, fitted now in the calling thread if not cached."""
-        with self._lock:
-            fits = self._fits.get((key, pull))
-            if fits is not None:
-                self._fits.move_to_end((key, pull))
-                return fits
-        fits = self._fit_state(key, pull)
-        self._store(key, pull, fits)
-        return fits
-
-    def _fit_state(self, key, pull: str) -> list:
+        fits = self._fits.get((key, pull))
+        if fits is not None:
+            self._fits.move_to_end((key, pull))
+            return fits
         h, a, _ = self.steps
         state = AnchorState(key[0] * h, key[1] * a, key[2] * a, key[3] * a)
-        return [p.fit(state, pull) for p in self.predictors]
+        fits = [p.fit(state, pull) for p in self.predictors]
+        self.fits += 1
+        self._fits[(key, pull)] = fits
+        if len(self._fits) > self.cache_size:
+            old, _ = self._fits.popitem(last=False)
+            self._answers = {k: v for k, v in self._answers.items() if k[:2] != old}
+        return fits
 
-    def _store(self, key, pull: str, fits: list) -> None:
-        with self._lock:
-            self.fits += 1
-            self._fits[(key, pull)] = fits
-            if len(self._fits) > self.cache_size:
-                old, _ = self._fits.popitem(last=False)
-                self._answers = {k: v for k, v in self._answers.items() if k[:2] != old}
+    def answer_key(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD
+                   ) -> tuple:
+        """The grid cell an answer is cached under: (state key, pull, phi key)."""
+        return (self._key(state), Pull(pull).value, round(phi / self.steps[2]))
 
-    def _fitter(self) -> None:
-        """Background thread: fit the newest state asked for, forever (a daemon)."""
-        while True:
-            with self._wanted:
-                while self._next is None:
-                    self._wanted.wait()
-                key, pull = self._next
-                self._next = None
-                if (key, pull) in self._fits:
-                    continue
-            self._store(key, pull, self._fit_state(key, pull))
-
-    def _stand_in(self, key, pull: str):
-        """Queue ``key`` for the fitter; return the nearest fitted state's (key, fits), or
-        None when none of this pull is fitted (the caller then fits in its own thread)."""
-        with self._wanted:
-            fits = self._fits.get((key, pull))
-            if fits is not None:
-                return key, fits
-            self._next = (key, pull)
-            self._wanted.notify()
-            best, dist = None, math.inf
-            for (k, p), f in self._fits.items():
-                if p == pull:
-                    d = max(abs(x - y) for x, y in zip(k, key))
-                    if d < dist:
-                        best, dist = (k, f), d
-            if best is not None:
-                self.stand_ins += 1
-            return best
+    def cached(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD
+               ) -> CapacityResult | None:
+        """The answer for this grid cell if it was computed already, else None (no solve)."""
+        return self._answers.get(self.answer_key(state, phi, pull))
 
     def predict(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD
                 ) -> CapacityResult:
@@ -270,26 +223,16 @@ class LiveGround:
         hit = self._answers.get((key, pull, pk))
         if hit is not None:
             return hit
-        near = self._stand_in(key, pull) if self.background else None
-        if near is not None:
-            key, fits = near
-            hit = self._answers.get((key, pull, pk))
-            if hit is not None:
-                return hit
-        else:
-            fits = self._fit(key, pull)
         phi_q = pk * self.steps[2]
         answer = None
-        for surface, failure in fits:
+        for surface, failure in self._fit(key, pull):
             res = surface.capacity_many([phi_q])[0] if surface is not None else failure
             answer = res
             if res.status.has_value and res.capacity_N is not None \
                     and res.slip_twist is not None:
                 break
         assert answer is not None
-        with self._lock:
-            if (key, pull) in self._fits:     # not evicted meanwhile by the fitter
-                self._answers[(key, pull, pk)] = answer
+        self._answers[(key, pull, pk)] = answer
         return answer
 
 
