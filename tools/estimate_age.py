@@ -29,10 +29,10 @@ from geometry_msgs.msg import WrenchStamped
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
-from rftgls_interfaces.msg import AnchorEstimate
 from std_msgs.msg import String
 
 from rftgls_conventions.safe_write import open_fresh
+from rftgls_interfaces.msg import AnchorEstimate
 
 PCTS = (50, 90, 99, 99.9, 100)
 

@@ -9,9 +9,11 @@ slips every physics step reaches a new pose: asked inline, the MCU loop stood st
 - an answer already computed (its grid cell: 1 mm, 1 deg, 1 deg of pull angle) is returned;
 - otherwise the cell is sent to a worker process that owns a copy of the ground (forked after
   the warm-up, so its compiled solver and caches come with it) and the caller gets, at once,
-  the last answer this pull got: the ground runs behind the pose by one solve. One request is
-  in flight and one waits; a newer cell replaces the waiting one, since a slipping anchor
-  passes cells faster than they solve;
+  the newest answer this pull got (the cell's own when it was solved, else the worker's latest
+  solve): the ground runs behind the pose by one solve. One request is in flight and one
+  waits; a newer cell replaces the waiting one, since a slipping anchor passes cells faster
+  than they solve. A slipping anchor therefore meets the capacity it digs into one solve late:
+  it slips further than with the solve inline, by at most what the winch reels in one solve;
 - with no answer at all for this pull yet, it is computed inline (only before the warm-up).
 
 A process, not a thread: the solver holds the GIL through its compiled calls (a thread left
@@ -78,6 +80,10 @@ class BackgroundGround:
         while self._in_flight is not None and self._conn.poll():
             cell, answer = self._conn.recv()
             self._answers[cell] = answer
+            # The newest solve is the nearest pose the ground knows (the anchor passed it at
+            # most one solve ago): a slipping anchor meets the capacity it digs into with one
+            # solve's delay, not never.
+            self._last[cell[1]] = answer
             if len(self._answers) > self.cache_size:
                 self._answers.popitem(last=False)
             self._in_flight = None
