@@ -34,15 +34,16 @@ from rftgls_core.types import AnchorState, Pull
 from .ground import LiveGround
 
 
-def _serve(ground: LiveGround, conn) -> None:
+def _serve(ground: LiveGround, conn, parent_end) -> None:
     """Worker process: answer (cell, state, phi, pull) requests until the pipe closes."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    parent_end.close()         # the fork's copy: else the pipe never closes when the parent's does
     while True:
         try:
             cell, state, phi, pull = conn.recv()
+            conn.send((cell, ground.predict(state, phi, pull)))
         except (EOFError, OSError):
             return
-        conn.send((cell, ground.predict(state, phi, pull)))
 
 
 class BackgroundGround:
@@ -60,7 +61,7 @@ class BackgroundGround:
         self.stand_ins = 0
         ctx = multiprocessing.get_context('fork')
         self._conn, child = ctx.Pipe()
-        self._worker = ctx.Process(target=_serve, args=(ground, child), daemon=True,
+        self._worker = ctx.Process(target=_serve, args=(ground, child, self._conn), daemon=True,
                                    name='minirquad_sim ground')
         self._worker.start()
         child.close()
@@ -69,8 +70,10 @@ class BackgroundGround:
         return self.ground.describe() + ', solved in a worker process'
 
     def close(self) -> None:
+        """End the worker now (a solve in progress is not waited for)."""
         self._conn.close()
-        self._worker.join(2.0)
+        self._worker.terminate()
+        self._worker.join(1.0)
         if self._worker.is_alive():
             self._worker.kill()
             self._worker.join(1.0)
