@@ -64,8 +64,7 @@ build: setup
 
 # The teleoperated tug on the simulated MiniRQuad: simulator, serial bridge, capacity_node and
 # state_publisher (launch/teleop.launch.py, run by the project's launch stand-in); then
-# `source tools/env.sh && ros2 run rftgls_ros teleop --ros-args -p accept_assumed_inputs:=height`
-# in a second terminal (same ROS_DOMAIN_ID).
+# `source tools/env.sh && ros2 run rftgls_ros teleop` in a second terminal (same ROS_DOMAIN_ID).
 SLED ?= 0.4
 teleop-sim: setup
 	$(ENV) && python -m rftgls_ros.launch_run src/rftgls_ros/launch/teleop.launch.py \

@@ -257,14 +257,14 @@ def _map_min(h_lo: float, h_hi: float) -> float:
 
 @pytest.mark.parametrize('provenance, status, word, assumed, modelled, code', [
     ('measured', Status.OK, 'ok', (), (), None),
-    ('modelled', Status.OK, 'modelled', (), ('height',), 'modelled_input:height'),
+    ('modelled', Status.OK, 'ok', (), ('height',), 'modelled_input:height'),
     ('assumed', Status.ASSUMED, 'assumed', ('height',), (), 'assumed_input:height'),
 ])
 def test_every_estimate_says_which_inputs_were_not_measured(provenance, status, word, assumed,
                                                             modelled, code):
-    """Only an estimate whose every input was measured is published ``ok``: a modelled height
-    makes it ``modelled``, an assumed one ``assumed``; the diagnostics name every input's
-    provenance."""
+    """An estimate is ``ok`` on measured inputs and on a modelled height with its band (the
+    provenance says ``height:modelled``, the lower bound covers the band); an assumed height
+    makes it ``assumed``; the diagnostics name every input's provenance."""
     est = _map_estimator(lower_bound_level=0.0)
     feed(est, 0.0)
     est.update('height', 0.0, DH.h, provenance, 0.002)
@@ -289,11 +289,16 @@ def test_every_estimate_says_which_inputs_were_not_measured(provenance, status, 
     assert d.level == 1                        # WARN: a value, on an input not measured
 
 
-def test_an_unstated_band_takes_the_configured_range_and_a_bad_one_is_refused():
+@pytest.mark.parametrize('provenance', ['assumed', 'modelled'])
+def test_an_unstated_band_takes_the_configured_range_and_a_bad_one_is_refused(provenance):
+    """Without a band the range is the node's assumption: the estimate is ``assumed`` (never
+    ``ok``), a modelled value included, and its lower bound covers the configured range."""
     est = _map_estimator(lower_bound_level=0.0, assumed_height_range_m=0.003)
     feed(est, 0.0)
-    est.update('height', 0.0, DH.h, 'assumed')            # band NaN: not stated
+    est.update('height', 0.0, DH.h, provenance)            # band NaN: not stated
     e = est.estimate(0.0)
+    assert (e.word, e.assumed, e.modelled) == ('assumed', ('height',), ())
+    assert e.provenance()['height'] == 'assumed'
     assert e.capacity_lower_N == pytest.approx(_map_min(DH.h - 0.003, DH.h + 0.003), abs=1e-9)
     for band in (-0.001, math.inf):
         with pytest.raises(ValueError, match='band'):

@@ -93,7 +93,7 @@ def provenance(est: AnchorEstimate) -> dict[str, str]:
 INPUTS = ('joint_states', 'pitch', 'tension', 'height', 'phi')
 
 
-def test_an_assumed_or_modelled_height_is_never_a_plain_ok(stack):
+def test_the_status_or_the_provenance_says_when_height_is_not_measured(stack):
     node, probe = stack
     measured = estimate_for(node, probe, DH.h, InputValue.MEASURED)
     assert (measured.status_code, measured.status) == (AnchorEstimate.STATUS_OK, 'ok')
@@ -105,10 +105,10 @@ def test_an_assumed_or_modelled_height_is_never_a_plain_ok(stack):
                                                                           'phi:measured'))
     assert probe.last_diag().level == DiagnosticStatus.OK
 
-    # A modelled height (the burrow simulation's, say) is not a measurement: never `ok`.
+    # A modelled height with its band (the burrow simulation's, say) gives `ok`, and the
+    # provenance says the height is modelled; the lower bound covers the band.
     modelled = estimate_for(node, probe, DH.h, InputValue.MODELLED)
-    assert (modelled.status_code, modelled.status) == (AnchorEstimate.STATUS_MODELLED,
-                                                       'modelled')
+    assert (modelled.status_code, modelled.status) == (AnchorEstimate.STATUS_OK, 'ok')
     assert modelled.has_value and list(modelled.modelled_inputs) == ['height']
     assert not modelled.assumed_inputs
     assert provenance(modelled) == {**dict.fromkeys(INPUTS, 'measured'), 'height': 'modelled'}
@@ -117,10 +117,16 @@ def test_an_assumed_or_modelled_height_is_never_a_plain_ok(stack):
     assert modelled.capacity_lower_n < modelled.capacity_n
     assert probe.spin_until(lambda: probe.last_diag() is not None
                             and diag_values(probe)['modelled_inputs'] == 'height')
-    assert probe.last_diag().message.startswith('modelled: ')
+    assert probe.last_diag().message.startswith('ok: ')
     assert 'modelled_input:height' in probe.last_diag().message
     assert 'height:modelled' in diag_values(probe)['provenance']
     assert probe.wait_diag_level(DiagnosticStatus.WARN)
+
+    # A modelled height without a band: the range it may be off by is the node's assumption.
+    unbanded = estimate_for(node, probe, DH.h, InputValue.MODELLED, band=math.nan)
+    assert (unbanded.status_code, list(unbanded.assumed_inputs)) == (
+        AnchorEstimate.STATUS_ASSUMED, ['height'])
+    assert provenance(unbanded)['height'] == 'assumed'
 
     assumed = estimate_for(node, probe, DH.h, InputValue.ASSUMED)
     assert (assumed.status_code, assumed.status) == (AnchorEstimate.STATUS_ASSUMED, 'assumed')

@@ -31,7 +31,7 @@ def installed(name: str) -> Path:
 
 def test_every_launch_file_is_installed():
     assert {p.name for p in SOURCES} >= {'bringup.launch.py', 'sim.launch.py',
-                                         'replay.launch.py'}
+                                         'replay.launch.py', 'teleop.launch.py'}
     for src in SOURCES:
         assert installed(src.name).read_text() == src.read_text(), src.name
     share = launch_check.share_dir('rftgls_ros')
@@ -69,6 +69,19 @@ def test_sim_launch_starts_the_whole_stack():
     assert behavior.remappings == [('imu', 'imu/data')]
     desc = launch_check.share_dir('minirquad_description') / 'urdf' / 'minirquad.urdf'
     assert tf.parameters == [{'robot_description': desc.read_text()}]
+
+
+def test_teleop_launch_starts_the_stack_teleop_needs():
+    """`make teleop-sim`: simulator, bridge, capacity_node reading teleop's tether angle, and
+    state_publisher; no behavior_node (teleop commands the winch instead)."""
+    nodes = launch_check.parse(installed('teleop.launch.py'), {'sled_mass_kg': '0.6'}).nodes
+    assert [(n.kind, n.package, n.executable) for n in nodes] == [
+        ('process', 'minirquad_sim', 'minirquad_sim'), ('node', 'minirquad_driver', 'bridge_node'),
+        ('node', 'rftgls_ros', 'capacity_node'), ('node', 'rftgls_ros', 'state_publisher')]
+    sim, bridge, cap, _tf = nodes
+    assert bridge.parameters == [{'port': sim.arguments[sim.arguments.index('--symlink') + 1]}]
+    assert sim.arguments[sim.arguments.index('--sled-mass') + 1] == '0.6'
+    assert cap.parameters[1] == {'phi_topic': '/winch/phi'}
 
 
 def test_an_integer_sled_mass_arrives_as_a_float(tmp_path):

@@ -102,15 +102,15 @@ def test_one_estimate_message_is_what_the_machine_judges(rig):
     assert node.machine.evidence().usable
     # Each estimate is one sample of the tug series, with its lower bound.
     assert [s.capacity_lower_n for s in node.tug_series.samples][-4:] == [1.3] * 4
-    # A modelled input (STATUS_MODELLED) is evidence, decided on its lower bound (1.3 N, not
-    # the 2.5 N point estimate); without a lower bound it is not evidence.
-    obs = send(status_code=AnchorEstimate.STATUS_MODELLED, status='modelled',
-               modelled_inputs=['height'])
-    assert obs.capacity_status == 'modelled' and node.machine.evidence().usable
+    # An ok on a modelled input (its band covered) is evidence, decided on its lower bound
+    # (1.3 N, not the 2.5 N point estimate); without a lower bound it is not evidence.
+    obs = send(status_code=AnchorEstimate.STATUS_OK, status='ok', modelled_inputs=['height'])
+    assert obs.capacity_status == 'ok' and node.machine.evidence().usable
     assert node.machine.decision_capacity() == pytest.approx(1.3)
     t0 = node.obs.t_capacity
-    pub.publish(AnchorEstimate(status_code=AnchorEstimate.STATUS_MODELLED, has_value=True,
-                               capacity_n=2.5, capacity_lower_n=float('nan')))
+    pub.publish(AnchorEstimate(status_code=AnchorEstimate.STATUS_OK, has_value=True,
+                               capacity_n=2.5, capacity_lower_n=float('nan'),
+                               modelled_inputs=['height']))
     assert spin_until(ex, lambda: node.obs.t_capacity > t0)
     assert node.machine.evidence().reason == evidence.NO_LOWER_BOUND
 

@@ -19,11 +19,11 @@ from rftgls_ros.behavior import (
     ModeChooser,
     Observation,
     State,
-    TetherTracker,
     write_report,
 )
 from rftgls_ros.behavior.report import read_csv
 from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
+from rftgls_ros.tether import TetherTracker
 
 G = 9.81
 
@@ -283,6 +283,38 @@ def test_machine_link_loss_mid_tug_waits_then_resumes(predictor):
     assert 'link stale during TUG' in texts and 're-checking' in texts
 
 
+def test_a_recheck_at_an_unchanged_pose_asks_no_question(predictor):
+    # The re-check after a link gap keeps the anchor's sufficient check while the measured pose
+    # stays within the slip thresholds of it: no capacity question (each one blocks the
+    # node's step for a service round trip), the live evidence still gates the tug.
+    class Counting:
+        def __init__(self, inner):
+            self.inner, self.calls = inner, 0
+
+        def predict(self, state, phi, pull=''):
+            self.calls += 1
+            return self.inner.predict(state, phi, pull)
+
+    counting = Counting(predictor)
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(counting, cfg.safety_factor, cfg.phis_rad))
+    plant = Plant(0.4, predictor)
+    seen = {}
+
+    def cut(p, mach):
+        if mach.state == State.TUG and 'cut' not in seen and mach.elapsed() > 1.0:
+            seen['cut'], seen['calls'] = p.t, counting.calls
+            p.link_ok = False
+        if 'cut' in seen and not p.link_ok and p.t - seen['cut'] > 1.0:
+            p.link_ok = True
+        if 'cut' in seen and 'resumed' not in seen and p.link_ok and mach.state == State.TUG:
+            seen['resumed'] = counting.calls
+    run_loop(m, plant, on_step=cut)
+    assert m.records[0].outcome == 'ok', m.records
+    assert seen['calls'] > 0 and seen['resumed'] == seen['calls'], seen
+    assert 'pose unchanged since that check' in ' '.join(e['text'] for e in m.events)
+
+
 def test_machine_legs_moved_during_link_loss_reburrows(predictor):
     # During the outage the robot stands up (as after an MCU reset): the checked anchor is
     # gone, so the machine burrows again instead of re-checking at the assumed height.
@@ -336,14 +368,11 @@ def test_burrow_modes_table_ii_runs_and_planned_is_refused_in_one_line():
 
 @pytest.mark.parametrize('status, lower, usable, reason', [
     ('ok', 2.0, True, 'ok'),
-    ('modelled', 2.0, True, 'ok'),                    # its band is inside the lower bound
-    ('modelled', math.inf, False, 'lower_bound_missing'),   # never on the point estimate
-    ('modelled', float('nan'), False, 'lower_bound_missing'),
-    ('ok', float('nan'), False, 'lower_bound_missing'),
+    ('ok', float('nan'), False, 'lower_bound_missing'),     # never on the point estimate
+    ('ok', None, False, 'lower_bound_missing'),
     ('assumed', 2.0, False, 'assumed_not_accepted'),
 ])
-def test_evidence_needs_a_lower_bound_and_takes_a_modelled_input(status, lower, usable,
-                                                                 reason):
+def test_evidence_needs_a_lower_bound(status, lower, usable, reason):
     from rftgls_ros.behavior import evidence
     v = evidence.judge(1.0, 2.5, status, 1.0, 0.05, frozenset({'height'}), frozenset(),
                        lower)

@@ -419,7 +419,11 @@ def _one_run(cls: str, stack: Stack, probe: Probe, record: Record, spawn) -> dic
     elif cls == 'loss_40pct':
         time.sleep(0.3)
         stack.faults()
-    row = _wait(lambda: probe.cycles_since(since), 120, f'the cycle row after {cls}')[0]
+    try:
+        row = _wait(lambda: probe.cycles_since(since), 120, f'the cycle row after {cls}')[0]
+    except AssertionError as exc:     # say where behavior_node was instead
+        tail = (stack.tmp / 'behavior.log').read_text().splitlines()[-12:]
+        raise AssertionError(f'{exc}; behavior_node last said:\n' + '\n'.join(tail)) from None
     out['row'] = (row['cycle'], row['outcome'], row['reason'])
     print(f'[stop campaign] {cls}: row {out["row"]}', flush=True)
     return out

@@ -1,23 +1,26 @@
 """The teleoperated tug from its documented commands (src/rftgls_ros/behavior_README.md,
 "Teleop"): `make teleop-sim SLED=0.4` (simulator, bridge, capacity_node, state_publisher) and
-`ros2 run rftgls_ros teleop --ros-args -p accept_assumed_inputs:=height` on a
-pseudo-terminal, driven by key presses as a person would.
+`ros2 run rftgls_ros teleop` on a pseudo-terminal, driven by key presses as a person would.
 
 What is checked, on the screen and on the robot's own topics:
 - standing, nothing is usable and reeling in is refused;
-- burrowed DH, the estimate is `assumed (height)`: teleop publishes the tether angle, and the
-  Table II height marked assumed, which the documented command accepts; and the
-  winch reels in 50 mm of rope (spool encoder) below the guard, running only while the
-  estimate is usable (no screen shows the winch running on an estimate that is not);
-- paid out and burrowed SH, the 80 % guard acts on the lower bound, not the point estimate:
-  SH's lower bound over its Table II height band is about 0 N (the band reaches a height
-  where SH holds nothing) while its point estimate is ~2.3 N, so `i` is refused at a tension
-  below 80 % of the capacity and the spool does not move; `!` then `i` reels on (OVERRIDE);
-- STOP ALL brakes the winch (the spool stops) and refuses `i` until released;
-- no screen of the session shows `nan` or `inf`.
+- burrowed SH, the estimate is `ok (height modelled)`: teleop publishes the tether angle and
+  the burrow simulation's SH height with its band (the shipped 400 g gait map), the measured
+  pitch lies inside the modelled band, and the winch reels in 50 mm of rope (spool encoder)
+  below the 80 % guard, running only while the estimate is usable;
+- burrowed DH, the measured pitch (the simulator's Table II 5 deg) lies far outside the
+  modelled DH pitch (the burrow simulation vaults DH nose-down): flagged on the screen and in
+  teleop's log, and reeling in is refused;
+- restarted with the documented stricter guard (`-p limit_fraction:=0.5`, the rope now paid
+  out as `rope_length_m`) and burrowed SH again, `i` is refused by the guard on the lower
+  bound (the 400 g sled slides at ~60 % of SH's modelled lower bound: the simulated sand
+  cannot load this anchor to 80 % of it, see the README), the spool does not move; `!` then
+  `i` reels on (OVERRIDE); STOP ALL brakes the winch and refuses `i` until released;
+- no screen of either session shows `nan` or `inf`.
 Reference: the simulator's sled slides at mu m g = 0.5 * 0.4 kg * 9.81 = 1.96 N (its winch
-model); SH's point estimate is about 2.3 N there (the shipped map), its lower bound ~0 N.
-Takes ~60 s (the must-show of the teleop path: real simulator, bridge and capacity_node).
+model); SH's modelled height 40 +- 3 mm gives capacity ~4.2 N, lower bound ~3.2 N there (the
+shipped map). Takes ~90 s (the must-show of the teleop path: real simulator, bridge and
+capacity_node).
 """
 from __future__ import annotations
 
@@ -207,6 +210,34 @@ def stop_group(proc: subprocess.Popen) -> None:
             continue
 
 
+def teleop(cwd, *params: str) -> Terminal:
+    """`ros2 run rftgls_ros teleop [--ros-args -p ...]` on a pseudo-terminal."""
+    args = [a for p in params for a in ('-p', p)]
+    return Terminal(['ros2', 'run', 'rftgls_ros', 'teleop']
+                    + (['--ros-args', *args] if args else []), cwd=cwd)
+
+
+def no_nan(term: Terminal) -> None:
+    text = '\n'.join(term.screens())
+    assert len(term.screens()) > 20
+    assert not re.search(r'\bnan\b|\binf\b', text, re.IGNORECASE), 'nan on the screen'
+    screens = term.screens()
+    # Never a running reel-in on an estimate that is not evidence (for more than the one
+    # redraw in which an estimate ages past stale_after).
+    for a, b in zip(screens, screens[1:]):
+        if 'not usable' in a and 'not usable' in b:
+            assert not re.search(r'winch\s+\+[1-9]', b), b
+
+
+def burrow_sh(term: Terminal, robot: Robot) -> None:
+    term.press('3')
+    term.wait_for(r'anchor SH', 5, robot.spin)
+    assert robot.burrowed('SH'), (robot.legs, term.screen())
+    term.wait_for(r'status ok \(height modelled\)', 20, robot.spin)
+    term.wait_for(r'pitch [\d.]+ deg measured, [\d.]+ \+- [\d.]+ deg modelled', 10, robot.spin)
+    assert 'PITCH CHECK FAILED' not in term.screen()
+
+
 def test_documented_teleop_path_tugs_guards_and_stops(tmp_path, ros_context):
     log = open(tmp_path / 'teleop_sim.log', 'w')
     stack = subprocess.Popen(['make', '-s', 'teleop-sim', 'SLED=0.4'], cwd=REPO, stdout=log,
@@ -217,8 +248,8 @@ def test_documented_teleop_path_tugs_guards_and_stops(tmp_path, ros_context):
         assert robot.spin(90.0, lambda: math.isfinite(robot.spool)
                           or stack.poll() is not None), 'no joint_states from the stack'
         assert stack.poll() is None, (tmp_path / 'teleop_sim.log').read_text()[-3000:]
-        term = Terminal(['ros2', 'run', 'rftgls_ros', 'teleop', '--ros-args', '-p',
-                         'accept_assumed_inputs:=height'], cwd=tmp_path)
+        spool0 = robot.spool                       # the rope paid out at start: 0.5 m
+        term = teleop(tmp_path)
         term.wait_for(r'MiniRQuad teleop tug', 20, robot.spin)
         # As a person would: keys only once the screen says the robot listens (discovery).
         term.wait_for(r'robot listening', 20, robot.spin)
@@ -228,15 +259,12 @@ def test_documented_teleop_path_tugs_guards_and_stops(tmp_path, ros_context):
         term.press('i')
         term.wait_for(r'refusing to pull harder', 5, robot.spin)
 
-        # DH holds ~5.5 N: 50 mm reeled in under an estimate whose one assumption (the height)
-        # is named on the screen and accepted, below the guard.
-        term.press('1')
-        assert robot.burrowed('DH'), (robot.legs, term.screen())
-        term.wait_for(r'status assumed \(height\)', 20, robot.spin)
+        # SH on its modelled height: `ok`, 50 mm reeled in below the guard.
+        burrow_sh(term, robot)
         term.wait_for(r'prediction usable', 5, robot.spin)
         n = numbers(term.screen())
-        assert 3.0 < n['capacity'] < 9.0, term.screen()
-        print(f"DH burrowed: capacity {n['capacity']} N, tension {n['tension']} N")
+        assert 3.0 < n['capacity'] < 9.0 and 0.0 < n['lower'] < n['capacity'], term.screen()
+        print(f"SH burrowed: capacity {n['capacity']} N, lower bound {n['lower']} N")
         # The winch runs only under a usable estimate: a late telemetry frame on
         # a loaded machine makes an estimate stale and teleop stops the winch at once; the
         # operator presses i again once the screen says the prediction is usable.
@@ -245,25 +273,35 @@ def test_documented_teleop_path_tugs_guards_and_stops(tmp_path, ros_context):
         term.press(' ')
         term.wait_for(r'winch stopped', 5, robot.spin)
         n = numbers(term.screen())
-        print(f"DH reeled {1e3 * (robot.spool - start):.1f} mm, load {n['load']:.0f} %")
+        print(f"SH reeled {1e3 * (robot.spool - start):.1f} mm, load {n['load']:.0f} %")
         assert n['load'] < 80 and 'press ! then i' not in ''.join(term.screens()), \
             term.screen()
 
-        # Pay out to slack, burrow SH (point ~2.3 N, lower bound ~0 N): the guard holds.
-        term.press('oo')
-        robot.spin(1.5)
-        term.press(' ')
-        term.press('3')
-        term.wait_for(r'anchor SH', 5, robot.spin)
-        assert robot.burrowed('SH'), (robot.legs, term.screen())
-        term.wait_for(r'status assumed \(height\)', 20, robot.spin)
+        # DH: the simulator's pitch is not the modelled one: flagged, not evidence.
+        term.press('1')
+        assert robot.burrowed('DH'), (robot.legs, term.screen())
+        term.wait_for(r'PITCH CHECK FAILED: burrow DH not as modelled', 20, robot.spin)
+        with term.lock:                    # and in teleop's log (same terminal)
+            assert re.search(r'\[WARN\].*\[teleop\]: burrow DH not as modelled', term.raw)
+        term.press('i')
+        term.wait_for(r'refusing to pull harder', 5, robot.spin)
+        term.press('q')
+        term.proc.wait(15)
+        no_nan(term)
+        term.close()
+        term = None
+
+        # The stricter guard, restarted on the rope now paid out.
+        free = 0.5 - (robot.spool - spool0)
+        term = teleop(tmp_path, 'limit_fraction:=0.5', f'rope_length_m:={free:.3f}')
+        term.wait_for(r'robot listening', 20, robot.spin)
+        burrow_sh(term, robot)
         reel_until(term, robot, lambda: 'press ! then i to override' in term.screen(), 'i')
         n = numbers(term.screen())
-        # The guard on the lower bound, where the point estimate would have let it pull.
-        assert n['tension'] >= 0.8 * n['lower'] and n['tension'] < 0.8 * n['capacity'], \
-            term.screen()
-        print(f"SH guard: tension {n['tension']} N, capacity {n['capacity']} N, "
-              f"lower bound {n['lower']} N")
+        pct = re.search(r'tension (\d+) % of the lower bound', term.screen())
+        assert pct and 50 <= int(pct.group(1)) < 80, term.screen()   # the stricter guard
+        print(f"SH guard: tension {n['tension']} N ({pct.group(1)} %), lower bound "
+              f"{n['lower']} N")
         held = robot.spool
         term.press('i')
         term.wait_for(r'press ! then i to override', 5, robot.spin)
@@ -293,16 +331,7 @@ def test_documented_teleop_path_tugs_guards_and_stops(tmp_path, ros_context):
         assert abs(robot.spool - stopped) < 0.002, 'the winch moved after STOP ALL'
         term.press('r')
         term.wait_for(r'e-stop released', 5, robot.spin)
-
-        # Never a running reel-in on an estimate that is not evidence (for more than the one
-        # redraw in which an estimate ages past stale_after).
-        screens = term.screens()
-        for a, b in zip(screens, screens[1:]):
-            if 'not usable' in a and 'not usable' in b:
-                assert not re.search(r'winch\s+\+[1-9]', b), b
-        text = '\n'.join(screens)
-        assert len(term.screens()) > 50
-        assert not re.search(r'\bnan\b|\binf\b', text, re.IGNORECASE), 'nan on the screen'
+        no_nan(term)
     finally:
         if term is not None:
             term.close()

@@ -9,8 +9,16 @@ import re
 
 import pytest
 
+from rftgls_core.planning.burrowed import BurrowedPose
+from rftgls_core.types import Provenance
+from rftgls_ros.behavior.model import ANCHOR_MODES
 from rftgls_ros.teleop import TeleopModel
 from rftgls_ros.teleop.model import GREY
+
+DEG = math.pi / 180
+# A modelled SH pose (the shape of rftgls_core.planning.burrowed.mode_pose's answer).
+SH_POSE = BurrowedPose(0.040, 0.003, 3.0 * DEG, 1.0 * DEG, 'burrow simulation of SH (test)')
+POSES = {'SH': SH_POSE, 'DH': 'no shipped gait map answers (test)', 'DL': None}
 
 
 def _valid(m: TeleopModel, tension: float, capacity: float, t: float = 0.0,
@@ -119,7 +127,7 @@ def _plain(lines: list[str]) -> str:
     return re.sub(r'\x1b\[[\d;]*m', '', '\n'.join(lines))
 
 
-STATUSES = ['ok', 'modelled', 'assumed', 'stale', 'invalid_input', 'out_of_range', 'unsupported',
+STATUSES = ['ok', 'assumed', 'stale', 'invalid_input', 'out_of_range', 'unsupported',
             'degenerate', 'extrapolated', '']
 NUMBERS = [math.nan, math.inf, -math.inf, 0.0, 2.3]
 LOWERS = [math.nan, math.inf, 0.0, 1.5]
@@ -174,3 +182,72 @@ def test_an_assumed_input_is_named_and_refused_unless_accepted():
     assert 'assumed inputs phi' in _plain(m.screen())
     m.cfg.accept_assumed_inputs = ('phi',)       # the documented opt-in
     assert m.key('i', 0.0) == [('winch', pytest.approx(0.01))]
+
+
+def _settle(m: TeleopModel, mode: str, t: float = 0.0) -> None:
+    """Burrow `mode` and hold its Table II final leg angles for 1 s."""
+    m.key('123'[['DH', 'DL', 'SH'].index(mode)], t)
+    final = ANCHOR_MODES[mode].final
+    m.anchor.legs(*final, t)
+    m.anchor.legs(*final, t + 1.0)
+
+
+def test_a_burrowed_height_is_modelled_with_its_band_until_the_pitch_disagrees():
+    m = TeleopModel(poses=POSES)
+    h = m.height()
+    assert (h.value, h.provenance) == (m.cfg.h_stand, Provenance.ASSUMED)   # standing
+    _settle(m, 'SH')
+    h = m.height()
+    assert (h.value, h.band, h.provenance) == (0.040, 0.003, Provenance.MODELLED)
+    assert m.anchor.pitch(3.5 * DEG, 0.5) is None             # not settled yet: no check
+    assert m.anchor.pitch(3.5 * DEG, 1.0) is None             # inside 3 +- 1 deg
+    assert 'pitch 3.5 deg measured, 3.0 +- 1.0 deg modelled' in _plain(m.screen())
+    flag = m.anchor.pitch(5.0 * DEG, 1.1)                     # 1 deg outside the band
+    assert flag and 'pitch 5.0 deg measured, 3.0 +- 1.0 deg modelled' in flag
+    assert m.height().provenance is Provenance.ASSUMED        # refused unless accepted
+    assert m.anchor.pitch(3.0 * DEG, 1.2) is None             # flagged once, and it stays
+    assert m.height().provenance is Provenance.ASSUMED
+    assert 'PITCH CHECK FAILED' in _plain(m.screen())
+    _settle(m, 'SH', 2.0)                                     # a new burrow checks afresh
+    assert m.height().provenance is Provenance.MODELLED and m.anchor.flag is None
+
+
+@pytest.mark.parametrize('mode', ['DH', 'DL'])
+def test_a_mode_without_a_modelled_pose_sends_its_table_ii_height_assumed(mode):
+    m = TeleopModel(poses=POSES)
+    _settle(m, mode)
+    h = m.height()
+    assert (h.value, h.band, h.provenance) == (ANCHOR_MODES[mode].h, ANCHOR_MODES[mode].h_band,
+                                               Provenance.ASSUMED)
+    assert m.anchor.pitch(40 * DEG, 2.0) is None              # no model to hold it against
+    assert 'no modelled pose' in _plain(m.screen()) or 'no shipped gait map' in h.source
+
+
+def test_an_ok_on_a_modelled_height_says_so_and_is_evidence():
+    m = TeleopModel(poses=POSES)
+    _settle(m, 'SH')
+    _valid(m, 1.0, 4.2, lower=3.2)
+    m.modelled_inputs = frozenset({'height'})
+    assert m.verdict().usable
+    assert 'status ok (height modelled)' in _plain(m.screen())
+    assert m.key('i', 0.0) == [('winch', pytest.approx(0.01))]
+
+
+@pytest.mark.parametrize('status', STATUSES)
+def test_no_nan_on_the_screen_in_any_anchor_state(status):
+    """Standing, burrowed with and without a modelled pose, settled or not, the pitch measured
+    (finite or not) and flagged: no 'nan' or 'inf' on any screen line."""
+    for mode, settle, pitch in itertools.product([None, 'DH', 'DL', 'SH'], [False, True],
+                                                 [math.nan, math.inf, 3.0 * DEG, 9.0 * DEG]):
+        m = TeleopModel(poses=POSES)
+        m.status, m.capacity, m.capacity_lower, m.tension = status, 2.3, 1.5, 1.0
+        m.modelled_inputs = frozenset({'height'})
+        if mode:
+            if settle:
+                _settle(m, mode)
+            else:
+                m.key('123'[['DH', 'DL', 'SH'].index(mode)], 0.0)
+        m.anchor.pitch(pitch, 2.0)
+        text = _plain(m.screen())
+        assert not re.search(r'\bnan\b|\binf\b', text, re.IGNORECASE), text
+        assert re.search(r'anchor (-|DH|DL|SH)\s+h \d+(\.\d)?( \+- \d+\.\d)? mm', text), text

@@ -1,14 +1,14 @@
 """The simulated MiniRQuad with what the teleoperated tug needs: simulator, serial bridge,
 capacity_node and state_publisher (no behavior_node: teleop commands the winch instead).
 
-    ros2 launch rftgls_ros teleop.launch.py sled_mass_kg:=0.6      # then, in a terminal:
-    ros2 run rftgls_ros teleop --ros-args -p accept_assumed_inputs:=height
+    ros2 launch rftgls_ros teleop.launch.py sled_mass_kg:=0.4      # then, in a terminal:
+    ros2 run rftgls_ros teleop
 
 On the pip-wheel machines `make teleop-sim` runs this file with rftgls_ros.launch_run.
 capacity_node reads the tether angle teleop publishes (/winch/phi, from the rope paid out and
-the attachment height, the same rftgls_ros.behavior.model.TetherTracker as behavior_node) and
-the height teleop sends marked assumed (MiniRQuad measures none), so its estimate is
-`assumed (height)` once the anchor is burrowed.
+the attachment height, rftgls_ros.tether.TetherTracker, shared with behavior_node) and the
+burrowed height teleop sends as modelled by the burrow simulation with its band, so its
+estimate of a burrowed anchor is `ok` with provenance `height:modelled`.
 """
 import os
 

@@ -180,9 +180,9 @@ class BehaviorNode(Node):
             f'sled {1e3 * self.cfg.sled_mass_kg:.0f} g (mu {self.cfg.sled_mu}), {self.cfg.cycles} '
             f'cycles, safety factor {self.cfg.safety_factor}, burrows {self.cfg.burrow_modes}, '
             f'map {predictor.path}; decides on the lower bound; tugs only on capacity_node '
-            f'estimates younger than {1e3 * self.cfg.estimate_timeout_s:.0f} ms with status ok '
-            f'or modelled' + (f' or assumed {",".join(self.cfg.accept_assumed_inputs)}'
-                              if self.cfg.accept_assumed_inputs else ''))
+            f'estimates younger than {1e3 * self.cfg.estimate_timeout_s:.0f} ms with status ok'
+            + (f' or assumed {",".join(self.cfg.accept_assumed_inputs)}'
+               if self.cfg.accept_assumed_inputs else ''))
 
     def destroy_node(self) -> None:
         # What this node owns goes first, while its handles and the context are still valid:

@@ -19,13 +19,13 @@ from rftgls_core.types import Provenance, Status
 from rftgls_interfaces.msg import AnchorEstimate, InputValue
 
 from .behavior.tug_series import TugSeries
-from .capacity.estimator import MODELLED, Estimate
+from .capacity.estimator import Estimate
 from .capacity.inputs import band_problem
 
 NAN = float('nan')
-# Status word (Estimate.word: rftgls_core's Status words and capacity_node's 'modelled') -> code.
+# Status word (Estimate.word: rftgls_core's Status words) -> code.
 STATUS_CODES = {
-    str(Status.OK): AnchorEstimate.STATUS_OK, MODELLED: AnchorEstimate.STATUS_MODELLED,
+    str(Status.OK): AnchorEstimate.STATUS_OK,
     str(Status.ASSUMED): AnchorEstimate.STATUS_ASSUMED,
     str(Status.STALE): AnchorEstimate.STATUS_STALE,
     str(Status.INVALID_INPUT): AnchorEstimate.STATUS_INVALID_INPUT,

@@ -26,7 +26,6 @@ mismatch; a shipped map must also match the hash recorded here (SHIPPED_SHA256).
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import sys
@@ -42,7 +41,7 @@ import numpy as np
 from rftgls_conventions.safe_write import atomic_write
 
 from ..maps.errors import MapFileError
-from ..maps.hdf5 import check_dataset_size
+from ..maps.hdf5 import ContentHash, check_dataset_size
 from ..maps.shipped import maps_dir, regular_map_file
 from .gaits import GaitPoint
 from .predict import GaitRuns, PlanInputs, predict_gait
@@ -63,9 +62,9 @@ SHIPPED = {'minirquad': ('minirquad_m90_sand_gaits_sled400g.h5',
                          'minirquad_m90_sand_gaits_sled600g.h5')}
 SHIPPED_SHA256: dict[str, str] = {
     'minirquad_m90_sand_gaits_sled400g.h5':
-        'c5bc0a6439c7a0675f4e76a4016df82df0cd1291cdda54d2340c22379b52a6a9',
+        'bd04c38edef2948e2362a222fb971a408d0a0dc6ec18a8240d93102fed46765f',
     'minirquad_m90_sand_gaits_sled600g.h5':
-        '1dc61b26261d145eb8d82f14edb3cd293902b9ca7551d0c15028cbfb09f032e8',
+        '714719ef9282f2240714221e78c58ec996be867be189d8535cce07edb56799ac',
 }
 
 
@@ -199,19 +198,19 @@ def _arrays(gaits: list[GaitPoint], runs: list[GaitRuns], phis) -> dict:
 
 # ---------------------------------------------------------------------- files
 def content_sha256(attrs: dict, arrays: dict) -> str:
-    """SHA-256 of everything that defines the answers: ANSWER_ATTRS and every array (shape,
-    values; strings UTF-8, NUL-separated)."""
-    h = hashlib.sha256(b'rftgls.gait_map/1\0')
+    """SHA-256 of everything that defines the answers: ANSWER_ATTRS and every array, each fed
+    as one length-framed item (maps.hdf5.ContentHash; numbers as little-endian float64 or
+    int64, strings UTF-8 joined by NUL)."""
+    h = ContentHash(b'rftgls.gait_map/1\0')
     for key in ANSWER_ATTRS:
-        h.update(f'{key}={attrs[key]}\0'.encode())
-    for name in NUMBER_SETS + STRING_SETS:
+        h.feed(key, str(attrs[key]).encode())
+    for name in NUMBER_SETS:
         a = np.asarray(arrays[name])
-        h.update(f'{name}:{a.shape}\0'.encode())
-        if name in STRING_SETS:
-            h.update('\0'.join(str(s) for s in a.reshape(-1)).encode())
-        else:
-            kind = 'float64' if a.dtype.kind == 'f' else 'int64'
-            h.update(np.ascontiguousarray(a, dtype=kind).tobytes())
+        h.array(name, a, '<f8' if a.dtype.kind == 'f' else '<i8')
+    for name in STRING_SETS:
+        a = np.asarray(arrays[name])
+        h.feed(name, f'{a.shape}'.encode() + b'\0'
+               + '\0'.join(str(s) for s in a.reshape(-1)).encode())
     return h.hexdigest()
 
 

@@ -9,7 +9,8 @@ Everything here is plain Python on SI values; ``behavior_node`` only parses mess
     states.py    State, HoldCause
     machine.py   BehaviorMachine: the state table, what the phases share, the cycle tally
     walk.py, burrow.py, tug.py, retry.py, link_wait.py: the phases, each with its own state
-    model.py     anchor modes, force need, energy model, mode chooser, tether geometry
+    model.py     anchor modes, force need, energy model, mode chooser (the tether:
+                 rftgls_ros.tether, shared with teleop)
     evidence.py  is an estimate usable evidence for tugging; slip.py: has the anchor slipped
     report.py, tug_series.py: the cycle report and the tug time series
 """
@@ -23,12 +24,11 @@ from .model import (
                     EnergyModel,
                     ForceNeed,
                     ModeChooser,
-                    TetherTracker,
 )
 from .report import CycleRecord, write_report
 from .signals import Commands, Observation
 from .states import State
 
 __all__ = ['ANCHOR_MODES', 'AnchorMode', 'Candidate', 'Decision', 'EnergyModel', 'ForceNeed',
-           'ModeChooser', 'TetherTracker', 'BehaviorConfig', 'BehaviorMachine',
+           'ModeChooser', 'BehaviorConfig', 'BehaviorMachine',
            'Commands', 'Observation', 'State', 'CycleRecord', 'write_report']

@@ -5,8 +5,9 @@ The choice and the checks ask the ModeChooser (the lower bound over a mode's hei
 pose for every tether angle of ``phis_rad``, the cheapest sufficient mode in energy). The pose
 check uses the measured leg angles and pitch, and h from Table II (MiniRQuad does not measure
 it); the tug then starts only on capacity_node's live evidence (``machine.evidence``), its
-lower bound against the need. At most ``max_burrows_per_cycle`` burrows per cycle. Units: m,
-rad, N, J, s.
+lower bound against the need. A re-check at a pose within the slip thresholds of the anchor's
+last sufficient check keeps that check (``_still_passed``). At most ``max_burrows_per_cycle``
+burrows per cycle. Units: m, rad, N, J, s.
 """
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from rftgls_core.types import Status
+from rftgls_core.types import AnchorState, Status
 
 from . import evidence
 from .model import ANCHOR_MODES
@@ -35,6 +36,18 @@ class AnchorCheck:
 
 
 @dataclass(frozen=True)
+class PassedCheck:
+    """A prediction check that said sufficient: the anchor (mode), the measured state it was
+    made at, the need and slip scale it was judged against, and why."""
+
+    mode: str
+    state: AnchorState
+    need_n: float
+    scale: float
+    why: str
+
+
+@dataclass(frozen=True)
 class Reburrow:
     """The mode to burrow into once the tether is slack, and why."""
 
@@ -49,6 +62,7 @@ class Burrow:
         self.m = machine
         self.at_pose_since: float | None = None   # s: legs within tolerance of the final pose
         self.check = AnchorCheck()
+        self.passed: PassedCheck | None = None     # this anchor's last sufficient check
         self.choose_unanswered = False             # CHOOSE's questions unanswered (warned)
         self.hold_cause = HoldCause.NONE
         self.next: Reburrow | None = None
@@ -88,6 +102,7 @@ class Burrow:
     def _enter_burrow(self) -> None:
         self.m.winch = 0.0
         self.at_pose_since = None
+        self.passed = None           # a new anchor is checked afresh
         self.m.slip.reset()          # a new anchor: its slip references start afresh
         self.m.command('burrow', self.m.mode)
 
@@ -129,7 +144,7 @@ class Burrow:
         m = self.m
         if m.tug.anchor_slipped('at the re-check'):
             return
-        if not self.check.passed:
+        if not self.check.passed and not self._still_passed():
             self._check_prediction()
             return
         # The prediction holds; the tug starts only on capacity_node's live evidence.
@@ -147,6 +162,27 @@ class Burrow:
             return
         m.go(State.TUG, f'{m.mode} holds at the measured pose ({self.check.why}; '
                         f'capacity_node lower bound {cap:.2f} N >= {required:.2f} N)')
+
+    def _still_passed(self) -> bool:
+        """A re-check (after a link gap, an evidence wait or an aborted tug) of an anchor
+        whose measured pose has not moved beyond the slip thresholds since its last sufficient
+        check, against the same need and slip scale: that check's answer stands, and CHECK
+        goes on to capacity_node's live evidence at the pose as it is now. Asking the query
+        service again would block this node's step for a round of questions per re-check; under
+        CPU load that block alone let its inputs age past input_timeout_s, and every re-check
+        then ended in another link wait."""
+        m, p = self.m, self.passed
+        state = m.measured_state()
+        if p is None or state is None or p.mode != m.mode or p.need_n != m.need.value \
+                or p.scale != m.chooser.scale:
+            return False
+        if abs(state.theta_b - p.state.theta_b) > m.cfg.slip_pitch_rad or max(
+                abs(state.theta_l1 - p.state.theta_l1),
+                abs(state.theta_l2 - p.state.theta_l2)) > m.cfg.slip_leg_rad:
+            return False
+        self.check.passed = True
+        self.check.why = f'{p.why}; pose unchanged since that check'
+        return True
 
     def _check_prediction(self) -> None:
         m = self.m
@@ -168,6 +204,7 @@ class Burrow:
                             f'({c.why})', mode=m.mode, capacities=c.capacities)
         if c.sufficient:
             self.check.passed, self.check.why = True, c.why
+            self.passed = PassedCheck(m.mode, state, m.need.value, m.chooser.scale, c.why)
             self._do_check()
             return
         self.reselect(f'{m.mode} insufficient at the measured pose', c.weakest)

@@ -1,9 +1,9 @@
 """Is the capacity estimate good enough to keep tugging? (docs/design/tug-safety.md)
 
 A tug runs only on live evidence: a capacity estimate from capacity_node that is fresh, has a
-value and a lower bound, and whose status is measured ``ok``, ``modelled`` (an input computed
-by a model, whose band the lower bound covers) or ``assumed`` with every assumed input named
-in the accept-list. ``judge`` turns what behavior_node last received into a ``Verdict``:
+value and a lower bound, and whose status is ``ok`` (every input measured, or modelled with a
+band the lower bound covers) or ``assumed`` with every assumed input named in the
+accept-list. ``judge`` turns what behavior_node last received into a ``Verdict``:
 
 - usable: the winch may reel in on this estimate; its lower bound is the number to decide on
   (an estimate without a finite lower bound is not evidence: ``lower_bound_missing``).
@@ -23,9 +23,8 @@ import math
 from dataclasses import dataclass
 
 # Statuses of rftgls_core.types.Status, by name so this module needs no core import.
-MEASURED_OK = 'ok'
+OK = 'ok'
 ASSUMED = 'assumed'
-MODELLED = 'modelled'      # capacity_node's word: a value built on a modelled input
 STALE = 'stale'
 
 # Reason codes (stable; the cycle report's `reason` column carries them).
@@ -64,12 +63,11 @@ def judge(t: float, capacity: float | None, status: str, t_capacity: float,
     word; assumed_inputs: the names capacity_node gave for an ``assumed`` status (None =
     not received); accept_assumed: assumed inputs this robot tolerates (default none);
     capacity_lower: the estimate's lower bound, N, the number a decision uses (None or NaN:
-    none; the default inf leaves it out, for callers that judge the status alone; a
-    ``modelled`` estimate is never usable without one).
+    none; the default inf leaves it out, for callers that judge the status alone).
     """
     if not math.isfinite(t_capacity):
         return Verdict(False, NO_ESTIMATE, True, 'no capacity estimate received yet')
-    if status not in (MEASURED_OK, MODELLED, ASSUMED, STALE):
+    if status not in (OK, ASSUMED, STALE):
         # unsupported, degenerate, out_of_range, invalid_input, extrapolated (deprecated: a
         # clamped value is not evidence), or a word this node does not know: capacity_node
         # said there is no value, however old the saying (on a loaded host it may also be late).
@@ -88,8 +86,7 @@ def judge(t: float, capacity: float | None, status: str, t_capacity: float,
         # message it is a broken estimate. The winch stops either way.
         return Verdict(False, NO_VALUE, True,
                        f'capacity_node status {status!r} without a finite capacity')
-    lower_required = capacity_lower != math.inf or status == MODELLED
-    if lower_required and (capacity_lower is None or not math.isfinite(capacity_lower)
+    if capacity_lower != math.inf and (capacity_lower is None or not math.isfinite(capacity_lower)
                            or capacity_lower < 0.0):
         # A decision uses the lower bound, never the point estimate: capacity_node publishes
         # one whenever an input is assumed (behavior_node's height always is) or a level is set.

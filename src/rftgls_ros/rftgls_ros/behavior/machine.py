@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 
 from rftgls_core.types import AnchorState
 
+from ..tether import TetherTracker
 from . import evidence
 from .burrow import Burrow
 from .config import BehaviorConfig
@@ -54,7 +55,6 @@ from .model import (
     EnergyModel,
     ForceNeed,
     ModeChooser,
-    TetherTracker,
 )
 from .report import CycleRecord
 from .retry import EvidenceRetry

@@ -11,7 +11,7 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
-from rftgls_conventions import G, tether_phi
+from rftgls_conventions import G
 from rftgls_core.predictor import Predictor
 from rftgls_core.types import AnchorState, Pull, Status
 
@@ -324,33 +324,3 @@ class ModeChooser:
                   + (f'; also sufficient: {", ".join(others)}' if others else ''))
         return Decision(pick.mode, need, self.safety_factor, self.phis, tuple(cands), reason,
                         pose)
-
-
-# --------------------------------------------------------------------------- tether
-@dataclass
-class TetherTracker:
-    """Free tether length (m) from the winch encoder: rope_length (paid out at start) minus
-    what was reeled in since the first reading. Spool jumps larger than ``max_jump`` (an MCU
-    reset zeroes its counter) are ignored. The tether angle phi (rad) is estimated from the
-    height of p and of the sled attachment, assuming a taut straight tether."""
-
-    rope_length: float = 0.50
-    attach_height: float = 0.01
-    max_jump: float = 0.2
-    _last: float | None = None
-    reeled: float = 0.0
-
-    def update(self, spool_position: float) -> None:
-        if self._last is not None:
-            d = spool_position - self._last
-            if abs(d) <= self.max_jump:
-                self.reeled += d
-        self._last = spool_position
-
-    @property
-    def free_length(self) -> float:
-        return self.rope_length - self.reeled
-
-    def phi(self, h: float) -> float:
-        """Tether angle at p for height h (m) of p: negative when p is above the attachment."""
-        return tether_phi(h, self.attach_height, self.free_length)

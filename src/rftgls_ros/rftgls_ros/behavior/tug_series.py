@@ -20,7 +20,7 @@ from pathlib import Path
 from rftgls_conventions.safe_write import write_text
 from rftgls_core.charts.figure_io import save
 
-USABLE = ('ok', 'modelled', 'assumed')
+USABLE = ('ok', 'assumed')
 
 
 @dataclass(frozen=True)

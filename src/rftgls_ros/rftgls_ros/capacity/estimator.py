@@ -15,12 +15,13 @@ tolerances of each in docs/design/capacity-inputs.md):
 Times: seconds on one clock, when each sample was taken (header stamp, else receipt time); a
 sample older than its timeout is stale, one over `clock_tolerance_s` in the future invalid.
 
-Status precedence: stale > invalid_input > the predictor's status. The published word
-(Estimate.word) is `ok` only when every input is measured: `assumed` when one came from a
-parameter or arrived ASSUMED, else `modelled` when one arrived MODELLED (reason
-`modelled_input:height`); the lower bound covers such an input's band. A value (capacity,
-margin, slip twist) is present only for ok, modelled and assumed. Reasons are `code:input`
-items joined by ';' (e.g. `stale_input:tension`, `assumed_input:height`); `detail` is prose.
+Status precedence: stale > invalid_input > the predictor's status. An estimate with a value
+is `ok` when every input is measured, or modelled with a stated finite band (which the lower
+bound covers; reason `modelled_input:height`, `modelled` names it, /diagnostics `provenance`
+says `height:modelled`); `assumed` when one came from a parameter, arrived ASSUMED, or arrived
+MODELLED without a band (its range is then the node's assumption). A value (capacity, margin,
+slip twist) is present only for ok and assumed. Reasons are `code:input` items joined by ';'
+(e.g. `stale_input:tension`, `assumed_input:height`); `detail` is prose.
 """
 from __future__ import annotations
 
@@ -153,8 +154,9 @@ class Estimate:
         norm (RFT is rate independent so only the direction is known); given whenever there
         is a value, `slipping` says whether the tension exceeds capacity.
     state, phi_rad, tension_N: the inputs used (None when missing or not finite).
-    assumed: inputs taken from parameters or received as assumed ('height', 'phi').
-    modelled: inputs received as modelled (computed, not measured): the word is `modelled`.
+    assumed: inputs taken from parameters, received as assumed, or received as modelled
+        without a band ('height', 'phi').
+    modelled: inputs received as modelled with a finite band (computed, not measured).
     stale: inputs that are stale or were never received.
     warnings: non-fatal findings.
     """
@@ -185,11 +187,8 @@ class Estimate:
 
     @property
     def word(self) -> str:
-        """The status capacity_node publishes: the status, except that an ``ok`` estimate
-        built on a modelled input is ``modelled`` (MODELLED): only an estimate whose every
-        input was measured is ``ok``."""
-        if self.status is Status.OK and self.modelled:
-            return MODELLED
+        """The status capacity_node publishes (the provenance of each input says whether an
+        ``ok`` rests on a modelled one)."""
         return str(self.status)
 
     def provenance(self) -> dict[str, str]:
@@ -204,16 +203,13 @@ class Estimate:
 
 
 NAN = float('nan')
-# capacity_node's status word for an estimate with a value built on a modelled input (no input
-# assumed): not ok, and not an rftgls_core Status (a predictor never answers it).
-MODELLED = 'modelled'
 # Diagnostic level per status word (diagnostic_msgs/DiagnosticStatus: 0 OK, 1 WARN, 2 ERROR,
 # 3 STALE); a status not listed (e.g. the deprecated 'extrapolated') is an ERROR.
 OK_LEVEL, WARN_LEVEL, ERROR_LEVEL, STALE_LEVEL = 0, 1, 2, 3
 LEVELS = {str(s): level for s, level in (
     (Status.OK, OK_LEVEL), (Status.ASSUMED, WARN_LEVEL), (Status.OUT_OF_RANGE, ERROR_LEVEL),
     (Status.UNSUPPORTED, ERROR_LEVEL), (Status.DEGENERATE, ERROR_LEVEL),
-    (Status.INVALID_INPUT, ERROR_LEVEL), (Status.STALE, STALE_LEVEL), (MODELLED, WARN_LEVEL))}
+    (Status.INVALID_INPUT, ERROR_LEVEL), (Status.STALE, STALE_LEVEL))}
 
 
 @dataclass(frozen=True)
@@ -443,11 +439,14 @@ class CapacityEstimator:
 
     def _with_provenance(self, provenance: Provenance) -> tuple[str, ...]:
         """The inputs whose value in use has this provenance (an input never received is
-        assumed: its parameter stands in)."""
+        assumed: its parameter stands in; a modelled one without a band is assumed too: the
+        range it may be off by is then the node's assumption, not the model's)."""
         out = []
         for name in ASSUMABLE:
             s = self._inputs.get(name)
             p = Provenance.ASSUMED if s is None else s.provenance
+            if p is Provenance.MODELLED and math.isnan(s.band):
+                p = Provenance.ASSUMED
             if p is provenance:
                 out.append(name)
         return tuple(out)

@@ -4,11 +4,14 @@ Subscribes /winch/tension, /joint_states (winch_rope) and /capacity_node/estimat
 capacity, its lower bound, slip twist and the assumed inputs in one message, so they never mix
 two estimates; the guard decides on the lower bound);
 publishes /winch/speed, /burrow, /gait, /estop, and for capacity_node /winch/height_estimate
-(rftgls_interfaces/InputValue: h of p marked ASSUMED, the Table II mean of the requested mode
-with its spread, as behavior_node sends it; MiniRQuad measures no height) and /winch/phi (from
-the tether paid out and the attachment height: rftgls_ros.behavior.model.TetherTracker, the
-one behavior_node uses). capacity_node's estimate is therefore `assumed (height)`: a tug on it
-needs `-p accept_assumed_inputs:=height`, the same opt-in as behavior_node's.
+(rftgls_interfaces/InputValue: after a burrow the burrow simulation's h for that mode and the
+sled it is tied to (sled_mass_kg), MODELLED with its band; standing h_stand_m, ASSUMED;
+teleop/anchor.py) and /winch/phi (from the tether paid out and the attachment height:
+rftgls_ros.tether.TetherTracker, the one behavior_node uses). capacity_node's estimate of a
+burrowed anchor is therefore `ok` with provenance `height:modelled`. Once the legs hold the
+final pose, a measured pitch outside the modelled pitch's band is flagged (screen, log) and h
+is sent ASSUMED until the next burrow: `assumed (height)`, refused unless accepted
+(`-p accept_assumed_inputs:=height`, the same opt-in as behavior_node's).
 Run it alone with the robot (or simulator), bridge_node and capacity_node, not together with
 behavior_node (both would command the winch). On exit the session's capacity_node estimates are
 written as a time series to `report_dir` (default out/teleop; "" = none): teleop_tug.png/.csv
@@ -30,14 +33,15 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64, Header, String
 
-from rftgls_conventions import WINCH_ROPE_JOINT
-from rftgls_core.types import Provenance
+from rftgls_conventions import LEG_JOINT_NAMES, LEG_KEYS, WINCH_ROPE_JOINT, axle_angles
+from rftgls_core.planning.burrowed import mode_pose
 from rftgls_interfaces.msg import AnchorEstimate, InputValue
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import declare
 
 from ..behavior.tug_series import write_tug_series
 from ..capacity_msgs import input_value, record_tug
+from .anchor import LEG_TOLERANCE_RAD
 from .model import TeleopConfig, TeleopModel
 
 # ROS parameter (unit in the name) -> (TeleopConfig field, meaning, lo, hi). Start-up only.
@@ -51,7 +55,21 @@ PARAMETERS = {
     'rope_length_m': ('rope_length', 'tether paid out at start (for phi)', 0.0, 100.0),
     'attach_height_m': ('attach_height', 'tether attachment height on the sled', -1.0, 1.0),
     'h_stand_m': ('h_stand', 'height of p when not burrowed', -1.0, 1.0),
+    'sled_mass_kg': ('sled_mass', 'sled the robot burrows tied to (picks the gait map of the '
+                     'modelled burrowed pose)', 0.0, 50.0),
 }
+MODES = ('DH', 'DL', 'SH')
+
+
+def modelled_poses(sled_kg: float) -> dict:
+    """Each mode's modelled burrowed pose for the sled, or why there is none (one line)."""
+    out: dict = {}
+    for mode in MODES:
+        try:
+            out[mode] = mode_pose(mode, sled_kg) or f'{mode}: the burrow simulation has no pose'
+        except ValueError as exc:
+            out[mode] = str(exc)
+    return out
 
 
 class TeleopNode(Node):
@@ -68,7 +86,13 @@ class TeleopNode(Node):
                                           if x.strip())
         self.refresh_hz = declare(self, 'refresh_hz', 8.0, 'screen refresh rate', lo=0.1,
                                   hi=100.0)
-        self.model = TeleopModel(cfg)
+        self.model = TeleopModel(cfg, modelled_poses(cfg.sled_mass))
+        for mode, pose in self.model.anchor.poses.items():
+            self.get_logger().info(f'{mode}: ' + (
+                pose if isinstance(pose, str) else
+                f'h {1e3 * pose.h_m:.1f} +- {1e3 * pose.h_band_m:.1f} mm, pitch '
+                f'{math.degrees(pose.theta_b_rad):.1f} +- '
+                f'{math.degrees(pose.theta_b_band_rad):.1f} deg ({pose.source})'))
         self.pubs = {
             'winch': self.create_publisher(Float64, 'winch/speed', 10),
             'burrow': self.create_publisher(String, 'burrow', 10),
@@ -109,6 +133,12 @@ class TeleopNode(Node):
     def on_joints(self, msg) -> None:
         if WINCH_ROPE_JOINT in msg.name:
             self.model.tether.update(msg.position[msg.name.index(WINCH_ROPE_JOINT)])
+        if all(n in msg.name for n in LEG_JOINT_NAMES):
+            legs = {k: msg.position[msg.name.index(n)] for k, n in zip(LEG_KEYS, LEG_JOINT_NAMES)}
+            axles = axle_angles(legs, LEG_TOLERANCE_RAD)   # left and right must agree
+            l1, l2 = ((math.nan, math.nan) if axles.disagreeing
+                      else (axles.theta_l1, axles.theta_l2))
+            self.model.anchor.legs(l1, l2, time.monotonic())
 
     def on_estimate(self, msg: AnchorEstimate) -> None:
         m = self.model
@@ -116,6 +146,11 @@ class TeleopNode(Node):
         m.capacity = msg.capacity_n if msg.has_value else math.nan
         m.capacity_lower = msg.capacity_lower_n if msg.has_value else math.nan   # NaN: none
         m.assumed_inputs = frozenset(msg.assumed_inputs)
+        m.modelled_inputs = frozenset(msg.modelled_inputs)
+        flag = m.anchor.pitch(msg.theta_b_rad, time.monotonic())
+        if flag:
+            self.get_logger().warning(flag)
+            m.message, m.alert = flag, True
         tw = msg.slip_twist
         # The estimate carries the slip direction even while the anchor holds: shown only
         # when the tension exceeds the capacity (predicted motion is zero otherwise).
@@ -131,9 +166,9 @@ class TeleopNode(Node):
         if m.winch != 0.0:   # refresh: the MCU's winch deadman stops a winch left unrefreshed
             self.pubs['winch'].publish(Float64(data=float(m.winch)))
         header = Header(stamp=self.get_clock().now().to_msg())
-        self.pub_h.publish(input_value(m.height, m.height_band, Provenance.ASSUMED,
-                                       m.height_source, header))
-        self.pub_phi.publish(Float64(data=m.tether.phi(m.height)))
+        h = m.height()
+        self.pub_h.publish(input_value(h.value, h.band, h.provenance, h.source, header))
+        self.pub_phi.publish(Float64(data=m.tether.phi(h.value)))
 
 
 def draw(lines: list[str]) -> None:

@@ -3,10 +3,11 @@
 Guard: a decision uses the lower bound, not the point estimate. Reeling in while tension >=
 ``limit_fraction`` x the estimate's lower bound needs a deliberate override (press ``!`` then
 reel in within ``override_window`` s); the screen shows it in red. When the estimate is not
-evidence (``behavior.evidence.judge``: status other than ``ok`` or ``modelled``, or ``assumed``
-with an input outside ``accept_assumed_inputs`` (default none), no finite value, no finite
-lower bound, or older than ``stale_after``), reeling in is refused and a running reel-in is
-stopped; paying out and stopping always work. ``extrapolated`` is never accepted.
+evidence (``behavior.evidence.judge``: status other than ``ok``, or ``assumed`` with an input
+outside ``accept_assumed_inputs`` (default none), no finite value, no finite lower bound, or
+older than ``stale_after``), reeling in is refused and a running reel-in is stopped; paying
+out and stopping always work. ``extrapolated`` is never accepted. The height of p sent to
+capacity_node and the pitch check of the burrow: anchor.py.
 Screen: a number is shown only when it is one; capacity and lower bound that are not evidence
 are greyed with the reason, the load percentage and the margin only when tension and lower
 bound are both valid. Units: N, m/s (reel-in positive), s.
@@ -14,10 +15,14 @@ bound are both valid. Units: N, m/s (reel-in positive), s.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
+from rftgls_core.planning.burrowed import BurrowedPose
+
 from ..behavior.evidence import judge
-from ..behavior.model import ANCHOR_MODES, TetherTracker
+from ..tether import TetherTracker
+from .anchor import AnchorTracker, HeightInput
 
 RED, GREEN, YELLOW, BOLD, RESET = '\x1b[1;31m', '\x1b[32m', '\x1b[33m', '\x1b[1m', '\x1b[0m'
 GREY = '\x1b[2m'   # faint: a number that is not evidence
@@ -40,6 +45,7 @@ class TeleopConfig:
     rope_length: float = 0.50     # m, tether paid out at start (for phi)
     attach_height: float = 0.01   # m
     h_stand: float = 0.060        # m, height of p when not burrowed
+    sled_mass: float = 0.4        # kg, the sled the robot burrows tied to (its gait map)
     accept_assumed_inputs: tuple[str, ...] = ()   # inputs an 'assumed' estimate may assume
 
 
@@ -52,7 +58,9 @@ def _load_words(r: float) -> str:
 class TeleopModel:
     """``key(ch, t)`` and ``update(t)`` return the commands to publish as (topic, value)."""
 
-    def __init__(self, config: TeleopConfig | None = None):
+    def __init__(self, config: TeleopConfig | None = None,
+                 poses: Mapping[str, BurrowedPose | str | None] | None = None):
+        """poses: each mode's modelled burrowed pose, or why there is none."""
         self.cfg = config or TeleopConfig()
         self.winch = 0.0
         self.tension = math.nan
@@ -61,8 +69,9 @@ class TeleopModel:
         self.status = 'stale'
         self.t_capacity = -math.inf
         self.assumed_inputs: frozenset[str] | None = None
+        self.modelled_inputs: frozenset[str] = frozenset()
         self.slip_twist = (math.nan, math.nan, math.nan)
-        self.mode: str | None = None
+        self.anchor = AnchorTracker(poses or {}, self.cfg.h_stand)
         self.override_until = -math.inf
         self.estop = False
         # Command topics nobody subscribes to (the robot's bridge is not up or not yet
@@ -98,21 +107,12 @@ class TeleopModel:
         return self.t < self.override_until
 
     @property
-    def height(self) -> float:
-        """h of p, m: an assumption (MiniRQuad measures no height), the Table II mean of the
-        burrowed mode, else the standing height parameter."""
-        return ANCHOR_MODES[self.mode].h if self.mode else self.cfg.h_stand
+    def mode(self) -> str | None:
+        return self.anchor.mode
 
-    @property
-    def height_band(self) -> float:
-        """Half-width of the range the assumed height lies in, m (the mode's Table II spread;
-        NaN standing: not stated)."""
-        return ANCHOR_MODES[self.mode].h_band if self.mode else math.nan
-
-    @property
-    def height_source(self) -> str:
-        return (f'Table II mean of {self.mode} (teleop)' if self.mode
-                else 'h_stand_m parameter, not burrowed (teleop)')
+    def height(self) -> HeightInput:
+        """The height of p sent to capacity_node (anchor.py)."""
+        return self.anchor.height()
 
     # ------------------------------------------------------------------ inputs
     def key(self, ch: str, t: float) -> list[tuple[str, object]]:
@@ -140,16 +140,16 @@ class TeleopModel:
                                         'reel in past the limit at your own risk'), True
             return []
         if ch in '123':
-            self.mode = 'DH DL SH'.split()[int(ch) - 1]
+            self.anchor.burrow('DH DL SH'.split()[int(ch) - 1])
             self.winch = 0.0
             self.message, self.alert = f'burrow {self.mode} requested', False
             return [('winch', 0.0), ('burrow', self.mode)]
         if ch == 'u':
-            self.mode = None
+            self.anchor.burrow(None)
             self.message, self.alert = 'unburrow requested', False
             return [('burrow', 'UNBURROW')]
         if ch in 'ws':
-            self.mode = None
+            self.anchor.burrow(None)
             gait = 'walk' if ch == 'w' else 'stand'
             self.message, self.alert = f'gait {gait}', False
             return [('gait', gait)]
@@ -243,9 +243,11 @@ class TeleopModel:
             robot = f'{RED}NOBODY LISTENS to {", ".join(self.unheard)}{RESET}'
         else:
             robot = 'robot listening'
-        # An assumed estimate names what it assumes on the status line itself.
+        # The status line names what an estimate assumes, and what an ok rests on a model.
         assumed = (f' ({", ".join(sorted(self.assumed_inputs))})'
-                   if self.status == 'assumed' and self.assumed_inputs else '')
+                   if self.status == 'assumed' and self.assumed_inputs else
+                   f' ({", ".join(sorted(self.modelled_inputs))} modelled)'
+                   if self.status == 'ok' and self.modelled_inputs else '')
         evidence = ('prediction usable' if verdict.usable
                     else f'{GREY}not usable: {verdict.detail}{RESET}')
         lines = [
@@ -256,7 +258,10 @@ class TeleopModel:
             f'load     {load} (limit {100 * limit:.0f} %)',
             f'evidence {evidence}',
             f'slip twist {twist}',
-            f'winch {1e3 * self.winch:+5.0f} mm/s   anchor {self.mode or "-"}   {ov}   '
+            self.anchor.line(),
+            *([f'{RED}PITCH CHECK FAILED: {self.anchor.flag}{RESET}'] if self.anchor.flag
+              else []),
+            f'winch {1e3 * self.winch:+5.0f} mm/s   {ov}   '
             f'tether {self.tether.free_length:.3f} m   {robot}'
             + (f'   {RED}E-STOP{RESET}' if self.estop else ''),
             (RED if self.alert else YELLOW) + self.message + RESET,
