@@ -34,7 +34,7 @@ class BehaviorConfig:
     Evidence (docs/design/tug-safety.md): estimate_timeout_s: age (of its sample) after which
     capacity_node's estimate is not evidence; the winch stops in the step that sees it, so
     the reel after the last estimate is at most (timeout + one expiry check + the stop
-    command's way) x tug_speed_m_s; the 0.1 s split is in tug-safety.md, "The stop budget".
+    command's way) x tug_speed_m_s; the 0.1 s split: docs/design/stop-budget.md.
     evidence_grace_s: after a *transient* loss (no estimate, too old, 'stale') the winch stays
     stopped and the attempt is aborted if evidence is not back within this time; explicit
     no-value statuses abort at once. capacity_wait_s: time CHECK waits for a usable estimate
