@@ -19,12 +19,14 @@ import sys
 import numpy as np
 
 from minirquad_driver.protocol.messages import Flag, Mode
+from rftgls_conventions.safe_read import read_text
 
 PCTS = (50, 99, 100)
 
 
 def gaps(path: str) -> dict:
-    rows = [json.loads(x) for x in open(path) if x.strip()]
+    rows = [json.loads(x) for x in read_text(path, 'report', 'telemetry record').splitlines()
+            if x.strip()]
     t = np.array([r['host_s'] for r in rows])
     gap = np.diff(t)
     first = rows[:-1]
