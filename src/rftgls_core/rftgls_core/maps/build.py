@@ -6,16 +6,17 @@ finish together). For each state, each pull orientation is fitted once and queri
 stored pull angle, and the node's support margin is taken on the fit's own wrenches, so a
 node costs P surface fits. Each worker process (or Dask worker thread) builds its RobotPredictor
 once and keeps it (`_predictor` cache), because the twist sphere and the numba kernels are
-the expensive part to set up; the local pool is started once for both passes of a build
-(a worker's start, imports and cached kernels, costs ~1.5 s of CPU).
+the expensive part to set up; the local pool is started once for both passes of a build,
+its workers forked from a server that has the imports and kernels loaded (`worker_context`).
 
 Determinism: chunks are fixed by the grid and chunk size, results are placed by state index
 (never by completion order), the RFT kernels are serial, and nothing random is drawn, so the
 same inputs give the same arrays on 1 worker, N local workers or a Dask cluster. Only the
 build_time_utc attribute differs between builds.
 
-Executors: workers == 1 runs in this process; workers > 1 uses this process and workers - 1
-'spawn' processes (no fork of a parent that may hold threads: tqdm's monitor, Dask, ROS),
+Executors: workers == 1 runs in this process, its kernels on one thread; workers > 1 uses
+this process and workers - 1 processes forked from a clean fork server (`worker_context`;
+never a fork of this process, which may hold threads: tqdm's monitor, Dask, ROS),
 `local_workers`; `scheduler` sends the same chunks to a Dask distributed scheduler at that
 address.
 """
@@ -199,9 +200,10 @@ def _run_inline(spec, grid, chunks, fn=solve_chunk) -> Iterator:
 
 
 class LocalWorkers:
-    """`workers` workers for every pass of one build: this process and workers - 1 'spawn'
-    processes started once. A process's start (imports, cached kernels) costs ~1.5 s of CPU
-    and 3-10 s of wall time on a busy machine, so the process that has them already works
+    """`workers` workers for every pass of one build: this process and workers - 1 worker
+    processes (`worker_context`) started once. A worker's start costs little once the fork
+    server runs (~1.2 s of CPU for the server's imports and kernels, once per session; more
+    wall time on a busy machine), and the process that has them already works
     too (its kernels on one thread meanwhile, as the others' are), and when it runs out of
     chunks it also takes the ones still queued at a process that has not finished them (the
     same numbers, whoever computes them first): a pass never waits for a slow start."""
@@ -237,23 +239,46 @@ class LocalWorkers:
                 fut.cancel()
 
 
+# Modules a worker process imports before its first task (maps/build.py's worker functions,
+# the described and gait map builds', and worker_preload, which loads the compiled kernels):
+# ~0.9 s + ~0.2 s of CPU per process, paid once per session in the fork server (below).
+WORKER_MODULES = ['rftgls_core.maps.build', 'rftgls_core.maps.described_build',
+                  'rftgls_core.planning.gait_map', 'rftgls_core.maps.worker_preload']
+
+
+def worker_context() -> multiprocessing.context.BaseContext:
+    """The start method of local worker processes: 'forkserver' where there is one (Linux,
+    macOS), else 'spawn'. The fork server is a fresh single-threaded process started from
+    scratch like a spawned one (so nothing of this process's threads is forked) that imports
+    WORKER_MODULES once; each worker is then a fork of it and starts with them imported. The
+    server lives as long as this process, so a session's later pools (the bench's second
+    build, a gait map after a capacity map) start their workers in milliseconds."""
+    if 'forkserver' not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context('spawn')
+    ctx = multiprocessing.get_context('forkserver')
+    # read when the server starts (this process's first forkserver pool); later calls no-ops
+    ctx.set_forkserver_preload(WORKER_MODULES)
+    return ctx
+
+
 @contextmanager
 def local_workers(workers: int) -> Iterator[LocalWorkers]:
     """LocalWorkers for a build on `workers` >= 2 workers (on leaving, chunks not started are
     cancelled and a chunk still running elsewhere is not waited for)."""
-    ctx = multiprocessing.get_context('spawn')
-    pool = ProcessPoolExecutor(max_workers=workers - 1, mp_context=ctx)
+    pool = ProcessPoolExecutor(max_workers=workers - 1, mp_context=worker_context())
     try:
-        with _one_thread():
+        with one_thread():
             yield LocalWorkers(pool, workers - 1)
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
 
 
 @contextmanager
-def _one_thread() -> Iterator[None]:
-    """The RFT kernels of this thread on one thread inside the block (the other workers take
-    the other cores)."""
+def one_thread() -> Iterator[None]:
+    """The RFT kernels of this thread on one thread inside the block: a worker of a build is
+    one core, whether the others are processes (they take the other cores) or there are none
+    (`workers=1`: otherwise its large kernel calls, about half of a prototype build's CPU, would
+    run on every core, and one worker would not be one)."""
     from ..rft import kernels
     before = kernels.threads()
     if kernels.AVAILABLE:
@@ -407,6 +432,8 @@ def build_map(robot: str, medium: str | Medium, grid: MapGrid | None = None, *,
     with ExitStack() as stack:
         local = (stack.enter_context(local_workers(min(workers, grid.n_states)))
                  if workers > 1 and not scheduler else None)
+        if local is None and not scheduler:
+            stack.enter_context(one_thread())   # one worker is one core, as in a pool
 
         def run(chunks, fn=solve_chunk) -> Iterator:
             if scheduler:

@@ -98,7 +98,7 @@ def build_described_map(desc, medium, grid: DescribedGrid | None = None, *,
     from tqdm import tqdm
 
     from ..posed import PosedAnchorSolver
-    from .build import _run_inline, chunk_indices, local_workers
+    from .build import _run_inline, chunk_indices, local_workers, one_thread
     grid = description_grid(desc) if grid is None else grid
     if grid.names != desc.state_names:
         raise ValueError(f'grid axes {grid.names} are not the state of {desc.name} '
@@ -120,10 +120,12 @@ def build_described_map(desc, medium, grid: DescribedGrid | None = None, *,
     with ExitStack() as stack, tqdm(total=S, unit='state', file=sys.stderr,
                                     disable=not progress, desc=f'map {desc.name}/{medium.name}',
                                     dynamic_ncols=True) as bar:
-        results = (_run_inline(spec, grid, chunks, solve_described_chunk)
-                   if workers == 1 or len(chunks) == 1 else
-                   stack.enter_context(local_workers(min(workers, len(chunks)))).run(
-                       spec, grid, chunks, solve_described_chunk))
+        if workers == 1 or len(chunks) == 1:
+            stack.enter_context(one_thread())   # one worker is one core, as in a pool
+            results = _run_inline(spec, grid, chunks, solve_described_chunk)
+        else:
+            results = stack.enter_context(local_workers(min(workers, len(chunks)))).run(
+                spec, grid, chunks, solve_described_chunk)
         for ks, c, t, r, st, rs in results:
             # (n, P, K) -> (P, n, K): placed by state index, never by completion order
             cap[:, ks], ts[:, ks], tr[:, ks] = (np.swapaxes(c, 0, 1), np.swapaxes(t, 0, 1),

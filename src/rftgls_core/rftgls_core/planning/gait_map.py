@@ -129,7 +129,7 @@ def build_gait_map(inputs: PlanInputs, gaits: list[GaitPoint], *, workers: int |
                    scheduler: str | None = None, progress: bool = False,
                    command: str = '', scheduler_timeout_s: float = 10.0) -> GaitMap:
     """Predict every gait over the spread (maps/build.py's executors: this process and
-    workers - 1 spawned ones, or a Dask scheduler) and hold the runs in a GaitMap."""
+    workers - 1 worker processes, or a Dask scheduler) and hold the runs in a GaitMap."""
     from tqdm import tqdm
 
     from .. import __version__
