@@ -179,3 +179,31 @@ def test_checker_finds_mistakes(tmp_path):
     assert 'refuses its command line' in text and '--no-such-option' in text
     assert "launch argument 'undeclared' has no value" in text
     assert len(problems) == 8, text
+
+
+def test_the_tug_path_runs_behind_its_prefix(tmp_path):
+    """bringup.launch.py: bridge_node, capacity_node and behavior_node behind
+    `tug_path_prefix` (default `nice -n -5`) and then launch's `launch-prefix`, split as
+    launch's Executable does (shlex) and put in front of the command; state_publisher gets
+    `launch-prefix` alone (no prefix of its own: launch's default)."""
+    path = installed('bringup.launch.py')
+    tug_path = {'bridge_node', 'capacity_node', 'behavior_node'}
+
+    def prefixes(args):
+        return {n.executable: n.prefix for n in launch_check.parse(path, args).nodes}
+    nice = ['nice', '-n', '-5']
+    assert prefixes({}) == {**{n: nice for n in tug_path}, 'state_publisher': []}
+    assert prefixes({'tug_path_prefix': ''}) == {n: [] for n in (*tug_path, 'state_publisher')}
+    gdb = prefixes({'launch-prefix': "gdb -ex run --args"})
+    assert gdb['behavior_node'] == [*nice, 'gdb', '-ex', 'run', '--args']
+    assert gdb['state_publisher'] == ['gdb', '-ex', 'run', '--args']
+    behavior = launch_check.parse(path).nodes[-1]
+    exe = str(launch_model.executable_path('rftgls_ros', 'behavior_node'))
+    assert launch_model.argv(behavior, tmp_path)[:4] == [*nice, exe]
+    assert launch_model.program_argv(behavior, tmp_path)[0] == exe
+    # sim.launch.py passes it on to the file it includes.
+    sim = launch_check.parse(installed('sim.launch.py'), {'tug_path_prefix': 'chrt -f 10'})
+    assert {n.executable: n.prefix for n in sim.nodes}['capacity_node'] == ['chrt', '-f', '10']
+    # The checker finds a prefix program that does not exist.
+    problems = launch_check.check(path, {'tug_path_prefix': 'no_such_prefix_program -x'})
+    assert len(problems) == 3 and all('no_such_prefix_program' in p for p in problems)

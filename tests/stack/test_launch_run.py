@@ -96,6 +96,23 @@ def winch_after(log: Path, t: float) -> list[dict]:
     return [c for c in cmds if c['command'] == 'WINCH' and c['host_s'] >= t - 0.01]
 
 
+TUG_PATH = {'bridge_node', 'capacity_node', 'behavior_node'}
+PRIORITISED = ('bringup.launch.py', 'sim.launch.py')    # tug_path_prefix: nice -n -5
+
+
+def assert_tug_path_priority(name: str, launch: Launch) -> None:
+    """The tug path's nodes run 5 nice levels above this process (nice execs the node: the
+    pid launch signals is the node's), every other program at this process's level. Only a
+    process allowed to raise priority gets it (root here; without the right, nice warns and
+    runs the node at the launcher's level)."""
+    base = os.getpriority(os.PRIO_PROCESS, 0)
+    raised = base - 5 if os.geteuid() == 0 else base
+    for r in launch.running:
+        want = raised if name in PRIORITISED and r.name in TUG_PATH else base
+        assert os.getpriority(os.PRIO_PROCESS, r.popen.pid) == want, (r.name, r.argv[:4])
+        assert Path(f'/proc/{r.popen.pid}/comm').read_text().strip() != 'nice', r.name
+
+
 def stop_cleanly(launch: Launch) -> dict[str, tuple[int, float]]:
     result = launch.shutdown()
     text = logs(launch)
@@ -123,6 +140,7 @@ def test_launch_file_runs_and_stops_like_ros2_launch(name, tmp_path, ros_context
     launch = None
     try:
         launch = bring_up(name, args, tmp_path, probe, with_command_log)
+        assert_tug_path_priority(name, launch)
         if name != 'replay.launch.py':
             urdf = (share_dir('minirquad_description') / 'urdf' / 'minirquad.urdf').read_text()
             assert probe.spin(5.0, lambda: bool(probe.description))

@@ -202,6 +202,16 @@ class LiveGround:
             self._answers = {k: v for k, v in self._answers.items() if k[:2] != old}
         return fits
 
+    def answer_key(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD
+                   ) -> tuple:
+        """The grid cell an answer is cached under: (state key, pull, phi key)."""
+        return (self._key(state), Pull(pull).value, round(phi / self.steps[2]))
+
+    def cached(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD
+               ) -> CapacityResult | None:
+        """The answer for this grid cell if it was computed already, else None (no solve)."""
+        return self._answers.get(self.answer_key(state, phi, pull))
+
     def predict(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD
                 ) -> CapacityResult:
         if not (state.is_finite() and math.isfinite(phi)):

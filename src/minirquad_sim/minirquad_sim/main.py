@@ -30,6 +30,7 @@ from .firmware_link import FirmwareLinkError
 from .firmware_mcu import FirmwareMcu
 from .gait_pose import GaitPoses
 from .ground import make_ground
+from .ground_worker import BackgroundGround
 from .mcu import McuConfig, SimMcu
 from .physics import PhysicsBody
 from .plant import MotorWinch, PlantRobot
@@ -85,6 +86,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help='multiplies the true medium stress scale (0.7 = 30%% weaker sand)')
     t.add_argument('--true-mass-scale', type=float, default=1.0,
                    help='multiplies the true robot mass seen by the live ground')
+    t.add_argument('--ground-solver', choices=('worker', 'inline'), default='worker',
+                   help='worker: the live ground solves a new pose in a process of its own and '
+                        'answers with its last answer meanwhile, so the MCU loop keeps its '
+                        'period (default); inline: the MCU loop waits for each solve')
     g = p.add_argument_group('fault injection')
     g.add_argument('--garbage-rate', type=float, default=0.0)
     g.add_argument('--drop-rate', type=float, default=0.0)
@@ -273,6 +278,8 @@ def run(args: argparse.Namespace) -> int:
         recorder.close()
         commands.close()
         mcu.close()
+        if isinstance(ground, BackgroundGround):
+            ground.close()
     report = {'mcu': args.mcu, 'faults': dict(faults.counts), 'resets': mcu.resets,
               'rx_crc_errors': mcu.rx_crc_errors}
     if isinstance(mcu, FirmwareMcu):     # how well the firmware kept up with the wall clock
@@ -322,7 +329,8 @@ def _ground(args: argparse.Namespace):
                          medium_scale=args.true_medium_scale, mass_scale=args.true_mass_scale,
                          anchor=args.anchor)
     ground.warm_up()   # compile and cache before the link opens: no stall mid-run
-    return ground
+    # The worker is forked here, before the pty opens and the signal handlers are set.
+    return BackgroundGround(ground) if args.ground_solver == 'worker' else ground
 
 
 def _split(data: bytes) -> list[bytes]:

@@ -13,6 +13,14 @@ converted to their parameters' declared types (ParameterValue), so `sled_mass_kg
 float 1.0, not the integer YAML would make of it. Needs a ROS 2 Jazzy install with launch_ros;
 on the pip-wheel machines `python -m rftgls_ros.launch_run` starts the same command lines
 (tests/ros/test_launch_run.py).
+
+The tug path (bridge_node, capacity_node, behavior_node: the nodes a winch stop goes through)
+runs behind `tug_path_prefix`, by default `nice -n -5`: above a normal-priority load, as the
+stop promise was measured (docs/design/tug-safety.md, "Priority of the tug path"). Without the
+right to raise a priority (CAP_SYS_NICE, or an RLIMIT_NICE in /etc/security/limits.conf) nice
+prints "cannot set niceness" and runs the node at its normal priority; `tug_path_prefix:=''`
+switches it off. `ros2 launch --launch-prefix` (gdb, valgrind) still applies to these nodes,
+after the nice; `--launch-prefix-filter` does not (a prefix set in a launch file replaces it).
 """
 import os
 
@@ -31,6 +39,9 @@ def generate_launch_description():
     with open(urdf) as f:
         robot_description = f.read()
     port = ParameterValue(LaunchConfiguration('port'), value_type=str)
+    # launch joins the substitutions and shlex-splits the result in front of the command.
+    tug_path = [LaunchConfiguration('tug_path_prefix'), ' ',
+                LaunchConfiguration('launch-prefix', default='')]
     return LaunchDescription([
         DeclareLaunchArgument('port', default_value='/dev/ttyACM0',
                               description='serial port of the MiniRQuad MCU'),
@@ -41,12 +52,15 @@ def generate_launch_description():
         DeclareLaunchArgument('autostart', default_value='true',
                               description='behavior_node runs sled_mass_kg/cycles at start; '
                                           'false: it waits for walk_burrow_tug goals'),
+        DeclareLaunchArgument('tug_path_prefix', default_value='nice -n -5',
+                              description='command in front of bridge_node, capacity_node and '
+                                          "behavior_node ('' = none)"),
         Node(package='minirquad_driver', executable='bridge_node', name='bridge_node',
-             parameters=[{'port': port}], output='screen'),
+             parameters=[{'port': port}], prefix=tug_path, output='screen'),
         Node(package='rftgls_ros', executable='capacity_node', name='capacity_node',
              parameters=[os.path.join(params, 'capacity_node.yaml'),
                          {'phi_topic': '/winch/phi'}],
-             output='screen'),
+             prefix=tug_path, output='screen'),
         # /robot_description, /tf_static and /tf from the URDF, the joint states, the IMU
         # pitch and the height (robot_state_publisher's topics, plus the body pose).
         Node(package='rftgls_ros', executable='state_publisher', name='state_publisher',
@@ -60,5 +74,5 @@ def generate_launch_description():
                           'autostart': ParameterValue(LaunchConfiguration('autostart'),
                                                       value_type=bool)}],
              remappings=[('imu', 'imu/data')],   # REP-145's topic (the bridge has both)
-             output='screen'),
+             prefix=tug_path, output='screen'),
     ])

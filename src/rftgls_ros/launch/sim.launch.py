@@ -25,10 +25,14 @@ def generate_launch_description():
                               description='symlink the simulator keeps at its pty'),
         DeclareLaunchArgument('sled_mass_kg', default_value='0.4',
                               description='simulated sled mass, kg'),
+        DeclareLaunchArgument('tug_path_prefix', default_value='nice -n -5',
+                              description="bringup.launch.py's: in front of the tug path's "
+                                          "nodes ('' = none)"),
         ExecuteProcess(cmd=[ExecutableInPackage(executable='minirquad_sim',
                                                 package='minirquad_sim'),
                             '--symlink', port, '--sled-mass', sled], output='screen'),
         IncludeLaunchDescription(
             PythonLaunchDescriptionSource(os.path.join(launch_dir, 'bringup.launch.py')),
-            launch_arguments={'port': port, 'sled_mass_kg': sled}.items()),
+            launch_arguments={'port': port, 'sled_mass_kg': sled,
+                              'tug_path_prefix': LaunchConfiguration('tug_path_prefix')}.items()),
     ])

@@ -67,7 +67,7 @@ from .capacity_msgs import input_value, status_word
 from .capacity_query import CAPACITY_SOURCES, ServicePredictor
 from .tug_action import TugActionServer
 
-EXPIRY_CHECK_S = 0.01   # s: how often a reeling winch's evidence is checked between steps
+EXPIRY_CHECK_S = 0.005  # s: how often a reeling winch's evidence is checked between steps
 WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's deadman (80 ms)
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)

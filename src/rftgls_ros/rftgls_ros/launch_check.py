@@ -29,6 +29,7 @@ import importlib.metadata
 import inspect
 import io
 import os
+import shutil
 import sys
 import tempfile
 from pathlib import Path
@@ -38,7 +39,7 @@ from rftgls_conventions import one_line
 from rftgls_conventions.safe_read import load_yaml
 from rftgls_node_base.dds_loopback import during_init
 
-from .launch_model import Parsed, Process, argv, executable_path, parse, share_dir
+from .launch_model import Parsed, Process, executable_path, parse, program_argv, share_dir
 
 __all__ = ['Parsed', 'Process', 'check', 'check_node', 'parse', 'share_dir']
 
@@ -119,7 +120,9 @@ def check_node(p: Process, tmpdir: str | Path | None = None) -> list[str]:
     with contextlib.ExitStack() as stack:
         if tmpdir is None:
             tmpdir = stack.enter_context(tempfile.TemporaryDirectory(prefix='launch_check_'))
-        cmd = argv(p, tmpdir)
+        if p.prefix and shutil.which(p.prefix[0]) is None:
+            return [f'{what}: prefix program {p.prefix[0]!r} not found on PATH']
+        cmd = program_argv(p, tmpdir)     # what the program parses (a prefix execs it)
         cls = node_class(module)
         if p.kind != 'node':
             if cls is not None:

@@ -11,7 +11,12 @@ dict becomes a temporary YAML file `{<fully qualified name> or /**: {ros__parame
 then `-r FROM:=TO` per remapping. Parameter values follow launch_ros's evaluation: a
 substituted value is read as YAML (so `sled_mass_kg:=1` is the integer 1) unless wrapped in
 `ParameterValue(..., value_type=float)`, which converts it; plain values pass as they are.
-An ExecuteProcess runs its `cmd` as given, with no ROS arguments.
+An ExecuteProcess runs its `cmd` as given, with no ROS arguments. Either action's `prefix`
+(launch's Executable, Jazzy) is resolved to one string, split with `shlex.split` and put in
+front of the command; without one, launch uses the `launch-prefix` launch configuration
+(`ros2 launch --launch-prefix`, default ''), which this model takes from the arguments given.
+A prefix set in the file replaces `launch-prefix`, and `launch-prefix-filter` then does not
+apply.
 
 Used by launch_check (checks every program against its command line) and launch_run (starts
 the programs, the project's stand-in for `ros2 launch`).
@@ -20,6 +25,7 @@ from __future__ import annotations
 
 import os
 import runpy
+import shlex
 import sys
 import types
 from collections.abc import Iterator
@@ -183,6 +189,7 @@ class Process:
     parameters: list[Any] = field(default_factory=list)   # dicts (evaluated) and Paths
     remappings: list[tuple[str, str]] = field(default_factory=list)
     arguments: list[str] = field(default_factory=list)
+    prefix: list[str] = field(default_factory=list)        # shlex-split, before the command
 
 
 @dataclass
@@ -305,7 +312,9 @@ def _parse(path: Path, given: dict[str, str], out: Parsed) -> None:
                                     'and was not given')
                 continue
             args[_arg_name(e)] = resolve(default, args)
-    for name in sorted(set(given) - {_arg_name(e) for e in declared}):
+    # launch-prefix is launch's own configuration (`ros2 launch --launch-prefix`), seen by
+    # every file, included ones too.
+    for name in sorted(set(given) - {_arg_name(e) for e in declared} - {'launch-prefix'}):
         out.problems.append(f'{where}: argument {name!r} is not declared')
     for e in entities:
         try:
@@ -318,6 +327,8 @@ def _parse(path: Path, given: dict[str, str], out: Parsed) -> None:
                 sub = Path(resolve(src.arg(0, 'launch_file_path'), args))
                 passed = {resolve(k, args): resolve(v, args)
                           for k, v in (e.kwargs.get('launch_arguments') or [])}
+                if 'launch-prefix' in args:
+                    passed.setdefault('launch-prefix', args['launch-prefix'])
                 if not sub.is_file():
                     out.problems.append(f'{where}: included file {sub} does not exist')
                 else:
@@ -326,6 +337,14 @@ def _parse(path: Path, given: dict[str, str], out: Parsed) -> None:
                 out.problems.append(f'{where}: {type(e).__name__} is not modelled')
         except (KeyError, TypeError, ValueError) as exc:
             out.problems.append(f'{where}: {exc.args[0] if exc.args else exc}')
+
+
+def _prefix(e: _Recorded, args: dict[str, str]) -> list[str]:
+    """The action's prefix as launch's Executable builds it: the substituted string, split
+    like a shell would (no prefix: the `launch-prefix` configuration, default '')."""
+    given = e.kwargs.get('prefix')
+    text = args.get('launch-prefix', '') if given is None else resolve(given, args)
+    return shlex.split(str(text))
 
 
 def _node(where: str, e: Node, args: dict[str, str]) -> Process:
@@ -340,7 +359,8 @@ def _node(where: str, e: Node, args: dict[str, str]) -> Process:
         namespace=resolve(kw['namespace'], args) if kw.get('namespace') is not None else None,
         parameters=params,
         remappings=[(resolve(a, args), resolve(b, args)) for a, b in kw.get('remappings') or []],
-        arguments=[str(resolve(a, args)) for a in kw.get('arguments') or []])
+        arguments=[str(resolve(a, args)) for a in kw.get('arguments') or []],
+        prefix=_prefix(e, args))
 
 
 def _process(where: str, e: ExecuteProcess, args: dict[str, str]) -> Process:
@@ -350,7 +370,7 @@ def _process(where: str, e: ExecuteProcess, args: dict[str, str]) -> Process:
     first = cmd[0]
     return Process(source=where, kind='process', package=resolve(first.arg(1, 'package'), args),
                    executable=resolve(first.arg(0, 'executable'), args),
-                   arguments=[str(resolve(a, args)) for a in cmd[1:]])
+                   arguments=[str(resolve(a, args)) for a in cmd[1:]], prefix=_prefix(e, args))
 
 
 # -- command lines ------------------------------------------------------------------------------
@@ -369,8 +389,14 @@ def fully_qualified_name(p: Process) -> str | None:
 
 
 def argv(p: Process, tmpdir: str | Path) -> list[str]:
-    """The command line launch would run for `p` (see the module doc). Dict parameters are
-    written to YAML files in tmpdir. KeyError when the executable is not installed."""
+    """The command line launch would run for `p`: its prefix, then `program_argv`."""
+    return [*p.prefix, *program_argv(p, tmpdir)]
+
+
+def program_argv(p: Process, tmpdir: str | Path) -> list[str]:
+    """The program's own command line (see the module doc), without the prefix. Dict
+    parameters are written to YAML files in tmpdir. KeyError when the executable is not
+    installed."""
     exe = executable_path(p.package, p.executable)
     if exe is None:
         raise KeyError(f'no executable lib/{p.package}/{p.executable} on AMENT_PREFIX_PATH')

@@ -33,7 +33,8 @@ class BehaviorConfig:
 
     Evidence (docs/design/tug-safety.md): estimate_timeout_s: age (of its sample) after which
     capacity_node's estimate is not evidence; the winch stops in the step that sees it, so
-    the reel after the last estimate is at most (timeout + one step) x tug_speed_m_s.
+    the reel after the last estimate is at most (timeout + one expiry check + the stop
+    command's way) x tug_speed_m_s; the 0.1 s split: docs/design/stop-budget.md.
     evidence_grace_s: after a *transient* loss (no estimate, too old, 'stale') the winch stays
     stopped and the attempt is aborted if evidence is not back within this time; explicit
     no-value statuses abort at once. capacity_wait_s: time CHECK waits for a usable estimate
@@ -78,7 +79,7 @@ class BehaviorConfig:
     stop_ratio: float = 0.97
     min_speed_fraction: float = 0.1
     taut_tension_N: float = 0.3
-    estimate_timeout_s: float = 0.04
+    estimate_timeout_s: float = 0.06
     evidence_grace_s: float = 2.0
     evidence_settle_s: float = 0.3
     evidence_wait_s: float = 10.0

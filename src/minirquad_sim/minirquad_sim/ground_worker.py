@@ -1,0 +1,120 @@
+"""The live ground answered by a worker process, so the simulated MCU loop never waits for it.
+
+A real MCU keeps its loop rate whatever the sand does. The live solver (``LiveGround``) takes
+50-200 ms for an answer at a pose it has not seen (more on a loaded host), and while an anchor
+slips every physics step reaches a new pose: asked inline, the MCU loop stood still for
+0.1-0.6 s at a time (docs/design/tug-safety.md, "The simulated MCU keeps its period").
+``BackgroundGround`` wraps a warmed-up ``LiveGround``:
+
+- an answer already computed (its grid cell: 1 mm, 1 deg, 1 deg of pull angle) is returned;
+- otherwise the cell is sent to a worker process that owns a copy of the ground (forked after
+  the warm-up, so its compiled solver and caches come with it) and the caller gets, at once,
+  the newest answer this pull got (the cell's own when it was solved, else the worker's latest
+  solve): the ground runs behind the pose by one solve. One request is in flight and one
+  waits; a newer cell replaces the waiting one, since a slipping anchor passes cells faster
+  than they solve. A slipping anchor therefore meets the capacity it digs into one solve late:
+  it slips further than with the solve inline, by at most what the winch reels in one solve;
+- with no answer at all for this pull yet, it is computed inline (only before the warm-up).
+
+A process, not a thread: the solver holds the GIL through its compiled calls (a thread left
+gaps of up to 0.8 s in the loop). The worker ends when the simulator does (its end of the
+pipe closes) and ignores SIGINT (a Ctrl-C to the terminal's process group is the simulator's
+to handle).
+"""
+from __future__ import annotations
+
+import math
+import multiprocessing
+import signal
+from collections import OrderedDict
+
+from rftgls_core.surfaces.base import CapacityResult
+from rftgls_core.types import AnchorState, Pull
+
+from .ground import LiveGround
+
+
+def _serve(ground: LiveGround, conn, parent_end) -> None:
+    """Worker process: answer (cell, state, phi, pull) requests until the pipe closes."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    parent_end.close()         # the fork's copy: else the pipe never closes when the parent's does
+    while True:
+        try:
+            cell, state, phi, pull = conn.recv()
+            conn.send((cell, ground.predict(state, phi, pull)))
+        except (EOFError, OSError):
+            return
+
+
+class BackgroundGround:
+    """A ``LiveGround`` whose new answers are solved in a worker process (module doc).
+    ``stand_ins`` counts the answers given from an earlier cell while a solve ran."""
+
+    def __init__(self, ground: LiveGround, cache_size: int = 50_000):
+        self.ground = ground
+        self.method = getattr(ground, 'method', 'live')
+        self.cache_size = cache_size
+        self._answers: OrderedDict = OrderedDict()
+        self._last: dict[str, CapacityResult] = {}
+        self._in_flight: tuple | None = None
+        self._waiting: tuple | None = None
+        self.stand_ins = 0
+        ctx = multiprocessing.get_context('fork')
+        self._conn, child = ctx.Pipe()
+        self._worker = ctx.Process(target=_serve, args=(ground, child, self._conn), daemon=True,
+                                   name='minirquad_sim ground')
+        self._worker.start()
+        child.close()
+
+    def describe(self) -> str:
+        return self.ground.describe() + ', solved in a worker process'
+
+    def close(self) -> None:
+        """End the worker now (a solve in progress is not waited for)."""
+        self._conn.close()
+        self._worker.terminate()
+        self._worker.join(1.0)
+        if self._worker.is_alive():
+            self._worker.kill()
+            self._worker.join(1.0)
+
+    def _collect(self) -> None:
+        """Take in the worker's answer if it is ready; send the waiting request."""
+        while self._in_flight is not None and self._conn.poll():
+            cell, answer = self._conn.recv()
+            self._answers[cell] = answer
+            # The newest solve is the nearest pose the ground knows (the anchor passed it at
+            # most one solve ago): a slipping anchor meets the capacity it digs into with one
+            # solve's delay, not never.
+            self._last[cell[1]] = answer
+            if len(self._answers) > self.cache_size:
+                self._answers.popitem(last=False)
+            self._in_flight = None
+            if self._waiting is not None:
+                self._send(self._waiting)
+                self._waiting = None
+
+    def _send(self, request: tuple) -> None:
+        self._conn.send(request)
+        self._in_flight = request
+
+    def predict(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD
+                ) -> CapacityResult:
+        if not (state.is_finite() and math.isfinite(phi)):
+            return self.ground.predict(state, phi, pull)       # invalid_input, no solve
+        pull = Pull(pull).value
+        cell = self.ground.answer_key(state, phi, pull)
+        self._collect()
+        hit = self._answers.get(cell) or self.ground.cached(state, phi, pull)
+        if hit is None and pull not in self._last:
+            hit = self.ground.predict(state, phi, pull)        # nothing to stand in yet
+        if hit is not None:
+            self._last[pull] = hit
+            return hit
+        request = (cell, state, phi, pull)
+        if self._in_flight is None:
+            self._send(request)
+        elif self._in_flight[0] != cell:
+            self._waiting = request
+        self.stand_ins += 1
+        return self._last[pull]
