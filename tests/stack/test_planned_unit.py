@@ -129,7 +129,7 @@ def test_planned_gait_closed_loop_modelled_height_and_holds(predictor):
     gait = m.chooser.gaits[r.mode]
     h, band, _, prov = seen['height']
     assert prov is Provenance.MODELLED and h == pytest.approx(gait.answer.pose[0])
-    assert band == pytest.approx(2 * gait.h_sigma)
+    assert band == pytest.approx(2 * gait.answer.pose_sigma[0])
     # The simulated body settled where the gait map predicts (gait_pose.py).
     assert seen['pitch'] == pytest.approx(gait.answer.pose[1], abs=1e-3)
     assert r.p_hold == pytest.approx(gait.p_hold) and r.reel_lower_margin_n >= 0.0

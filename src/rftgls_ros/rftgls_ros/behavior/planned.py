@@ -25,12 +25,13 @@ from pathlib import Path
 from statistics import NormalDist
 
 from rftgls_core.planning.bound import GaitAnswer
+from rftgls_core.planning.burrowed import BurrowedPose, burrowed_pose
 from rftgls_core.planning.gait_map import GaitMap, load, shipped_paths
 from rftgls_core.planning.planner import plan_from_map
 from rftgls_core.predictor import Predictor
 
 from .gait_energy import GaitEnergyModel
-from .model import AnchorMode, Candidate, Decision, EnergyModel, ModeChooser
+from .model import H_BAND_SDS, AnchorMode, Candidate, Decision, EnergyModel, ModeChooser
 
 SLED_MATCH_KG = 0.005   # a gait map answers for a sled within 5 g of its own (weighed to grams)
 
@@ -51,10 +52,7 @@ class PlannedGait:
     speed: float
     answer: GaitAnswer
     p_hold: float
-
-    @property
-    def h_sigma(self) -> float:
-        return float(self.answer.pose_sigma[0])
+    pose: BurrowedPose     # the modelled burrowed pose and its band (planning.burrowed)
 
     def report(self, phis: Sequence[float]) -> dict:
         """The chosen gait for the events and the report: the planner's JSON and p_hold."""
@@ -191,17 +189,21 @@ class GaitChooser(ModeChooser):
                                            f'{best.weakest:.2f} N' if best else ''))
             return Decision(None, need, self.safety_factor, self.phis, shown, reason, 'planned')
         pick, answer = pick
+        pose = burrowed_pose(answer, f'burrow simulation of gait {pick.mode} (planner)')
+        if pose is None:     # a candidate has a nominal pose; refuse rather than guess one
+            return Decision(None, need, self.safety_factor, self.phis, shown,
+                            f'{pick.mode}: the plan has no predicted pose', 'planned')
         gait = PlannedGait(pick.mode, answer.gait.retract, answer.gait.final, answer.gait.speed,
-                           answer, p_hold(answer, required, self.scale))
+                           answer, p_hold(answer, required, self.scale), pose)
         self.gaits[pick.mode] = gait
-        self.modes[pick.mode] = AnchorMode(
-            pick.mode, gait.retract, gait.final, float(answer.pose[0]),
-            float(answer.pose[1]), 1.0, gait.h_sigma)
+        # AnchorMode states its band in standard deviations (H_BAND_SDS of h_sd).
+        self.modes[pick.mode] = AnchorMode(pick.mode, gait.retract, gait.final, pose.h_m,
+                                           pose.theta_b_rad, 1.0, pose.h_band_m / H_BAND_SDS)
         reason = (f'{pick.mode}: cheapest sufficient planned gait ({pick.energy_j:.2f} J, '
                   f'{energy.source(pick.mode)}'
                   f'); lower bound {pick.weakest:.2f} N >= {self.safety_factor:.2f} x '
                   f'{need:.2f} N at {self.confidence:.0%}, holds with p {gait.p_hold:.3f}; '
-                  f'predicted h {1e3 * answer.pose[0]:.1f} +- '
-                  f'{1e3 * gait.h_sigma:.1f} mm, pitch {math.degrees(answer.pose[1]):.1f} deg')
+                  f'predicted h {1e3 * pose.h_m:.1f} +- {1e3 * pose.h_band_m:.1f} mm, pitch '
+                  f'{math.degrees(pose.theta_b_rad):.1f} deg')
         return Decision(pick.mode, need, self.safety_factor, self.phis, shown, reason,
                         'planned')
