@@ -18,6 +18,7 @@ import sys
 import time
 
 import numpy as np
+from telemetry_gaps import gap_stats  # tools/, beside this script
 
 from minirquad_driver.protocol import messages as m
 from minirquad_driver.protocol.codec import encode_frame
@@ -76,10 +77,7 @@ def main(argv: list[str] | None = None) -> int:
     slips = [x for _, x in reeling if x.flags & m.Flag.ANCHOR_SLIPPING]
     pitch = [x.pitch for _, x in reeling]
     print(json.dumps({
-        'ground_solver': args.ground_solver, 'frames': len(reeling),
-        'gap_ms': {f'p{q}': round(1e3 * float(np.percentile(gaps, q)), 1)
-                   for q in (50, 99, 100)},
-        'gaps_ge_50ms': int(np.sum(gaps >= 0.05)), 'slipping_frames': len(slips),
+        'ground_solver': args.ground_solver, **gap_stats(gaps), 'slipping_frames': len(slips),
         'pitch_change_deg': round(float(np.degrees(max(pitch) - min(pitch))), 2),
         'stand_in_answers': getattr(ground, 'stand_ins', 0)}, indent=1))
     return 0

@@ -24,6 +24,15 @@ from rftgls_conventions.safe_read import read_text
 PCTS = (50, 99, 100)
 
 
+def gap_stats(v: np.ndarray) -> dict:
+    """Frames, gap percentiles (ms) and gaps of 50 ms or more of host-time gaps v (s)."""
+    if len(v) == 0:
+        return {'frames': 0}
+    return {'frames': int(len(v)),
+            **{f'p{p}_ms': round(1e3 * float(np.percentile(v, p)), 1) for p in PCTS},
+            'gaps_ge_50ms': int(np.sum(v >= 0.05))}
+
+
 def gaps(path: str) -> dict:
     rows = [json.loads(x) for x in read_text(path, 'report', 'telemetry record').splitlines()
             if x.strip()]
@@ -37,13 +46,7 @@ def gaps(path: str) -> dict:
                          for r in first])
     slip_t = t[np.array([bool(r['flags'] & int(Flag.ANCHOR_SLIPPING)) for r in rows])]
 
-    def stats(v: np.ndarray) -> dict:
-        if len(v) == 0:
-            return {'frames': 0}
-        return {'frames': int(len(v)),
-                **{f'p{p}_ms': round(1e3 * float(np.percentile(v, p)), 1) for p in PCTS},
-                'gaps_ge_50ms': int(np.sum(v >= 0.05))}
-    return {'linked': stats(gap[linked]), 'anchored_loaded': stats(gap[anchored]),
+    return {'linked': gap_stats(gap[linked]), 'anchored_loaded': gap_stats(gap[anchored]),
             'slipping_frames': int(len(slip_t))}
 
 
