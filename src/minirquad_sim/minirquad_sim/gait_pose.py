@@ -13,13 +13,11 @@ the body where it is. Angles in rad, h in m.
 """
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
 
 MATCH_RAD = math.radians(1.0)
-SLED_MATCH_KG = 0.005
 
 
 class GaitPoses:
@@ -32,15 +30,13 @@ class GaitPoses:
     @classmethod
     def for_sled(cls, sled_kg: float, robot: str = 'minirquad') -> GaitPoses | None:
         """From the shipped gait map built for this sled (kg); None without one."""
-        from rftgls_core.planning.gait_map import load, shipped_paths
-        for p in shipped_paths(robot):
-            gmap = load(p)
-            kg = float(json.loads(str(gmap.attrs['inputs_json']))['sled_kg'])
-            if abs(kg - sled_kg) <= SLED_MATCH_KG:
-                pose = gmap.arrays['pose'][:, 0, :2]       # the nominal run of every gait
-                ok = np.isfinite(pose).all(axis=1)
-                return cls(gmap.arrays['gaits'][ok], pose[ok])
-        return None
+        from rftgls_core.planning.gait_map import for_sled, shipped_paths
+        gmap, _ = for_sled(sled_kg, shipped_paths(robot))
+        if gmap is None:
+            return None
+        pose = gmap.arrays['pose'][:, 0, :2]       # the nominal run of every gait
+        ok = np.isfinite(pose).all(axis=1)
+        return cls(gmap.arrays['gaits'][ok], pose[ok])
 
     def pose(self, retract: tuple[float, float],
              final: tuple[float, float]) -> tuple[float, float] | None:

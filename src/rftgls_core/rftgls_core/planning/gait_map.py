@@ -29,7 +29,7 @@ from __future__ import annotations
 import json
 import math
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from contextlib import ExitStack
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -296,3 +296,20 @@ def _read(f: h5py.File) -> GaitMap:
 def shipped_paths(robot: str) -> list[Path]:
     """The shipped gait maps of a robot preset that are installed."""
     return [maps_dir() / n for n in SHIPPED.get(robot, ()) if (maps_dir() / n).is_file()]
+
+
+# A gait map answers for a sled within this of its own mass, kg (sleds are weighed to grams).
+SLED_MATCH_KG = 0.005
+
+
+def for_sled(sled_kg: float, paths: Iterable[Path]) -> tuple[GaitMap | None, list[float]]:
+    """The first gait map of ``paths`` built for this sled (kg, within SLED_MATCH_KG), and the
+    sled masses (kg) of the maps read before it (all of them when none matches)."""
+    seen: list[float] = []
+    for p in paths:
+        gmap = load(p)
+        kg = float(json.loads(str(gmap.attrs['inputs_json']))['sled_kg'])
+        if abs(kg - sled_kg) <= SLED_MATCH_KG:
+            return gmap, seen
+        seen.append(kg)
+    return None, seen

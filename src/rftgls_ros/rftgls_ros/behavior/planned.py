@@ -17,7 +17,6 @@ Units: SI inside (m, rad, N, J); degrees only in the gait's name and the event t
 """
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -26,14 +25,12 @@ from statistics import NormalDist
 
 from rftgls_core.planning.bound import GaitAnswer
 from rftgls_core.planning.burrowed import BurrowedPose, burrowed_pose
-from rftgls_core.planning.gait_map import GaitMap, load, shipped_paths
+from rftgls_core.planning.gait_map import GaitMap, for_sled, shipped_paths
 from rftgls_core.planning.planner import plan_from_map
 from rftgls_core.predictor import Predictor
 
 from .gait_energy import GaitEnergyModel
 from .model import H_BAND_SDS, AnchorMode, Candidate, Decision, EnergyModel, ModeChooser
-
-SLED_MATCH_KG = 0.005   # a gait map answers for a sled within 5 g of its own (weighed to grams)
 
 
 class PlanUnavailable(ValueError):
@@ -76,13 +73,10 @@ def gait_name(answer: GaitAnswer) -> str:
 def sled_map(robot: str, sled_kg: float, paths: Iterable[Path] | None = None) -> GaitMap:
     """The shipped gait map built for this sled (kg); PlanUnavailable naming the sleds there
     are maps for when none matches."""
-    found = []
-    for p in (shipped_paths(robot) if paths is None else paths):
-        gmap = load(p)
-        kg = float(json.loads(str(gmap.attrs['inputs_json']))['sled_kg'])
-        if abs(kg - sled_kg) <= SLED_MATCH_KG:
-            return gmap
-        found.append(f'{1e3 * kg:.0f} g')
+    gmap, kgs = for_sled(sled_kg, shipped_paths(robot) if paths is None else paths)
+    if gmap is not None:
+        return gmap
+    found = [f'{1e3 * kg:.0f} g' for kg in kgs]
     raise PlanUnavailable(
         f"burrow_modes 'planned': no gait map for a {1e3 * sled_kg:.0f} g sled (the gait maps "
         f"are per sled; shipped for {robot}: {', '.join(found) or 'none'}); use 'table_ii' or "
