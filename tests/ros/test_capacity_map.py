@@ -97,6 +97,29 @@ def test_edge_margin_answers_are_re_answered_by_the_live_solver():
     assert fb.predict(st, phi, pull) == mp.predict(st, phi, pull)
 
 
+
+def test_a_cell_the_support_edge_crosses_is_answered_by_the_live_solver():
+    # SH's final legs (-40, 30 deg) at h 51 mm, pitch 2.4 deg, tether -4 deg: the shipped map's
+    # cell spans h 45-55 mm and its 55 mm corners cannot hold the robot, without a support
+    # margin to interpolate, so the map alone has no value (`unsupported`, flag
+    # edge_unsupported). The live solver (the reference, no map) still finds the anchor holding
+    # there; with an edge checker that answer is published, and where the live solver says
+    # unsupported too (h 53 mm) so is the checked answer.
+    from rftgls_core.maps import shipped_map_path
+    fb = node_predictor(str(shipped_map_path('minirquad')), edge_live_method='direct')
+    phi = math.radians(-4.0)
+    for h_mm, holds in ((51.0, True), (53.0, False)):
+        st = AnchorState.from_degrees(1e-3 * h_mm, 2.4, -40.0, 30.0)
+        m, r, ref = (p.predict(st, phi, 'backward') for p in (fb.primary, fb, fb.edge))
+        assert m.status is Status.UNSUPPORTED and 'edge_unsupported' in m.flags
+        assert (ref.status is Status.OK) is holds
+        assert r.status is ref.status and r.capacity_N == ref.capacity_N
+        assert 'live_edge_check' in r.reason.split(';')
+    # a cell whose valueless corners are not all unsupported keeps the conservative answer
+    interior = fb.primary.predict(AnchorState.from_degrees(0.047, 2.4, -40.0, 30.0), phi,
+                                  'backward')
+    assert interior.status is Status.OK and 'edge_unsupported' not in interior.flags
+
 def test_capacity_node_checks_edge_answers_by_default_and_can_be_told_not_to(small_map):
     from rftgls_ros.capacity.params import PARAMETERS
     assert PARAMETERS['edge_live_method'].default == 'direct-warm'

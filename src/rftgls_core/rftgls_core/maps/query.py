@@ -36,7 +36,8 @@ Policies (docs/design/architecture.md, docs/design/limit-surfaces.md):
 - Conservative cell rule: if any other corner with nonzero weight has no value (degenerate,
   ...), or no weight has a value, the answer has no value. Its status is the most conservative
   status among those corners, in the order UNSUPPORTED > DEGENERATE > INVALID_INPUT > STALE;
-  reason 'cell_<status>', and `detail` counts the corners and quotes the node's own reason.
+  reason 'cell_<status>', and `detail` counts the corners and quotes the node's own reason;
+  flag 'edge_unsupported' when some corners hold and the rest are unsupported (edge crossed).
   A query exactly on a valued node or face never looks at zero-weight neighbours.
 - Twists: the scaled-metric components are blended, then renormalised. The pre-normalisation
   norm (1 when all corners agree, -> 0 when they oppose) is the twist confidence, always
@@ -391,7 +392,8 @@ class CapacityMap:
                 m = (self._edge_margin(p, coords)
                      if only_unsupported and self._margin is not None else None)
                 if m is None:
-                    return self._bad_cell(p, coords[4], bad, n_corners)
+                    return self._bad_cell(p, coords[4], bad, n_corners, ('edge_unsupported',)
+                                          if only_unsupported else ())
                 # The valued corners' blend, capped by the margin: the first exit along any
                 # load direction lies at least the origin's distance from the surface away
                 # (s_F m in N, d has no moment part), so the cap is a lower bound where the
@@ -473,19 +475,17 @@ class CapacityMap:
         return CapacityResult(phi=coords[4], status=Status.OUT_OF_RANGE, method=METHOD,
                               reason='out_of_grid', detail=detail)
 
-    def _bad_cell(self, p: int, phi: float, bad: list[int], n_terms: int) -> CapacityResult:
+    def _bad_cell(self, p: int, phi: float, bad: list[int], n_terms: int, flags=()):
         codes = self._codes[p]
         worst = min((codes[k] for k in bad), key=lambda c: _RANK.get(c, len(_RANK)))
         status = _STATUS_OF[worst]
         first = next(k for k in bad if codes[k] == worst)
         names = self.data.reason_names
-        node_reason = names[self._reasons[p][first]] if names else ''
-        node = self._node_text(p, first)
+        why = f' ({names[self._reasons[p][first]]})' if names else ''
         return CapacityResult(
-            phi=phi, status=status, method=METHOD, reason=f'cell_{status.value}',
-            detail=f'{len(bad)} of {n_terms} weighted cell corners have no value; '
-                   f'e.g. node {node} is {status.value}'
-                   + (f' ({node_reason})' if node_reason else ''))
+            phi=phi, status=status, method=METHOD, reason=f'cell_{status.value}', flags=flags,
+            detail=f'{len(bad)} of {n_terms} weighted cell corners have no value; e.g. node '
+                   f'{self._node_text(p, first)} is {status.value}{why}')
 
     def _node_text(self, p: int, k: int) -> str:
         idx = []

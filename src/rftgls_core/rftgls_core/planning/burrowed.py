@@ -10,12 +10,21 @@ stated), and capacity_node then takes the height as assumed, never as `ok`.
 `mode_pose` answers for one of the paper's modes (DH, DL, SH) from the robot's shipped gait
 map for the sled it burrows tied to; `burrowed_pose` for any planned gait's answer. No ROS.
 Units SI: m, rad.
+
+Where the robot's burrows of a mode were measured (robots.measured_burrows: MiniRQuad's Table
+II), the modelled height's band is widened to cover the measured mean +- BAND_SIGMAS SDs too.
+The robot does not measure h, so nothing after the burrow would catch a model that is off in
+h (SH: modelled 40 +- 3 mm, measured 47 +- 2 mm): a band that covers both keeps the lower
+bound on the side of whichever is right. The pitch band stays the model's: the IMU measures
+the pitch after the burrow, and a pitch outside the model's band says the model does not
+describe this burrow (pitch_disagreement), which no widening should hide.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
+from ..robots.measured_burrows import MeasuredBurrow, measured_burrow
 from .bound import GaitAnswer, answer
 from .gait_map import GaitMap
 from .planner import find_map
@@ -48,6 +57,20 @@ class BurrowedPose:
         off = abs(measured_theta_b_rad - self.theta_b_rad) - self.theta_b_band_rad
         return off if off > 0.0 else None
 
+    def covering_height(self, measured: MeasuredBurrow) -> 'BurrowedPose':
+        """This pose with its height band widened to the smallest range that holds both the
+        modelled range and the measured mean +- BAND_SIGMAS SDs (centred on that range). A
+        band that is not stated stays not stated."""
+        if not math.isfinite(self.h_band_m):
+            return self
+        half = BAND_SIGMAS * measured.h_sd_m
+        lo = min(self.h_m - self.h_band_m, measured.h_m - half)
+        hi = max(self.h_m + self.h_band_m, measured.h_m + half)
+        return replace(self, h_m=0.5 * (lo + hi), h_band_m=0.5 * (hi - lo),
+                       source=f'{self.source}; height band widened to cover '
+                              f'{1e3 * measured.h_m:.0f} +- {1e3 * half:.0f} mm measured '
+                              f'({measured.source})')
+
 
 def burrowed_pose(gait_answer: GaitAnswer, source: str) -> BurrowedPose | None:
     """The modelled burrowed pose of a gait's answer; None when its nominal run has no pose
@@ -77,7 +100,8 @@ def mode_pose(mode: str, sled_kg: float, robot: str = 'minirquad',
     """The modelled burrowed pose of one of the paper's modes (DH, DL, SH) for the sled the
     robot burrows tied to (kg), from the robot's shipped gait map (or `gait_map`). ValueError
     when no map answers for these inputs (a live simulation takes minutes: not onboard) or the
-    map has no such mode; None when the mode's nominal run has no pose."""
+    map has no such mode; None when the mode's nominal run has no pose. Where this mode was
+    measured on the robot, the height band covers the measurement too (covering_height)."""
     if gait_map is None:
         gait_map, why = find_map(preset_inputs(robot, sled_kg), None)
         if gait_map is None:
@@ -92,5 +116,7 @@ def mode_pose(mode: str, sled_kg: float, robot: str = 'minirquad',
                          f'{", ".join(n for n in names if n)})')
     k = names.index(mode)
     runs = gait_map.runs([float(gait_map.phis[0])])[k]
-    return burrowed_pose(answer(gaits[k], runs, _LEVEL),
+    pose = burrowed_pose(answer(gaits[k], runs, _LEVEL),
                          f'burrow simulation of {mode}, sled {1e3 * sled_kg:.0f} g ({where})')
+    measured = measured_burrow(robot, mode)
+    return pose if pose is None or measured is None else pose.covering_height(measured)

@@ -106,7 +106,9 @@ class FallbackPredictor:
       holds nothing (maps/README.md: one state in 1,800 random MiniRQuad states, 0.51 N
       against `unsupported`); the live solver decides there. Its answer replaces the map's
       whether lower or higher (the edge-margin value is a deliberately low bound, the live
-      one exact).
+      one exact). The same for a cell the support edge crosses without a margin to answer
+      from (`unsupported`, flag `edge_unsupported`: some corners hold, some do not): the
+      map cannot say on which side of the edge the state lies, the live solver can.
 
     Every other map answer stands; the live answer's reason keeps the solver's own reason
     first, if any. One solver may serve both (pass the same object)."""
@@ -127,7 +129,8 @@ class FallbackPredictor:
         r = self.primary.predict(state, phi, pull)
         if r.status is Status.OUT_OF_RANGE and self.fallback is not None:
             live, why = self.fallback, 'live_fallback'
-        elif self.edge is not None and 'edge_margin' in r.flags:
+        elif self.edge is not None and ('edge_margin' in r.flags
+                                        or 'edge_unsupported' in r.flags):
             live, why = self.edge, 'live_edge_check'
         else:
             return r
