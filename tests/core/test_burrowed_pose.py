@@ -18,7 +18,6 @@ from rftgls_core.planning.bound import GaitAnswer
 from rftgls_core.planning.burrowed import BAND_SIGMAS, BurrowedPose, burrowed_pose, mode_pose
 from rftgls_core.planning.gaits import table_ii_gaits
 
-
 TABLE_II_H_MM = {'DH': (34.0, 1.0), 'DL': (36.0, 2.0), 'SH': (47.0, 2.0)}
 
 
