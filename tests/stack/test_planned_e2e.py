@@ -49,7 +49,18 @@ def test_planned_gait_holds_three_cycles(tmp_path, spawn, sled):
     assert float(lower) >= float(need) and float(energy) > 0 and float(p) > 0.95, plans
     # The gait ran leg by leg (no Table II burrow command) and the height is the prediction.
     assert 'check ' + gait + ' at the measured pose' in log, log
-    assert 'burrow simulation of gait' in log, log
+    # Every burrow's height is the burrow simulation over the legs the robot measured (its
+    # worker process), from standing, within the plan's band of the plan's h; the measured
+    # pitch agrees with it (no 'did not go as modelled').
+    replays = re.findall(r'replayed over (\d+) measured leg samples from \(([-\d.]+), '
+                         r'([-\d.]+)\) deg: h ([\d.]+) \+- ([\d.]+) mm, pitch [-\d.]+ \+- '
+                         r'[\d.]+ deg \(plan: h ([\d.]+) mm', log)
+    assert len(replays) == log.count('BURROW -> CHECK'), log
+    for n, l1, l2, h, band, h_plan in replays:
+        assert int(n) >= 20 and abs(float(l1)) < 3.0 and abs(float(l2)) < 3.0, replays
+        assert abs(float(h) - float(h_plan)) <= float(band), replays
+    assert 'did not go as modelled' not in log, log
+    assert 'measured leg samples' in log.split('at the measured pose', 1)[1], log
     rows = _rows(tmp_path)
     assert [r['outcome'] for r in rows] == ['ok'] * 3, (rows, log)
     # The first cycle may burrow twice: capacity_node's live lower bound at the measured pose

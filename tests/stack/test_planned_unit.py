@@ -87,16 +87,20 @@ def test_config_accepts_planned_and_checks_its_confidence():
         BehaviorConfig(burrow_modes='planned', plan_confidence=1.0).check()
 
 
-def test_leg_ramp_runs_at_the_gait_speed_through_retract_to_final():
-    start, retract, final, speed = (0.0, 0.0), (-1.0, -0.4), (-0.4, 0.5), 1.0
+def test_leg_ramp_runs_at_the_gait_speed_through_stand_and_retract_to_final():
+    start, retract, final, speed = (-0.9, -1.1), (-1.0, -0.4), (-0.4, 0.5), 1.0
     dt = 0.01
     t_end = gait_duration(start, retract, final, speed)
     ts = [i * dt for i in range(int(t_end / dt) + 50)]
     xs = [gait_targets(t, start, retract, final, speed) for t in ts]
     steps = [max(abs(b[0] - a[0]), abs(b[1] - a[1])) for a, b in zip(xs, xs[1:])]
     assert max(steps) <= speed * dt + 1e-12            # never faster than the gait
-    assert min(x[0] for x in xs) == pytest.approx(-1.0)  # reaches the retract
+    stood = [i for i, x in enumerate(xs) if x == pytest.approx((0.0, 0.0))]
+    assert stood and ts[stood[0]] == pytest.approx(1.1, abs=dt)   # stands first (1.1 rad)
+    assert min(x[0] for x in xs[stood[0]:]) == pytest.approx(-1.0)  # then the retract
     assert xs[-1] == pytest.approx(final)
+    assert ts[next(i for i, x in enumerate(xs) if x == pytest.approx(final))] == \
+        pytest.approx(t_end, abs=dt)
     with pytest.raises(ValueError):
         gait_targets(0.0, start, retract, final, 0.0)
 
@@ -172,3 +176,106 @@ def test_a_live_lower_bound_below_the_need_is_kept_for_later_plans(predictor):
     assert again.mode not in (None, first.mode)
     assert ch.choose(2.5, energy).mode == first.mode    # still good for a need it covers
     assert 'DL' not in ch.modes and len(ch.modes) == 2  # its own table, not Table II's
+
+
+@pytest.mark.slow
+def test_the_burrowed_height_is_simulated_over_the_measured_legs(predictor):
+    """The machine records the legs as the plant moved them during the planned burrow; the
+    burrow simulation replays them (InlineReplayer: the same replay_burrow behavior_node's
+    worker runs) and its pose becomes the height sent, modelled, with the plan's band.
+    Reference: replay_burrow called here on the record the machine kept."""
+    from rftgls_core.planning.replay import BurrowRecord, inputs_for_map, replay_burrow
+    from rftgls_ros.behavior.replay import InlineReplayer
+    gmap = sled_map('minirquad', 0.4)
+    plant = Plant(0.4, predictor, gait_poses=GaitPoses.for_sled(0.4))
+    cfg = fast_config(burrow_modes='planned', cycles=1, walk_time_s=2.5).check()
+    replayer = InlineReplayer(inputs_for_map(gmap, 'minirquad'))
+    m = BehaviorMachine(cfg, GaitChooser(predictor, gmap, 1.0, cfg.phis_rad,
+                                         cfg.plan_confidence), replayer)
+    seen = {}
+
+    def watch(plant, machine):
+        if machine.state == State.TUG and 'height' not in seen:
+            seen['height'] = machine.height_input()
+    run_loop(m, plant, t_max=60, on_step=watch)
+    r = m.records[0]
+    assert r.outcome == 'ok', [e['text'] for e in m.events][-10:]
+    assert replayer.submitted == 1
+    gait = m.chooser.gaits[r.mode]
+    ref = replay_burrow(replayer.inputs, BurrowRecord.of(m.burrow.record), gait.pose)
+    assert ref.pose is not None and len(m.burrow.record) >= 50
+    h, band, source, prov = seen['height']
+    assert prov is Provenance.MODELLED and 'measured leg samples' in source
+    assert h == ref.pose.h_m and band == gait.pose.h_band_m
+    ev = next(e for e in m.events if 'replayed over' in e['text'])
+    assert ev['h_replay_m'] == h and ev['kind'] == 'info'
+    print(f"replayed h {1e3 * h:.1f} mm, pitch {math.degrees(ev['theta_b_replay_rad']):.1f} "
+          f"deg; plan {1e3 * gait.pose.h_m:.1f} mm, "
+          f"{math.degrees(gait.pose.theta_b_rad):.1f} deg")
+
+
+class FixedReplayer:
+    """A replay that answers `answer` (or nothing yet: None)."""
+
+    def __init__(self, answer):
+        self.answer, self.inputs, self.submitted = answer, None, 0
+
+    def submit(self, record, plan_pose):
+        self.submitted += 1
+
+    def result(self):
+        return self.answer
+
+    def cancel(self):
+        pass
+
+    def close(self):
+        pass
+
+
+@pytest.mark.parametrize('case', ['agrees', 'within_imu', 'disagrees', 'no_pose', 'timeout'])
+def test_the_replayed_pose_and_the_pitch_check_decide_the_height_sent(predictor, case):
+    """At CHECK the replay of the burrow just made decides the height: its pose (modelled)
+    when the measured pitch lies within its band plus pitch_check_tolerance_rad, assumed
+    (the burrow did not go as modelled) beyond, and the plan's pose when the replay has none
+    or takes longer than replay_timeout_s; each said in an event."""
+    import dataclasses
+
+    from rftgls_core.planning.replay import ReplayedBurrow
+    from rftgls_ros.behavior import Observation
+    cfg = fast_config(burrow_modes='planned', cycles=1).check()
+    ch = GaitChooser(predictor, sled_map('minirquad', 0.4), 1.0, cfg.phis_rad,
+                     cfg.plan_confidence)
+    d = ch.choose(1.96, ch.energy_model(EnergyModel()))
+    plan = ch.gaits[d.mode].pose
+    pose = dataclasses.replace(plan, h_m=plan.h_m + 0.004, source='replay')
+    off = {'agrees': 0.0, 'within_imu': 0.5, 'disagrees': 3.0}.get(case, 0.0)
+    answer = (None if case == 'timeout' else ReplayedBurrow(
+        None if case == 'no_pose' else pose, 0.01, 'overturned' if case == 'no_pose' else '',
+        100))
+    m = BehaviorMachine(cfg, ch, FixedReplayer(answer))
+    m.mode, m.state = d.mode, State.CHECK
+    m.obs = Observation(t=30.0, theta_b=pose.theta_b_rad + pose.theta_b_band_rad
+                        + math.radians(off))
+    m.burrow.replay_since = 30.0 - (cfg.replay_timeout_s + 1 if case == 'timeout' else 1.0)
+    assert m.burrow._replay_done()
+    h, band, source, prov = m.height_input()
+    texts = ' | '.join(e['text'] for e in m.events)
+    if case in ('no_pose', 'timeout'):
+        assert (h, band, prov) == (plan.h_m, plan.h_band_m, Provenance.MODELLED)
+        assert "the plan's predicted pose stands" in texts
+        return
+    assert (h, band) == (pose.h_m, pose.h_band_m) and 'replay' in source
+    assert prov is (Provenance.ASSUMED if case == 'disagrees' else Provenance.MODELLED)
+    assert ('did not go as modelled' in texts) is (case == 'disagrees')
+
+
+def test_a_replay_still_running_holds_the_check():
+    from rftgls_ros.behavior import Observation
+    cfg = fast_config(burrow_modes='planned', cycles=1).check()
+    m = BehaviorMachine(cfg, GaitChooser(node_predictor(DEFAULT_MAP, robot=None, medium=None),
+                                         sled_map('minirquad', 0.4), 1.0, cfg.phis_rad,
+                                         cfg.plan_confidence), FixedReplayer(None))
+    m.obs = Observation(t=5.0)
+    m.burrow.replay_since = 4.0
+    assert not m.burrow._replay_done() and m.replayed is None

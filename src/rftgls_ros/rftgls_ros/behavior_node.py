@@ -49,6 +49,7 @@ from rftgls_conventions import (
     leg_keys_from_joint_names,
     quat_xyzw_to_pitch,
 )
+from rftgls_core.planning.replay import inputs_for_map
 from rftgls_interfaces.msg import AnchorEstimate, InputValue, LinkState
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import declare
@@ -61,6 +62,7 @@ from .behavior import (
     write_report,
 )
 from .behavior.planned import GaitChooser, sled_map
+from .behavior.replay import ProcessReplayer
 from .behavior.tug_series import TugSample, TugSeries, write_tug_series
 from .capacity.node_predictor import DEFAULT_MAP, node_predictor
 from .capacity_msgs import input_value, status_word
@@ -145,7 +147,8 @@ class BehaviorNode(Node):
         else:
             predictor = ServicePredictor(self, f'{cap_ns}/query_capacity')
         self.predictor = predictor
-        self.machine = BehaviorMachine(self.cfg, self.chooser(self.cfg))
+        self.replayer: ProcessReplayer | None = None
+        self.machine = self.new_machine(self.cfg)
         self.obs = Observation(t=self.now_s())
         # Without autostart the node idles (as after a run) until a walk_burrow_tug goal.
         self.finished = not declare(self, 'autostart', True, 'run the sled_mass_kg/cycles '
@@ -196,11 +199,28 @@ class BehaviorNode(Node):
                                cfg.safety_factor, cfg.phis_rad, cfg.plan_confidence)
         return ModeChooser(self.predictor, cfg.safety_factor, cfg.phis_rad)
 
+    def new_machine(self, cfg: BehaviorConfig) -> BehaviorMachine:
+        """The behaviour of this configuration; planned burrows get the replay of their
+        measured legs (behavior/replay.py: one worker process, kept while its inputs are the
+        same gait map's)."""
+        chooser = self.chooser(cfg)
+        if isinstance(chooser, GaitChooser):
+            inputs = inputs_for_map(chooser.gait_map, 'minirquad')
+            if self.replayer is None or \
+                    self.replayer.inputs.inputs_sha256() != inputs.inputs_sha256():
+                if self.replayer is not None:
+                    self.replayer.close()
+                self.replayer = ProcessReplayer(inputs)
+            return BehaviorMachine(cfg, chooser, self.replayer)
+        return BehaviorMachine(cfg, chooser)
+
     def destroy_node(self) -> None:
         # What this node owns goes first, while its handles and the context are still valid:
         # left to the garbage collector (after the context is shut down) the action server and
         # the query's own executor would reach for destroyed handles (a traceback at SIGINT).
         self.tug_action.destroy()
+        if self.replayer is not None:
+            self.replayer.close()
         if isinstance(self.predictor, ServicePredictor):
             self.predictor.destroy()
         super().destroy_node()
@@ -232,7 +252,7 @@ class BehaviorNode(Node):
                              f'{sled_mass_kg!r} kg and {cycles} cycles')
         cfg = replace(self.cfg, sled_mass_kg=float(sled_mass_kg), cycles=int(cycles)).check()
         tether = self.machine.tether      # the same rope: its free length carries over
-        self.machine = BehaviorMachine(cfg, self.chooser(cfg))
+        self.machine = self.new_machine(cfg)
         self.machine.tether = tether
         self.finished, self._state_sent = False, None
 

@@ -21,6 +21,8 @@ servos then track the reference as far as their torque allows (simulate.py).
   (footfalls a quarter cycle apart, lateral sequence LH, LF, RH, RF) and gives no period,
   duty or sweep; those are MiniRHex's.
 - Hold: legs keep their angles while the tether pulls with a given tension (a tug).
+- ReplayGait: legs driven along joint values measured on the robot (a burrow as it went), so
+  the pose it ended in can be simulated from what was measured rather than what was commanded.
 """
 from __future__ import annotations
 
@@ -240,3 +242,66 @@ class HoldGait:
 
     def start(self) -> np.ndarray:
         return self.robot.joint_values(self.pose)
+
+
+@dataclass(frozen=True)
+class ReplayGait:
+    """Legs driven along measured joint values. times: s from the first sample, strictly
+    increasing (at least two); dofs: one row per time, one joint value per degree of freedom
+    (rad). Between samples the reference is linear (its rate the segment's slope); after the
+    last it holds until `duration` (s; at least the last time). Knots every `knot_s` of the
+    record keep the step control on the measured motion without a step per sample."""
+
+    robot: Multibody
+    times: tuple[float, ...]
+    dofs: tuple[tuple[float, ...], ...]
+    duration: float
+    knot_s: float = 0.1
+
+    def __post_init__(self) -> None:
+        n = len(self.robot.dof_names)
+        t = np.asarray(self.times, dtype=float)
+        if len(t) < 2 or len(self.dofs) != len(t):
+            raise GaitError(f'a replay needs at least two samples with one row each, got '
+                            f'{len(t)} times and {len(self.dofs)} rows')
+        if not np.all(np.isfinite(t)) or t[0] != 0.0 or np.any(np.diff(t) <= 0.0):
+            raise GaitError('replay times must start at 0 and increase strictly')
+        q = np.asarray(self.dofs, dtype=float)
+        if q.shape != (len(t), n) or not np.all(np.isfinite(q)):
+            raise GaitError(f'each replay row needs {n} finite angles '
+                            f'({", ".join(self.robot.dof_names)})')
+        if not (math.isfinite(self.duration) and self.duration >= t[-1]):
+            raise GaitError(f'replay duration {self.duration} s is shorter than the record '
+                            f'({t[-1]:.2f} s)')
+        if not (math.isfinite(self.knot_s) and self.knot_s > 0.0):
+            raise GaitError(f'knot spacing must be positive, got {self.knot_s}')
+
+    def dof_reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        ts, q = np.asarray(self.times), np.asarray(self.dofs, dtype=float)
+        if t >= ts[-1]:
+            return q[-1].copy(), np.zeros(q.shape[1])
+        k = max(int(np.searchsorted(ts, t, side='right')) - 1, 0)
+        w = (t - ts[k]) / (ts[k + 1] - ts[k])
+        return q[k] + w * (q[k + 1] - q[k]), (q[k + 1] - q[k]) / (ts[k + 1] - ts[k])
+
+    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(joint values, rates) per leg at t."""
+        q, r = self.dof_reference(t)
+        return self.robot.joint_values(q), self.robot.joint_values(r)
+
+    def knots(self) -> list[float]:
+        out, last = [0.0], 0.0
+        for t in self.times[1:]:
+            if t - last >= self.knot_s:
+                out.append(float(t))
+                last = t
+        return sorted({*out, float(self.times[-1])})
+
+    def phase(self, t: float) -> str:
+        return 'burrow' if t < self.times[-1] else 'hold'
+
+    def tether(self, t: float) -> tuple[float, float]:
+        return 0.0, 0.0
+
+    def start(self) -> np.ndarray:
+        return self.robot.joint_values(self.dofs[0])

@@ -151,7 +151,7 @@ def predict_gait(inputs: PlanInputs, gait: GaitPoint, progress=None) -> GaitRuns
                 nominal.samples, XL330_M077_5V.scaled(1.0 - inputs.spread.stall_rel_sigma)):
             _copy_run(out, 0, i)            # the servo's line never bound: the same run
             continue
-        res = _simulate(inputs, robot, gait, run)
+        res = simulate_burrow(inputs, robot, gait.burrow(robot), run)
         if i == 0:
             nominal = res
         out.steps[i] = len(res.samples)
@@ -185,7 +185,9 @@ def _copy_run(out: GaitRuns, src: int, dst: int) -> None:
     out.steps[dst] = 0
 
 
-def _simulate(inputs: PlanInputs, robot: Multibody, gait: GaitPoint, run):
+def simulate_burrow(inputs: PlanInputs, robot: Multibody, gait, run):
+    """One run of a burrow (a multibody gait: BurrowGait, ReplayGait) on these inputs: the
+    run's medium and servo, the sled, the step control and its budget."""
     from ..multibody.sled import Sled
     sled = Sled(inputs.sled_kg) if inputs.sled_kg > 0.0 else None
     sim = Simulator(robot, run.medium, run.servo, inputs.options, model=inputs.model, sled=sled)
@@ -195,7 +197,7 @@ def _simulate(inputs: PlanInputs, robot: Multibody, gait: GaitPoint, run):
             raise SimulationStop(Status.DEGENERATE, 'step_budget',
                                  f'more than {inputs.step_budget} steps by t = {sim.t:.2f} s '
                                  '(a fall or slide followed in sub-millimetre steps)')
-    return sim.run(gait.burrow(robot), progress=budget)
+    return sim.run(gait, progress=budget)
 
 
 def _capacities(inputs: PlanInputs, medium: Medium, out: GaitRuns, i: int) -> None:

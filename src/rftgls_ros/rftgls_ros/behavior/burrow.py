@@ -15,6 +15,8 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from rftgls_core.planning.gaits import STAND
+from rftgls_core.planning.replay import BurrowRecord
 from rftgls_core.types import AnchorState, Status
 
 from . import evidence
@@ -67,6 +69,9 @@ class Burrow:
         self.choose_unanswered = False             # CHOOSE's questions unanswered (warned)
         self.hold_cause = HoldCause.NONE
         self.next: Reburrow | None = None
+        self.record: list[tuple[float, float, float]] = []   # (t, L1, L2) measured, s, rad
+        self.replay_since: float | None = None     # s: the burrow's replay was submitted
+        self.replayed_from: tuple[float, ...] = (math.nan, math.nan)   # legs it starts at
         self.on_enter = {State.BURROW: self._enter_burrow, State.CHECK: self._enter_check,
                          State.SLACKEN: self._enter_slacken}
         self.on_step = {State.CHOOSE: self._do_choose, State.BURROW: self._do_burrow,
@@ -106,6 +111,10 @@ class Burrow:
         self.at_pose_since = None
         self.passed = None      # a new anchor is checked afresh
         m.slip.reset()          # a new anchor: its slip references start afresh
+        self.record, self.replay_since = [], None
+        m.replayed, m.pose_disagrees = None, False
+        if m.replayer is not None:
+            m.replayer.cancel()
         if m.planned_gait() is None:
             m.command('burrow', m.mode)     # a Table II mode: the MCU runs its sequence
             return
@@ -131,6 +140,10 @@ class Burrow:
     def _do_burrow(self) -> None:
         m, cfg = self.m, self.m.cfg
         self._drive_gait()
+        o = m.obs
+        if m.planned_gait() is not None and o.legs is not None \
+                and (not self.record or o.t_legs > self.record[-1][0]):
+            self.record.append((o.t_legs, *o.legs))
         at = self.at_final_pose()
         if at and self.at_pose_since is None:
             self.at_pose_since = m.obs.t
@@ -149,8 +162,68 @@ class Burrow:
                             f'({above_idle:.2f} J above idle); energy estimates now '
                     + ', '.join(f'{k} {m.energy.estimate(k):.2f} J' for k in shown),
                     mode=m.mode, energy_j=above_idle)
+            self._submit_replay()
             m.go(State.CHECK, 'at the final pose' if done else
                  f'burrow timeout ({cfg.burrow_timeout_s:.0f} s): checking the pose reached')
+
+    # ------------------------------------------------------------------ the burrowed pose
+    def _submit_replay(self) -> None:
+        """A planned burrow's measured legs go to the replay (replay.py); CHECK waits for it."""
+        m, g = self.m, self.m.planned_gait()
+        if m.replayer is None or g is None:
+            return
+        # The planned burrow proper starts where the measured legs came nearest the standing
+        # pose (gait_motion.py): replayed from there on, as the plan simulated it.
+        rec = self.record
+        k = min(range(len(rec)), key=lambda i: max(abs(rec[i][1] - STAND[0]),
+                                                   abs(rec[i][2] - STAND[1])), default=0)
+        m.replayer.submit(BurrowRecord.of(rec[k:]), g.pose)
+        self.replayed_from = rec[k][1:] if rec else (math.nan, math.nan)
+        self.replay_since = m.obs.t
+
+    def _replay_done(self) -> bool:
+        """False while the replay of this burrow runs (up to replay_timeout_s). Its pose
+        then replaces the plan's as the height sent; a measured pitch further than
+        pitch_check_tolerance_rad outside its band makes the height assumed (the burrow did
+        not go as modelled: capacity_node's estimate is then not evidence). Without a
+        replayed pose the plan's stands, said in an event."""
+        m = self.m
+        if self.replay_since is None or m.replayer is None:
+            return True
+        r = m.replayer.result()
+        if r is None and m.obs.t - self.replay_since < m.cfg.replay_timeout_s:
+            return False
+        self.replay_since = None
+        if r is None or r.pose is None:
+            m.replayer.cancel()
+            why = r.reason if r is not None else f'over {m.cfg.replay_timeout_s:g} s'
+            m.event('warn', f'burrow {m.mode}: no pose from the measured legs ({why}); the '
+                            "plan's predicted pose stands", mode=m.mode)
+            return True
+        pose, plan = r.pose, m.planned_gait()
+        m.replayed = pose
+        tb = m.obs.theta_b
+        off = pose.pitch_disagreement(tb) if tb is not None else None
+        if off is not None and off <= m.cfg.pitch_check_tolerance_rad:
+            off = None                  # within what the IMU can tell apart
+        m.pose_disagrees = off is not None
+        text = (f'burrow {m.mode} replayed over {r.samples} measured leg samples from '
+                f'({math.degrees(self.replayed_from[0]):.1f}, '
+                f'{math.degrees(self.replayed_from[1]):.1f}) deg: h '
+                f'{1e3 * pose.h_m:.1f} +- {1e3 * pose.h_band_m:.1f} mm, pitch '
+                f'{math.degrees(pose.theta_b_rad):.1f} +- '
+                f'{math.degrees(pose.theta_b_band_rad):.1f} deg')
+        if plan is not None:
+            text += (f' (plan: h {1e3 * plan.pose.h_m:.1f} mm, pitch '
+                     f'{math.degrees(plan.pose.theta_b_rad):.1f} deg)')
+        if tb is not None:
+            text += f'; pitch measured {math.degrees(tb):.1f} deg'
+        if off is not None:
+            text += (f', {math.degrees(off):.1f} deg outside the band: the burrow did not go '
+                     'as modelled, the height is sent assumed')
+        m.event('warn' if off is not None else 'info', text, mode=m.mode,
+                h_replay_m=pose.h_m, theta_b_replay_rad=pose.theta_b_rad, x_replay_m=r.x_m)
+        return True
 
     # ------------------------------------------------------------------ check
     def _enter_check(self) -> None:
@@ -160,6 +233,8 @@ class Burrow:
     def _do_check(self) -> None:
         m = self.m
         if m.tug.anchor_slipped('at the re-check'):
+            return
+        if not self._replay_done():
             return
         if not self.check.passed and not self._still_passed():
             self._check_prediction()

@@ -19,7 +19,12 @@ class BehaviorConfig:
     (no odometry on the robot); payout_speed_m_s: tether paid out while walking so the robot does
     not drag the sled; burrow_timeout_s: give up waiting for the final pose (the paper's 8 s);
     burrow_tolerance_rad: leg angle error that counts as "at the final pose"; burrow_settle_s: time
-    held at the final pose before the check; tug_speed_m_s: reel-in speed; arrive_length_m: the tug
+    held at the final pose before the check; replay_timeout_s: time CHECK waits for the
+    burrow simulation over the measured leg angles of a planned burrow (replay.py) before the
+    plan's predicted pose stands; pitch_check_tolerance_rad: how far the measured pitch may
+    lie outside the replayed pitch's band before the burrow counts as not modelled (the IMU's
+    static pitch accuracy, about 1 deg for a MEMS IMU: assumed, the paper names no IMU);
+    tug_speed_m_s: reel-in speed; arrive_length_m: the tug
     ends when this much tether remains (sled close behind the robot); slow_ratio / stop_ratio:
     tension/capacity at which the tug slows down / stops (margin guard); min_speed_fraction:
     slowest reel speed inside the slow band, as a fraction of tug_speed_m_s; input_timeout_s:
@@ -72,6 +77,8 @@ class BehaviorConfig:
     burrow_timeout_s: float = 8.0
     burrow_tolerance_rad: float = math.radians(3.0)
     burrow_settle_s: float = 0.3
+    replay_timeout_s: float = 20.0
+    pitch_check_tolerance_rad: float = math.radians(1.0)
     tug_speed_m_s: float = 0.05
     tug_timeout_s: float = 40.0
     arrive_length_m: float = 0.15
@@ -124,8 +131,12 @@ class BehaviorConfig:
         if not self.phis_rad or any(abs(p) > math.pi / 2 for p in self.phis_rad):
             raise ValueError(f'phis_rad must be tether angles within +-pi/2, '
                              f'got {list(self.phis_rad)}')
-        for name in ('walk_time_s', 'burrow_timeout_s', 'tug_timeout_s', 'tug_speed_m_s',
-                     'input_timeout_s', 'estimate_timeout_s', 'sled_mass_kg'):
+        if not (self.pitch_check_tolerance_rad >= 0.0
+                and math.isfinite(self.pitch_check_tolerance_rad)):
+            raise ValueError(f'pitch_check_tolerance_rad must be >= 0, got '
+                             f'{self.pitch_check_tolerance_rad}')
+        for name in ('replay_timeout_s', 'walk_time_s', 'burrow_timeout_s', 'tug_timeout_s',
+                     'tug_speed_m_s', 'input_timeout_s', 'estimate_timeout_s', 'sled_mass_kg'):
             if not getattr(self, name) > 0:
                 raise ValueError(f'{name} must be > 0, got {getattr(self, name)!r}')
         return self

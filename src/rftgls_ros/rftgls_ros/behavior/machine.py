@@ -41,6 +41,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from rftgls_core.planning.burrowed import BurrowedPose
 from rftgls_core.types import AnchorState, Provenance
 
 from ..tether import TetherTracker
@@ -57,6 +58,7 @@ from .model import (
     ModeChooser,
 )
 from .planned import GaitChooser, PlannedGait
+from .replay import InlineReplayer
 from .report import CycleRecord
 from .retry import EvidenceRetry
 from .signals import Commands, Observation
@@ -108,9 +110,14 @@ class BehaviorMachine:
     """The behaviour. ``chooser`` answers capacity predictions (map), the rest is owned here
     and by the phases (walk, burrow, tug, retry, link)."""
 
-    def __init__(self, config: BehaviorConfig, chooser: ModeChooser):
+    def __init__(self, config: BehaviorConfig, chooser: ModeChooser,
+                 replayer: InlineReplayer | None = None):
         self.cfg = config
         self.chooser = chooser
+        # Replays a planned burrow over its measured legs (replay.py); None: the plan's pose.
+        self.replayer = replayer
+        self.replayed: BurrowedPose | None = None   # the pose the replay gave this burrow
+        self.pose_disagrees = False    # the measured pitch lies outside the replayed band
         self.need = ForceNeed(config.sled_mass_kg, config.sled_mu, alpha=config.need_alpha)
         self.energy = EnergyModel(prior_sh=config.energy_prior_sh_J)
         if isinstance(chooser, GaitChooser):    # energy per planned gait, not per mode
@@ -206,10 +213,16 @@ class BehaviorMachine:
     def height_input(self) -> tuple[float, float, str, Provenance]:
         """(h m, band m, source, provenance) of the height of p. Burrowed in a planned gait:
         the burrow simulation's predicted h within H_BAND_SDS of its standard deviations,
-        modelled; in a Table II mode: the mode's Table II mean within H_BAND_SDS of its
-        standard deviations, assumed; else h_walk_m (band not stated), assumed."""
+        modelled, replaced by the simulation over the measured legs once it is in (assumed
+        when the measured pitch lies outside its band); in a Table II mode: the mode's Table
+        II mean within H_BAND_SDS of its standard deviations, assumed; else h_walk_m (band
+        not stated), assumed."""
         m = self.burrow_mode()
         if m is not None and self.state in BURROWED:
+            r = self.replayed
+            if r is not None:
+                return r.h_m, r.h_band_m, f'{r.source}, not measured', (
+                    Provenance.ASSUMED if self.pose_disagrees else Provenance.MODELLED)
             if self.planned_gait() is not None:
                 return (m.h, m.h_band, f'burrow simulation of gait {m.name} (planner), '
                         'not measured', Provenance.MODELLED)
