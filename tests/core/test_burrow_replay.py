@@ -70,6 +70,9 @@ def test_a_record_keeps_only_increasing_times_and_a_replay_gait_checks_its_rows(
     rec = BurrowRecord.of([(10.0, 0.0, 0.0), (10.1, -0.1, 0.0), (10.1, -0.2, 0.0),
                            (10.05, -0.3, 0.0), (10.3, -0.4, 0.0)])
     assert rec.times == pytest.approx((0.0, 0.1, 0.3)) and rec.dofs[-1] == (-0.4, 0.0)
+    walked = BurrowRecord.from_standing([(0.0, -1.0, -1.0), (0.1, -0.5, -0.6),
+                                         (0.2, 0.01, -0.02), (0.3, -0.2, -0.1)])
+    assert walked.times == pytest.approx((0.0, 0.1)) and walked.dofs[0] == (0.01, -0.02)
     robot = planned[0].multibody()
     with pytest.raises(GaitError, match='at least two'):
         ReplayGait(robot, (0.0,), ((0.0, 0.0),), 8.0)

@@ -202,7 +202,8 @@ def test_the_burrowed_height_is_simulated_over_the_measured_legs(predictor):
     assert r.outcome == 'ok', [e['text'] for e in m.events][-10:]
     assert replayer.submitted == 1
     gait = m.chooser.gaits[r.mode]
-    ref = replay_burrow(replayer.inputs, BurrowRecord.of(m.burrow.record), gait.pose)
+    ref = replay_burrow(replayer.inputs, BurrowRecord.from_standing(m.burrow.record),
+                        gait.pose)
     assert ref.pose is not None and len(m.burrow.record) >= 50
     h, band, source, prov = seen['height']
     assert prov is Provenance.MODELLED and 'measured leg samples' in source

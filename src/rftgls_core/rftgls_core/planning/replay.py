@@ -24,6 +24,7 @@ from ..multibody.servo import XL330_M077_5V
 from ..multibody.validate import check_gait
 from .burrowed import BurrowedPose, preset_inputs
 from .gait_map import GaitMap
+from .gaits import STAND
 from .predict import PlanInputs, simulate_burrow
 from .spread import runs
 
@@ -54,6 +55,15 @@ class BurrowRecord:
             ts.append(float(t - t0))
             qs.append((float(a), float(b)))
         return cls(tuple(ts), tuple(qs))
+
+    @classmethod
+    def from_standing(cls, samples, stand: tuple[float, float] = STAND) -> BurrowRecord:
+        """`of` the samples from the one whose legs came nearest the standing pose (largest
+        axle difference): where a planned burrow proper starts, as the plan simulated it."""
+        samples = list(samples)
+        k = min(range(len(samples)), default=0, key=lambda i: max(
+            abs(samples[i][1] - stand[0]), abs(samples[i][2] - stand[1])))
+        return cls.of(samples[k:])
 
 
 @dataclass(frozen=True)

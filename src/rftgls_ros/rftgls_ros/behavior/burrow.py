@@ -15,7 +15,6 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from rftgls_core.planning.gaits import STAND
 from rftgls_core.planning.replay import BurrowRecord
 from rftgls_core.types import AnchorState, Status
 
@@ -174,11 +173,9 @@ class Burrow:
             return
         # The planned burrow proper starts where the measured legs came nearest the standing
         # pose (gait_motion.py): replayed from there on, as the plan simulated it.
-        rec = self.record
-        k = min(range(len(rec)), key=lambda i: max(abs(rec[i][1] - STAND[0]),
-                                                   abs(rec[i][2] - STAND[1])), default=0)
-        m.replayer.submit(BurrowRecord.of(rec[k:]), g.pose)
-        self.replayed_from = rec[k][1:] if rec else (math.nan, math.nan)
+        record = BurrowRecord.from_standing(self.record)
+        m.replayer.submit(record, g.pose)
+        self.replayed_from = record.dofs[0] if record.dofs else (math.nan, math.nan)
         self.replay_since = m.obs.t
 
     def _replay_done(self) -> bool:
