@@ -343,6 +343,10 @@ class SimRobot:
             k = self._leg_progress()
             self.h = h0 + (h1 - h0) * k
             self.theta_b = b0 + (b1 - b0) * k
+            if k > 1.0 - 1e-6:     # the legs arrived (to well below a servo's resolution)
+                # Settled: from here on the body moves only as the ground makes it (a slip
+                # under the tug turns and lifts it), as after a Table II burrow.
+                self._leg_pose = None
         elif self._unburrowing:
             self._relax(g.h_walk, 0.0, dt)
             if abs(self.h - g.h_walk) < 1e-4 and all(abs(s.target - s.angle) < self.leg_arrived
