@@ -280,3 +280,26 @@ def test_a_replay_still_running_holds_the_check():
     m.obs = Observation(t=5.0)
     m.burrow.replay_since = 4.0
     assert not m.burrow._replay_done() and m.replayed is None
+
+
+@pytest.mark.slow
+def test_a_slip_after_a_burrow_run_leg_by_leg_turns_the_simulated_body(predictor):
+    """The simulator's scripted body settles at the gait map's pose and from then on moves only
+    as the ground makes it: on sand 50 % weaker the 400 g planned anchor gives way along its
+    RFT slip twist, which turns the body (|wy|/|v| ~2 rad/m there), into a pose that holds.
+    (It used to be re-settled every step: p slid 425 mm without turning, unseen.)"""
+    from minirquad_sim.ground import LiveGround
+    plant = Plant(0.4, predictor, ground=LiveGround(medium_scale=0.5),
+                  gait_poses=GaitPoses.for_sled(0.4))
+    cfg = fast_config(burrow_modes='planned', cycles=1, walk_time_s=2.5).check()
+    m = BehaviorMachine(cfg, GaitChooser(predictor, sled_map('minirquad', 0.4), 1.0,
+                                         cfg.phis_rad, cfg.plan_confidence))
+    pitch = []
+
+    def watch(plant, machine):
+        if machine.state == State.TUG:
+            pitch.append(plant.robot.theta_b)
+    run_loop(m, plant, t_max=60, on_step=watch)
+    assert pitch and 0.0 < plant.tug_slip < 0.020, plant.tug_slip
+    assert abs(pitch[-1] - pitch[0]) > math.radians(0.05)
+    assert m.records[0].outcome == 'ok'
