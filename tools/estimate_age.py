@@ -13,7 +13,11 @@ estimate, records on one clock (the ROS clock, s):
   largest age the evidence rule ever sees (the number `estimate_timeout_s` is compared with).
 
 It prints percentiles (all estimates, and those received while behavior_node was in TUG) and
-how many estimates a given timeout would have let expire. No decision is taken here.
+how many estimates a given timeout would have let expire, and the same two figures for the
+bridge's tension samples (`tension_tug`: period and age at receipt). `hops_tug` splits each
+estimate's age by the DDS source and reception timestamps of its message: sample -> published
+by capacity_node, published -> received (DDS), received -> taken by this probe's callback
+(a subscriber's own backlog). No decision is taken here.
 """
 from __future__ import annotations
 
@@ -43,6 +47,8 @@ class Probe(Node):
         self.t_tension = -math.inf
         self.state = ''
         self.rows: list[tuple[float, float, str]] = []     # (receipt s, sample s, state)
+        self.tension_rows: list[tuple[float, float, str]] = []
+        self.hops: list[tuple[float, float, float]] = []   # s: to publish, DDS, to callback
         self.create_subscription(WrenchStamped, 'winch/tension', self.on_tension,
                                  qos_profile_sensor_data)
         self.create_subscription(AnchorEstimate, 'capacity_node/estimate', self.on_estimate, 10)
@@ -56,14 +62,20 @@ class Probe(Node):
         return stamp.sec + stamp.nanosec * 1e-9
 
     def on_tension(self, msg: WrenchStamped) -> None:
-        self.t_tension = max(self.t_tension, self.stamp_s(msg.header.stamp))
+        t = self.stamp_s(msg.header.stamp)
+        self.t_tension = max(self.t_tension, t)
+        self.tension_rows.append((self.now_s(), t, self.state))
 
     def on_state(self, msg: String) -> None:
         self.state = msg.data
 
-    def on_estimate(self, msg: AnchorEstimate) -> None:
+    def on_estimate(self, msg: AnchorEstimate, info) -> None:
         sample = min(self.stamp_s(msg.header.stamp), self.t_tension)
-        self.rows.append((self.now_s(), sample, self.state))
+        now = self.now_s()
+        self.rows.append((now, sample, self.state))
+        if self.state == 'TUG':
+            sent, got = info['source_timestamp'] * 1e-9, info['received_timestamp'] * 1e-9
+            self.hops.append((sent - sample, got - sent, now - got))
 
 
 def summary(rows: list[tuple[float, float, str]], timeouts: list[float],
@@ -107,7 +119,13 @@ def main(argv: list[str] | None = None) -> int:
         pass
     timeouts = [1e-3 * x for x in args.timeouts_ms]
     report = {'all': summary(probe.rows, timeouts),
-              'tug': summary(probe.rows, timeouts, 'TUG')}
+              'tug': summary(probe.rows, timeouts, 'TUG'),
+              'tension_tug': summary(probe.tension_rows, timeouts, 'TUG'),
+              'hops_tug': {name: {str(q): round(1e3 * float(np.percentile(col, q)), 1)
+                                  for q in PCTS}
+                           for name, col in zip(('sample_to_publish_ms', 'dds_ms',
+                                                 'received_to_callback_ms'),
+                                                np.array(probe.hops).T)} if probe.hops else {}}
     text = json.dumps(report, indent=1)
     print(text)
     if args.out:

@@ -306,3 +306,27 @@ def test_newton_batch_is_the_cold_solves_newton():
         fd_rounding = 2 * (2 * 16 * eps * w_scale / 1e-7)
         assert np.all(np.abs(got[3] - ref[3])[ref[4]] <= fd_rounding)
     assert ref[4].any()
+
+
+def test_alternating_states_each_keep_their_own_warm_stream():
+    """capacity_node's lower bound asks the state and the corners of its inputs' bands in
+    turn. Two interleaved noisy streams (DH and DH 3 mm higher, 3 mm apart: more than one
+    stream unit) each keep a warm stream of their own: few cold solves, and every answer
+    equals the cold `direct`'s (RTOL)."""
+    rng = np.random.default_rng(4)
+    a = noisy(rng, DH, 60)
+    b = noisy(rng, (DH[0] + 0.003, *DH[1:]), 60)
+    states = [s for pair in zip(a, b) for s in pair]
+    rob, med = get_robot('minirquad'), get_medium('m90_sand')
+    cold = RobotPredictor(rob, med, method='direct')
+    warm = RobotPredictor(rob, med, method='direct-warm')
+    phi = math.radians(-20.0)
+    for st in states:
+        rw, rc = warm.predict(st, phi, Pull.BACKWARD), cold.predict(st, phi, Pull.BACKWARD)
+        assert rw.status is rc.status
+        if rc.capacity_N is not None:
+            assert rw.capacity_N == pytest.approx(rc.capacity_N, rel=RTOL)
+    stats = warm.stats()
+    assert stats['steps'] == len(states)
+    # one stream would answer every switch cold (120 of 120); two: each starts cold once
+    assert stats['fallback_rate'] * stats['steps'] <= 10, stats

@@ -53,6 +53,12 @@ class PosedProblem:
     problem: GLSProblem
 
 
+# Streams per pull orientation, and the state distance that counts as one stream's (h m,
+# theta_b, theta_l1, theta_l2, phi rad): 1 mm, 1 deg.
+STREAMS = 16
+STREAM_UNITS = np.array([1e-3, *([math.radians(1.0)] * 4)])
+
+
 class LivePredictor:
     """What both live predictors share: fit-then-query per state, or a streaming solver.
 
@@ -64,6 +70,14 @@ class LivePredictor:
     streaming method). Subclasses provide `problem(state, pull)`.
 
     A streaming predictor keeps the solver time of the last `window` calls (`stats()`).
+
+    Streams: a caller that alternates between a few states (capacity_node's lower bound asks
+    the state and the corners of its inputs' bands, each drifting on its own as the robot
+    moves) would break one warm stream at every call, and each break is a cold solve (~10x a
+    warm one). So each pull orientation keeps up to STREAMS streams, and a state goes to the
+    stream whose last state is nearest (STREAM_UNITS: 1 mm, 1 deg; a new stream while there
+    is room and none is within one unit). The warm solver's own guards decide warm or cold as
+    before, so every answer stays the cold `direct` answer.
     """
 
     name = 'live'
@@ -80,7 +94,9 @@ class LivePredictor:
         self.backend = backend
         self.surface_options = dict(surface_options or {})
         self.streaming_cls = streaming_class(method)
-        self.solvers: dict[str, Any] = {}              # pull -> streaming solver
+        self.solvers: dict[str, Any] = {}              # pull -> its first streaming solver
+        # pull -> [(state and phi in STREAM_UNITS, solver)] of its streams, first is solvers[pull]
+        self._streams: dict[str, list[list[Any]]] = {}
         self.times_s: deque[float] = deque(maxlen=int(window))
 
     def problem(self, state: AnchorState, pull: Pull | str
@@ -133,8 +149,23 @@ class LivePredictor:
             self.solvers[key] = self.streaming_cls(self.n_twists, **self.surface_options)
         return self.solvers[key]
 
+    def _nearest_solver(self, state: AnchorState, phi: float, pull: Pull | str):
+        """The stream for this state (class doc): the nearest stream's solver, or a new one."""
+        key = str(getattr(pull, 'value', pull))
+        streams = self._streams.setdefault(key, [[None, self.solver(pull)]])
+        here = np.array([*state.as_tuple(), phi]) / STREAM_UNITS
+        dist = [math.inf if at is None else float(np.max(np.abs(here - at)))
+                for at, _ in streams]
+        k = int(np.argmin(dist))
+        if dist[k] > 1.0 and streams[k][0] is not None and len(streams) < STREAMS:
+            assert self.streaming_cls is not None
+            streams.append([None, self.streaming_cls(self.n_twists, **self.surface_options)])
+            k = len(streams) - 1
+        streams[k][0] = here
+        return streams[k][1]
+
     def _stream(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
-        solver = self.solver(pull)
+        solver = self._nearest_solver(state, phi, pull)
         problem, failure = self.problem(state, pull)
         if problem is None:
             assert failure is not None
@@ -147,8 +178,11 @@ class LivePredictor:
         window; steps and fallback_rate in all. Empty for a surface method."""
         if self.streaming_cls is None:
             return {}
-        steps = sum(s.n_steps_ for s in self.solvers.values())
-        falls = sum(s.n_fallbacks_ for s in self.solvers.values())
+        by_id = {id(sv): sv for sv in self.solvers.values()}
+        by_id.update({id(sv): sv for streams in self._streams.values() for _, sv in streams})
+        every = list(by_id.values())
+        steps = sum(s.n_steps_ for s in every)
+        falls = sum(s.n_fallbacks_ for s in every)
         ts = np.sort(np.asarray(self.times_s)) * 1e6
         return {'solve_us_median': float(np.median(ts)) if len(ts) else math.nan,
                 'solve_us_p99': float(ts[min(len(ts) - 1, int(math.ceil(0.99 * len(ts))) - 1)])
