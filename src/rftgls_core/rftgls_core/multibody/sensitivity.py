@@ -15,16 +15,17 @@ from collections.abc import Callable
 import numpy as np
 
 from ..rft.media import get_medium
+from ..robots.measured_burrows import MEASURED_BURROWS
 from ..robots.presets import get_robot
-from .gaits import BurrowGait, WalkGait
+from .gaits import TABLE_II_BURROWS, BurrowGait, WalkGait
 from .robot import from_preset
 from .servo import XL330_M077_5V
 from .simulate import Simulator
 from .sled import Sled
 
-TABLE_II = {'DH': ((-75.0, -50.0), (-40.0, 30.0), 5.0, 0.034),
-            'DL': ((-75.0, -50.0), (-40.0, 0.0), 8.9, 0.036),
-            'SH': ((-40.0, -20.0), (-40.0, 30.0), 2.4, 0.047)}
+# mode -> (retract, final (theta_L1, theta_L2) deg, measured theta_B deg, measured h m)
+TABLE_II = {m: (*TABLE_II_BURROWS[m], round(math.degrees(b.theta_b_rad), 6), b.h_m)
+            for m, b in MEASURED_BURROWS['minirquad'].items()}
 PAPER_RATIOS = {'DH/SH': 1.32, 'DL/SH': 1.26}
 PAPER_WALK_M = 1.0 / 3.0      # ~1 m over three 8 s walks (Fig. 12)
 

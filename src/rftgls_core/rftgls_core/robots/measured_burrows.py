@@ -29,16 +29,17 @@ class MeasuredBurrow:
 _TABLE_II = 'Huh et al. RA-L 2023, Table II (MiniRQuad, M90 sand, 6 trials)'
 
 
-def _table_ii(theta_b_deg: float, theta_b_sd_deg: float, h_mm: float, h_sd_mm: float):
-    return MeasuredBurrow(1e-3 * h_mm, 1e-3 * h_sd_mm, math.radians(theta_b_deg),
-                          math.radians(theta_b_sd_deg), 6, _TABLE_II)
+def _table_ii(theta_b_deg: float, theta_b_sd_deg: float, h_m: float, h_sd_m: float):
+    return MeasuredBurrow(h_m, h_sd_m, math.radians(theta_b_deg), math.radians(theta_b_sd_deg),
+                          6, _TABLE_II)
 
 
-# robot -> burrow mode -> its measurement
+# robot -> burrow mode -> its measurement (pitch in deg and height in m as the paper prints
+# them, 34 +- 1 mm written 0.034 +- 0.001 m)
 MEASURED_BURROWS: dict[str, dict[str, MeasuredBurrow]] = {
-    'minirquad': {'DH': _table_ii(5.0, 0.4, 34.0, 1.0),
-                  'DL': _table_ii(8.9, 0.7, 36.0, 2.0),
-                  'SH': _table_ii(2.4, 0.7, 47.0, 2.0)},
+    'minirquad': {'DH': _table_ii(5.0, 0.4, 0.034, 0.001),
+                  'DL': _table_ii(8.9, 0.7, 0.036, 0.002),
+                  'SH': _table_ii(2.4, 0.7, 0.047, 0.002)},
 }
 
 
