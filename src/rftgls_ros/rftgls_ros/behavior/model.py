@@ -12,7 +12,9 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
 from rftgls_conventions import G
+from rftgls_core.multibody.gaits import TABLE_II_BURROWS
 from rftgls_core.predictor import Predictor
+from rftgls_core.robots.measured_burrows import MEASURED_BURROWS
 from rftgls_core.types import AnchorState, Pull, Status
 
 from ..capacity.range_bound import scan_points
@@ -50,13 +52,18 @@ def _rad(a: float, b: float) -> tuple[float, float]:
     return (math.radians(a), math.radians(b))
 
 
-# Paper Table II (final h 34 +- 1, 36 +- 2, 47 +- 2 mm, mean +- SD of six trials) and
-# Fig. 10(a): DH and DL burrows use 1.32 and 1.26 times the energy of SH.
-ANCHOR_MODES: dict[str, AnchorMode] = {
-    'DH': AnchorMode('DH', _rad(-75, -50), _rad(-40, 30), 0.034, math.radians(5.0), 1.32, 0.001),
-    'DL': AnchorMode('DL', _rad(-75, -50), _rad(-40, 0), 0.036, math.radians(8.9), 1.26, 0.002),
-    'SH': AnchorMode('SH', _rad(-40, -20), _rad(-40, 30), 0.047, math.radians(2.4), 1.00, 0.002),
-}
+def _mode(name: str, energy_ratio: float) -> AnchorMode:
+    """A paper mode: its leg angles (multibody.gaits.TABLE_II_BURROWS, deg) and its measured
+    final pose, mean and SD of six trials (robots.measured_burrows: Table II)."""
+    retract, final = TABLE_II_BURROWS[name]
+    b = MEASURED_BURROWS['minirquad'][name]
+    return AnchorMode(name, _rad(*retract), _rad(*final), b.h_m, b.theta_b_rad, energy_ratio,
+                      b.h_sd_m)
+
+
+# Paper Table II and Fig. 10(a): DH and DL burrows use 1.32 and 1.26 times the energy of SH.
+ANCHOR_MODES: dict[str, AnchorMode] = {'DH': _mode('DH', 1.32), 'DL': _mode('DL', 1.26),
+                                       'SH': _mode('SH', 1.00)}
 # A burrowed height is taken to lie within this many of Table II's standard deviations of its
 # mean (about 95 % of burrows if their spread is normal; six trials say little more).
 H_BAND_SDS = 2.0
