@@ -80,5 +80,7 @@ class ProcessReplayer(InlineReplayer):
             self._future = None
 
     def close(self) -> None:
+        # Joined, not abandoned: an abandoned pool leaves its worker and semaphores to the
+        # interpreter's exit (resource_tracker warnings). A replay still running is waited for.
         self.cancel()
-        self._pool.shutdown(wait=False, cancel_futures=True)
+        self._pool.shutdown(wait=True, cancel_futures=True)
