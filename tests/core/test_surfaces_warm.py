@@ -330,3 +330,34 @@ def test_alternating_states_each_keep_their_own_warm_stream():
     assert stats['steps'] == len(states)
     # one stream would answer every switch cold (120 of 120); two: each starts cold once
     assert stats['fallback_rate'] * stats['steps'] <= 10, stats
+
+
+def test_a_state_asked_again_at_new_pull_angles_reuses_its_fit_and_answers_as_cold():
+    """During a tug the anchor stands still while the tether angle creeps (0.5 deg steps here,
+    the lower bound's grid). At the 600 g planned pose next to the support edge the warm guards
+    send most steps cold; those cold steps refit nothing: the state's posed problem and its
+    fitted sphere are kept, and every answer equals the fresh cold `direct`'s (RTOL, the warm
+    contract: the warm steps among them agree to the solver tolerance)."""
+    import rftgls_core.surfaces.warm as warm_mod
+    rob, med = get_robot('minirquad'), get_medium('m90_sand')
+    st = AnchorState(0.0427358 + 0.0029, 0.181783, -0.349066, -0.349066)
+    cold = RobotPredictor(rob, med, method='direct', n_twists=400)
+    warm = RobotPredictor(rob, med, method='direct-warm')
+    fits = []
+    real = warm_mod.DirectSurface
+
+    class Counted(real):
+        def fit(self, problem):
+            fits.append(problem)
+            return super().fit(problem)
+    warm_mod.DirectSurface = Counted
+    try:
+        answers = [(warm.predict(st, phi, Pull.BACKWARD), cold.predict(st, phi, Pull.BACKWARD))
+                   for phi in -0.05 - math.radians(0.5) * np.arange(12)]
+    finally:
+        warm_mod.DirectSurface = real
+    for rw, rc in answers:
+        assert rw.status is rc.status and rc.capacity_N is not None
+        assert rw.capacity_N == pytest.approx(rc.capacity_N, rel=RTOL)
+    cold_steps = warm.stats()['fallback_rate'] * warm.stats()['steps']
+    assert cold_steps >= 2 and len(fits) == 1 and len(set(map(id, fits))) == 1

@@ -20,7 +20,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from collections import deque
+from collections import OrderedDict, deque
 from dataclasses import dataclass
 from typing import Any
 
@@ -97,6 +97,9 @@ class LivePredictor:
         self.solvers: dict[str, Any] = {}              # pull -> its first streaming solver
         # pull -> [(state and phi in STREAM_UNITS, solver)] of its streams, first is solvers[pull]
         self._streams: dict[str, list[list[Any]]] = {}
+        # the posed problems of the last states streamed, so a state asked again (at another
+        # pull angle) hands its solver the same problem, whose fit it keeps
+        self._problems: OrderedDict[tuple, tuple[Any, Any]] = OrderedDict()
         self.times_s: deque[float] = deque(maxlen=int(window))
 
     def problem(self, state: AnchorState, pull: Pull | str
@@ -166,7 +169,14 @@ class LivePredictor:
 
     def _stream(self, state: AnchorState, phi: float, pull: Pull | str) -> CapacityResult:
         solver = self._nearest_solver(state, phi, pull)
-        problem, failure = self.problem(state, pull)
+        key = (state.as_tuple(), str(getattr(pull, 'value', pull)))
+        if key in self._problems:
+            self._problems.move_to_end(key)
+        else:
+            self._problems[key] = self.problem(state, pull)
+            if len(self._problems) > 2 * STREAMS:
+                self._problems.popitem(last=False)
+        problem, failure = self._problems[key]
         if problem is None:
             assert failure is not None
             solver.forget()             # the stream went where nothing is solved

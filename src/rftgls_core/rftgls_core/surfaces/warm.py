@@ -156,6 +156,7 @@ class WarmDirect:
         self.fallback_reasons_: Counter[str] = Counter()
         self.last_warm_ = False
         self.last_reason_ = ''
+        self._fit: tuple[GLSProblem, DirectSurface] | None = None
         return self
 
     def forget(self) -> None:
@@ -351,7 +352,14 @@ class WarmDirect:
         return ''
 
     def _cold(self, problem: GLSProblem, phi: float) -> CapacityResult:
-        surface = DirectSurface(self.n_twists, **self.direct_options).fit(problem)
+        # The same problem object again (the caller's state has not moved, only the pull
+        # angle): its fit is the same, so the last one answers (a fit is deterministic, and a
+        # fitted surface answers every angle as a fresh one would).
+        if self._fit is not None and self._fit[0] is problem:
+            surface = self._fit[1]
+        else:
+            surface = DirectSurface(self.n_twists, **self.direct_options).fit(problem)
+            self._fit = (problem, surface)
         r = surface.capacity(phi)
         self.anchor_, self.twist_ = None, None
         if _clean(r) and r.slip_twist_scaled is not None:
