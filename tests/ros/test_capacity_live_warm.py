@@ -9,6 +9,7 @@ from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import minirquad
 from rftgls_core.types import AnchorState
+from rftgls_ros.capacity.estimator import JOINTS
 from rftgls_ros.capacity.node_predictor import LIVE_METHODS, node_predictor
 from rftgls_ros.capacity.params import PARAMETERS
 
@@ -94,12 +95,13 @@ def test_node_live_mode_answers_with_the_warm_solver_and_reports_it(ros_context)
 @pytest.mark.parametrize('depth', [50, 5])
 def test_a_burst_of_joint_states_is_answered_in_full_up_to_the_queue_depth(ros_context, depth):
     """40 joint_states published back to back while the node is not spinning (as when it is
-    busy): with the default queue (50) every one gets its own answer, in order; with sensor
-    data's usual 5 most are lost. The control shows the queue, not luck, keeps them."""
+    busy), every trigger answered (trigger_max_queue_s 0, as in a bag replay): with the default
+    queue (50) every one gets its own answer, in order; with sensor data's usual 5 most are
+    lost. The control shows the queue, not luck, keeps them."""
     from geometry_msgs.msg import WrenchStamped
     assert PARAMETERS['input_queue_depth'].default == 50
-    with live_node(ros_context, trigger_inputs=['joint_states'],
-                   input_queue_depth=depth) as (node, probe):
+    with live_node(ros_context, trigger_inputs=['joint_states'], input_queue_depth=depth,
+                   trigger_max_queue_s=0.0) as (node, probe):
         answers: list = []
         probe.node.create_subscription(WrenchStamped, '/capacity_node/capacity',
                                        answers.append, 500)
@@ -122,3 +124,33 @@ def test_a_burst_of_joint_states_is_answered_in_full_up_to_the_queue_depth(ros_c
         else:
             assert len(got) <= depth + 1 < len(sent)
             assert got == sent[-len(got):]   # keep last: the newest survive
+
+
+def test_a_node_behind_its_triggers_answers_the_newest_and_loses_no_input(ros_context):
+    """The same burst with the default trigger_max_queue_s (10 ms), the node kept from
+    spinning for 100 ms after it (ten times that): every message is older than the limit when
+    its callback runs, so each is applied (the estimator ends on the last angle sent) but
+    only the last gets an answer, with its own stamp, from the catch-up after the burst;
+    /diagnostics counts the 40 skipped."""
+    import time
+
+    from geometry_msgs.msg import WrenchStamped
+    assert PARAMETERS['trigger_max_queue_s'].default == 0.01
+    with live_node(ros_context, trigger_inputs=['joint_states']) as (node, probe):
+        answers: list = []
+        probe.node.create_subscription(WrenchStamped, '/capacity_node/capacity',
+                                       answers.append, 500)
+        probe.spin_until(lambda: False, 0.3)
+        answers.clear()
+        angles = [DH.theta_l1 + 1e-4 * (k % 7) for k in range(39)] + [DH.theta_l1 + 3e-4]
+        sent = [probe.joints(a, DH.theta_l2).header.stamp for a in angles]
+        time.sleep(0.1)
+        assert probe.spin_until(lambda: any(m.header.stamp == sent[-1] for m in answers), 5.0)
+        probe.spin_until(lambda: False, 0.3)   # and nothing more of the burst arrives
+        mine = [m.header.stamp for m in answers if m.header.stamp in sent]
+        assert mine == [sent[-1]]
+        assert node.estimator._joints[JOINTS[0]].value == pytest.approx(angles[-1], abs=1e-12)
+        assert node.fresh.skipped == len(sent)
+        assert probe.spin_until(lambda: probe.last_diag() is not None and {
+            kv.key: kv.value for kv in probe.last_diag().values}.get('triggers_skipped')
+            == str(len(sent)), 3.0)

@@ -84,3 +84,106 @@ def test_node_publishes_the_lower_bound(ros_context, cmap):
         ex.shutdown()
         node.destroy_node()
         probe.node.destroy_node()
+
+
+# -- the bound on a grid of tether angles (capacity/lower_bound.py) -------------------------
+STEP = math.radians(0.5)
+SETTINGS = dict(level=0.95, h_sigma_m=0.002, theta_b_sigma_rad=math.radians(1.0),
+                capacity_rel_sigma=0.05, h_range_m=(-0.05, 0.30), phi_limit_rad=math.pi / 2)
+MODELLED_H = (('height', 0.0029),)   # a modelled height with its band, as behavior sends it
+
+
+def counted(cmap):
+    calls = []
+
+    def f(st, phi):
+        calls.append((st, phi))
+        return cmap.query(st, phi, 'backward')
+    return f, calls
+
+
+def test_the_grid_bound_is_the_smaller_exact_bound_of_the_two_bracketing_angles(cmap):
+    """The bound at phi on the 0.5 deg grid equals, to the last bit, the smaller of the
+    exact-phi bounds at the grid angles on either side (the same predictor calls), and so
+    lies at or below the exact bound wherever the capacity is monotone in phi over a step."""
+    from rftgls_ros.capacity.lower_bound import BoundSettings, LowerBound
+    grid = LowerBound(predict(cmap), BoundSettings(**SETTINGS, phi_step_rad=STEP))
+    exact = LowerBound(predict(cmap), BoundSettings(**SETTINGS))
+    below = 0
+    for phi in (-0.3, -0.2051, -0.1, -0.0541, 0.0123):
+        lo = math.floor(phi / STEP) * STEP
+        ends = [exact.bound(DH, p, cmap.query(DH, p, 'backward'), MODELLED_H)
+                for p in (lo, lo + STEP)]
+        got = grid.bound(DH, phi, cmap.query(DH, phi, 'backward'), MODELLED_H)
+        assert got == min(ends)
+        below += got <= exact.bound(DH, phi, cmap.query(DH, phi, 'backward'), MODELLED_H)
+    assert below == 5
+
+
+def test_a_creeping_phi_asks_the_predictor_again_only_when_it_leaves_its_bracket(cmap):
+    from rftgls_ros.capacity.lower_bound import BoundSettings, LowerBound
+    f, calls = counted(cmap)
+    bound = LowerBound(f, BoundSettings(**SETTINGS, phi_step_rad=STEP))
+    first = bound.bound(DH, -0.0541, cmap.query(DH, -0.0541, 'backward'), MODELLED_H)
+    n = len(calls)
+    assert n > 0
+    # 0.01 deg per tension sample, as the sled's approach turns the tether: the same bracket
+    phis = [-0.0541 - math.radians(0.01) * k for k in range(1, 20)]
+    assert all(math.floor(p / STEP) == math.floor(-0.0541 / STEP) for p in phis)
+    assert all(bound.bound(DH, p, cmap.query(DH, p, 'backward'), MODELLED_H) == first
+               for p in phis)
+    assert len(calls) == n
+    # the next bracket shares one end: only its new end is solved
+    nxt = (math.floor(-0.0541 / STEP) - 0.5) * STEP
+    bound.bound(DH, nxt, cmap.query(DH, nxt, 'backward'), MODELLED_H)
+    assert 0 < len(calls) - n < n
+
+
+def test_a_bracket_end_without_a_value_makes_the_grid_bound_zero(cmap):
+    """A predictor that holds nothing from phi -0.055 rad up: at phi -0.0541 the upper grid
+    end (-3.0 deg) cannot hold, so the bound is 0, never the lower end's value."""
+    from rftgls_core.surfaces.base import CapacityResult
+    from rftgls_core.types import Status
+    from rftgls_ros.capacity.lower_bound import BoundSettings, LowerBound
+
+    def f(st, phi):
+        if phi > -0.055:
+            return CapacityResult(phi=phi, status=Status.UNSUPPORTED, method='test')
+        return cmap.query(st, phi, 'backward')
+    bound = LowerBound(f, BoundSettings(**SETTINGS, phi_step_rad=STEP))
+    phi = -0.0541   # bracket [-3.5, -3.0] deg = [-0.0611, -0.0524] rad
+    assert bound.bound(DH, phi, cmap.query(DH, phi, 'backward'), MODELLED_H) == 0.0
+
+
+def test_prefetch_prepares_the_neighbouring_brackets_one_prediction_at_a_time(cmap):
+    """After a bound at phi, each prefetch call makes exactly one prediction, until both
+    neighbouring grid angles are known (False); the creeping phi then enters the next bracket
+    with no prediction at all, and its bound is the one a bound without prefetch gives."""
+    from rftgls_ros.capacity.lower_bound import BoundSettings, LowerBound
+    f, calls = counted(cmap)
+    bound = LowerBound(f, BoundSettings(**SETTINGS, phi_step_rad=STEP))
+    phi = -0.0541
+    bound.bound(DH, phi, cmap.query(DH, phi, 'backward'), MODELLED_H)
+    n, steps, last = len(calls), 0, len(calls)
+    while bound.prefetch():
+        steps += 1
+        assert len(calls) - last in (0, 1)   # one prediction, or a bound finished without
+        last = len(calls)
+        assert steps < 100
+    made = len(calls) - n
+    assert made >= 2 and steps == made + 2   # the two grid angles each finish once
+    below = (math.floor(phi / STEP) - 0.5) * STEP      # inside the bracket below
+    above = (math.floor(phi / STEP) + 1.5) * STEP      # inside the bracket above
+    for p in (below, above):
+        before = len(calls)
+        got = bound.bound(DH, p, cmap.query(DH, p, 'backward'), MODELLED_H)
+        assert len(calls) == before
+        fresh = LowerBound(predict(cmap), BoundSettings(**SETTINGS, phi_step_rad=STEP))
+        assert got == fresh.bound(DH, p, cmap.query(DH, p, 'backward'), MODELLED_H)
+
+
+def test_prefetch_does_nothing_at_the_exact_phi():
+    from rftgls_ros.capacity.lower_bound import BoundSettings, LowerBound
+    bound = LowerBound(lambda st, ph: pytest.fail('no prediction expected'),
+                       BoundSettings(**SETTINGS))
+    assert bound.prefetch() is False

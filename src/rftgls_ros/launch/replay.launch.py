@@ -42,7 +42,9 @@ def generate_launch_description():
                           'pitch_topic': '/lab/theta_b', 'phi_topic': '/winch/phi',
                           'tension_component': 'tether',
                           'tension_frame_id': 'lab_world',   # the bag's force is a world vector
-                          'freshness_source': 'receipt_time'}],
+                          'freshness_source': 'receipt_time',
+                          # every recorded sample gets its answer, in order
+                          'trigger_max_queue_s': 0.0}],
              output='screen'),
         # TF for the replay: the bag's /tf_static holds lab_world -> aruco_tank (-> camera);
         # state_publisher hangs the robot on lab_world (odom_frame): base_link, legs,

@@ -91,6 +91,8 @@ class Rig:
                   'phi_topic': '/winch/phi',
                   'trigger_inputs': ['joint_states'], 'publish_rate_hz': 1.0,
                   'diagnostics_period_s': 0.2,
+                  # every input answered: the bench measures whether the node keeps up
+                  'trigger_max_queue_s': 0.0,
                   **{f'{n}_timeout_s': 30.0 for n in ('joint_states', 'pitch', 'tension',
                                                       'height', 'phi')}}
         self.proc: subprocess.Popen | None = None

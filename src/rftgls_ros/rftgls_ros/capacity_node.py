@@ -24,6 +24,7 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.exceptions import InvalidParameterValueException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.timer import Timer
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, String
 
@@ -36,6 +37,7 @@ from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import ConfigError, declare
 
 from .capacity.estimator import JOINTS, CapacityEstimator, Estimate
+from .capacity.fresh_triggers import FreshTriggers
 from .capacity.inputs import frame_problem, imu_problem, quat_xyzw_to_pitch
 from .capacity.node_predictor import node_predictor
 from .capacity.params import PARAMETERS, RUNTIME, configs
@@ -92,9 +94,9 @@ class CapacityNode(Node):
         self.add_on_set_parameters_callback(self.on_set_parameters)
 
         # Sensor-data QoS (best effort, volatile) with a deeper queue than its 5: at 500 Hz
-        # five messages are 10 ms, less than one scheduler hiccup on a busy core, and every
-        # trigger message is owed an answer. A backlog ages: the inputs' stamps still decide
-        # `stale`.
+        # five messages are 10 ms, less than one scheduler hiccup on a busy core, and no input
+        # may be lost. A backlog ages: the inputs' stamps still decide `stale`, and a trigger
+        # that waited too long is applied without its own answer (fresh_triggers.py).
         sensor = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=p['input_queue_depth'],
                             reliability=ReliabilityPolicy.BEST_EFFORT,
                             durability=DurabilityPolicy.VOLATILE)
@@ -116,6 +118,12 @@ class CapacityNode(Node):
                                      lambda m, i: self.on_scalar('phi', m, i), sensor)
 
         self.period_s = 1.0 / rate
+        self.fresh = FreshTriggers(self.config.trigger_max_queue_s)
+        # answers a skipped trigger that nothing newer followed (the end of a burst)
+        self.catch_up: Timer | None = None
+        if self.fresh.max_queue_s > 0.0:
+            self.catch_up = self.create_timer(self.fresh.max_queue_s, self.on_catch_up)
+            self.catch_up.cancel()
         self.last_publish = -math.inf
         self.last_estimate: Estimate | None = None
         self.last_diag_key: tuple | None = None
@@ -256,10 +264,30 @@ class CapacityNode(Node):
         self._input_done(name, msg.header.stamp, info)
 
     def _input_done(self, name: str, stamp, info) -> None:
-        if name in self.triggers:
-            self.publish_estimate(stamp)
-            # Input message (its DDS source timestamp, system clock) -> outputs published.
-            self.latency_s.append((time.time_ns() - info['source_timestamp']) * 1e-9)
+        if name not in self.triggers:
+            return
+        source_ns = info['source_timestamp']   # DDS source time, system clock
+        if self.fresh.arrived((time.time_ns() - source_ns) * 1e-9, stamp, source_ns):
+            if self.catch_up is not None:
+                self.catch_up.cancel()
+            self._answer(stamp, source_ns)
+        elif self.catch_up is not None:
+            self.catch_up.reset()
+
+    def on_catch_up(self) -> None:
+        assert self.catch_up is not None   # the timer exists only when skipping is on
+        self.catch_up.cancel()
+        pending = self.fresh.take_pending()
+        if pending is not None:
+            self._answer(pending.stamp, pending.source_ns)
+
+    def _answer(self, stamp, source_ns: int) -> None:
+        self.publish_estimate(stamp)
+        # Input message (its DDS source timestamp, system clock) -> outputs published.
+        self.latency_s.append((time.time_ns() - source_ns) * 1e-9)
+        # Between two triggers: one prediction toward the next tether angle's lower bound,
+        # so that bound is ready before the creeping angle needs it (lower_bound.py).
+        self.estimator.prefetch()
 
     def on_timer(self) -> None:
         now = time.monotonic()
@@ -323,6 +351,7 @@ class CapacityNode(Node):
             'processing_ms_median': _ms(self.processing_window_s, 0.5),
             'input_to_output_ms_median': _ms(self.latency_s, 0.5),
             'input_to_output_ms_p99': _ms(self.latency_s, 0.99),
+            'triggers_skipped': str(self.fresh.skipped),
         })
         stats = getattr(self.estimator.predictor, 'stats', None)   # live direct-warm solver
         values = dict(d.values)

@@ -33,12 +33,11 @@ from rftgls_conventions import LEG_KEYS, axle_angles, tether_direction_xz
 from rftgls_core.predictor import Predictor, predictor_name
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Provenance, Pull, Status
-from rftgls_core.uncertainty import capacity_lower_bound
 from rftgls_node_base.diagnostics import DiagStatus
 from rftgls_node_base.parameters import ConfigError
 
 from .inputs import LEG_LIMIT_RAD, band_problem
-from .range_bound import range_minimum
+from .lower_bound import BoundSettings, LowerBound
 
 JOINTS = LEG_KEYS  # leg angle keys, rftgls_conventions
 # Input names, as used for timeouts and in stale/invalid reasons.
@@ -90,6 +89,7 @@ class EstimatorConfig:
     h_sigma_m: float = 0.002
     theta_b_sigma_rad: float = math.radians(1.0)
     capacity_rel_sigma: float = 0.0
+    lower_bound_phi_step_rad: float = 0.0   # 0: at the exact phi (lower_bound.py)
 
     def check(self) -> 'EstimatorConfig':
         """Raise ConfigError on the first bad value; return self."""
@@ -117,7 +117,8 @@ class EstimatorConfig:
         if not (self.lower_bound_level == 0.0 or 0.5 <= self.lower_bound_level < 1.0):
             raise ConfigError(f'lower_bound_level must be 0 (off) or in [0.5, 1), got '
                               f'{self.lower_bound_level!r}')
-        for name in ('h_sigma_m', 'theta_b_sigma_rad', 'capacity_rel_sigma'):
+        for name in ('h_sigma_m', 'theta_b_sigma_rad', 'capacity_rel_sigma',
+                     'lower_bound_phi_step_rad'):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ConfigError(f'{name} must be >= 0, got {v!r}')
@@ -261,7 +262,7 @@ class CapacityEstimator:
         self._malformed: dict[str, Problem] = {}  # input -> why its latest message is unusable
         self._cache_key: tuple | None = None
         self._cache: CapacityResult | None = None
-        self._lower_cache: tuple | None = None
+        self._bound = self._new_bound()
         self.predictions = 0  # predictor calls (cache misses), for diagnostics and tests
 
     def reconfigure(self, config: EstimatorConfig) -> None:
@@ -271,7 +272,14 @@ class CapacityEstimator:
         if Pull(config.pull) is not self.pull:
             raise ConfigError('pull cannot change at run time')
         self.config = config
-        self._cache_key = self._cache = self._lower_cache = None
+        self._cache_key = self._cache = None
+        self._bound = self._new_bound()
+
+    def _new_bound(self) -> LowerBound:
+        c = self.config
+        return LowerBound(lambda st, ph: self.predictor.predict(st, ph, self.pull), BoundSettings(
+            c.lower_bound_level, c.h_sigma_m, c.theta_b_sigma_rad, c.capacity_rel_sigma,
+            c.h_range_m, c.phi_limit_rad, c.lower_bound_phi_step_rad))
 
     # -- inputs -----------------------------------------------------------------------------
     def update_joints(self, t: float, angles: Mapping[str, float]) -> None:
@@ -367,7 +375,7 @@ class CapacityEstimator:
                             result=result, **common)
         tension = max(tension, 0.0)  # inside the dead band
         margin = result.capacity_N - tension
-        lower = self._lower_bound(state, phi, result.capacity_N, self._ranges())
+        lower = self._bound.bound(state, phi, result, self._ranges())
         status, reason = result.status, result.reason
         if assumed:
             status = Status.ASSUMED
@@ -547,42 +555,10 @@ class CapacityEstimator:
                                    f'{name} = {x:.4g} {unit} outside [{lo:.4g}, {hi:.4g}]'))
         return out
 
-    def _lower_bound(self, state: AnchorState, phi: float, capacity_N: float,
-                     ranges: tuple[tuple[str, float], ...]) -> float | None:
-        """Conservative lower bound, cached with the prediction it belongs to.
-
-        Sigma part (lower_bound_level > 0): rftgls_core.uncertainty.capacity_lower_bound at
-        the used state. Range part: the smallest capacity over the range (input, half-width)
-        of every assumed or modelled input (range_bound.range_minimum). The bound is the
-        smaller of the two; None when neither applies.
-        """
-        cfg = self.config
-        if cfg.lower_bound_level <= 0.0 and not ranges:
-            return None
-        key = (state.as_tuple(), phi, ranges)
-        if self._lower_cache is not None and self._lower_cache[0] == key:
-            return self._lower_cache[1]
-        # Both parts ask for some of the same states (the state itself, h one sigma away):
-        # each state is predicted once.
-        answers = {(state.as_tuple(), phi): self._predict(state, phi)}
-
-        def predict(st: AnchorState, ph: float) -> CapacityResult:
-            k = (st.as_tuple(), ph)
-            if k not in answers:
-                answers[k] = self.predictor.predict(st, ph, self.pull)
-            return answers[k]
-
-        bounds = []
-        if cfg.lower_bound_level > 0.0:
-            bounds.append(capacity_lower_bound(
-                predict, state, phi, capacity_N, cfg.lower_bound_level, cfg.h_sigma_m,
-                cfg.theta_b_sigma_rad, cfg.capacity_rel_sigma))
-        if ranges:
-            bounds.append(range_minimum(predict, state, phi, dict(ranges), cfg.h_range_m,
-                                        cfg.phi_limit_rad))
-        lower = min(bounds)
-        self._lower_cache = (key, lower)
-        return lower
+    def prefetch(self) -> bool:
+        """One prediction toward the lower bound the next estimates are likely to need (the
+        grid angles next to the last one's, lower_bound.py); False when none is due."""
+        return self._bound.prefetch()
 
     def _predict(self, state: AnchorState, phi: float) -> CapacityResult:
         key = (state.as_tuple(), phi)

@@ -104,6 +104,9 @@ PARAMETERS: dict[str, Param] = {
     'h_sigma_m': Param(0.002, 'standard deviation of h for the lower bound, m', 0.0, 1.0),
     'theta_b_sigma_rad': Param(math.radians(1.0), 'standard deviation of theta_B for the lower '
                                'bound, rad', 0.0, math.pi),
+    'lower_bound_phi_step_rad': Param(0.0, 'grid of tether angles the lower bound is taken on '
+                                      '(the smaller of the two bracketing phi; each '
+                                      'remembered); 0 = at the exact phi, rad', 0.0, 0.2),
     'capacity_rel_sigma': Param(0.0, 'relative standard deviation of the capacity (e.g. '
                                 'sigma(xi_n)/xi_n from rftgls calibrate)', 0.0, 10.0),
     # timing
@@ -118,6 +121,10 @@ PARAMETERS: dict[str, Param] = {
     'input_queue_depth': Param(50, 'messages each input subscription keeps while the node is '
                                'busy (best effort, keep last): a burst up to this long is '
                                'answered in full, a longer one loses its oldest', 1, 10000),
+    'trigger_max_queue_s': Param(0.01, 'a trigger message that waited longer than this in its '
+                                 'queue is applied but answered only if no newer one comes '
+                                 'within this time (the node is behind: the newest sample is '
+                                 'answered); 0 = answer every trigger, s', 0.0, 10.0),
     'diagnostics_period_s': Param(1.0, 'period of unchanged /diagnostics, s', 0.0, 3600.0),
     'frame_id': Param('anchor', 'frame of the outputs (world-aligned axes at p)'),
 }
@@ -129,7 +136,8 @@ RUNTIME = frozenset({
     'tension_deadband_N', 'imu_tilt_limit_rad', 'imu_roll_limit_rad', 'leg_limit_rad',
     'assumed_height_range_m',
     'assumed_phi_range_rad', 'lower_bound_level', 'h_sigma_m', 'theta_b_sigma_rad',
-    'capacity_rel_sigma', 'clock_offset_tolerance_s', 'diagnostics_period_s',
+    'capacity_rel_sigma', 'lower_bound_phi_step_rad', 'clock_offset_tolerance_s',
+    'diagnostics_period_s',
     *(f'{name}_timeout_s' for name in DEFAULT_TIMEOUTS_S),
 })
 
@@ -147,6 +155,7 @@ class NodeConfig:
     triggers: frozenset[str] = frozenset({'tension'})
     publish_rate_hz: float = 20.0
     diagnostics_period_s: float = 1.0
+    trigger_max_queue_s: float = 0.01
 
     def check(self) -> NodeConfig:
         """Raise ConfigError on the first bad value; return self."""
@@ -170,6 +179,9 @@ class NodeConfig:
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ConfigError(f'{name} must be > 0, got {v!r}')
+        q = self.trigger_max_queue_s
+        if not (math.isfinite(q) and q >= 0):
+            raise ConfigError(f'trigger_max_queue_s must be >= 0, got {q!r}')
         return self
 
 
@@ -186,9 +198,10 @@ def configs(p: Mapping[str, Any]) -> tuple[EstimatorConfig, NodeConfig]:
         assumed_phi_range_rad=p['assumed_phi_range_rad'],
         lower_bound_level=p['lower_bound_level'],
         h_sigma_m=p['h_sigma_m'], theta_b_sigma_rad=p['theta_b_sigma_rad'],
-        capacity_rel_sigma=p['capacity_rel_sigma']).check()
+        capacity_rel_sigma=p['capacity_rel_sigma'],
+        lower_bound_phi_step_rad=p['lower_bound_phi_step_rad']).check()
     node = NodeConfig(p['tension_component'], p['freshness_source'], p['imu_tilt_limit_rad'],
                       p['imu_roll_limit_rad'], p['imu_frame_id'], p['tension_frame_id'],
                       frozenset(p['trigger_inputs']), p['publish_rate_hz'],
-                      p['diagnostics_period_s']).check()
+                      p['diagnostics_period_s'], p['trigger_max_queue_s']).check()
     return est, node

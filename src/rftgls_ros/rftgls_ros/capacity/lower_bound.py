@@ -1,0 +1,161 @@
+"""capacity_node's conservative lower bound of the capacity, and what it remembers.
+
+The bound is the smaller of two parts (docs/design/capacity-inputs.md):
+
+* sigma part (level > 0): rftgls_core.uncertainty.capacity_lower_bound, the one-sided
+  confidence bound from h and theta_B one sigma to each side and a relative capacity sigma;
+* range part: the smallest capacity over the range of every assumed or modelled input
+  (range_bound.range_minimum).
+
+Each asks the predictor for several states (about nine with a modelled height); next to the
+support edge those are live solves of 10-20 ms each. During a tug the anchor state stands
+still while the tether angle phi creeps with the sled (0.01 deg per tension sample), so a
+bound taken at the exact phi would be solved afresh at every sample.
+
+phi_step_rad > 0 takes the bound on a grid of pull angles instead: the smaller of the bounds
+at the two grid angles bracketing phi, each remembered (the last CACHE of them). The capacity
+changes little and smoothly over one step (0.5 deg: about 0.015 N at the MiniRQuad's 600 g
+pose, against a measured phi whose own error is degrees), so the smaller end covers phi; the
+point estimate (capacity, margin, slip twist) stays at the exact phi. phi_step_rad 0: the
+bound at the exact phi, remembered for that one state.
+
+A new grid angle still costs its nine solves at once, 25-40 ms next to the edge: longer than
+the tension period. `prefetch` prepares the grid angles on either side of the current bracket
+one prediction per call (capacity_node calls it after each answer), so the bracket the creeping
+phi enters next is usually known before it gets there.
+
+Units SI: h in m, angles in rad, capacities in N. No ROS.
+"""
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from rftgls_core.surfaces.base import CapacityResult
+from rftgls_core.types import AnchorState
+from rftgls_core.uncertainty import capacity_lower_bound
+
+from .range_bound import range_minimum
+
+Predict = Callable[[AnchorState, float], CapacityResult]
+Ranges = tuple[tuple[str, float], ...]
+
+
+@dataclass(frozen=True)
+class BoundSettings:
+    """level: one-sided confidence of the sigma part (0: off). h_sigma_m, theta_b_sigma_rad,
+    capacity_rel_sigma: its sigmas. h_range_m, phi_limit_rad: where the range part may scan.
+    phi_step_rad: grid of pull angles the bound is taken on (0: the exact phi)."""
+
+    level: float
+    h_sigma_m: float
+    theta_b_sigma_rad: float
+    capacity_rel_sigma: float
+    h_range_m: tuple[float, float]
+    phi_limit_rad: float
+    phi_step_rad: float = 0.0
+
+
+class _Missing(Exception):
+    """A prediction a prefetch has not made yet."""
+
+    def __init__(self, state: AnchorState, phi: float):
+        super().__init__()
+        self.state, self.phi = state, phi
+
+
+class LowerBound:
+    """predict: the estimator's predictor call for its pull, (state, phi) -> result."""
+
+    CACHE = 16
+
+    def __init__(self, predict: Predict, settings: BoundSettings):
+        self.predict = predict
+        self.settings = settings
+        self._known: OrderedDict[tuple, float] = OrderedDict()
+        self._last: tuple[AnchorState, float, Ranges] | None = None
+        # predictions made ahead for a grid angle's bound, by that bound's key
+        self._ahead: dict[tuple, dict[tuple, CapacityResult]] = {}
+
+    def bound(self, state: AnchorState, phi: float, center: CapacityResult,
+              ranges: Ranges) -> float | None:
+        """The lower bound (N, >= 0) at state and phi, whose own prediction is `center`
+        (status ok or assumed, with a capacity); None when neither part applies."""
+        s = self.settings
+        if s.level <= 0.0 and not ranges:
+            return None
+        step = s.phi_step_rad
+        if step <= 0.0:
+            return self._at(state, phi, ranges, center)
+        self._last = (state, phi, ranges)
+        return min(self._at(state, p, ranges, None) for p in self._bracket(phi))
+
+    def prefetch(self) -> bool:
+        """Make one prediction toward the bound of a grid angle next to the last bracket
+        (below it first, then above). False when both are known or there is nothing to do."""
+        if self.settings.phi_step_rad <= 0.0 or self._last is None:
+            return False
+        state, phi, ranges = self._last
+        step, limit = self.settings.phi_step_rad, self.settings.phi_limit_rad
+        grid = self._bracket(phi)
+        for p in (grid[0] - step, grid[-1] + step):
+            if abs(p) > limit or (state.as_tuple(), p, ranges) in self._known:
+                continue
+            try:
+                self._at(state, p, ranges, None, only_ahead=True)
+            except _Missing as miss:
+                memo = self._ahead.setdefault((state.as_tuple(), p, ranges), {})
+                memo[(miss.state.as_tuple(), miss.phi)] = self.predict(miss.state, miss.phi)
+            return True
+        return False
+
+    def _bracket(self, phi: float) -> list[float]:
+        step = self.settings.phi_step_rad
+        lo = math.floor(phi / step) * step
+        return [lo] if lo == phi else [lo, min(lo + step, self.settings.phi_limit_rad)]
+
+    def _at(self, state: AnchorState, phi: float, ranges: Ranges,
+            center: CapacityResult | None, only_ahead: bool = False) -> float:
+        """The bound at exactly this phi. only_ahead: use the predictions made ahead and
+        raise _Missing at the first one not made yet."""
+        key = (state.as_tuple(), phi, ranges)
+        if key in self._known:
+            self._known.move_to_end(key)
+            return self._known[key]
+        # Both parts ask for some of the same states (the state itself, h one sigma away):
+        # each is predicted once.
+        answers = self._ahead.get(key, {})
+        if center is not None:
+            answers[(state.as_tuple(), phi)] = center
+
+        def predict(st: AnchorState, ph: float) -> CapacityResult:
+            k = (st.as_tuple(), ph)
+            if k not in answers:
+                if only_ahead:
+                    raise _Missing(st, ph)
+                answers[k] = self.predict(st, ph)
+            return answers[k]
+
+        here = predict(state, phi)
+        if not here.status.has_value or here.capacity_N is None:
+            lower = 0.0     # somewhere in the bracket the anchor may hold nothing
+        else:
+            s = self.settings
+            bounds = []
+            if s.level > 0.0:
+                bounds.append(capacity_lower_bound(
+                    predict, state, phi, here.capacity_N, s.level, s.h_sigma_m,
+                    s.theta_b_sigma_rad, s.capacity_rel_sigma))
+            if ranges:
+                bounds.append(range_minimum(predict, state, phi, dict(ranges), s.h_range_m,
+                                            s.phi_limit_rad))
+            lower = min(bounds)
+        self._known[key] = lower
+        self._ahead.pop(key, None)
+        # what was made ahead for other states than the one now in use is dropped
+        self._ahead = {k: v for k, v in self._ahead.items() if k[0] == key[0]}
+        while len(self._known) > (self.CACHE if self.settings.phi_step_rad > 0.0 else 1):
+            self._known.popitem(last=False)
+        return lower
