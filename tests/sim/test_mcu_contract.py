@@ -18,7 +18,7 @@ from minirquad_sim.plant import PlantRobot
 from minirquad_sim.robot import SimRobot
 
 DT = 0.001          # s per lockstep step
-WALK = m.SetGait(m.GaitKind.CLOCK, period=2.0, duty=0.42, sweep=0.698132, down=0.349066,
+WALK = m.SetGait(m.GaitKind.CLOCK, period=2.0, duty=0.42, sweep=0.698132, down=-0.349066,
                  phases=(0.0, 0.5, 0.5, 0.0))
 
 

@@ -46,3 +46,19 @@ def test_the_physics_body_burrows_and_reports_its_power():
 def test_a_bad_true_medium_is_refused():
     with pytest.raises(ValueError, match='medium_scale'):
         PhysicsBody(medium_scale=float('nan'))
+
+
+def test_the_drivers_walk_moves_the_physics_body_away_from_p():
+    """The driver's walk gait, run by the MCU's clock on the physics body: within the first
+    second (before the walk's known overturn, docs/design/walk-burrow-physics.md) the body
+    moves toward +x, away from the winch point p, as the walk model's forward walk does (a
+    clock that swept the toes forward in stance moved it 84 mm toward p)."""
+    from minirquad_driver.gaits import GAITS
+    robot = SimRobot(physics=PhysicsBody())
+    g = GAITS['walk']
+    robot.set_gait(int(g.kind), g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
+    x0 = robot.physics.pose[0]
+    for _ in range(round(1.0 / STEP)):
+        robot.step(STEP)
+    assert not robot.physics.failed
+    assert robot.physics.pose[0] - x0 > 0.01

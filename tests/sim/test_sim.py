@@ -17,17 +17,43 @@ from rftgls_core.types import AnchorState, Status
 
 
 def test_buehler_clock_piecewise_linear():
-    # MiniRHex walk: 2 s, duty 0.42, sweep 40 deg, down 20 deg. Slow arc 0 -> 40 deg in
-    # 0.84 s, then the 320 deg recovery in 1.16 s.
-    c = BuehlerClock(2.0, 0.42, math.radians(40), math.radians(20))
+    # MiniRHex walk: 2 s, duty 0.42, sweep 40 deg, down 20 deg toe back (-20 deg in the
+    # protocol's sign). Forward: slow arc 0 -> -40 deg (toe back) in 0.84 s, then the 320 deg
+    # recovery the same way round in 1.16 s.
+    c = BuehlerClock(2.0, 0.42, math.radians(40), math.radians(-20))
     assert c.angle(0.0) == pytest.approx(0.0)
-    assert c.angle(0.42) == pytest.approx(math.radians(20))
-    assert c.angle(0.84) == pytest.approx(math.radians(40))
-    assert c.angle(2.0) == pytest.approx(2 * math.pi)
+    assert c.angle(0.42) == pytest.approx(math.radians(-20))
+    assert c.angle(0.84) == pytest.approx(math.radians(-40))
+    assert c.angle(2.0) == pytest.approx(-2 * math.pi)
     assert c.ground_speed() == pytest.approx(math.radians(40) / 0.84)
     assert c.recovery_speed() == pytest.approx(math.radians(320) / 1.16)
-    half = BuehlerClock(2.0, 0.42, math.radians(40), math.radians(20), phase=0.5)
+    half = BuehlerClock(2.0, 0.42, math.radians(40), math.radians(-20), phase=0.5)
     assert half.angle(0.0) == pytest.approx(c.angle(1.0))
+    # reverse: the mirror about down, toe forward in stance
+    back = BuehlerClock(2.0, 0.42, math.radians(40), math.radians(-20), direction=-1)
+    assert back.angle(0.84) == pytest.approx(0.0)
+
+
+def test_the_walk_gait_sweeps_the_toes_back_in_stance_as_the_walk_model_does():
+    """The driver's walk (gaits.py, run by the firmware's clock) and the multibody walk model
+    (rftgls_core.multibody.gaits.WalkGait: theta_L falls in stance, centred on -20 deg) agree
+    on the leg reference at every instant of a cycle, leg by leg: the same clock, one sign."""
+    from minirquad_driver.gaits import GAITS
+    from rftgls_core.multibody.gaits import WalkGait
+    from rftgls_core.multibody.robot import from_preset
+    from rftgls_core.robots.presets import minirquad
+    g = GAITS['walk']
+    body = from_preset(minirquad())
+    # the driver's legs PL, PR, DL, DR by the model's leg names
+    names = ('left_proximal_hip', 'right_proximal_hip', 'left_distal_hip', 'right_distal_hip')
+    index = [[leg.name for leg in body.legs].index(n) for n in names]
+    model = WalkGait(body, period=g.period, duty=g.duty, sweep=g.sweep, down=g.down,
+                     phases={index[i]: ph for i, ph in enumerate(g.phases)})
+    for t in [0.05 * k for k in range(81)]:
+        q_ref, _ = model.reference(t)
+        for i, ph in enumerate(g.phases):
+            c = BuehlerClock(g.period, g.duty, g.sweep, g.down, ph, g.direction)
+            assert wrap_angle(c.angle(t) - q_ref[index[i]]) == pytest.approx(0.0, abs=1e-9)
 
 
 def test_wrap_angle_range():

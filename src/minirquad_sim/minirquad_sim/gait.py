@@ -2,8 +2,11 @@
 
 Per cycle of length ``period`` the leg sweeps the slow "stance" arc of width ``sweep``
 centred on ``down`` during ``duty * period``, then recovers through the remaining
-2 pi - sweep in the rest of the cycle. Angles returned here are unwrapped (the leg turns
-continuously, one full turn per cycle); wrap them for display.
+2 pi - sweep in the rest of the cycle. Angles are the protocol's (positive toe forward, away
+from p): walking forward (direction +1) the toe sweeps backward under the hip in stance, so
+the angle falls, and keeps falling through the recovery (the firmware's gait_clock.cpp).
+Angles returned here are unwrapped (the leg turns continuously, one full turn per cycle);
+wrap them for display.
 """
 from __future__ import annotations
 
@@ -15,8 +18,8 @@ TWO_PI = 2.0 * math.pi
 
 @dataclass(frozen=True)
 class BuehlerClock:
-    """period s, duty (0, 1), sweep rad (0, 2 pi), down rad, phase fraction [0, 1),
-    direction +1 or -1."""
+    """period s, duty (0, 1), sweep rad (0, 2 pi), down rad (the stance centre), phase
+    fraction [0, 1), direction +1 (forward: the angle falls) or -1."""
 
     period: float
     duty: float
@@ -36,8 +39,9 @@ class BuehlerClock:
             theta = (start + self.sweep
                      + (TWO_PI - self.sweep) * (tau - t_slow) / (1.0 - t_slow))
         theta += TWO_PI * cycles
-        # Reverse runs the same clock mirrored about the down angle.
-        return theta if self.direction > 0 else 2.0 * self.down - theta
+        # theta rises (MiniRHex's own sign); forward in the protocol's sign is its mirror
+        # about down.
+        return 2.0 * self.down - theta if self.direction > 0 else theta
 
     def ground_speed(self) -> float:
         """Angular speed on the slow arc, rad/s."""

@@ -27,7 +27,9 @@ LegSetpoint buehler_clock(const SetGait& g, int leg, uint32_t t_ms) {
     sp.angle = start + sweep + (TWO_PI_F - sweep) * (tau - duty) / (1.0f - duty);
     sp.rate = (TWO_PI_F - sweep) / ((1.0f - duty) * period_s);
   }
-  if (g.direction < 0) {   // reverse: the same clock mirrored about the down angle
+  // The arcs above rise (MiniRHex's own sign); forward in the protocol's sign is their
+  // mirror about down: the stance sweeps the toe back, from down + sweep/2 to down - sweep/2.
+  if (g.direction > 0) {
     sp.angle = 2.0f * down - sp.angle;
     sp.rate = -sp.rate;
   }

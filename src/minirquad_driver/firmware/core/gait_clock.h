@@ -1,6 +1,8 @@
 // The Buehler clock (MiniRHex): a leg's desired angle is piecewise linear in time. Per cycle
 // the leg sweeps the slow "stance" arc of width sweep centred on down during duty * period,
-// then recovers through the remaining 2 pi - sweep. Time stays an integer (ms) and the phase
+// then recovers through the remaining 2 pi - sweep. Angles are the protocol's (positive toe
+// forward, away from p): walking forward (direction +1) the toe sweeps backward under the hip
+// in stance, so the angle falls, and the leg turns on the same way through its recovery. Time stays an integer (ms) and the phase
 // a 16-bit fraction, so nothing drifts however long the gait runs; floats only for the arcs.
 #ifndef MRQ_GAIT_CLOCK_H
 #define MRQ_GAIT_CLOCK_H

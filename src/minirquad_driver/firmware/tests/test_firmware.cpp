@@ -103,7 +103,7 @@ Message walk() {
   g.period_ms = 2000;
   g.duty = 4200;
   g.sweep = 698132;   // 40 deg
-  g.down = 349066;    // 20 deg
+  g.down = -349066;   // -20 deg: MiniRHex's stance centre, toe back
   g.phase[0] = 0;
   g.phase[1] = g.phase[2] = 32768;
   g.phase[3] = 0;
@@ -334,17 +334,18 @@ TEST(burrow_reaches_table_ii_final_pose) {
 }
 
 TEST(buehler_clock_matches_minirhex_walk) {
-  // MiniRHex walk: 2 s, duty 0.42, sweep 40 deg, down 20 deg: the slow arc 0 -> 40 deg in
-  // 0.84 s, then 320 deg of recovery in 1.16 s (the Python reference test, sim/gait.py).
+  // MiniRHex walk: 2 s, duty 0.42, sweep 40 deg, down 20 deg toe back (-20 deg in the
+  // protocol's sign): walking forward, the slow arc 0 -> -40 deg (toe back) in 0.84 s, then
+  // 320 deg of recovery on the same way round in 1.16 s (the Python reference, sim/gait.py).
   const Message m = walk();
   const float deg = 0.0174532925f;
   CHECK_NEAR(mrq::buehler_clock(m.set_gait, 0, 0).angle, 0.0, 1e-4);
-  CHECK_NEAR(mrq::buehler_clock(m.set_gait, 0, 420).angle, 20 * deg, 1e-4);
-  CHECK_NEAR(mrq::buehler_clock(m.set_gait, 0, 840).angle, 40 * deg, 1e-4);
-  CHECK_NEAR(mrq::buehler_clock(m.set_gait, 0, 1420).angle, (40 + 160) * deg - 2 * 3.14159265,
-             1e-3);
-  CHECK_NEAR(mrq::buehler_clock(m.set_gait, 0, 100).rate, 40 * deg / 0.84, 1e-4);
-  CHECK_NEAR(mrq::buehler_clock(m.set_gait, 0, 1000).rate, 320 * deg / 1.16, 1e-4);
+  CHECK_NEAR(mrq::buehler_clock(m.set_gait, 0, 420).angle, -20 * deg, 1e-4);
+  CHECK_NEAR(mrq::buehler_clock(m.set_gait, 0, 840).angle, -40 * deg, 1e-4);
+  CHECK_NEAR(mrq::buehler_clock(m.set_gait, 0, 1420).angle,
+             -(40 + 160) * deg + 2 * 3.14159265, 1e-3);
+  CHECK_NEAR(mrq::buehler_clock(m.set_gait, 0, 100).rate, -40 * deg / 0.84, 1e-4);
+  CHECK_NEAR(mrq::buehler_clock(m.set_gait, 0, 1000).rate, -320 * deg / 1.16, 1e-4);
   // Phase 0.5 at t is phase 0 at t + 1 s; any number of cycles later, the same.
   CHECK_NEAR(mrq::buehler_clock(m.set_gait, 1, 300).angle,
              mrq::buehler_clock(m.set_gait, 0, 1300).angle, 1e-4);

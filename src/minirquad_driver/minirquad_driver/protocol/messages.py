@@ -431,7 +431,8 @@ class SetGait:
     sweep: width of the slow arc, rad, 0 < sweep < 2 pi (1 urad).
     down: centre of the slow arc, rad (1 urad).
     phases: per-leg phase offsets, fraction of a cycle in [0, 1) (1/65536).
-    direction: +1 forward, -1 reverse.
+    direction: +1 forward (away from p: the toes sweep back in stance, the angle falls),
+    -1 reverse.
     """
 
     TYPE: ClassVar[MsgType] = MsgType.SET_GAIT
