@@ -204,7 +204,7 @@ def balance(posed: PosedMultibody, model: StressModel, servo: ServoSpec, command
         # Illinois: an end kept twice in a row has its excess halved, so the next guess moves
         # it. The torque flattens as the rate grows (concave in the rate), so plain regula
         # falsi keeps the low end for good and creeps down from above: in the walk it ran out
-        # of searches with a leg at 5 % of its command where the line allowed 37 %
+        # of searches with a leg at 5 % of its command where the line allowed 30-50 %
         # (docs/design/walk-burrow-physics.md, check 15).
         side = np.where(ok, -1.0, 1.0)
         again = side == moved
