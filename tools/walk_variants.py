@@ -7,9 +7,12 @@ check 14). A diagnostic: the model itself is not changed.
     python tools/walk_variants.py --ff 0.1                 # MiniRHex's feed-forward as it runs
     python tools/walk_variants.py --kp 10 --cap 8          # the project firmware's clock loop
     python tools/walk_variants.py --xi-scale 4 --pull forward
+    python tools/walk_variants.py --no-plate               # the base plate feels no sand
 
 --ff scales the clock's feed-forward rate, --kp sets the MCU's position gain (1/s), --cap the
-largest commanded leg rate (rad/s), --xi-scale multiplies the medium's stress scales.
+largest commanded leg rate (rad/s), --xi-scale multiplies the medium's stress scales,
+--no-plate takes the base plate's facets out of the sand (the legs alone carry the robot;
+the run then goes on with the plate below the surface, which the real robot cannot do).
 """
 from __future__ import annotations
 
@@ -50,8 +53,12 @@ def main() -> None:
     ap.add_argument('--kp', type=float, default=sim_mod.SimOptions().kp)
     ap.add_argument('--cap', type=float, default=math.inf)
     ap.add_argument('--xi-scale', type=float, default=1.0)
+    ap.add_argument('--no-plate', action='store_true')
     a = ap.parse_args()
     robot = from_preset(get_robot('minirquad'), a.pull)
+    if a.no_plate:   # no base facets and no surface points: nothing stops the plate sinking
+        robot = dataclasses.replace(robot, base=None, base_mesh=None,
+                                    surface_points=np.zeros((0, 3)))
     kw = {} if a.phases is None else {'phases': dict(zip(('LH', 'LF', 'RH', 'RF'), a.phases))}
     gait = WalkGait(robot, duration=a.duration, **kw)
     m = get_medium('m90_sand')

@@ -151,3 +151,59 @@ def test_a_walk_starts_from_standing_level():
     sim = Simulator(robot, get_medium('m90_sand'))
     sim.place(gait.start())
     assert abs(math.degrees(sim.pose.theta_b)) < 2.0
+
+
+def test_the_servo_line_search_converges_on_a_flattening_torque(monkeypatch):
+    """The sand's torque on a leg rises steeply at small rates and flattens at large ones
+    (concave). Plain regula falsi then keeps its low end for good and creeps down from above:
+    with its 6 searches it stopped a walking leg at 5 % of its command where the line allowed
+    30-50 % (check 15). The search must end within balance.FRACTION_TOL of where torque and line
+    meet. The torque here is a stand-in of the shape measured in the walk at 1.1 s
+    (0.076, 0.165, 0.21, 0.22 N m at 5, 20, 50, 100 % of a 5.9 rad/s command)."""
+    from scipy.optimize import brentq
+
+    from rftgls_core.multibody import balance as bal_mod
+    from rftgls_core.multibody.servo import XL330_M077_5V as servo
+
+    def torque(rate):                   # N m against |rate| rad/s, toward the command's sign
+        return -0.221 * (1.0 - math.exp(-abs(rate) / 0.8))
+
+    def fake_step(posed, model, rates, load, xi_prev, dt, creep, backend='auto'):
+        n = len(rates)
+        b = bal_mod.Balance('move', np.zeros(3), np.asarray(rates, float).copy(), np.zeros(n),
+                            np.zeros(n, bool), np.zeros(n, bool))
+        b.torques = np.array([torque(r) if r else 0.0 for r in rates])
+        return b
+
+    monkeypatch.setattr(bal_mod, 'step_balance', fake_step)
+    command = np.array([0.0, 0.0, -5.919, 0.0])
+    b = bal_mod.balance(None, None, servo, command, np.zeros(3), np.zeros(3), 1e-3, 1e-5)
+    meet = brentq(lambda r: -torque(r) - servo.torque_limit(r), 1e-6, abs(command[2]))
+    rate = abs(b.rates[2])
+    assert abs(torque(rate)) <= servo.torque_limit(rate) * (1.0 + 1e-9)
+    assert meet - rate <= bal_mod.FRACTION_TOL * abs(command[2])
+
+
+def test_a_walking_leg_in_the_sand_runs_where_its_line_allows():
+    """The walk's right hind leg at 1.1 s (pose, joints, last twist and step of the run before
+    the search was fixed): it lies ahead of its hip in the sand, 96 deg behind its clock. It
+    ran at 0.30 rad/s with 0.076 N m where its servo's line allows ~2 rad/s; now its torque
+    is within the line and 5 % of its command more is beyond it."""
+    from rftgls_core.multibody import balance as bal_mod
+    from rftgls_core.multibody.servo import XL330_M077_5V as servo
+    robot = from_preset(minirquad())
+    pose = BasePose(0.08638445531030853, 0.02779042855923999, -0.10962621735628601)
+    q = np.array([-1.9499540608488335, -0.5886742921400382, -4.67043014533647,
+                  -4.342193311338698])
+    xi_prev = np.array([-0.0696703528392742, -0.13236184107752075, -1.9504105626699821])
+    command = np.array([-4.815, -0.561, -5.919, -4.86])      # rad/s, the MCU's at 1.1 s
+    posed = robot.pose(pose, q)
+    b = bal_mod.balance(posed, MODEL, servo, command, posed.gravity, xi_prev, 0.00177, 1e-5)
+    i = 2
+    rate = b.rates[i]
+    assert not b.stalled[i]
+    assert abs(b.torques[i]) <= servo.torque_limit(rate) * (1.0 + 1e-9)
+    rates = b.rates.copy()
+    rates[i] = rate + 0.05 * command[i]
+    b2 = bal_mod.step_balance(posed, MODEL, rates, posed.gravity, xi_prev, 0.00177, 1e-5)
+    assert abs(b2.torques[i]) > servo.torque_limit(rates[i])
