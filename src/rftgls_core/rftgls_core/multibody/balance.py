@@ -186,8 +186,9 @@ def balance(posed: PosedMultibody, model: StressModel, servo: ServoSpec, command
     The sand's torque on a leg depends on its rate through the body's response (the facets'
     directions mix the leg's turn and the base's twist), so f is searched: bracketed between
     a fraction known to be within the line and one known to exceed it, the first guess the
-    speed the line allows at the full-rate torque, then regula falsi (Illinois: an end kept twice has its excess halved). The step keeps the
-    largest fraction found within the line (0: stalled, held by its gear)."""
+    speed the line allows at the full-rate torque, then regula falsi (Illinois: an end kept
+    twice has its excess halved). The step keeps the largest fraction found within the line
+    (0: stalled, held by its gear)."""
     command = np.asarray(command, dtype=float)
     frac = np.where(command != 0.0, 1.0, 0.0)
     lo = np.zeros_like(frac)                 # fractions known to be within the line
