@@ -120,6 +120,12 @@ def test_walk_burrow_tug_action_cancel_reject_abort_and_complete(tmp_path, spawn
     c = Client(ros_context)
     try:
         assert c.client.wait_for_server(timeout_sec=30.0), 'no walk_burrow_tug server'
+        # wait_for_server sees the server from the client's side only. Fast DDS sends a
+        # service response only once the server has matched the client's response reader, and
+        # waits at most max_blocking_time (100 ms by default; rmw_fastrtps rmw_response.cpp,
+        # "client will not receive response") before dropping it: a goal sent at once under
+        # load was accepted but its response lost. One second lets discovery finish.
+        c.spin_until(lambda: False, 1.0)
 
         # 1. Cancel mid-tug: the tug has reeled in for 0.5 s at its full speed.
         handle = c.send(0.4, 1)
