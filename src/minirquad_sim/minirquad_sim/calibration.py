@@ -18,11 +18,12 @@ from __future__ import annotations
 import numpy as np
 
 from minirquad_driver.protocol.messages import BurrowMode
+from rftgls_core.robots.measured_burrows import MEASURED_ENERGY_RATIOS
 
 from .robot import SimRobot
 
 WINDOW_S = 8.0
-RATIOS = {'DH': 1.32, 'DL': 1.26}   # relative to SH
+RATIOS = {m: MEASURED_ENERGY_RATIOS['minirquad'][m] for m in ('DH', 'DL')}   # relative to SH
 
 
 def burrow_components(mode: str, window: float = WINDOW_S, dt: float = 0.01) -> np.ndarray:

@@ -15,7 +15,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..rft.media import get_medium
-from ..robots.measured_burrows import MEASURED_BURROWS
+from ..robots.measured_burrows import MEASURED_BURROWS, MEASURED_ENERGY_RATIOS
 from ..robots.presets import get_robot
 from .gaits import TABLE_II_BURROWS, BurrowGait, WalkGait
 from .robot import from_preset
@@ -26,7 +26,7 @@ from .sled import Sled
 # mode -> (retract, final (theta_L1, theta_L2) deg, measured theta_B deg, measured h m)
 TABLE_II = {m: (*TABLE_II_BURROWS[m], round(math.degrees(b.theta_b_rad), 6), b.h_m)
             for m, b in MEASURED_BURROWS['minirquad'].items()}
-PAPER_RATIOS = {'DH/SH': 1.32, 'DL/SH': 1.26}
+PAPER_RATIOS = {f'{m}/SH': MEASURED_ENERGY_RATIOS['minirquad'][m] for m in ('DH', 'DL')}
 PAPER_WALK_M = 1.0 / 3.0      # ~1 m over three 8 s walks (Fig. 12)
 
 # (label, parameter, values): the nominal run is shared; each value changes one input.

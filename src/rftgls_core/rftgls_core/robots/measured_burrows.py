@@ -34,6 +34,12 @@ def _table_ii(theta_b_deg: float, theta_b_sd_deg: float, h_m: float, h_sd_m: flo
                           6, _TABLE_II)
 
 
+# robot -> burrow mode -> its burrow energy over the 8 s window, idle power removed, relative
+# to SH (the paper's Fig. 10(a) and sec. VI-B: DH 1.32 and DL 1.26 times SH)
+MEASURED_ENERGY_RATIOS: dict[str, dict[str, float]] = {
+    'minirquad': {'DH': 1.32, 'DL': 1.26, 'SH': 1.0},
+}
+
 # robot -> burrow mode -> its measurement (pitch in deg and height in m as the paper prints
 # them, 34 +- 1 mm written 0.034 +- 0.001 m)
 MEASURED_BURROWS: dict[str, dict[str, MeasuredBurrow]] = {

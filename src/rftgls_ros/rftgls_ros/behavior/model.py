@@ -14,7 +14,7 @@ from dataclasses import dataclass, field, replace
 from rftgls_conventions import G
 from rftgls_core.multibody.gaits import TABLE_II_BURROWS
 from rftgls_core.predictor import Predictor
-from rftgls_core.robots.measured_burrows import MEASURED_BURROWS
+from rftgls_core.robots.measured_burrows import MEASURED_BURROWS, MEASURED_ENERGY_RATIOS
 from rftgls_core.types import AnchorState, Pull, Status
 
 from ..capacity.range_bound import scan_points
@@ -52,18 +52,17 @@ def _rad(a: float, b: float) -> tuple[float, float]:
     return (math.radians(a), math.radians(b))
 
 
-def _mode(name: str, energy_ratio: float) -> AnchorMode:
-    """A paper mode: its leg angles (multibody.gaits.TABLE_II_BURROWS, deg) and its measured
-    final pose, mean and SD of six trials (robots.measured_burrows: Table II)."""
+def _mode(name: str) -> AnchorMode:
+    """A paper mode: its leg angles (multibody.gaits.TABLE_II_BURROWS, deg), its measured
+    final pose, mean and SD of six trials (Table II), and its measured energy relative to SH
+    (Fig. 10(a)), both from robots.measured_burrows."""
     retract, final = TABLE_II_BURROWS[name]
     b = MEASURED_BURROWS['minirquad'][name]
-    return AnchorMode(name, _rad(*retract), _rad(*final), b.h_m, b.theta_b_rad, energy_ratio,
-                      b.h_sd_m)
+    return AnchorMode(name, _rad(*retract), _rad(*final), b.h_m, b.theta_b_rad,
+                      MEASURED_ENERGY_RATIOS['minirquad'][name], b.h_sd_m)
 
 
-# Paper Table II and Fig. 10(a): DH and DL burrows use 1.32 and 1.26 times the energy of SH.
-ANCHOR_MODES: dict[str, AnchorMode] = {'DH': _mode('DH', 1.32), 'DL': _mode('DL', 1.26),
-                                       'SH': _mode('SH', 1.00)}
+ANCHOR_MODES: dict[str, AnchorMode] = {m: _mode(m) for m in ('DH', 'DL', 'SH')}
 # A burrowed height is taken to lie within this many of Table II's standard deviations of its
 # mean (about 95 % of burrows if their spread is normal; six trials say little more).
 H_BAND_SDS = 2.0
