@@ -5,7 +5,8 @@ an rftgls_core Predictor, asked for backward pulls).
 
 ``capacity_fault(plant) -> None | (capacity, status, assumed_inputs)`` replaces what
 capacity_node says from then on (a status with its value, NaN for none); ``dead`` freezes the
-estimate's receipt time (capacity_node killed: no more messages).
+estimate's receipt time (capacity_node killed: no more messages). ``estimate_height(plant)
+-> h`` is the height capacity_node computes at (default: the one behavior_node sent last).
 """
 from __future__ import annotations
 
@@ -35,6 +36,7 @@ class Plant:
         self.link_ok = True
         self.dead = False
         self.capacity_fault = None
+        self.estimate_height = None
         self.h, self.phi, self.h_band = 0.06, 0.0, math.nan
         self.t_capacity = -float('inf')
         self.winch_cmd = 0.0
@@ -67,7 +69,8 @@ class Plant:
         if self.heavier_at is not None and r.winch.spool_position >= self.heavier_at:
             r.winch.sled_mass, self.heavier_at = self.heavier_mass, None
         a = r.leg_angles()
-        state = AnchorState(self.h, r.theta_b, 0.5 * (a[0] + a[1]), 0.5 * (a[2] + a[3]))
+        h = self.h if self.estimate_height is None else self.estimate_height(self)
+        state = AnchorState(h, r.theta_b, 0.5 * (a[0] + a[1]), 0.5 * (a[2] + a[3]))
         res = self.predictor.predict(state, self.phi, 'backward')
         cap = res.capacity_N if res.status.has_value and res.capacity_N is not None \
             else float('nan')
@@ -84,15 +87,16 @@ class Plant:
                 lower = cap       # a fault's value stands for both
         if not self.dead:
             self.t_capacity = self.t
-            self.last = (cap, lower, status, assumed)
-        cap, lower, status, assumed = self.last
+            self.last = (cap, lower, status, assumed, h)
+        cap, lower, status, assumed, h_used = self.last
         return Observation(
             t=self.t, legs=(state.theta_l1, state.theta_l2), t_legs=self.t,
             theta_b=r.theta_b, tension=r.winch.tension, t_tension=self.t,
             spool=r.winch.spool_position, spool_velocity=r.winch.spool_velocity,
             energy=self.energy, link_ok=self.link_ok, capacity=cap, capacity_lower=lower,
             capacity_status=status,
-            t_capacity=self.t_capacity, assumed_inputs=assumed, slip_twist=(0.0, 0.0, 0.0))
+            t_capacity=self.t_capacity, assumed_inputs=assumed, capacity_h=h_used,
+            slip_twist=(0.0, 0.0, 0.0))
 
 
 def run_loop(machine, plant, t_max=120.0, dt=0.01, on_step=None):

@@ -76,6 +76,8 @@ def test_one_estimate_message_is_what_the_machine_judges(rig):
 
     def send(**fields):
         t0 = node.obs.t_capacity
+        # computed at the height behavior_node sends, unless a test says otherwise
+        fields.setdefault('h_m', node.machine.height)
         msg = AnchorEstimate(has_value=True, capacity_n=2.5, capacity_lower_n=1.3, **fields)
         msg.slip_twist.linear.x, msg.slip_twist.linear.z, msg.slip_twist.angular.y = \
             0.6, -0.2, 0.77
@@ -107,10 +109,20 @@ def test_one_estimate_message_is_what_the_machine_judges(rig):
     obs = send(status_code=AnchorEstimate.STATUS_OK, status='ok', modelled_inputs=['height'])
     assert obs.capacity_status == 'ok' and node.machine.evidence().usable
     assert node.machine.decision_capacity() == pytest.approx(1.3)
+    # An estimate at another height than the one sent answers an old question (the new
+    # height's estimate is still on its way): not evidence, until capacity_node catches up.
+    # A height capacity_node measures itself is not behavior_node's to check.
+    h = node.machine.height
+    send(status_code=AnchorEstimate.STATUS_OK, status='ok', h_m=h + 3e-4)
+    v = node.machine.evidence()
+    assert (v.usable, v.reason, v.transient) == (False, evidence.OTHER_HEIGHT, True)
+    send(status_code=AnchorEstimate.STATUS_OK, status='ok', h_m=h + 3e-4,
+         measured_inputs=['height'])
+    assert node.machine.evidence().usable
     t0 = node.obs.t_capacity
     pub.publish(AnchorEstimate(status_code=AnchorEstimate.STATUS_OK, has_value=True,
                                capacity_n=2.5, capacity_lower_n=float('nan'),
-                               modelled_inputs=['height']))
+                               modelled_inputs=['height'], h_m=h))
     assert spin_until(ex, lambda: node.obs.t_capacity > t0)
     assert node.machine.evidence().reason == evidence.NO_LOWER_BOUND
 
@@ -155,7 +167,8 @@ def test_freshness_is_the_age_of_the_sample_not_of_its_receipt(rig):
     def send(age_s: float):
         n = len(node.tug_series.samples)
         msg = AnchorEstimate(status_code=AnchorEstimate.STATUS_OK, status='ok',
-                             has_value=True, capacity_n=2.5, capacity_lower_n=2.0)
+                             has_value=True, capacity_n=2.5, capacity_lower_n=2.0,
+                             h_m=node.machine.height)
         msg.header.stamp = stamp(age_s)
         pub.publish(msg)
         assert spin_until(ex, lambda: len(node.tug_series.samples) > n)

@@ -65,6 +65,20 @@ def test_judge_freshness_and_assumed_policy():
     assert (v.usable, v.reason, v.transient) == (False, evidence.ASSUMED_UNKNOWN, True)
 
 
+def test_judge_needs_the_estimate_at_the_height_sent():
+    sent = 0.0428
+    assert evidence.judge(10.0, 3.0, 'ok', 9.99, 0.06, height_used=sent, height_sent=sent).usable
+    for used in (sent + 2.6e-4, NAN):      # the plan's h before the replay's; none stated
+        v = evidence.judge(10.0, 3.0, 'ok', 9.99, 0.06, height_used=used, height_sent=sent)
+        assert (v.usable, v.reason, v.transient) == (False, evidence.OTHER_HEIGHT, True), v
+    # No height sent (or capacity_node measures it): nothing to compare.
+    assert evidence.judge(10.0, 3.0, 'ok', 9.99, 0.06, height_used=NAN).usable
+    # An explicit refusal says more than a height not yet caught up with.
+    v = evidence.judge(10.0, 3.0, 'assumed', 9.99, 0.06, frozenset({'phi'}),
+                       height_used=NAN, height_sent=sent)
+    assert v.reason == evidence.ASSUMED_NOT_ACCEPTED
+
+
 # ------------------------------------------------------------------ faults mid-tug
 def _fault_mid_tug(predictor, fault=None, dead=False, t_max=40.0, **cfg_kw):
     """400 g, one cycle; 1 s into the reeling tug the fault starts. Returns what happened."""
@@ -241,6 +255,47 @@ def test_no_tug_starts_without_evidence(predictor):
     assert m.records[0].outcome == 'aborted' and m.records[0].reason == 'status_unsupported'
     assert not any(e.get('to') == 'TUG' for e in m.events)
     assert plant.robot.winch.spool_position <= 0.0     # only paid out while walking
+
+
+def test_no_tug_starts_on_an_estimate_at_another_height(predictor):
+    # capacity_node answers for a height 0.3 mm off the one behavior_node sends (a replay's
+    # correction it never took up): its numbers answer another question. CHECK waits, then
+    # records the abort.
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1, evidence_wait_s=0.5)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    plant = Plant(0.4, predictor)
+    plant.estimate_height = lambda p: p.h + 3e-4
+    run_loop(m, plant, t_max=30)
+    assert m.records[0].outcome == 'aborted', m.records
+    assert m.records[0].reason == evidence.OTHER_HEIGHT
+    assert not any(e.get('to') == 'TUG' for e in m.events)
+    assert plant.robot.winch.spool_position <= 0.0     # only paid out while walking
+
+
+def test_a_tug_starts_only_once_the_estimate_caught_up_with_the_height(predictor):
+    # The demo's race: as CHECK begins, behavior_node corrects its height (a planned burrow's
+    # replay) and capacity_node needs a cold lower bound at the new one. Here its estimates
+    # stay 0.3 mm off for CHECK's first 0.3 s. The tug starts on an estimate at the height
+    # sent, and never reels on one at another.
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    plant = Plant(0.4, predictor)
+    plant.estimate_height = lambda p: p.h + 3e-4 if (
+        m.state == State.CHECK and m.elapsed() < 0.3) else p.h
+    reeled_at_other_h, entered = [], []
+
+    def watch(p, mach):
+        if mach.state == State.TUG and not entered:
+            entered.append(mach.obs.capacity_h == mach.height)
+        if p.winch_cmd > 0.0 and mach.obs.capacity_h != mach.height:
+            reeled_at_other_h.append((p.t, mach.obs.capacity_h, mach.height))
+    run_loop(m, plant, t_max=60, on_step=watch)
+    assert [r.outcome for r in m.records] == ['ok'], m.records
+    assert entered == [True]
+    assert not reeled_at_other_h, reeled_at_other_h[:3]
+    check = next(e['t'] for e in m.events if e.get('to') == 'CHECK')
+    tug = next(e['t'] for e in m.events if e.get('to') == 'TUG')
+    assert tug - check >= 0.3
 
 
 # ------------------------------------------------------------------ slip detector rules

@@ -322,6 +322,8 @@ class BehaviorNode(Node):
         o.capacity_lower = msg.capacity_lower_n           # what decisions use; NaN: none
         o.capacity_status = status_word(msg)
         o.assumed_inputs = frozenset(msg.assumed_inputs)
+        o.capacity_h = msg.h_m
+        o.height_measured = 'height' in msg.measured_inputs
         tw = msg.slip_twist
         twist = (tw.linear.x, tw.linear.z, tw.angular.y)
         # The predicted motion is zero while the anchor holds (capacity_node's slip_twist).

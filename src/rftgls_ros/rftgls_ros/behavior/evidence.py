@@ -9,8 +9,9 @@ accept-list. ``judge`` turns what behavior_node last received into a ``Verdict``
   (an estimate without a finite lower bound is not evidence: ``lower_bound_missing``).
 - reason: a stable code (tests and reports use it, not the wording).
 - transient: the evidence is only *missing, late or inconsistent* (no estimate yet, older than
-  the timeout, ``stale``, a value-carrying status next to no value, or ``assumed`` without
-  the names of its assumed inputs). The winch stops at
+  the timeout, ``stale``, a value-carrying status next to no value, ``assumed`` without
+  the names of its assumed inputs, or computed at another height than the one this node now
+  sends: capacity_node has not caught up with it yet). The winch stops at
   once, and the attempt is aborted if the evidence is not back within the grace time. Every
   other failure is an explicit "no value" from capacity_node and aborts at once.
 
@@ -35,8 +36,16 @@ NO_VALUE = 'no_value'
 NO_LOWER_BOUND = 'lower_bound_missing'
 ASSUMED_NOT_ACCEPTED = 'assumed_not_accepted'
 ASSUMED_UNKNOWN = 'assumed_inputs_unknown'
+OTHER_HEIGHT = 'estimate_other_height'
 # The reasons of evidence that is only missing, late or inconsistent (Verdict.transient).
-TRANSIENT_REASONS = frozenset({NO_ESTIMATE, TIMEOUT, NO_VALUE, ASSUMED_UNKNOWN, 'status_stale'})
+TRANSIENT_REASONS = frozenset({NO_ESTIMATE, TIMEOUT, NO_VALUE, ASSUMED_UNKNOWN, OTHER_HEIGHT,
+                               'status_stale'})
+
+# The height sent and the height an estimate states it used compare equal when they are the
+# same number: it crosses DDS as a float64, unchanged. 1 um leaves room for a copy that was
+# re-serialised on its way, and is far below any new height this node sends (a new burrow or
+# a replay of it moves h by 0.1 mm and more; its band is millimetres).
+HEIGHT_MATCH_M = 1e-6
 
 
 def status_reason(status: str) -> str:
@@ -56,14 +65,19 @@ class Verdict:
 def judge(t: float, capacity: float | None, status: str, t_capacity: float,
           timeout_s: float, assumed_inputs: frozenset[str] | None = None,
           accept_assumed: frozenset[str] = frozenset(),
-          capacity_lower: float | None = math.inf) -> Verdict:
+          capacity_lower: float | None = math.inf, height_used: float = math.nan,
+          height_sent: float | None = None) -> Verdict:
     """Verdict on the last estimate received at ``t_capacity`` (s), judged at ``t`` (s).
 
     capacity: N along the tether (None or NaN = no value); status: capacity_node's status
     word; assumed_inputs: the names capacity_node gave for an ``assumed`` status (None =
     not received); accept_assumed: assumed inputs this robot tolerates (default none);
     capacity_lower: the estimate's lower bound, N, the number a decision uses (None or NaN:
-    none; the default inf leaves it out, for callers that judge the status alone).
+    none; the default inf leaves it out, for callers that judge the status alone);
+    height_sent: the height of p (m) the caller now sends capacity_node, and height_used the
+    one the estimate states it was computed at (NaN: not stated). An estimate at another
+    height (or none stated) answers a question no longer asked; None leaves the check out
+    (the caller sends no height, or capacity_node measures it).
     """
     if not math.isfinite(t_capacity):
         return Verdict(False, NO_ESTIMATE, True, 'no capacity estimate received yet')
@@ -102,4 +116,11 @@ def judge(t: float, capacity: float | None, status: str, t_capacity: float,
             return Verdict(False, ASSUMED_NOT_ACCEPTED, False,
                            f'assumed inputs {", ".join(extra)} not in accept_assumed_inputs '
                            f'({", ".join(sorted(accept_assumed)) or "empty"})')
+    # Last: an explicit refusal above says more than a height not yet caught up with.
+    if height_sent is not None and not abs(height_used - height_sent) <= HEIGHT_MATCH_M:
+        # Most often the first estimates after this node changed its height (a burrow's
+        # replay replaced the plan's h): the lower bound at the new height is still on its way.
+        return Verdict(False, OTHER_HEIGHT, True,
+                       f'estimate computed at h {1e3 * height_used:.2f} mm, this node sends '
+                       f'{1e3 * height_sent:.2f} mm')
     return Verdict(True, USABLE, False, f'{status}, {1e3 * age:.0f} ms old')

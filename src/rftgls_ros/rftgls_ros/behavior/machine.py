@@ -242,7 +242,8 @@ class BehaviorMachine:
         o = self.obs
         return evidence.judge(o.t, o.capacity, o.capacity_status, o.t_capacity,
                               self.cfg.estimate_timeout_s, o.assumed_inputs,
-                              frozenset(self.cfg.accept_assumed_inputs), o.capacity_lower)
+                              frozenset(self.cfg.accept_assumed_inputs), o.capacity_lower,
+                              o.capacity_h, None if o.height_measured else self.height)
 
     def decision_capacity(self) -> float:
         """What capacity_node's usable estimate lets a decision count on, N: its lower bound

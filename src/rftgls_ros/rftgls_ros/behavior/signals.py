@@ -20,7 +20,9 @@ class Observation:
     text; capacity N along the tether, its lower bound capacity_lower N (what every decision
     uses; None or NaN: none published) and its status word from capacity_node;
     assumed_inputs the input names capacity_node reported as assumed (None = not received);
-    slip_twist (vx, vz, wy) unit direction in the anchor frame.
+    capacity_h the height of p the estimate was computed at, m (NaN: not stated), and
+    height_measured whether capacity_node measured that height itself (it then does not
+    come from this node); slip_twist (vx, vz, wy) unit direction in the anchor frame.
     """
 
     t: float
@@ -41,6 +43,8 @@ class Observation:
     capacity_status: str = 'stale'
     t_capacity: float = -math.inf
     assumed_inputs: frozenset[str] | None = None
+    capacity_h: float = math.nan
+    height_measured: bool = False
     slip_twist: tuple[float, float, float] | None = None
 
 
