@@ -111,9 +111,9 @@ def test_the_grid_bound_is_the_smaller_exact_bound_of_the_two_bracketing_angles(
     exact = LowerBound(predict(cmap), BoundSettings(**SETTINGS))
     below = 0
     for phi in (-0.3, -0.2051, -0.1, -0.0541, 0.0123):
-        lo = math.floor(phi / STEP) * STEP
+        i = math.floor(phi / STEP)       # grid angles are i x step (lower_bound._angle)
         ends = [exact.bound(DH, p, cmap.query(DH, p, 'backward'), MODELLED_H)
-                for p in (lo, lo + STEP)]
+                for p in (i * STEP, (i + 1) * STEP)]
         got = grid.bound(DH, phi, cmap.query(DH, phi, 'backward'), MODELLED_H)
         assert got == min(ends)
         below += got <= exact.bound(DH, phi, cmap.query(DH, phi, 'backward'), MODELLED_H)
@@ -180,6 +180,27 @@ def test_prefetch_prepares_the_neighbouring_brackets_one_prediction_at_a_time(cm
         assert len(calls) == before
         fresh = LowerBound(predict(cmap), BoundSettings(**SETTINGS, phi_step_rad=STEP))
         assert got == fresh.bound(DH, p, cmap.query(DH, p, 'backward'), MODELLED_H)
+
+
+def test_prefetch_prepares_the_bracket_the_phi_enters_at_every_grid_angle(cmap):
+    """At every grid angle of a tug's range (-20 to 20 deg), a prefetched neighbour is found
+    when phi gets there: angles are formed one way (index x step), so a neighbour reached
+    as angle + step is the same number, not one an ulp off under another key."""
+    from rftgls_ros.capacity.lower_bound import BoundSettings, LowerBound
+    f, calls = counted(cmap)
+    bound = LowerBound(f, BoundSettings(**SETTINGS, phi_step_rad=STEP))
+    missed = []
+    for i in range(-40, 40):
+        phi = (i + 0.5) * STEP
+        bound.bound(DH, phi, cmap.query(DH, phi, 'backward'), MODELLED_H)
+        while bound.prefetch():
+            pass
+        for p in ((i - 0.5) * STEP, (i + 1.5) * STEP):   # inside the brackets either side
+            before = len(calls)
+            bound.bound(DH, p, cmap.query(DH, p, 'backward'), MODELLED_H)
+            if len(calls) != before:
+                missed.append((i, round(math.degrees(p), 2)))
+    assert not missed, missed
 
 
 def test_prefetch_does_nothing_at_the_exact_phi():

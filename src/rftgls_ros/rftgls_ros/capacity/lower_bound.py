@@ -98,9 +98,10 @@ class LowerBound:
         if self.settings.phi_step_rad <= 0.0 or self._last is None:
             return False
         state, phi, ranges = self._last
-        step, limit = self.settings.phi_step_rad, self.settings.phi_limit_rad
-        grid = self._bracket(phi)
-        for p in (grid[0] - step, grid[-1] + step):
+        limit = self.settings.phi_limit_rad
+        i = self._index(phi)
+        below, above = i - 1, (i if self._angle(i) == phi else i + 1) + 1
+        for p in (self._angle(below), self._angle(above)):
             if abs(p) > limit or (state.as_tuple(), p, ranges) in self._known:
                 continue
             try:
@@ -111,10 +112,21 @@ class LowerBound:
             return True
         return False
 
+    def _index(self, phi: float) -> int:
+        """The grid angle at or below phi, as its index."""
+        return math.floor(phi / self.settings.phi_step_rad)
+
+    def _angle(self, i: int) -> float:
+        """Grid angle i, rad. Always formed as i x step: the bound is remembered by its angle,
+        and the same angle reached as a neighbour's angle + step would differ in its last
+        bit for about half of the grid (a bound prepared under one spelling was then never
+        found under the other)."""
+        return i * self.settings.phi_step_rad
+
     def _bracket(self, phi: float) -> list[float]:
-        step = self.settings.phi_step_rad
-        lo = math.floor(phi / step) * step
-        return [lo] if lo == phi else [lo, min(lo + step, self.settings.phi_limit_rad)]
+        i = self._index(phi)
+        lo = self._angle(i)
+        return [lo] if lo == phi else [lo, min(self._angle(i + 1), self.settings.phi_limit_rad)]
 
     def _at(self, state: AnchorState, phi: float, ranges: Ranges,
             center: CapacityResult | None, only_ahead: bool = False) -> float:
