@@ -39,7 +39,7 @@ from rftgls_node_base.parameters import ConfigError, declare
 from .capacity.estimator import JOINTS, CapacityEstimator, Estimate
 from .capacity.fresh_triggers import FreshTriggers
 from .capacity.inputs import frame_problem, imu_problem, quat_xyzw_to_pitch
-from .capacity.node_predictor import node_predictor
+from .capacity.node_predictor import predictor_from_params
 from .capacity.params import PARAMETERS, RUNTIME, configs
 from .capacity_msgs import estimate_msg, read_input_value
 from .capacity_query import answer_query
@@ -62,13 +62,7 @@ class CapacityNode(Node):
             raise ConfigError(str(exc)) from exc
         self.params = p
         est_cfg, self.config = configs(p)
-        predictor = node_predictor(p['map_file'], p['live_method'], p['robot'], p['medium'],
-                                   p['live_n_twists'], p['pull'],
-                                   p['out_of_range_live_method'],
-                                   anchor_description_file=p['anchor_description_file'],
-                                   anchor_state_variables=p['anchor_state_variables'],
-                                   edge_live_method=p['edge_live_method'])
-        self.estimator = CapacityEstimator(predictor, est_cfg)
+        self.estimator = CapacityEstimator(predictor_from_params(p), est_cfg)
         self.frame_id = p['frame_id']
         self.tension_component = self.config.tension_component
         self.use_stamps = self.config.freshness_source == 'header_stamp'

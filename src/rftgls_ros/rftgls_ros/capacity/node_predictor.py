@@ -15,6 +15,9 @@ behavior_node's own map (capacity_source local_map) is built the same way.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 from rftgls_core.predictor import InputNames, Predictor, PredictorError, PredictorSpec
 from rftgls_core.predictor import build_predictor as build
 from rftgls_core.surfaces.registry import DEFAULT_TWISTS, LIVE_METHODS, PREDICTOR_METHODS
@@ -76,3 +79,13 @@ def node_predictor(map_file: str = '', live_method: str = 'direct',
         return build(spec, PARAMETER_NAMES)
     except PredictorError as exc:
         raise ConfigError(str(exc)) from exc
+
+
+def predictor_from_params(p: Mapping[str, Any]) -> Predictor:
+    """node_predictor of a whole parameter set, by the node's parameter names (capacity_node
+    and tools that feed its estimator read the same ones)."""
+    return node_predictor(p['map_file'], p['live_method'], p['robot'], p['medium'],
+                          p['live_n_twists'], p['pull'], p['out_of_range_live_method'],
+                          anchor_description_file=p['anchor_description_file'],
+                          anchor_state_variables=p['anchor_state_variables'],
+                          edge_live_method=p['edge_live_method'])
