@@ -4,7 +4,9 @@ Energies in J are the INA219 energy (bridge /energy, idle included) integrated o
 walk (including the unburrow-by-walking), burrow, and the tug's last ``tug_energy_window``
 seconds (the paper counts the last 8 s of a tug so that tugs of different lengths compare).
 distance_m is the walking time times the assumed walking speed (MiniRQuad has no odometry;
-the paper used an ArUco marker), sled_distance_m the tether reeled in while taut.
+the paper used an ArUco marker), sled_distance_m the tether reeled in while taut: the sled's
+travel as the spool sees it (an anchor that gives way shortens the rope too, and nothing on
+the robot measures the sled itself).
 """
 from __future__ import annotations
 
@@ -68,7 +70,8 @@ class CycleRecord:
                 + (f' after {self.slip}' if self.slip and self.slip != self.reason else '')
                 + f'; energy walk {self.walk_j:.2f} J, burrow {self.burrow_j:.2f} J'
                 f', tug {self.tug_j:.2f} J (last window; whole tug {self.tug_total_j:.2f} J); '
-                f'walked ~{self.distance_m:.3f} m, sled moved {self.sled_distance_m:.3f} m')
+                f'walked ~{self.distance_m:.3f} m (timed), reeled {self.sled_distance_m:.3f} m '
+                'taut (the spool, not the sled)')
 
 
 def read_csv(path: str | Path) -> list[CycleRecord]:
