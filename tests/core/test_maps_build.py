@@ -156,3 +156,53 @@ def test_shipped_map_matches_a_rebuild(name):
     np.testing.assert_array_equal(res.capacity_N.astype(np.float32), flat(data.capacity_N)[ks[:3]])
     np.testing.assert_array_equal(res.slip_twist_scaled.astype(np.float32),
                                   flat(data.slip_twist_scaled)[ks[:3]])
+
+
+def _chunk_scheduler_run(pool, chunks, fn):
+    from rftgls_core.maps.build import LocalWorkers
+    return list(LocalWorkers(pool, 1).run(None, None, chunks, fn))
+
+
+def test_the_chunk_scheduler_delivers_every_chunk_once_and_computes_none_twice():
+    """This process and a worker (a thread pool standing in for the process pool: the same
+    futures) share 40 chunks; every result comes back once, and a chunk the worker had not
+    begun when this process ran out is taken back (cancelled there), not computed twice."""
+    import threading
+    import time
+    from concurrent.futures import ThreadPoolExecutor
+    ran: list[tuple[int, bool]] = []
+    main = threading.get_ident()
+    worker_delivered = threading.Event()
+
+    def fn(spec, grid, c):
+        here = threading.get_ident() == main
+        if here:
+            # the worker has started (else taking a chunk it holds is right: a slow start)
+            worker_delivered.wait(30)
+        time.sleep(0.002 * (1 + c % 3))
+        ran.append((c, here))
+        if not here:
+            worker_delivered.set()
+        return c
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        got = _chunk_scheduler_run(pool, list(range(40)), fn)
+    assert sorted(got) == list(range(40))
+    assert sorted(c for c, _ in ran) == list(range(40))         # none computed twice
+    assert any(here for _, here in ran) and not all(here for _, here in ran)
+
+
+def test_the_chunk_scheduler_does_not_wait_for_a_worker_that_has_not_started():
+    """A worker that has not begun (a slow start) holds no chunk hostage: this process
+    computes all of them, and each result still comes back once."""
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+    release = threading.Event()
+
+    def fn(spec, grid, c):
+        if threading.current_thread() is not threading.main_thread():
+            release.wait(30)            # the worker starts only after the pass
+        return c
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        got = _chunk_scheduler_run(pool, list(range(12)), fn)
+        release.set()
+    assert sorted(got) == list(range(12))

@@ -30,7 +30,7 @@ import sys
 import threading
 from collections import deque
 from collections.abc import Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -203,10 +203,19 @@ class LocalWorkers:
     """`workers` workers for every pass of one build: this process and workers - 1 worker
     processes (`worker_context`) started once. A worker's start costs little once the fork
     server runs (~1.2 s of CPU for the server's imports and kernels, once per session; more
-    wall time on a busy machine), and the process that has them already works
-    too (its kernels on one thread meanwhile, as the others' are), and when it runs out of
-    chunks it also takes the ones still queued at a process that has not finished them (the
-    same numbers, whoever computes them first): a pass never waits for a slow start."""
+    wall time on a busy machine), and the process that has them already works too (its
+    kernels on one thread meanwhile, as the others' are).
+
+    Feeding: each worker process has QUEUED chunks handed out beyond the one it runs, counted
+    after the finished ones are collected, so a worker that finishes while this process is
+    inside a chunk of its own finds the next one waiting (counting finished but uncollected
+    chunks as handed out left the worker idle for a quarter of a described build). When no
+    chunk is left to hand out, this process takes back the last handed-out chunk no worker
+    has begun (cancelled there: computed once), and only while no worker has delivered
+    anything yet (a slow start) also one a worker holds (the same numbers, whoever computes
+    them first): a pass never waits for a slow start."""
+
+    QUEUED = 3
 
     def __init__(self, pool: ProcessPoolExecutor, processes: int):
         self.pool, self.processes = pool, processes
@@ -215,25 +224,33 @@ class LocalWorkers:
         """Results of fn on every chunk, each once, in completion order."""
         todo = deque(chunks)
         running: dict[Future, object] = {}
-        taken: set[Future] = set()      # chunks this process computed itself
+        taken: set[Future] = set()      # chunks this process computes too (a slow start)
+        delivered = False               # a worker process has returned a chunk
         try:
             while todo or len(taken) < len(running):
-                while todo and len(running) - len(taken) < 2 * self.processes:
-                    c = todo.popleft()
-                    running[self.pool.submit(fn, spec, grid, c)] = c
                 for fut in [f for f in running if f.done()]:
-                    running.pop(fut)
+                    c = running.pop(fut)
                     if fut in taken:
                         taken.discard(fut)
+                    elif fut.cancelled():     # taken back below: computed here
+                        yield fn(spec, grid, c)
                     else:
+                        delivered = True
                         yield fut.result()
+                while todo and len(running) - len(taken) < self.QUEUED * self.processes:
+                    c = todo.popleft()
+                    running[self.pool.submit(fn, spec, grid, c)] = c
                 if todo:
                     yield fn(spec, grid, todo.popleft())
                     continue
                 left = [f for f in running if f not in taken]
-                if left:
+                if any(f.cancel() for f in reversed(left)):
+                    continue                  # the cancelled chunk is computed above
+                if left and not delivered:
                     taken.add(left[0])
                     yield fn(spec, grid, running[left[0]])
+                elif left:
+                    wait(left, return_when=FIRST_COMPLETED)
         finally:
             for fut in running:
                 fut.cancel()
