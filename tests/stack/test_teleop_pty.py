@@ -23,9 +23,11 @@ POSES = {'SH': SH_POSE, 'DH': 'no shipped gait map answers (test)', 'DL': None}
 
 def _valid(m: TeleopModel, tension: float, capacity: float, t: float = 0.0,
            lower: float | None = None) -> None:
-    """A usable estimate at t; its lower bound is the capacity unless given."""
+    """A usable estimate at t, computed at the height the model sends; its lower bound is
+    the capacity unless given."""
     m.tension, m.capacity, m.status, m.t_capacity = tension, capacity, 'ok', t
     m.capacity_lower = capacity if lower is None else lower
+    m.capacity_h = m.height().value
 
 
 def test_model_reels_in_below_limit():
@@ -34,6 +36,21 @@ def test_model_reels_in_below_limit():
     assert m.key('i', 0.0) == [('winch', pytest.approx(0.01))]
     assert m.key('i', 0.0) == [('winch', pytest.approx(0.02))]
     assert m.update(0.1) == []
+
+
+def test_model_refuses_reel_in_on_an_estimate_at_the_height_before_the_burrow():
+    """After a burrow key the model sends the burrow's height; the estimate capacity_node
+    computed at the standing height answers another question until a new one arrives."""
+    m = TeleopModel(poses=POSES)
+    _valid(m, 0.5, 2.5)
+    standing = m.height().value
+    m.key('3', 0.0)                                   # SH: its modelled height is sent
+    assert m.height().value != standing
+    v = m.verdict()
+    assert (v.usable, v.reason) == (False, 'estimate_other_height'), v
+    assert m.key('i', 0.0) == [] and 'refusing to pull harder' in m.message
+    _valid(m, 0.5, 2.5)                               # the estimate at the new height
+    assert m.key('i', 0.0) == [('winch', pytest.approx(0.01))]
 
 
 def test_model_guard_needs_override_and_shows_red():
@@ -150,6 +167,7 @@ def test_no_nan_on_the_screen_in_any_state(status):
         m.status, m.capacity, m.tension, m.slip_twist = status, cap, tension, twist
         m.capacity_lower = lower
         m.t_capacity, m.assumed_inputs, m.unheard = 0.0, assumed, unheard
+        m.capacity_h = m.height().value
         m.t = age
         if override:
             m.key('!', age)

@@ -147,6 +147,8 @@ class TeleopNode(Node):
         m.capacity_lower = msg.capacity_lower_n if msg.has_value else math.nan   # NaN: none
         m.assumed_inputs = frozenset(msg.assumed_inputs)
         m.modelled_inputs = frozenset(msg.modelled_inputs)
+        m.capacity_h = msg.h_m
+        m.height_measured = 'height' in msg.measured_inputs
         flag = m.anchor.pitch(msg.theta_b_rad, time.monotonic())
         if flag:
             self.get_logger().warning(flag)

@@ -4,8 +4,9 @@ Guard: a decision uses the lower bound, not the point estimate. Reeling in while
 ``limit_fraction`` x the estimate's lower bound needs a deliberate override (press ``!`` then
 reel in within ``override_window`` s); the screen shows it in red. When the estimate is not
 evidence (``behavior.evidence.judge``: status other than ``ok``, or ``assumed`` with an input
-outside ``accept_assumed_inputs`` (default none), no finite value, no finite lower bound, or
-older than ``stale_after``), reeling in is refused and a running reel-in is stopped; paying
+outside ``accept_assumed_inputs`` (default none), no finite value, no finite lower bound,
+computed at another height than the one sent, or older than ``stale_after``), reeling in is
+refused and a running reel-in is stopped; paying
 out and stopping always work. ``extrapolated`` is never accepted. The height of p sent to
 capacity_node and the pitch check of the burrow: anchor.py.
 Screen: a number is shown only when it is one; capacity and lower bound that are not evidence
@@ -70,6 +71,8 @@ class TeleopModel:
         self.t_capacity = -math.inf
         self.assumed_inputs: frozenset[str] | None = None
         self.modelled_inputs: frozenset[str] = frozenset()
+        self.capacity_h = math.nan        # height of p the estimate was computed at, m
+        self.height_measured = False      # capacity_node measured that height itself
         self.slip_twist = (math.nan, math.nan, math.nan)
         self.anchor = AnchorTracker(poses or {}, self.cfg.h_stand)
         self.override_until = -math.inf
@@ -89,7 +92,8 @@ class TeleopModel:
         # Any non-finite lower bound is "none" (judge's default inf would leave it out).
         lower = self.capacity_lower if math.isfinite(self.capacity_lower) else math.nan
         return judge(self.t, self.capacity, self.status, self.t_capacity, self.cfg.stale_after,
-                     self.assumed_inputs, frozenset(self.cfg.accept_assumed_inputs), lower)
+                     self.assumed_inputs, frozenset(self.cfg.accept_assumed_inputs), lower,
+                     self.capacity_h, None if self.height_measured else self.height().value)
 
     def valid(self) -> bool:
         return self.verdict().usable
