@@ -61,37 +61,59 @@ if kernels.AVAILABLE:
         return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
 
     @numba.njit(cache=True, nogil=True)
+    def _probes(x, step, fd, first, last, out):   # pragma: no cover - jitted
+        """Rows first..last-1 of the probe layout into out (last - first, 3): row 0 is
+        x + step, row i the same plus fd on coordinate i - 1 (the forward differences).
+        Each row is summed in that order whichever rows are asked for, so a point probed
+        alone gets the very twist it gets probed with its differences."""
+        for i in range(first, last):
+            for m in range(3):
+                out[i - first, m] = x[m] + step[m] + (fd if i == m + 1 else 0.0)
+
+    @numba.njit(cache=True, nogil=True)
     def _lm(x0, ts, a, b, c, offsets, pid, r, n, nd, poly, w, mu, creep, scale, eps_sched, tol,
             bound, max_iter):   # pragma: no cover - jitted
-        """roots.closure_root's stages; returns (x, |R| at the last eps, calls, beyond)."""
+        """roots.closure_root's stages; returns (x, |R| at the last eps, calls, beyond).
+
+        A point's three forward-difference probes are evaluated only once the point is kept
+        and is not yet a root: a trial step the damping rejects, or one that lands within
+        the stage's tolerance, costs one RFT twist instead of four. Each twist owns its
+        accumulators in evaluate._block, so R at a point is the same bits probed alone or
+        in a batch, and the iterates are those of the four-probe loop."""
         n_parts = offsets.shape[0]
         x = x0.copy()
-        probe = np.empty((4, 3))
-        per = np.empty((4, n_parts, 3))
-        res = np.empty((4, 3))
-        per_t = np.empty((4, n_parts, 3))
-        res_t = np.empty((4, 3))
+        no_step = np.zeros(3)
+        base = np.empty((1, 3))                  # the current point, R there in res
+        res = np.empty((1, 3))
+        diff = np.empty((3, 3))                  # its forward-difference probes
+        res_d = np.empty((3, 3))
+        trial_pt = np.empty((1, 3))
+        res_t = np.empty((1, 3))
+        per1 = np.empty((1, n_parts, 3))         # scratch: parts' wrenches, unused here
+        per3 = np.empty((3, n_parts, 3))
         calls = 0
         nf = np.inf
         for s in range(eps_sched.shape[0]):
             e = eps_sched[s]
             stage_tol = tol if s == eps_sched.shape[0] - 1 else max(tol, 1e-2 * e)
             fd = min(1e-7, 1e-3 * e) * max(1.0, _norm3(x))
-            for i in range(4):
-                for m in range(3):
-                    probe[i, m] = x[m] + (fd if i == m + 1 else 0.0)
-            _residuals(probe, ts, a, b, c, offsets, pid, r, n, nd, poly, w, mu, e, creep, scale,
-                       per, res)
+            _probes(x, no_step, fd, 0, 1, base)
+            _residuals(base, ts, a, b, c, offsets, pid, r, n, nd, poly, w, mu, e, creep, scale,
+                       per1, res)
             calls += 1
             nf = _norm3(res[0])
             lam = 1e-6
             for _ in range(max_iter):
                 if nf <= stage_tol or _norm3(x) > bound:
                     break
+                _probes(x, no_step, fd, 1, 4, diff)
+                _residuals(diff, ts, a, b, c, offsets, pid, r, n, nd, poly, w, mu, e, creep,
+                           scale, per3, res_d)
+                calls += 1
                 jac = np.empty((3, 3))
                 for i in range(3):
                     for m in range(3):
-                        jac[i, m] = (res[m + 1, i] - res[0, i]) / fd
+                        jac[i, m] = (res_d[m, i] - res[0, i]) / fd
                 jtj = jac.T @ jac
                 jtf = jac.T @ res[0]
                 improved = False
@@ -109,17 +131,14 @@ if kernels.AVAILABLE:
                         step = np.linalg.solve(mat, rhs)
                         ok = np.all(np.isfinite(step))
                     if ok:
-                        for i in range(4):
-                            for m in range(3):
-                                probe[i, m] = x[m] + step[m] + (fd if i == m + 1 else 0.0)
-                        _residuals(probe, ts, a, b, c, offsets, pid, r, n, nd, poly, w, mu,
-                                   e, creep, scale, per_t, res_t)
+                        _probes(x, step, fd, 0, 1, trial_pt)
+                        _residuals(trial_pt, ts, a, b, c, offsets, pid, r, n, nd, poly, w, mu,
+                                   e, creep, scale, per1, res_t)
                         calls += 1
                         nt = _norm3(res_t[0])
                         if nt < nf:
                             for m in range(3):
                                 x[m] += step[m]
-                            per[:] = per_t
                             res[:] = res_t
                             nf = nt
                             improved = True
@@ -133,7 +152,6 @@ if kernels.AVAILABLE:
             if _norm3(x) > bound:
                 return x, nf, calls, True
         return x, nf, calls, False
-
 
 def affine_root(contact: Contact, x0: np.ndarray, ts: np.ndarray, a: np.ndarray,
                 b: np.ndarray, c: np.ndarray, tol: float, rates: bool = True,
