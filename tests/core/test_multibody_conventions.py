@@ -168,7 +168,7 @@ def test_the_servo_line_search_converges_on_a_flattening_torque(monkeypatch):
     def torque(rate):                   # N m against |rate| rad/s, toward the command's sign
         return -0.221 * (1.0 - math.exp(-abs(rate) / 0.8))
 
-    def fake_step(posed, model, rates, load, xi_prev, dt, creep, backend='auto'):
+    def fake_step(posed, model, rates, load, xi_prev, dt, creep, backend='auto', packs=None):
         n = len(rates)
         b = bal_mod.Balance('move', np.zeros(3), np.asarray(rates, float).copy(), np.zeros(n),
                             np.zeros(n, bool), np.zeros(n, bool))

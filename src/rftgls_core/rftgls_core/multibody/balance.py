@@ -120,9 +120,10 @@ def record(bal: Balance, parts: list[Part], wrenches) -> None:
 
 
 def step_balance(posed: PosedMultibody, model: StressModel, rates: np.ndarray, load: np.ndarray,
-                 xi_prev: np.ndarray, dt: float, creep: float, backend: str = 'auto'
-                 ) -> Balance:
-    """(1) at fixed leg rates (rad/s). load: gravity plus tether (N, N, N m about p)."""
+                 xi_prev: np.ndarray, dt: float, creep: float, backend: str = 'auto',
+                 packs: dict | None = None) -> Balance:
+    """(1) at fixed leg rates (rad/s). load: gravity plus tether (N, N, N m about p).
+    packs: the pose's bound parts, shared between calls at one pose (contact.Contact)."""
     n = len(posed.legs)
     rates = np.asarray(rates, dtype=float)
     bal = Balance('move', np.zeros(3), rates.copy(), np.zeros(n), np.zeros(n, bool),
@@ -131,7 +132,7 @@ def step_balance(posed: PosedMultibody, model: StressModel, rates: np.ndarray, l
     robot = posed.robot
     w = robot.weight
     fscale = scaling_of(posed).diag
-    contact = Contact(posed, model, rates, backend=backend)
+    contact = Contact(posed, model, rates, backend=backend, packs=packs)
     if not contact.any:
         # in the air: it falls with what it had, gravity and the tether adding
         bal.mode = 'air'
@@ -191,6 +192,7 @@ def balance(posed: PosedMultibody, model: StressModel, servo: ServoSpec, command
     (0: stalled, held by its gear)."""
     command = np.asarray(command, dtype=float)
     solved: dict[bytes, Balance] = {}
+    packs: dict = {}                          # the pose's bound parts, by grouping of legs
 
     def solve(frac: np.ndarray) -> Balance:
         """step_balance at these fractions of the command. The search can come back to
@@ -200,7 +202,7 @@ def balance(posed: PosedMultibody, model: StressModel, servo: ServoSpec, command
         key = frac.tobytes()
         if key not in solved:
             solved[key] = step_balance(posed, model, frac * command, load, xi_prev, dt, creep,
-                                       backend)
+                                       backend, packs)
         return solved[key]
 
     frac = np.where(command != 0.0, 1.0, 0.0)

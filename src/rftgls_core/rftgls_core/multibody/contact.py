@@ -48,10 +48,16 @@ class Part:
 
 
 class Contact:
-    """The buried parts of a posed robot for given leg rates (rad/s, one per leg)."""
+    """The buried parts of a posed robot for given leg rates (rad/s, one per leg).
+
+    packs: PackedParts already bound for this posed robot and model, by the legs of each
+    part (the base's: ()); Contacts of one pose at several rates share it, since the packing
+    depends on the rates only through which legs pair up (binding packs took 1.0 of the
+    2.4 s the walk benchmark spent in balance.step_balance outside the root search)."""
 
     def __init__(self, posed: PosedMultibody, model: StressModel, rates: np.ndarray,
-                 backend: str = 'auto'):
+                 backend: str = 'auto',
+                 packs: dict[tuple[tuple[int, ...], ...], PackedParts] | None = None):
         self.posed = posed
         self.rates = np.asarray(rates, dtype=float)
         self.parts: list[Part] = []
@@ -73,11 +79,21 @@ class Contact:
                 continue
             self.parts.append(Part(posed.jac[i], float(self.rates[i]), len(legs), legs))
             facets.append(f)
-        self.packed = (PackedParts(facets, [pt.count for pt in self.parts], model, posed.ref,
-                                   backend) if self.parts else None)
+        self.packed = self._pack(facets, model, backend, {} if packs is None else packs)
         self._offsets = np.array([np.zeros(3) if pt.jac is None else pt.rate * pt.jac
                                   for pt in self.parts]).reshape(-1, 3)
         self.moving_mask = np.array([pt.moving for pt in self.parts], dtype=bool)
+
+    def _pack(self, facets: list, model: StressModel, backend: str,
+              packs: dict[tuple[tuple[int, ...], ...], PackedParts]) -> PackedParts | None:
+        """The parts' facets bound together, from packs when this grouping was bound."""
+        if not self.parts:
+            return None
+        key = tuple(pt.legs for pt in self.parts)
+        if key not in packs:
+            packs[key] = PackedParts(facets, [pt.count for pt in self.parts], model,
+                                     self.posed.ref, backend)
+        return packs[key]
 
     @property
     def any(self) -> bool:
