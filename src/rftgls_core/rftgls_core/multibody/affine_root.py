@@ -153,6 +153,7 @@ if kernels.AVAILABLE:
                 return x, nf, calls, True
         return x, nf, calls, False
 
+
 def affine_root(contact: Contact, x0: np.ndarray, ts: np.ndarray, a: np.ndarray,
                 b: np.ndarray, c: np.ndarray, tol: float, rates: bool = True,
                 eps: tuple[float, ...] = EPS_SCHEDULE, accept: float = ACCEPT,
