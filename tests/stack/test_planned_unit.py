@@ -271,6 +271,50 @@ def test_the_replayed_pose_and_the_pitch_check_decide_the_height_sent(predictor,
     assert ('did not go as modelled' in texts) is (case == 'disagrees')
 
 
+def test_a_planned_burrow_waits_at_standing_for_legs_that_lag(predictor):
+    """The plan simulated its burrow from standing: the ramp holds the standing pose until the
+    measured legs are there, and goes on without them only after STAND_WAIT_S."""
+    from dataclasses import replace
+
+    from rftgls_core.planning.gaits import STAND
+    from rftgls_ros.behavior.burrow import STAND_WAIT_S
+    from rftgls_ros.behavior.gait_motion import stand_time
+    plant = Plant(0.4, predictor, gait_poses=GaitPoses.for_sled(0.4))
+    cfg = fast_config(burrow_modes='planned', cycles=1).check()
+    m = BehaviorMachine(cfg, GaitChooser(predictor, sled_map('minirquad', 0.4), 1.0,
+                                         cfg.phis_rad, cfg.plan_confidence))
+    from rftgls_ros.behavior import Observation
+    obs = Observation(t=0.0)
+    while m.state != State.BURROW and plant.t < 30.0:
+        plant.apply(m.step(obs))
+        for _ in range(5):
+            obs = plant.advance(0.002)
+    assert m.state == State.BURROW
+    g = m.planned_gait()
+    walked = tuple(x - math.radians(20.0) for x in STAND)       # where a walk left the legs
+    lag = tuple(x - math.radians(7.0) for x in STAND)           # 7 deg short of standing
+    t_stand = stand_time(walked, g.speed)
+
+    def burrow_from_walked():
+        m.obs = replace(obs, legs=walked, t_legs=obs.t)
+        m.go(State.BURROW, 'test: from where the walk left the legs')
+        return m.obs.t
+
+    def targets(t, legs):
+        cmd = m.step(replace(obs, t=t, legs=legs, t_legs=t, t_tension=t))
+        assert m.state == State.BURROW, m.reason
+        return cmd.legs
+    t0 = burrow_from_walked()
+    assert targets(t0 + t_stand + 0.5, lag) == pytest.approx(STAND)   # held for the legs
+    assert targets(t0 + t_stand + 0.6, STAND) == pytest.approx(STAND)  # they arrive
+    assert targets(t0 + t_stand + 0.7, STAND) != pytest.approx(STAND)  # the ramp goes on
+    # legs that never arrive hold the ramp STAND_WAIT_S at most
+    t0 = burrow_from_walked()
+    assert targets(t0 + t_stand + 0.5 * STAND_WAIT_S, lag) == pytest.approx(STAND)
+    assert targets(t0 + t_stand + STAND_WAIT_S + 0.1, lag) == pytest.approx(STAND)  # released
+    assert targets(t0 + t_stand + STAND_WAIT_S + 0.3, lag) != pytest.approx(STAND)
+
+
 def test_a_replay_still_running_holds_the_check():
     from rftgls_ros.behavior import Observation
     cfg = fast_config(burrow_modes='planned', cycles=1).check()

@@ -15,12 +15,18 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from rftgls_core.planning.gaits import STAND
 from rftgls_core.planning.replay import BurrowRecord
 from rftgls_core.types import AnchorState, Status
 
 from . import evidence
-from .gait_motion import gait_targets
+from .gait_motion import gait_targets, stand_time
 from .states import REBURROW_WHY, HoldCause, State
+
+# Longest wait at the standing pose for the measured legs before a planned burrow's ramp goes
+# on (s): servos at a few degrees of lag arrive in tens of ms; legs held by the sand, or a
+# stalled servo, must not stall the burrow (its timeout and the replay's check still apply).
+STAND_WAIT_S = 1.0
 
 if TYPE_CHECKING:
     from .machine import BehaviorMachine
@@ -63,6 +69,7 @@ class Burrow:
         self.m = machine
         self.at_pose_since: float | None = None   # s: legs within tolerance of the final pose
         self.legs_from: tuple[float, float] | None = None   # planned gait: legs at its start
+        self.stand_hold: float | None = None    # s the ramp waited at standing (None: waiting)
         self.check = AnchorCheck()
         self.passed: PassedCheck | None = None     # this anchor's last sufficient check
         self.choose_unanswered = False             # CHOOSE's questions unanswered (warned)
@@ -118,15 +125,31 @@ class Burrow:
             m.command('burrow', m.mode)     # a Table II mode: the MCU runs its sequence
             return
         # A planned gait: this node streams its leg targets (gait_motion.py) from here.
-        self.legs_from = m.obs.legs
+        self.legs_from, self.stand_hold = m.obs.legs, None
         self._drive_gait()
 
     def _drive_gait(self) -> None:
-        """This step's leg targets of the planned gait being burrowed."""
+        """This step's leg targets of the planned gait being burrowed. The ramp holds the
+        standing pose until the measured legs are there (within burrow_tolerance_rad, at most
+        STAND_WAIT_S): the plan simulated its burrow from standing, and legs that lag the ramp
+        (the walk left them behind their hips) would otherwise turn toward the retracting
+        pose short of it, into a burrow the plan did not simulate."""
         m, g = self.m, self.m.planned_gait()
         if g is None or self.legs_from is None:
             return
-        m.leg_targets = gait_targets(m.elapsed(), self.legs_from, g.retract, g.final, g.speed)
+        t, t_stand = m.elapsed(), stand_time(self.legs_from, g.speed)
+        if self.stand_hold is None:
+            legs = m.obs.legs
+            standing = legs is not None and max(abs(legs[0] - STAND[0]),
+                                                abs(legs[1] - STAND[1])) \
+                <= m.cfg.burrow_tolerance_rad
+            if t < t_stand or not (standing or t >= t_stand + STAND_WAIT_S):
+                m.leg_targets = gait_targets(min(t, t_stand), self.legs_from, g.retract,
+                                             g.final, g.speed)
+                return
+            self.stand_hold = t - t_stand
+        m.leg_targets = gait_targets(t - self.stand_hold, self.legs_from, g.retract, g.final,
+                                     g.speed)
 
     def at_final_pose(self) -> bool:
         """The measured legs are within burrow_tolerance_rad of the mode's final pose."""

@@ -4,8 +4,9 @@ gait's speed, dwell, slew to the final pose, hold.
 
 The plan simulated each gait from standing (rftgls_core.planning.gaits.STAND); a burrow that
 starts from where the walk left the legs is another burrow (the final depth depends on the
-path, not only the final pose), so the robot stands first. The measured legs from standing on
-are what the burrow's replay simulates (replay.py).
+path, not only the final pose), so the robot stands first: behavior_node holds this ramp at
+the standing pose until the measured legs are there (burrow.py, at most STAND_WAIT_S). The
+measured legs from standing on are what the burrow's replay simulates (replay.py).
 
 The robot's SetLegs moves each leg at its servo's speed limit (far above a burrow's slew), so
 behavior_node streams this ramp as ``leg_targets`` at its step rate: the legs follow it at the
