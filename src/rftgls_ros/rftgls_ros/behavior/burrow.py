@@ -139,11 +139,7 @@ class Burrow:
             return
         t, t_stand = m.elapsed(), stand_time(self.legs_from, g.speed)
         if self.stand_hold is None:
-            legs = m.obs.legs
-            standing = legs is not None and max(abs(legs[0] - STAND[0]),
-                                                abs(legs[1] - STAND[1])) \
-                <= m.cfg.burrow_tolerance_rad
-            if t < t_stand or not (standing or t >= t_stand + STAND_WAIT_S):
+            if t < t_stand or not (self._legs_at(STAND) or t >= t_stand + STAND_WAIT_S):
                 m.leg_targets = gait_targets(min(t, t_stand), self.legs_from, g.retract,
                                              g.final, g.speed)
                 return
@@ -151,13 +147,16 @@ class Burrow:
         m.leg_targets = gait_targets(t - self.stand_hold, self.legs_from, g.retract, g.final,
                                      g.speed)
 
+    def _legs_at(self, pose: tuple[float, float]) -> bool:
+        """The measured legs are within burrow_tolerance_rad of pose (rad, per axle)."""
+        legs = self.m.obs.legs
+        return legs is not None and max(abs(legs[0] - pose[0]), abs(legs[1] - pose[1])) \
+            <= self.m.cfg.burrow_tolerance_rad
+
     def at_final_pose(self) -> bool:
         """The measured legs are within burrow_tolerance_rad of the mode's final pose."""
-        m = self.m
-        legs, mode = m.obs.legs, m.burrow_mode()
-        return mode is not None and legs is not None and max(
-            abs(legs[0] - mode.final[0]), abs(legs[1] - mode.final[1])) \
-            <= m.cfg.burrow_tolerance_rad
+        mode = self.m.burrow_mode()
+        return mode is not None and self._legs_at(mode.final)
 
     def _do_burrow(self) -> None:
         m, cfg = self.m, self.m.cfg
