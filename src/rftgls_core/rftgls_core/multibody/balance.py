@@ -195,7 +195,7 @@ def _starts(last: np.ndarray, falling: Callable[[], np.ndarray]
 
 def balance(posed: PosedMultibody, model: StressModel, servo: ServoSpec, command: np.ndarray,
             load: np.ndarray, xi_prev: np.ndarray, dt: float, creep: float,
-            backend: str = 'auto') -> Balance:
+            backend: str = 'auto', packs: dict | None = None) -> Balance:
     """(1) with torque-limited servos (module doc). command: rate per leg, rad/s.
 
     A leg whose torque at its commanded rate exceeds the servo's line runs at the rate where
@@ -205,10 +205,11 @@ def balance(posed: PosedMultibody, model: StressModel, servo: ServoSpec, command
     a fraction known to be within the line and one known to exceed it, the first guess the
     speed the line allows at the full-rate torque, then regula falsi (Illinois: an end kept
     twice has its excess halved). The step keeps the largest fraction found within the line
-    (0: stalled, held by its gear)."""
+    (0: stalled, held by its gear). packs: as in step_balance; the simulator passes one per
+    pose, so a step it shortens and solves again reuses the bound parts."""
     command = np.asarray(command, dtype=float)
     solved: dict[bytes, Balance] = {}
-    packs: dict = {}                          # the pose's bound parts, by grouping of legs
+    packs = {} if packs is None else packs    # the pose's bound parts, by grouping of legs
 
     def solve(frac: np.ndarray) -> Balance:
         """step_balance at these fractions of the command. The search can come back to

@@ -117,6 +117,9 @@ class Simulator:
         self.last: Balance | None = None
         self.sled = sled
         self.rope: Rope | None = None     # tied when the robot has settled (place)
+        # each leg's reach from its hip (m): its facets' farthest centroid
+        self._reach = [float(np.linalg.norm(leg.facets.centroids, axis=1).max())
+                       for leg in robot.legs]
 
     # ------------------------------------------------------------------ placing
     def place(self, q: np.ndarray, theta_b: float = 0.0, x: float = 0.0) -> None:
@@ -207,9 +210,10 @@ class Simulator:
         # the step length first (from the last twist and the commands), then the balance of
         # that step; a twist that would overrun body_step shortens the step and is solved again
         dt = self._step_length(dt_max, posed, cmd, self.xi)
+        packs: dict = {}           # the pose's bound parts, for every solve of this step
         for _ in range(24):
             b = bal_mod.balance(posed, self.model, self.servo, cmd, load, self.xi, dt,
-                                opt.creep, self.backend)
+                                opt.creep, self.backend, packs)
             if not b.converged:
                 # a shorter step weighs the inertia more: the balance moves toward the last
                 # twist, where a root lies for a short enough step (balance.py)
@@ -244,8 +248,7 @@ class Simulator:
             w = abs(rates[i])
             if w == 0.0:
                 continue
-            reach = float(np.linalg.norm(self.robot.legs[i].facets.centroids, axis=1).max())
-            if facets.centroids[:, 2].min() < reach * w * dt_max + 1e-3:
+            if facets.centroids[:, 2].min() < self._reach[i] * w * dt_max + 1e-3:
                 dt = min(dt, opt.joint_step / w)
         v = max(math.hypot(xi[0], xi[1]), abs(xi[2]) * self.robot.char_length)
         if v > 0.0:
