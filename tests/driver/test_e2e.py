@@ -16,9 +16,6 @@ from bridge_harness import Harness
 from minirquad_driver.bridge_node import JOINT_NAMES
 from minirquad_driver.protocol import messages as m
 
-# Real-time end-to-end stacks: `make test` runs them alone (pytest.ini, Makefile).
-pytestmark = pytest.mark.realtime
-
 
 def _published_subset_of_intact(h: Harness, sim) -> int:
     """Every published leg-angle tuple must be one the simulator sent intact."""

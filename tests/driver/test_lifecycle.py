@@ -22,8 +22,6 @@ from minirquad_driver.gaits import GAITS
 from minirquad_driver.protocol import messages as m
 from rftgls_interfaces.msg import BurrowCommand, GaitCommand, LinkState, WinchCommand
 
-pytestmark = pytest.mark.realtime
-
 
 class Rig:
     """BridgeNode (not started) + a probe in one executor; the simulator logs commands."""

@@ -7,8 +7,6 @@ import math
 
 import pytest
 
-pytestmark = pytest.mark.realtime
-
 
 def test_live_bench_runs_the_node_in_its_own_process_and_reads_its_figures():
     pytest.importorskip('rclpy')

@@ -23,8 +23,6 @@ from std_msgs.msg import String  # noqa: E402
 from rftgls_ros.launch_model import share_dir  # noqa: E402
 from rftgls_ros.launch_run import Launch  # noqa: E402
 
-pytestmark = pytest.mark.realtime
-
 REPO = Path(__file__).resolve().parents[2]
 SAMPLE_BAG = REPO / 'src/rftgls_ros/rftgls_ros/lab/samples/forward_L1-040_L2+000'
 NODES = {'bringup.launch.py': {'bridge_node', 'capacity_node', 'state_publisher',

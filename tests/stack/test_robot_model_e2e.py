@@ -27,8 +27,6 @@ from rftgls_ros.launch_model import share_dir  # noqa: E402
 from rftgls_ros.tf_tree import Transform  # noqa: E402
 from tf2_msgs.msg import TFMessage  # noqa: E402
 
-pytestmark = pytest.mark.realtime
-
 LEG_LINKS = {'leg_proximal_left': 'left_proximal_leg', 'leg_proximal_right': 'right_proximal_leg',
              'leg_distal_left': 'left_distal_leg', 'leg_distal_right': 'right_distal_leg'}
 HEIGHT_M = 0.03      # state_publisher's height_m default: no height topic in this test

@@ -29,9 +29,6 @@ from rftgls_ros.capacity.params import PARAMETERS  # noqa: E402
 from rftgls_ros.marker_publisher import PARAMETERS as EXTRA_PARAMETERS  # noqa: E402
 from rftgls_ros.tf_tree import TfTree, Transform  # noqa: E402
 
-# Real-time end-to-end stacks: `make test` runs them alone (pytest.ini, Makefile).
-pytestmark = pytest.mark.realtime
-
 REPO = Path(__file__).resolve().parents[2]
 NODES = ('bridge_node', 'capacity_node', 'state_publisher')
 NON_SPATIAL = {'sensor_msgs/msg/JointState', 'sensor_msgs/msg/BatteryState',
