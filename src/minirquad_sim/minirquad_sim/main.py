@@ -70,8 +70,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument('--body', choices=('physics', 'scripted'), default='scripted',
                    help='scripted: the body scripted to Table II\'s poses, the anchor from '
                         '--ground (default); physics: the legs, body and sand of rftgls_core\'s '
-                        'whole-robot simulation on the true robot and medium below (slower than '
-                        'real time on this machine, and its burrows overturn the robot: '
+                        'whole-robot simulation on the true robot and medium below (its walk '
+                        'overturns the robot and runs slower than real time on this machine: '
                         'docs/design/walk-burrow-physics.md)')
     t.add_argument('--ground', choices=('live', 'map', 'table'), default='live',
                    help='live: rftgls_core solver (default); map: the shipped map the stack '

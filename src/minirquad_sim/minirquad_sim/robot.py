@@ -7,8 +7,8 @@ at the rear of the body) at (x_p, h); body pitch theta_b positive nose up; legs 
 Two bodies. With ``physics`` (a physics.PhysicsBody: ``--body physics``) the legs track the
 MCU's references against the sand and the body moves as rftgls_core's whole-robot simulation
 makes it; the pose, the torques and the power emerge. Without it (the default, what the demo
-and the behaviour tests run: the physics is not yet real time here and its burrows overturn
-the robot, docs/design/walk-burrow-physics.md) the body is scripted: walking at
+and the behaviour tests run: the physics' walk overturns the robot within two seconds and is
+slower than real time here, docs/design/walk-burrow-physics.md) the body is scripted: walking at
 ``walk_speed``, burrowing to Table II's mean pose, power from the calibrated ``PowerModel``,
 the anchor from ``ground``.
 
