@@ -62,3 +62,53 @@ def test_the_drivers_walk_moves_the_physics_body_away_from_p():
         robot.step(STEP)
     assert not robot.physics.failed
     assert robot.physics.pose[0] - x0 > 0.01
+
+
+def test_burrow_physics_walks_scripted_and_burrows_with_the_physics_where_the_walk_ended():
+    """``--body burrow-physics``: the physics rests while the robot walks (the scripted walk:
+    upright, at walk_speed), then is put down where the walk left p and burrows; the burrowed
+    pose is the physics' own. A walk after it starts from the legs the physics left."""
+    from minirquad_driver.gaits import GAITS
+    from minirquad_sim.winch import WinchSled
+    # a slack rope (1 m paid out), so the walk goes where the script sends it
+    robot = SimRobot(physics=PhysicsBody(), physics_walk=False, winch=WinchSled(rope_length=1.0))
+    body = robot.physics
+    assert body is not None
+    g = GAITS['walk']
+    robot.set_gait(int(g.kind), g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
+    t_physics, x0 = body.sim.t, robot.x_p
+    for _ in range(round(1.5 / STEP)):
+        robot.step(STEP)
+    # the physics did not step while walking; the script moved p forward at walk_speed and
+    # raised the body toward h_walk, upright (it relaxes from the physics' pitch)
+    assert body.sim.t == t_physics
+    walked_to = x0 + robot.geometry.walk_speed * 1.5
+    assert robot.x_p == pytest.approx(walked_to, abs=1e-9)
+    assert abs(robot.theta_b) < math.radians(0.1)
+    # standing up is scripted too; the physics takes the robot once the legs stand
+    st = GAITS['stand']
+    robot.set_gait(int(st.kind), st.period, st.duty, st.sweep, st.down, st.phases, st.direction)
+    while body.sim.t == t_physics:
+        robot.step(STEP)
+        assert robot.time < 5.0, 'never put down'
+    assert all(a == pytest.approx(st.down, abs=1e-3) for a in robot.leg_angles())
+    # put down where the walk ended: p within a few mm of it after settling, legs as they were
+    assert body.pose[0] == pytest.approx(walked_to, abs=5e-3)
+    # the rope taken up to ~1 N, as at power-up (an untethered SH burrow overturns the robot:
+    # docs/design/walk-burrow-physics.md)
+    dist, _ = robot.winch.geometry(robot.x_p, robot.h)
+    robot.winch.rope_length = dist - 1.0 / robot.winch.rope_k
+    robot.burrow(BurrowMode.SH)
+    for _ in range(round(5.0 / STEP)):
+        robot.step(STEP)
+    assert not body.failed and robot.mode is Mode.ANCHORED
+    assert (robot.x_p, robot.h, robot.theta_b) == body.pose
+    assert robot.h < robot.geometry.h_walk - 0.01
+    # walking again: the script takes the body, its servos starting from the physics' legs
+    burrowed = robot.leg_angles()
+    robot.set_gait(int(g.kind), g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
+    for a, b in zip(robot.leg_angles(), burrowed):
+        assert a == pytest.approx(b, abs=1e-9)
+    t_physics = body.sim.t
+    robot.step(STEP)
+    assert body.sim.t == t_physics

@@ -67,12 +67,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help='s the link keeps being served after SIGINT/SIGTERM')
     p.add_argument('--duration', type=float, default=0.0, help='exit after this many s')
     t = p.add_argument_group('true ground (what the sand really holds; the stack never sees it)')
-    t.add_argument('--body', choices=('physics', 'scripted'), default='scripted',
+    t.add_argument('--body', choices=('physics', 'burrow-physics', 'scripted'),
+                   default='scripted',
                    help='scripted: the body scripted to Table II\'s poses, the anchor from '
                         '--ground (default); physics: the legs, body and sand of rftgls_core\'s '
                         'whole-robot simulation on the true robot and medium below (its walk '
                         'overturns the robot and runs slower than real time on this machine: '
-                        'docs/design/walk-burrow-physics.md)')
+                        'docs/design/walk-burrow-physics.md); burrow-physics: the walk '
+                        'scripted, everything else (standing, burrows, tugs, slips) physics')
     t.add_argument('--ground', choices=('live', 'map', 'table'), default='live',
                    help='live: rftgls_core solver (default); map: the shipped map the stack '
                         'predicts with; table: placeholder')
@@ -299,14 +301,15 @@ def _make_mcu(args: argparse.Namespace, ground, config: McuConfig, start: float,
     poses = GaitPoses.for_sled(args.sled_mass) if args.body == 'scripted' else None
     return SimMcu(robot_factory=lambda: SimRobot(ground=ground,
                                                  winch=WinchSled(sled_mass=args.sled_mass),
-                                                 physics=_physics(args), gait_poses=poses),
+                                                 physics=_physics(args), gait_poses=poses,
+                                                 physics_walk=args.body == 'physics'),
                   config=config, on_telemetry=on_telemetry, now=start, on_command=on_command)
 
 
 def _physics(args: argparse.Namespace) -> PhysicsBody | None:
     """A freshly powered robot's body (at start and at every MCU reset), or None for the
     scripted body."""
-    if args.body != 'physics':
+    if args.body == 'scripted':
         return None
     return PhysicsBody(robot=args.true_robot, anchor=args.anchor, medium=args.true_medium,
                        medium_scale=args.true_medium_scale, mass_scale=args.true_mass_scale)
@@ -314,11 +317,11 @@ def _physics(args: argparse.Namespace) -> PhysicsBody | None:
 
 def _ground(args: argparse.Namespace):
     """The true ground, built once so its cache outlives MCU resets (the scripted body's)."""
-    if args.body == 'physics' and args.mcu == 'firmware':
+    if args.body != 'scripted' and args.mcu == 'firmware':
         # the firmware's plant drives velocity servos whose targets only the burrow sets: the
-        # physics body's references would stop at stale targets while walking
-        raise ValueError('--body physics runs with the Python MCU (--mcu python) only')
-    if args.body == 'physics':
+        # physics body's references would stop at stale targets
+        raise ValueError(f'--body {args.body} runs with the Python MCU (--mcu python) only')
+    if args.body != 'scripted':
         PhysicsBody(robot=args.true_robot, anchor=args.anchor, medium=args.true_medium,
                     medium_scale=args.true_medium_scale,
                     mass_scale=args.true_mass_scale)   # bad options fail here, before the link

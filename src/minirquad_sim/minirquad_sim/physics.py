@@ -95,9 +95,17 @@ class PhysicsBody:
         return (f'physics: {self.robot.name} ({self.robot.mass:.3f} kg) in {self.medium.name} '
                 f'(xi_n {self.medium.xi_n:.3g} N/m^3)')
 
-    def place(self, q) -> None:
-        """Put the robot down standing with legs at q (rad) and let it settle."""
-        self.sim.place(np.asarray(q, dtype=float))
+    def place(self, q, x_p: float = 0.0) -> None:
+        """Put the robot down level with legs at q (rad) and p at x_p (m, world x), and let it
+        settle."""
+        from rftgls_core.multibody.simulate import SimulationStop
+        self._pending = 0.0
+        try:
+            self.sim.place(np.asarray(q, dtype=float), x=x_p - float(self.robot.tether[0]))
+        except SimulationStop as stop:
+            # put down on legs it cannot stand on (it does not come to rest): it freezes
+            # there, and says why once, as when a step cannot go on
+            self.failed = f'{stop.reason}: {stop.detail}'
 
     def advance(self, dt: float, q_ref, ff, target, tension: float, phi: float,
                 phase: str) -> bool:

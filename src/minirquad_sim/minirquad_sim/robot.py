@@ -6,8 +6,12 @@ at the rear of the body) at (x_p, h); body pitch theta_b positive nose up; legs 
 
 Two bodies. With ``physics`` (a physics.PhysicsBody: ``--body physics``) the legs track the
 MCU's references against the sand and the body moves as rftgls_core's whole-robot simulation
-makes it; the pose, the torques and the power emerge. Without it (the default, what the demo
-and the behaviour tests run: the physics' walk overturns the robot within two seconds and is
+makes it; the pose, the torques and the power emerge. With ``physics_walk`` False
+(``--body burrow-physics``, what the demo runs) the physics rests while the robot walks, the
+walk is scripted as below, and the physics body is put down where the walk left the robot,
+legs as they are, at the first command after it: burrows, tugs and slips emerge, the walk does
+not (the physics' walk overturns the robot). Without it (the default, what the
+behaviour tests run: the physics' walk overturns the robot within two seconds and is
 slower than real time here, docs/design/walk-burrow-physics.md) the body is scripted: walking at
 ``walk_speed``, burrowing to Table II's mean pose, power from the calibrated ``PowerModel``,
 the anchor from ``ground``.
@@ -80,6 +84,8 @@ class SimRobot:
     winch: WinchSled = field(default_factory=WinchSled)
     mass: float = 0.296
     physics: PhysicsBody | None = None
+    # False: the physics rests while walking (module doc)
+    physics_walk: bool = True
     # Scripted body: where a burrow run leg by leg (SetLegs) settles (gait_pose.py); None:
     # SetLegs moves the legs only.
     gait_poses: GaitPoses | None = None
@@ -112,12 +118,33 @@ class SimRobot:
         self._held: tuple[tuple[float, float], float] | None = None   # targets, since (s)
         self._dwelt: tuple[float, float] | None = None     # targets last held for a dwell
         self._leg_pose: tuple[float, float] | None = None  # (h, theta_b) a SetLegs burrow ends in
-        if self.physics is not None:
-            self.physics.place(self._to_body([s.angle for s in self.servos]))
-            self.x_p, self.h, self.theta_b = self.physics.pose
+        self._physical = False       # the physics body moves the robot (not the script)
+        self._stand_then_put_down = False
+        self._put_down()
+
+    def _put_down(self) -> None:
+        """Hand the body to the physics where the script left it: put down level, p at x_p,
+        legs as they are, settled."""
+        self._stand_then_put_down = False
+        if self.physics is None or self._physical:
+            return
+        self.physics.place(self._to_body([s.angle for s in self.servos]), self.x_p)
+        self.x_p, self.h, self.theta_b = self.physics.pose
+        self._physical = True
+
+    def _lift(self) -> None:
+        """Hand the body to the script for a walk (physics_walk False): the servos start from
+        the legs the physics left."""
+        if not self._physical or self.physics_walk:
+            return
+        assert self.physics is not None
+        for s, a in zip(self.servos, self._from_body(list(self.physics.q))):
+            s.angle = s.target = float(a)
+        self._physical = False
 
     # ------------------------------------------------------------------ commands
     def set_legs(self, targets, mask: int = 0x0F) -> None:
+        self._put_down()
         self.mode = Mode.IDLE
         self.clocks = None
         for i, s in enumerate(self.servos):
@@ -151,6 +178,11 @@ class SimRobot:
     def set_gait(self, kind: int, period: float, duty: float, sweep: float, down: float,
                  phases, direction: int) -> None:
         self._retract = self._leg_pose = self._held = self._dwelt = None
+        if kind == GaitKind.STAND:
+            # the script stands the robot up; the physics takes it once the legs are there
+            self._stand_then_put_down = not self._physical
+        else:
+            self._lift()
         for s in self.servos:
             s.max_speed = self.geometry.walk_leg_speed
         if kind == GaitKind.STAND:
@@ -170,6 +202,7 @@ class SimRobot:
         self._phase_t = 0.0
 
     def burrow(self, mode: int) -> None:
+        self._put_down()
         self.clocks = None
         self._retract = self._leg_pose = self._held = self._dwelt = None
         self._phase_t = 0.0
@@ -218,7 +251,8 @@ class SimRobot:
     # ------------------------------------------------------------------ physics
     def leg_angles(self) -> list[float]:
         """Each leg's angle as its encoder reads it, rad in (-pi, pi] (PL, PR, DL, DR)."""
-        if self.physics is not None:
+        if self._physical:
+            assert self.physics is not None
             return [wrap_angle(a) for a in self._from_body(self.physics.q)]
         return [wrap_angle(s.angle) for s in self.servos]
 
@@ -247,7 +281,10 @@ class SimRobot:
         self._drive_legs()
         for s in self.servos:
             s.step(dt)
-        if self.physics is not None:
+        if self._stand_then_put_down and all(abs(s.target - s.angle) < self.leg_arrived
+                                             for s in self.servos):
+            self._put_down()
+        if self._physical:
             self._step_physics(dt)
             self.pitch_rate = (self.theta_b - theta_b0) / dt
             return
