@@ -112,3 +112,18 @@ def test_burrow_physics_walks_scripted_and_burrows_with_the_physics_where_the_wa
     t_physics = body.sim.t
     robot.step(STEP)
     assert body.sim.t == t_physics
+
+
+@pytest.mark.parametrize('body', ['physics', 'burrow-physics'])
+def test_the_command_line_builds_each_physics_body_and_refuses_it_on_the_firmware(body, capsys):
+    from minirquad_sim.main import _make_mcu, _physics, parse_args, run
+    from minirquad_sim.mcu import McuConfig
+    args = parse_args(['--body', body])
+    mcu = _make_mcu(args, None, McuConfig(), 0.0, lambda *_: None)
+    robot = mcu.robot
+    assert robot.physics is not None and _physics(args) is not None
+    assert robot.physics_walk == (body == 'physics')
+    # the compiled firmware drives servos the physics body cannot follow: exit 2, one line
+    assert run(parse_args(['--body', body, '--mcu', 'firmware'])) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count('\n') == 0 and f'--body {body} runs with the Python MCU' in err
