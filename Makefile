@@ -20,9 +20,7 @@ export FASTRTPS_DEFAULT_PROFILES_FILE := $(CURDIR)/ros2_ws/params/fastdds_localh
 export FASTDDS_DEFAULT_PROFILES_FILE := $(FASTRTPS_DEFAULT_PROFILES_FILE)
 export MPLBACKEND := Agg
 ENV := source tools/env.sh
-# Three workers on two cores: many of the first phase's tests wait on nodes and subprocesses,
-# and the third worker fills that time (first phase 5:10 -> 4:26 on the 2-vCPU machine).
-PYTEST_ARGS ?= -n 3
+PYTEST_ARGS ?= -n 2
 
 .PHONY: setup build demo teleop-sim test test-campaign test-cpus colcon-test lint bench lock clean firmware firmware-size
 

@@ -16,6 +16,11 @@ from bridge_harness import Harness
 from minirquad_driver.bridge_node import JOINT_NAMES
 from minirquad_driver.protocol import messages as m
 
+# Real-time: with three test workers on the two cores the disconnect and latency faults failed
+# (a late last frame; a published frame missing from the simulator's record), so `make test`
+# runs these alone (pytest.ini, Makefile).
+pytestmark = pytest.mark.realtime
+
 
 def _published_subset_of_intact(h: Harness, sim) -> int:
     """Every published leg-angle tuple must be one the simulator sent intact."""
