@@ -7,12 +7,12 @@ at the rear of the body) at (x_p, h); body pitch theta_b positive nose up; legs 
 Two bodies. With ``physics`` (a physics.PhysicsBody: ``--body physics``) the legs track the
 MCU's references against the sand and the body moves as rftgls_core's whole-robot simulation
 makes it; the pose, the torques and the power emerge. With ``physics_walk`` False
-(``--body burrow-physics``, what the demo runs) the physics rests while the robot walks, the
-walk is scripted as below, and the physics body is put down where the walk left the robot,
-legs as they are, at the first command after it: burrows, tugs and slips emerge, the walk does
-not (the physics' walk overturns the robot). Without it (the default, what the
-behaviour tests run: the physics' walk overturns the robot within two seconds and is
-slower than real time here, docs/design/walk-burrow-physics.md) the body is scripted: walking at
+(``--body burrow-physics``) the physics rests while the robot walks, the walk is scripted as
+below, and the physics body is put down where the walk left p, legs as they are, once the
+legs stand after it (or at a burrow command): burrows, tugs and slips emerge, the walk does
+not. Without a physics body (the default, what the demo and the behaviour tests run: the
+physics' walk overturns the robot within two seconds and is slower than real time here,
+docs/design/walk-burrow-physics.md) the body is scripted: walking at
 ``walk_speed``, burrowing to Table II's mean pose, power from the calibrated ``PowerModel``,
 the anchor from ``ground``.
 
