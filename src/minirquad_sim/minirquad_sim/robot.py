@@ -178,19 +178,17 @@ class SimRobot:
     def set_gait(self, kind: int, period: float, duty: float, sweep: float, down: float,
                  phases, direction: int) -> None:
         self._retract = self._leg_pose = self._held = self._dwelt = None
-        if kind == GaitKind.STAND:
-            # the script stands the robot up; the physics takes it once the legs are there
-            self._stand_then_put_down = not self._physical
-        else:
-            self._lift()
         for s in self.servos:
             s.max_speed = self.geometry.walk_leg_speed
         if kind == GaitKind.STAND:
+            # the script stands the robot up; the physics takes it once the legs are there
+            self._stand_then_put_down = not self._physical
             self.clocks = None
             self.mode = Mode.IDLE
             for s in self.servos:
                 s.target = _nearest(s.angle, down)
             return
+        self._lift()
         self.clocks = [BuehlerClock(period, duty, sweep, down, ph, direction) for ph in phases]
         self._gait_t0 = self.time
         # Start each clock on the revolution nearest the leg so no leg spins a full turn.
