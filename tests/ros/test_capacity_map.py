@@ -16,6 +16,9 @@ from rftgls_ros.capacity.node_predictor import node_predictor
 
 OUTSIDE = AnchorState(DH.h, math.radians(15.0), DH.theta_l1, DH.theta_l2)   # theta_b > 10 deg
 HIGH = AnchorState(0.10, DH.theta_b, DH.theta_l1, DH.theta_l2)             # cell touches 200 mm
+# maps/README.md, "Documented error": the largest map value where the live solver says the
+# MiniRQuad anchor holds nothing (seed 4 of 6 x 300 random states: 0.512 N), rounded up.
+DOCUMENTED_OVER_ALL_N = 0.52
 
 
 def estimator_for(path, state, tension=1.0, predictor=None):
@@ -67,10 +70,10 @@ def test_off_grid_state_answered_by_the_live_solver_when_configured(small_map, l
 
 def test_edge_margin_answers_are_re_answered_by_the_live_solver():
     # maps/README.md: on MiniRQuad's random states of seed 4 (agreement_states, 300) the
-    # shipped map answers one state through the edge-margin rule (0.51 N) where the live
+    # shipped map answers one state through the edge-margin rule (0.512 N) where the live
     # `direct` says `unsupported`: the anchor holds nothing. With an edge checker (capacity_node
     # default: edge_live_method direct-warm) the live solver decides every edge-margin answer,
-    # so that state is published as unsupported (0 N), never as 0.51 N, and edge answers where
+    # so that state is published as unsupported (0 N), never as 0.512 N, and edge answers where
     # the anchor holds take the live value.
     from rftgls_core.accuracy import agreement_states
     from rftgls_core.maps import shipped_map_path
@@ -88,7 +91,7 @@ def test_edge_margin_answers_are_re_answered_by_the_live_solver():
         assert 'live_edge_check' in r.reason.split(';')
         if ref.status is Status.UNSUPPORTED:
             held_nothing += 1
-            assert 0.5 < m.capacity_N < 0.51 and r.capacity_N is None
+            assert 0.5 < m.capacity_N <= DOCUMENTED_OVER_ALL_N and r.capacity_N is None
     assert held_nothing == 1
     # interior answers are the map's own
     st, pull, phi = next(j for j in agreement_states('minirquad', 300, 4)

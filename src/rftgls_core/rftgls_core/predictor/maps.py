@@ -103,7 +103,7 @@ class FallbackPredictor:
     * an answer of the edge-margin rule (flag `edge_margin`, a cell next to the support edge
       answered from an interpolated support margin), when `edge` is set: the live answer,
       reason `live_edge_check`. The interpolated margin can say "holds" where the anchor
-      holds nothing (maps/README.md: one state in 1,800 random MiniRQuad states, 0.51 N
+      holds nothing (maps/README.md: one state in 1,800 random MiniRQuad states, 0.512 N
       against `unsupported`); the live solver decides there. Its answer replaces the map's
       whether lower or higher (the edge-margin value is a deliberately low bound, the live
       one exact). The same for a cell the support edge crosses without a margin to answer
