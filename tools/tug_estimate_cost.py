@@ -1,16 +1,18 @@
-"""What one capacity estimate costs during a tug, and how far the lower bound's phi grid moves it.
+"""What one capacity estimate costs during a tug, and how far the lower bound's grids move it.
 
     python tools/tug_estimate_cost.py --phi-step-deg 0.5 --prefetch
     python tools/tug_estimate_cost.py --phi-step-deg 0          # the bound at the exact phi
+    python tools/tug_estimate_cost.py --pitch-creep-deg 0.001 --theta-b-step-deg 0.1 --prefetch
 
 Feeds capacity_node's estimator (the shipped ros2_ws/params/capacity_node.yaml, map and live
 edge checks included) the sequence cycle 1 of `make demo`'s 600 g tug gives it: the planned
 gait's pose held still (h 42.8 mm modelled with a 2.9 mm band, as replayed; theta_B 10.4 deg,
 legs -20 deg) while the winch reels 0.5 mm per tension sample (50 mm/s at 100 Hz) from
 0.605 m of tether to 0.15 m, phi following the taut tether (rftgls_ros.tether: -3.1 deg to
--12 deg, faster as the sled nears). Prints the estimate's time (and with its prefetch) as
+-12 deg, faster as the sled nears). --pitch-creep-deg turns the body by that much per sample
+(the simulator's physics body under pre-tension: about -0.001 deg). Prints the estimate's time (and with its prefetch) as
 percentiles and how many estimates took longer than SLOW_MS, and with --compare-exact how
-far the grid bound lies from the exact-phi bound at every sample. No ROS.
+far the grid bound lies from the exact bound at every sample. No ROS.
 """
 from __future__ import annotations
 
@@ -35,13 +37,13 @@ ROPE_M, LEFT_M, REEL_PER_SAMPLE_M = 0.605, 0.15, 5e-4
 SLOW_MS = 20.0        # two tension periods: an estimate this slow ages the evidence visibly
 
 
-def run(step_rad: float, prefetch: bool, n: int | None) -> tuple[np.ndarray, np.ndarray,
-                                                                np.ndarray]:
+def run(step_rad: float, prefetch: bool, n: int | None, pitch_step_rad: float = 0.0,
+        creep_rad: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(estimate ms, estimate + prefetch ms, lower bound N) per tension sample of the tug (its
     first n samples, or all)."""
     shipped = yaml.safe_load((ROOT / 'ros2_ws/params/capacity_node.yaml').read_text())
     p = {**DEFAULTS, **shipped['/**/capacity_node']['ros__parameters'],
-         'lower_bound_phi_step_rad': step_rad}
+         'lower_bound_phi_step_rad': step_rad, 'lower_bound_theta_b_step_rad': pitch_step_rad}
     p['map_file'] = str(ROOT / p['map_file'])
     est_cfg, _ = configs(p)
     e = CapacityEstimator(predictor_from_params(p), est_cfg)
@@ -53,7 +55,7 @@ def run(step_rad: float, prefetch: bool, n: int | None) -> tuple[np.ndarray, np.
         t = 0.01 * k
         tether.update(k * REEL_PER_SAMPLE_M)
         e.update_joints(t, dict(zip(JOINTS, (l1, l1, l2, l2))))
-        e.update('pitch', t, pitch)
+        e.update('pitch', t, pitch + creep_rad * k)
         e.update('height', t, h, Provenance.MODELLED, H_BAND_M)
         e.update('phi', t, tether.phi(h))
         e.update('tension', t, 2.943)
@@ -71,13 +73,18 @@ def run(step_rad: float, prefetch: bool, n: int | None) -> tuple[np.ndarray, np.
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument('--phi-step-deg', type=float, default=0.5)
+    ap.add_argument('--theta-b-step-deg', type=float, default=0.0)
+    ap.add_argument('--pitch-creep-deg', type=float, default=0.0,
+                    help='body pitch change per tension sample, deg')
     ap.add_argument('--prefetch', action='store_true')
     ap.add_argument('--samples', type=int, default=None,
                     help='only the first N tension samples (default: the whole tug, 910)')
     ap.add_argument('--compare-exact', action='store_true',
-                    help='also run the exact-phi bound and report grid - exact, N')
+                    help='also run the exact bound and report grid - exact, N')
     a = ap.parse_args()
-    t_est, t_all, lower = run(math.radians(a.phi_step_deg), a.prefetch, a.samples)
+    creep = math.radians(a.pitch_creep_deg)
+    t_est, t_all, lower = run(math.radians(a.phi_step_deg), a.prefetch, a.samples,
+                              math.radians(a.theta_b_step_deg), creep)
     skip = 5   # the first estimates load and compile
     for name, t in (('estimate', t_est[skip:]), ('estimate + prefetch', t_all[skip:])):
         q = np.percentile(t, [50, 90, 99])
@@ -85,7 +92,7 @@ def main() -> None:
               f'max {t.max():.1f} ms; {int(np.sum(t > SLOW_MS))} of {len(t)} over '
               f'{SLOW_MS:g} ms')
     if a.compare_exact:
-        exact = run(0.0, False, a.samples)[2]
+        exact = run(0.0, False, a.samples, 0.0, creep)[2]
         d = lower - exact
         print(f'grid - exact lower bound: min {d.min():+.4f} N, max {d.max():+.4f} N '
               f'({int(np.sum(d > 0))} of {len(d)} samples above the exact bound)')

@@ -208,3 +208,72 @@ def test_prefetch_does_nothing_at_the_exact_phi():
     bound = LowerBound(lambda st, ph: pytest.fail('no prediction expected'),
                        BoundSettings(**SETTINGS))
     assert bound.prefetch() is False
+
+
+# -- ... and of body pitches ----------------------------------------------------------------
+PITCH_STEP = math.radians(0.1)
+
+
+def _pitched(theta_b_deg: float) -> AnchorState:
+    return AnchorState(DH.h, math.radians(theta_b_deg), DH.theta_l1, DH.theta_l2)
+
+
+def test_the_pitch_grid_bound_is_the_smallest_exact_bound_at_the_cells_corners(cmap):
+    """With both grids the bound at (theta_B, phi) equals, to the last bit, the smallest of
+    the exact bounds at the four corners of its grid cell (grid values formed as i x step)."""
+    from rftgls_ros.capacity.lower_bound import BoundSettings, LowerBound
+    grid = LowerBound(predict(cmap), BoundSettings(**SETTINGS, phi_step_rad=STEP,
+                                                   theta_b_step_rad=PITCH_STEP))
+    exact = LowerBound(predict(cmap), BoundSettings(**SETTINGS))
+    on_node = 0
+    for tb_deg, phi in ((5.0371, -0.0541), (4.9512, -0.2051), (5.3, 0.0123)):
+        st = _pitched(tb_deg)
+        i, j = math.floor(st.theta_b / PITCH_STEP), math.floor(phi / STEP)
+        # a value on a node is its own bracket (5.3 deg is 53 x 0.1 deg to the last bit)
+        pitches = [i] if i * PITCH_STEP == st.theta_b else [i, i + 1]
+        corners = []
+        for a in pitches:
+            c = AnchorState(st.h, a * PITCH_STEP, st.theta_l1, st.theta_l2)
+            corners += [exact.bound(c, b * STEP, cmap.query(c, b * STEP, 'backward'), MODELLED_H)
+                        for b in (j, j + 1)]
+        on_node += len(pitches) == 1
+        got = grid.bound(st, phi, cmap.query(st, phi, 'backward'), MODELLED_H)
+        assert got == min(corners)
+    assert on_node == 1
+
+
+def test_a_creeping_pitch_asks_the_predictor_again_only_when_it_leaves_its_cell(cmap):
+    """The physics body's anchor under pre-tension turned by 0.001 deg per estimate: inside
+    one 0.1 deg cell no prediction at all; with prefetch done, the next cell neither."""
+    from rftgls_ros.capacity.lower_bound import BoundSettings, LowerBound
+    f, calls = counted(cmap)
+    bound = LowerBound(f, BoundSettings(**SETTINGS, phi_step_rad=STEP,
+                                        theta_b_step_rad=PITCH_STEP))
+    phi = -0.0541
+    first = bound.bound(_pitched(5.0391), phi, cmap.query(DH, phi, 'backward'), MODELLED_H)
+    n = len(calls)
+    assert n > 0
+    for k in range(1, 30):              # 5.0391 deg down to 5.0101 deg: the same cell
+        st = _pitched(5.0391 - 0.001 * k)
+        assert bound.bound(st, phi, cmap.query(st, phi, 'backward'), MODELLED_H) == first
+    assert len(calls) == n
+    steps = 0
+    while bound.prefetch():
+        steps += 1
+        assert steps < 400
+    assert len(calls) > n               # the neighbouring cells were prepared ...
+    for tb in (4.95, 5.15):             # ... below and above in pitch
+        before = len(calls)
+        st = _pitched(tb)
+        got = bound.bound(st, phi, cmap.query(st, phi, 'backward'), MODELLED_H)
+        assert len(calls) == before, tb
+        fresh = LowerBound(predict(cmap), BoundSettings(**SETTINGS, phi_step_rad=STEP,
+                                                        theta_b_step_rad=PITCH_STEP))
+        assert got == fresh.bound(st, phi, cmap.query(st, phi, 'backward'), MODELLED_H)
+
+
+def test_a_negative_pitch_step_is_refused():
+    from rftgls_node_base.parameters import ConfigError
+    from rftgls_ros.capacity.estimator import EstimatorConfig
+    with pytest.raises(ConfigError, match='lower_bound_theta_b_step_rad'):
+        EstimatorConfig(lower_bound_theta_b_step_rad=-1e-3).check()

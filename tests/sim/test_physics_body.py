@@ -114,6 +114,49 @@ def test_burrow_physics_walks_scripted_and_burrows_with_the_physics_where_the_wa
     assert body.sim.t == t_physics
 
 
+def test_a_leg_command_after_the_walk_stands_the_robot_up_before_the_physics_takes_it():
+    """The behaviour node's burrow is a stream of leg commands, sent right after the walk.
+    The scripted walk leaves the legs anywhere in their swing (here one pair behind, one far
+    forward); put down on those the robot cannot stand and the physics stops (no_rest, its
+    legs then frozen for the rest of the run). The script stands the robot up first, the
+    physics takes it, and the command runs on the physics."""
+    from minirquad_driver.gaits import GAITS
+    robot = SimRobot(physics=PhysicsBody(), physics_walk=False)
+    body = robot.physics
+    assert body is not None
+    g = GAITS['walk']
+    robot.set_gait(int(g.kind), g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
+    for _ in range(round(2.5 / STEP)):
+        robot.step(STEP)
+    swing = robot.leg_angles()
+    assert max(abs(a) for a in swing) > math.radians(90.0)     # mid-swing, not standing
+    t_physics = body.sim.t
+    final = (math.radians(-40.0), math.radians(-20.0))
+    robot.set_legs([final[0], final[0], final[1], final[1]])
+    assert body.sim.t == t_physics and robot.mode is Mode.IDLE   # standing up first
+    for _ in range(round(4.0 / STEP)):
+        robot.step(STEP)
+    assert not body.failed
+    assert body.sim.t > t_physics
+    for i, a in enumerate(robot.leg_angles()):
+        assert a == pytest.approx(final[0 if i < 2 else 1], abs=math.radians(1.0))
+    assert (robot.x_p, robot.h, robot.theta_b) == body.pose
+    # an e-stop while standing up cancels the deferred command: the legs hold, nothing runs
+    robot2 = SimRobot(physics=PhysicsBody(), physics_walk=False)
+    robot2.set_gait(int(g.kind), g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
+    for _ in range(round(2.5 / STEP)):
+        robot2.step(STEP)
+    assert robot2.physics is not None
+    t_physics = robot2.physics.sim.t
+    robot2.burrow(BurrowMode.SH)
+    robot2.set_estop(True)
+    held = robot2.leg_angles()
+    for _ in range(round(1.0 / STEP)):
+        robot2.step(STEP)
+    assert robot2.leg_angles() == held and robot2.mode is Mode.IDLE
+    assert robot2.physics.sim.t == t_physics and not robot2.physics.failed
+
+
 @pytest.mark.parametrize('body', ['physics', 'burrow-physics'])
 def test_the_command_line_builds_each_physics_body_and_refuses_it_on_the_firmware(body, capsys):
     from minirquad_sim.main import _make_mcu, _physics, parse_args, run

@@ -38,6 +38,10 @@ from .pty_link import LinkPathError, PtyLink
 from .robot import SimRobot
 from .winch import WinchSled
 
+# A loop turn longer than this is reported: the MCU advances at most 0.1 s per turn
+# (mcu.SimMcu.tick), so beyond it the plant also loses simulated time.
+LATE_TICK_S = 0.1
+
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog='minirquad_sim', description=__doc__.split('\n\n')[0])
@@ -194,6 +198,8 @@ def run(args: argparse.Namespace) -> int:
     byte_time = 10.0 / args.pace_baud if args.pace_baud else 0.0
     reconnect_at: float | None = None
     reset_done = False
+    physics_said = ''
+    late_ticks, worst_tick_s = 0, 0.0
 
     def emit(data: bytes, now: float) -> str | None:
         release, wire, fault = faults.outgoing(data, now)
@@ -247,13 +253,28 @@ def run(args: argparse.Namespace) -> int:
                 for frame_bytes in _split(mcu.receive(data, now)):
                     emit(frame_bytes, now)
             # MCU loop.
-            for kind, frame_bytes, _tel in mcu.tick(now):
+            body = getattr(mcu.robot, 'physics', None)   # the MCU's robot is new after a reset
+            tick_start = time.monotonic()
+            ticked = mcu.tick(now)
+            tick_s = time.monotonic() - tick_start
+            if tick_s > LATE_TICK_S:
+                # the plant fell behind the wall clock: the host sees no telemetry meanwhile
+                late_ticks += 1
+                worst_tick_s = max(worst_tick_s, tick_s)
+                print(f'minirquad_sim: the plant took {tick_s * 1e3:.0f} ms at t {t:.2f} s '
+                      f'(mode {mcu.robot.mode.name})', file=sys.stderr, flush=True)
+            for kind, frame_bytes, _tel in ticked:
                 fault = emit(frame_bytes, now)
                 if kind == 'telemetry':
                     for s, tm, tel in pending_tel:
                         recorder.telemetry(s, tm, tel, fault if link.master is not None
                                            else 'disconnected', now + wall_minus_mono)
                     pending_tel.clear()
+            if body and body.failed and body.failed != physics_said:
+                # the plant froze: say so where a person reads the simulator's log
+                physics_said = body.failed
+                print(f'minirquad_sim: physics stopped: {body.failed}', file=sys.stderr,
+                      flush=True)
             # Release due bytes, paced like a UART if asked.
             while queue and queue[0][0] <= now and now >= line_free_at:
                 _, wire = queue.popleft()
@@ -284,6 +305,10 @@ def run(args: argparse.Namespace) -> int:
             ground.close()
     report = {'mcu': args.mcu, 'faults': dict(faults.counts), 'resets': mcu.resets,
               'rx_crc_errors': mcu.rx_crc_errors}
+    if physics_said:
+        report['physics_stopped'] = physics_said
+    if late_ticks:
+        report.update(late_ticks=late_ticks, worst_tick_ms=round(worst_tick_s * 1e3, 1))
     if isinstance(mcu, FirmwareMcu):     # how well the firmware kept up with the wall clock
         report.update(exchanges=mcu.exchanges, late_exchanges=mcu.late)
     print(json.dumps(report), flush=True)

@@ -8,9 +8,9 @@ Two bodies. With ``physics`` (a physics.PhysicsBody: ``--body physics``) the leg
 MCU's references against the sand and the body moves as rftgls_core's whole-robot simulation
 makes it; the pose, the torques and the power emerge. With ``physics_walk`` False
 (``--body burrow-physics``) the physics rests while the robot walks, the walk is scripted as
-below, and the physics body is put down where the walk left p, legs as they are, once the
-legs stand after it (or at a burrow command): burrows, tugs and slips emerge, the walk does
-not. Without a physics body (the default, what the demo and the behaviour tests run: the
+below, and the physics body is put down where the walk left p once the legs stand after it
+(a STAND; a burrow or leg command stands the robot up first and runs once the physics has
+the body): burrows, tugs and slips emerge, the walk does not. Without a physics body (the default, what the demo and the behaviour tests run: the
 physics' walk overturns the robot within two seconds and is slower than real time here,
 docs/design/walk-burrow-physics.md) the body is scripted: walking at
 ``walk_speed``, burrowing to Table II's mean pose, power from the calibrated ``PowerModel``,
@@ -21,6 +21,7 @@ Geometry numbers the paper does not give are assumptions, named in ``Geometry``.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from minirquad_driver.protocol.messages import BurrowMode, Flag, GaitKind, Mode
@@ -120,6 +121,7 @@ class SimRobot:
         self._leg_pose: tuple[float, float] | None = None  # (h, theta_b) a SetLegs burrow ends in
         self._physical = False       # the physics body moves the robot (not the script)
         self._stand_then_put_down = False
+        self._after_stand: Callable[[], None] | None = None   # the command a stand-up defers
         self._put_down()
 
     def _put_down(self) -> None:
@@ -131,6 +133,32 @@ class SimRobot:
         self.physics.place(self._to_body([s.angle for s in self.servos]), self.x_p)
         self.x_p, self.h, self.theta_b = self.physics.pose
         self._physical = True
+
+    def _physics_has_body(self, then: Callable[[], None]) -> bool:
+        """True when the physics has the body (putting it down now if the legs stand), or
+        there is none. Else the script stands the robot up first and runs `then` once the
+        physics has it: the scripted walk leaves the legs anywhere in their swing (one leg
+        pair at -22 deg, the other at 148 deg), and put down on those the robot cannot
+        stand (the physics stops: no_rest)."""
+        if self.physics is None or self._physical:
+            return True
+        if all(abs(wrap_angle(s.angle)) < self.leg_arrived for s in self.servos):
+            self._put_down()
+            return True
+        self._stand(0.0)
+        self._after_stand = then
+        return False
+
+    def _stand(self, down: float) -> None:
+        """Legs to `down` (rad) at walking speed; the physics takes the body once they are
+        there."""
+        self._stand_then_put_down = not self._physical
+        self._after_stand = None
+        self.clocks = None
+        self.mode = Mode.IDLE
+        for s in self.servos:
+            s.max_speed = self.geometry.walk_leg_speed
+            s.target = _nearest(s.angle, down)
 
     def _lift(self) -> None:
         """Hand the body to the script for a walk (physics_walk False): the servos start from
@@ -144,7 +172,8 @@ class SimRobot:
 
     # ------------------------------------------------------------------ commands
     def set_legs(self, targets, mask: int = 0x0F) -> None:
-        self._put_down()
+        if not self._physics_has_body(lambda: self.set_legs(targets, mask)):
+            return
         self.mode = Mode.IDLE
         self.clocks = None
         for i, s in enumerate(self.servos):
@@ -182,12 +211,9 @@ class SimRobot:
             s.max_speed = self.geometry.walk_leg_speed
         if kind == GaitKind.STAND:
             # the script stands the robot up; the physics takes it once the legs are there
-            self._stand_then_put_down = not self._physical
-            self.clocks = None
-            self.mode = Mode.IDLE
-            for s in self.servos:
-                s.target = _nearest(s.angle, down)
+            self._stand(down)
             return
+        self._after_stand = None
         self._lift()
         self.clocks = [BuehlerClock(period, duty, sweep, down, ph, direction) for ph in phases]
         self._gait_t0 = self.time
@@ -200,7 +226,8 @@ class SimRobot:
         self._phase_t = 0.0
 
     def burrow(self, mode: int) -> None:
-        self._put_down()
+        if not self._physics_has_body(lambda: self.burrow(mode)):
+            return
         self.clocks = None
         self._retract = self._leg_pose = self._held = self._dwelt = None
         self._phase_t = 0.0
@@ -231,6 +258,9 @@ class SimRobot:
         self.watchdog = tripped
 
     def _stop_motion(self) -> None:
+        # a stand-up stopped half-way is not a stance the physics could take the body in
+        self._after_stand = None
+        self._stand_then_put_down = False
         self.clocks = None
         self._burrow = None
         self._unburrowing = False
@@ -282,6 +312,9 @@ class SimRobot:
         if self._stand_then_put_down and all(abs(s.target - s.angle) < self.leg_arrived
                                              for s in self.servos):
             self._put_down()
+            then, self._after_stand = self._after_stand, None
+            if then is not None:
+                then()
         if self._physical:
             self._step_physics(dt)
             self.pitch_rate = (self.theta_b - theta_b0) / dt

@@ -90,6 +90,7 @@ class EstimatorConfig:
     theta_b_sigma_rad: float = math.radians(1.0)
     capacity_rel_sigma: float = 0.0
     lower_bound_phi_step_rad: float = 0.0   # 0: at the exact phi (lower_bound.py)
+    lower_bound_theta_b_step_rad: float = 0.0   # 0: at the exact pitch (lower_bound.py)
 
     def check(self) -> 'EstimatorConfig':
         """Raise ConfigError on the first bad value; return self."""
@@ -118,7 +119,7 @@ class EstimatorConfig:
             raise ConfigError(f'lower_bound_level must be 0 (off) or in [0.5, 1), got '
                               f'{self.lower_bound_level!r}')
         for name in ('h_sigma_m', 'theta_b_sigma_rad', 'capacity_rel_sigma',
-                     'lower_bound_phi_step_rad'):
+                     'lower_bound_phi_step_rad', 'lower_bound_theta_b_step_rad'):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ConfigError(f'{name} must be >= 0, got {v!r}')
@@ -279,7 +280,8 @@ class CapacityEstimator:
         c = self.config
         return LowerBound(lambda st, ph: self.predictor.predict(st, ph, self.pull), BoundSettings(
             c.lower_bound_level, c.h_sigma_m, c.theta_b_sigma_rad, c.capacity_rel_sigma,
-            c.h_range_m, c.phi_limit_rad, c.lower_bound_phi_step_rad))
+            c.h_range_m, c.phi_limit_rad, c.lower_bound_phi_step_rad,
+            c.lower_bound_theta_b_step_rad))
 
     # -- inputs -----------------------------------------------------------------------------
     def update_joints(self, t: float, angles: Mapping[str, float]) -> None:

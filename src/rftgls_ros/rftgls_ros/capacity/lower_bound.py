@@ -19,10 +19,20 @@ pose, against a measured phi whose own error is degrees), so the smaller end cov
 point estimate (capacity, margin, slip twist) stays at the exact phi. phi_step_rad 0: the
 bound at the exact phi, remembered for that one state.
 
-A new grid angle still costs its nine solves at once, 25-40 ms next to the edge: longer than
-the tension period. `prefetch` prepares the grid angles on either side of the current bracket
-one prediction per call (capacity_node calls it after each answer), so the bracket the creeping
-phi enters next is usually known before it gets there.
+The body pitch theta_B creeps the same way: an IMU's pitch differs in its last digits at
+every sample, and an anchor under a steady pre-tension turns by thousandths of a degree per
+sample (the simulator's physics body: 0.001 deg per estimate at the MiniRQuad's g-40/-20>-20/-20
+pose, where every new pitch cost ~180 ms of live edge checks and every estimate came 200 ms
+late). theta_b_step_rad > 0 takes the bound on a grid of pitches too, the smallest over the
+corners of the (theta_B, phi) cell around the state. A step of a tenth of theta_b_sigma (the
+shipped 0.1 deg against 1 deg) moves the bound's own +-1 sigma band by a tenth of its half
+width, and is well inside the IMU's own error.
+
+A new grid cell still costs its nine solves per corner at once, 25-40 ms next to the edge:
+longer than the tension period. `prefetch` prepares the cells on either side of the current
+one (in phi, then in theta_B) one prediction per call (capacity_node calls it after each
+answer), so the cell the creeping phi or pitch enters next is usually known before it gets
+there.
 
 Units SI: h in m, angles in rad, capacities in N. No ROS.
 """
@@ -47,7 +57,8 @@ Ranges = tuple[tuple[str, float], ...]
 class BoundSettings:
     """level: one-sided confidence of the sigma part (0: off). h_sigma_m, theta_b_sigma_rad,
     capacity_rel_sigma: its sigmas. h_range_m, phi_limit_rad: where the range part may scan.
-    phi_step_rad: grid of pull angles the bound is taken on (0: the exact phi)."""
+    phi_step_rad, theta_b_step_rad: grids of pull angles and body pitches the bound is taken
+    on (0: the exact value)."""
 
     level: float
     h_sigma_m: float
@@ -56,6 +67,11 @@ class BoundSettings:
     h_range_m: tuple[float, float]
     phi_limit_rad: float
     phi_step_rad: float = 0.0
+    theta_b_step_rad: float = 0.0
+
+    @property
+    def gridded(self) -> bool:
+        return self.phi_step_rad > 0.0 or self.theta_b_step_rad > 0.0
 
 
 class _Missing(Exception):
@@ -69,7 +85,7 @@ class _Missing(Exception):
 class LowerBound:
     """predict: the estimator's predictor call for its pull, (state, phi) -> result."""
 
-    CACHE = 16
+    CACHE = 32     # bounds remembered on the grid: a cell's 4 corners and 8 prefetched
 
     def __init__(self, predict: Predict, settings: BoundSettings):
         self.predict = predict
@@ -86,47 +102,51 @@ class LowerBound:
         s = self.settings
         if s.level <= 0.0 and not ranges:
             return None
-        step = s.phi_step_rad
-        if step <= 0.0:
+        if not s.gridded:
             return self._at(state, phi, ranges, center)
         self._last = (state, phi, ranges)
-        return min(self._at(state, p, ranges, None) for p in self._bracket(phi))
+        return min(self._at(st, p, ranges, None)
+                   for st in self._pitches(state) for p in self._phis(phi))
 
     def prefetch(self) -> bool:
-        """Make one prediction toward the bound of a grid angle next to the last bracket
-        (below it first, then above). False when both are known or there is nothing to do."""
-        if self.settings.phi_step_rad <= 0.0 or self._last is None:
+        """Make one prediction toward the bound of a grid corner next to the last cell (in
+        phi below, then above; then in theta_B below, then above). False when all are known
+        or there is nothing to do."""
+        if self._last is None or not self.settings.gridded:
             return False
         state, phi, ranges = self._last
-        limit = self.settings.phi_limit_rad
-        i = self._index(phi)
-        below, above = i - 1, (i if self._angle(i) == phi else i + 1) + 1
-        for p in (self._angle(below), self._angle(above)):
-            if abs(p) > limit or (state.as_tuple(), p, ranges) in self._known:
+        s = self.settings
+        todo: list[tuple[AnchorState, float]] = []
+        for p in _neighbours(phi, s.phi_step_rad):
+            if abs(p) <= s.phi_limit_rad:
+                todo += [(st, p) for st in self._pitches(state)]
+        for t in _neighbours(state.theta_b, s.theta_b_step_rad):
+            todo += [(_with_pitch(state, t), p) for p in self._phis(phi)]
+        for st, p in todo:
+            key = (st.as_tuple(), p, ranges)
+            if key in self._known:
                 continue
             try:
-                self._at(state, p, ranges, None, only_ahead=True)
+                self._at(st, p, ranges, None, only_ahead=True)
             except _Missing as miss:
-                memo = self._ahead.setdefault((state.as_tuple(), p, ranges), {})
+                memo = self._ahead.setdefault(key, {})
                 memo[(miss.state.as_tuple(), miss.phi)] = self.predict(miss.state, miss.phi)
             return True
         return False
 
-    def _index(self, phi: float) -> int:
-        """The grid angle at or below phi, as its index."""
-        return math.floor(phi / self.settings.phi_step_rad)
+    def _phis(self, phi: float) -> list[float]:
+        return _bracket(phi, self.settings.phi_step_rad, self.settings.phi_limit_rad)
 
-    def _angle(self, i: int) -> float:
-        """Grid angle i, rad. Always formed as i x step: the bound is remembered by its angle,
-        and the same angle reached as a neighbour's angle + step would differ in its last
-        bit for about half of the grid (a bound prepared under one spelling was then never
-        found under the other)."""
-        return i * self.settings.phi_step_rad
+    def _pitches(self, state: AnchorState) -> list[AnchorState]:
+        return [_with_pitch(state, t)
+                for t in _bracket(state.theta_b, self.settings.theta_b_step_rad, math.inf)]
 
-    def _bracket(self, phi: float) -> list[float]:
-        i = self._index(phi)
-        lo = self._angle(i)
-        return [lo] if lo == phi else [lo, min(self._angle(i + 1), self.settings.phi_limit_rad)]
+    def _near(self, a: tuple, b: tuple) -> bool:
+        """a and b (state tuples) the same pose but for a pitch within two grid steps."""
+        step = self.settings.theta_b_step_rad
+        if a[0] != b[0] or a[2:] != b[2:]:
+            return False
+        return a[1] == b[1] if step <= 0.0 else abs(a[1] - b[1]) < 2.5 * step
 
     def _at(self, state: AnchorState, phi: float, ranges: Ranges,
             center: CapacityResult | None, only_ahead: bool = False) -> float:
@@ -166,8 +186,38 @@ class LowerBound:
             lower = min(bounds)
         self._known[key] = lower
         self._ahead.pop(key, None)
-        # what was made ahead for other states than the one now in use is dropped
-        self._ahead = {k: v for k, v in self._ahead.items() if k[0] == key[0]}
-        while len(self._known) > (self.CACHE if self.settings.phi_step_rad > 0.0 else 1):
+        # what was made ahead for states other than the one now in use (and its pitch
+        # neighbours on the grid) is dropped
+        self._ahead = {k: v for k, v in self._ahead.items() if self._near(k[0], key[0])}
+        while len(self._known) > (self.CACHE if self.settings.gridded else 1):
             self._known.popitem(last=False)
         return lower
+
+
+def _grid(i: int, step: float) -> float:
+    """Grid value i. Always formed as i x step: a bound is remembered by its grid value, and
+    the same value reached as a neighbour's value + step would differ in its last bit for
+    about half of the grid (a bound prepared under one spelling was then never found under
+    the other)."""
+    return i * step
+
+
+def _bracket(x: float, step: float, limit: float) -> list[float]:
+    """The grid values on either side of x (x itself on a node, or without a grid)."""
+    if step <= 0.0:
+        return [x]
+    i = math.floor(x / step)
+    lo = _grid(i, step)
+    return [lo] if lo == x else [lo, min(_grid(i + 1, step), limit)]
+
+
+def _neighbours(x: float, step: float) -> list[float]:
+    """The grid values just outside x's bracket, below then above (none without a grid)."""
+    if step <= 0.0:
+        return []
+    i = math.floor(x / step)
+    return [_grid(i - 1, step), _grid((i if _grid(i, step) == x else i + 1) + 1, step)]
+
+
+def _with_pitch(state: AnchorState, theta_b: float) -> AnchorState:
+    return AnchorState(state.h, theta_b, state.theta_l1, state.theta_l2)

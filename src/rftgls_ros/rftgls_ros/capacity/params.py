@@ -107,6 +107,10 @@ PARAMETERS: dict[str, Param] = {
     'lower_bound_phi_step_rad': Param(0.0, 'grid of tether angles the lower bound is taken on '
                                       '(the smaller of the two bracketing phi; each '
                                       'remembered); 0 = at the exact phi, rad', 0.0, 0.2),
+    'lower_bound_theta_b_step_rad': Param(0.0, 'grid of body pitches the lower bound is taken '
+                                          'on (the smaller over the two bracketing pitches; '
+                                          'each remembered); 0 = at the exact pitch, rad',
+                                          0.0, 0.05),
     'capacity_rel_sigma': Param(0.0, 'relative standard deviation of the capacity (e.g. '
                                 'sigma(xi_n)/xi_n from rftgls calibrate)', 0.0, 10.0),
     # timing
@@ -136,7 +140,8 @@ RUNTIME = frozenset({
     'tension_deadband_N', 'imu_tilt_limit_rad', 'imu_roll_limit_rad', 'leg_limit_rad',
     'assumed_height_range_m',
     'assumed_phi_range_rad', 'lower_bound_level', 'h_sigma_m', 'theta_b_sigma_rad',
-    'capacity_rel_sigma', 'lower_bound_phi_step_rad', 'clock_offset_tolerance_s',
+    'capacity_rel_sigma', 'lower_bound_phi_step_rad', 'lower_bound_theta_b_step_rad',
+    'clock_offset_tolerance_s',
     'diagnostics_period_s',
     *(f'{name}_timeout_s' for name in DEFAULT_TIMEOUTS_S),
 })
@@ -199,7 +204,8 @@ def configs(p: Mapping[str, Any]) -> tuple[EstimatorConfig, NodeConfig]:
         lower_bound_level=p['lower_bound_level'],
         h_sigma_m=p['h_sigma_m'], theta_b_sigma_rad=p['theta_b_sigma_rad'],
         capacity_rel_sigma=p['capacity_rel_sigma'],
-        lower_bound_phi_step_rad=p['lower_bound_phi_step_rad']).check()
+        lower_bound_phi_step_rad=p['lower_bound_phi_step_rad'],
+        lower_bound_theta_b_step_rad=p['lower_bound_theta_b_step_rad']).check()
     node = NodeConfig(p['tension_component'], p['freshness_source'], p['imu_tilt_limit_rad'],
                       p['imu_roll_limit_rad'], p['imu_frame_id'], p['tension_frame_id'],
                       frozenset(p['trigger_inputs']), p['publish_rate_hz'],
