@@ -9,10 +9,11 @@ edge checks included) the sequence cycle 1 of `make demo`'s 600 g tug gives it: 
 gait's pose held still (h 42.8 mm modelled with a 2.9 mm band, as replayed; theta_B 10.4 deg,
 legs -20 deg) while the winch reels 0.5 mm per tension sample (50 mm/s at 100 Hz) from
 0.605 m of tether to 0.15 m, phi following the taut tether (rftgls_ros.tether: -3.1 deg to
--12 deg, faster as the sled nears). --pitch-creep-deg turns the body by that much per sample
-(the simulator's physics body under pre-tension: about -0.001 deg). Prints the estimate's time (and with its prefetch) as
-percentiles and how many estimates took longer than SLOW_MS, and with --compare-exact how
-far the grid bound lies from the exact bound at every sample. No ROS.
+-12 deg, faster as the sled nears). --pitch-creep-deg turns the body by that much per
+sample (the simulator's physics body under pre-tension: about -0.001 deg). Prints the
+estimate's time (and with its prefetch) as percentiles and how many estimates took longer
+than SLOW_MS, and with --compare-exact how far the grid bound lies from the exact bound at
+every sample. No ROS.
 """
 from __future__ import annotations
 

@@ -1,5 +1,8 @@
 """The demo launcher end to end: one short cycle, own domain id, report written, exits by itself;
-every tug on the lower bound, and a sled no mode's lower bound holds refused cleanly."""
+every tug on the lower bound, and a sled no mode's lower bound holds refused cleanly. The
+decisions' numbers are checked on the scripted body (its burrows end where the gait map
+predicts); the default body, the physics, is checked for what it must do whatever the sand
+does: burrow with the physics, decide on the lower bound, say why, exit cleanly."""
 from __future__ import annotations
 
 import os
@@ -15,13 +18,15 @@ REPO = Path(__file__).resolve().parents[2]
 G = 9.81
 
 
-def demo(out: Path, sled: float, *params: str) -> subprocess.CompletedProcess:
+def demo(out: Path, sled: float, *params: str, body: str = 'scripted'
+         ) -> subprocess.CompletedProcess:
     env = {k: v for k, v in os.environ.items() if k != 'ROS_DOMAIN_ID'}
     extra = [a for kv in params for a in ('--param', kv)]
+    body_arg = ['--body', body] if body else []
     return subprocess.run(
         ['ros2', 'run', 'rftgls_ros', 'behavior_demo', '--out', str(out), '--sleds', str(sled),
          '--cycles', '1', '--param', 'walk_time_s:=1.0', '--param', 'idle_measure_time_s:=0.5',
-         *extra, '--timeout', '60'],
+         *extra, *body_arg, '--timeout', '60'],
         cwd=REPO, env=env, capture_output=True, text=True, timeout=90)
 
 
@@ -49,6 +54,28 @@ def test_demo_one_cycle_exits_and_writes_report(tmp_path):
     rows = read_csv(out / 'cycle_report.csv')
     assert rows and all(r.outcome == 'ok' for r in rows), rows
     assert all(r.reel_lower_margin_n >= 0.0 for r in rows), rows
+
+
+@pytest.mark.slow
+def test_the_default_demo_burrows_with_the_physics_and_decides_on_the_lower_bound(tmp_path):
+    """`make demo`'s body: the simulator's whole-robot physics takes the body from standing
+    (nothing copied from Table II). Whatever pose the sand gives, every tug is decided on
+    the lower bound, the choice is printed with its reason, the physics never stops, and a
+    cycle ends ok or stopped (a re-burrow that still falls short), never aborted."""
+    out = tmp_path / 'demo'
+    proc = demo(out, 0.4, body='')
+    text = proc.stdout + proc.stderr
+    assert proc.returncode == 0, text
+    assert '(simulated MiniRQuad, burrow-physics body)' in text, text
+    assert re.search(r'decision \(planned pose\): g-[\d/>-]+: cheapest sufficient planned gait',
+                     text), text
+    # the check at the measured pose: the burrow replayed over the legs the robot measured
+    assert re.search(r'check g-[\d/>-]+ at the measured pose .* lower bound', text), text
+    rows = read_csv(out / 'cycle_report.csv')
+    assert rows and all(r.outcome in ('ok', 'stopped') for r in rows), rows
+    assert all(r.reel_lower_margin_n >= 0.0 for r in rows), rows
+    report = (out / 'logs' / 'sled_400g' / 'minirquad_sim.log').read_text()
+    assert 'physics stopped' not in report and 'physics_behind_s' in report, report
 
 
 @pytest.mark.slow

@@ -33,6 +33,7 @@ from .ground import make_ground
 from .ground_worker import BackgroundGround
 from .mcu import McuConfig, SimMcu
 from .physics import PhysicsBody
+from .physics_worker import BackgroundPhysics
 from .plant import MotorWinch, PlantRobot
 from .pty_link import LinkPathError, PtyLink
 from .robot import SimRobot
@@ -199,6 +200,7 @@ def run(args: argparse.Namespace) -> int:
     reconnect_at: float | None = None
     reset_done = False
     physics_said = ''
+    behind_s = 0.0
     late_ticks, worst_tick_s = 0, 0.0
 
     def emit(data: bytes, now: float) -> str | None:
@@ -303,12 +305,18 @@ def run(args: argparse.Namespace) -> int:
         mcu.close()
         if isinstance(ground, BackgroundGround):
             ground.close()
+        body = getattr(mcu.robot, 'physics', None)
+        if isinstance(body, BackgroundPhysics):
+            behind_s = body.behind_s
+            body.close()
     report = {'mcu': args.mcu, 'faults': dict(faults.counts), 'resets': mcu.resets,
               'rx_crc_errors': mcu.rx_crc_errors}
     if physics_said:
         report['physics_stopped'] = physics_said
     if late_ticks:
         report.update(late_ticks=late_ticks, worst_tick_ms=round(worst_tick_s * 1e3, 1))
+    if behind_s:
+        report['physics_behind_s'] = round(behind_s, 3)
     if isinstance(mcu, FirmwareMcu):     # how well the firmware kept up with the wall clock
         report.update(exchanges=mcu.exchanges, late_exchanges=mcu.late)
     print(json.dumps(report), flush=True)
@@ -324,16 +332,25 @@ def _make_mcu(args: argparse.Namespace, ground, config: McuConfig, start: float,
             ground=ground, winch=MotorWinch(sled_mass=args.sled_mass)),
             config=config, on_telemetry=on_telemetry, now=start, binary=args.firmware)
     poses = GaitPoses.for_sled(args.sled_mass) if args.body == 'scripted' else None
-    return SimMcu(robot_factory=lambda: SimRobot(ground=ground,
-                                                 winch=WinchSled(sled_mass=args.sled_mass),
-                                                 physics=_physics(args), gait_poses=poses,
-                                                 physics_walk=args.body == 'physics'),
-                  config=config, on_telemetry=on_telemetry, now=start, on_command=on_command)
+    bodies: list[BackgroundPhysics] = []
+
+    def robot() -> SimRobot:
+        # a reset powers up a new robot: the old body's worker ends with it
+        while bodies:
+            bodies.pop().close()
+        inline = _physics(args)
+        body = None if inline is None else BackgroundPhysics(inline)
+        if body is not None:
+            bodies.append(body)
+        return SimRobot(ground=ground, winch=WinchSled(sled_mass=args.sled_mass),
+                        physics=body, gait_poses=poses, physics_walk=args.body == 'physics')
+    return SimMcu(robot_factory=robot, config=config, on_telemetry=on_telemetry, now=start,
+                  on_command=on_command)
 
 
 def _physics(args: argparse.Namespace) -> PhysicsBody | None:
     """A freshly powered robot's body (at start and at every MCU reset), or None for the
-    scripted body."""
+    scripted body. The simulator steps it in a worker process (physics_worker.py)."""
     if args.body == 'scripted':
         return None
     return PhysicsBody(robot=args.true_robot, anchor=args.anchor, medium=args.true_medium,

@@ -9,9 +9,10 @@ copied from the paper's Table II. The medium is the simulator's truth (``--true-
 ``--true-medium-scale``), which the stack never sees.
 
 Stepping: the simulator's loop calls in small steps (2 ms); they are gathered into physics
-steps of `step` seconds (the simulation substeps them for accuracy), so the plant keeps up
-with real time. Within a physics step each leg's reference runs on from its value at the start
-with the MCU's rate.
+steps of `step` seconds (the simulation substeps them for accuracy). Within a physics step
+each leg's reference runs on from its value at the start with the MCU's rate. Most steps take
+a tenth of their simulated time, some (a leg driven deep into packed sand) many times it: the
+simulator runs the body in a worker process (physics_worker.py) so its loop keeps its period.
 """
 from __future__ import annotations
 
@@ -115,6 +116,14 @@ class PhysicsBody:
         if self._pending < self.step or self.failed:
             return False
         run, self._pending = self._pending, 0.0
+        return self.run_step(run, q_ref, ff, target, tension, phi, phase)
+
+    def run_step(self, run: float, q_ref, ff, target, tension: float, phi: float,
+                 phase: str) -> bool:
+        """One physics step of `run` seconds now (advance's step; physics_worker sends its
+        gathered steps here). False when the plant cannot go on (`failed` says why)."""
+        if self.failed:
+            return False
         from rftgls_core.multibody.simulate import SimulationStop
         e0 = self.sim.meter.total().elec_J
         try:

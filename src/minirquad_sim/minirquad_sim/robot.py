@@ -10,11 +10,11 @@ makes it; the pose, the torques and the power emerge. With ``physics_walk`` Fals
 (``--body burrow-physics``) the physics rests while the robot walks, the walk is scripted as
 below, and the physics body is put down where the walk left p once the legs stand after it
 (a STAND; a burrow or leg command stands the robot up first and runs once the physics has
-the body): burrows, tugs and slips emerge, the walk does not. Without a physics body (the default, what the demo and the behaviour tests run: the
-physics' walk overturns the robot within two seconds and is slower than real time here,
-docs/design/walk-burrow-physics.md) the body is scripted: walking at
-``walk_speed``, burrowing to Table II's mean pose, power from the calibrated ``PowerModel``,
-the anchor from ``ground``.
+the body): burrows, tugs and slips emerge, the walk does not. Without a physics body (the
+default, what the demo and the behaviour tests run: the physics' walk overturns the robot
+within two seconds and is slower than real time here, docs/design/walk-burrow-physics.md)
+the body is scripted: walking at ``walk_speed``, burrowing to Table II's mean pose, power
+from the calibrated ``PowerModel``, the anchor from ``ground``.
 
 Geometry numbers the paper does not give are assumptions, named in ``Geometry``.
 """
@@ -36,6 +36,7 @@ from .gait import BuehlerClock, wrap_angle
 from .gait_pose import GaitPoses
 from .ground import default_ground, slip_per_m
 from .physics import PhysicsBody
+from .physics_worker import BackgroundPhysics
 from .power import PowerModel
 from .servo import Servo
 from .winch import WinchSled
@@ -84,7 +85,7 @@ class SimRobot:
     power_model: PowerModel = field(default_factory=PowerModel)
     winch: WinchSled = field(default_factory=WinchSled)
     mass: float = 0.296
-    physics: PhysicsBody | None = None
+    physics: PhysicsBody | BackgroundPhysics | None = None
     # False: the physics rests while walking (module doc)
     physics_walk: bool = True
     # Scripted body: where a burrow run leg by leg (SetLegs) settles (gait_pose.py); None:

@@ -1,0 +1,162 @@
+"""The physics body stepped in a worker process, so the simulated MCU loop never waits for it.
+
+A real robot's body moves with the wall clock whatever it costs to compute. The whole-robot
+physics (physics.PhysicsBody) mostly runs ten times faster than real time, but a leg driven
+deep into packed sand (a re-burrow from a burrowed pose) needs many short substeps: single
+physics steps of 20 ms took 0.5-3.8 s in the simulator's loop, the MCU sent no telemetry
+meanwhile, and the host saw the link go stale again and again (docs/design/walk-burrow-
+physics.md, "The simulator"). ``BackgroundPhysics`` keeps the same interface as PhysicsBody:
+
+- ``advance`` gathers loop time as before; each physics step that falls due is queued for
+  the worker with the leg references of its own time, and the call returns at once. The
+  worker runs the steps in order, each exactly as the body itself would: the physics gets
+  the same inputs, only later. While it runs slowly the body falls behind the wall clock
+  (``behind_s``) and catches up when the steps get cheap again. (Gathering the waiting time
+  into one long step instead lost the physics: a 0.9 s step toward leg references that had
+  run far ahead found no balance.)
+- ``pose``, ``q``, ``rates``, ``elec_W``, ``failed`` are the newest step's answer: sensors
+  on a body that has moved that far.
+- ``place`` (the hand-over from the scripted walk, 0.1-0.25 s) waits for the steps before it
+  and for itself: the robot cannot stand on the physics before it is down.
+
+A process, not a thread: the compiled solver holds the GIL. The worker is forked after the
+body is built (its compiled kernels come with it), ends when the simulator does (its end of
+the pipe closes) and ignores SIGINT (a Ctrl-C to the terminal's process group is the
+simulator's to handle).
+"""
+from __future__ import annotations
+
+import multiprocessing
+import signal
+from collections import deque
+
+import numpy as np
+
+from .physics import PhysicsBody
+
+
+def _answer(body: PhysicsBody) -> tuple:
+    return (body.pose, np.array(body.q, dtype=float), np.array(body.rates, dtype=float),
+            body.elec_W, body.failed, body.sim.t)
+
+
+def _serve(body: PhysicsBody, conn, parent_end) -> None:
+    """Worker process: run ('step', ...) and ('place', ...) requests until the pipe closes."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    parent_end.close()         # the fork's copy: else the pipe never closes when the parent's does
+    while True:
+        try:
+            kind, *args = conn.recv()
+        except (EOFError, OSError):
+            return
+        if kind == 'place':
+            body.place(*args)
+        else:
+            body.run_step(*args)
+        try:
+            conn.send(_answer(body))
+        except (EOFError, OSError):
+            return
+
+
+class BackgroundPhysics:
+    """A PhysicsBody whose steps run in a worker process (module doc). ``behind_s``: the
+    most simulated time that was waiting for the worker at once, s."""
+
+    # steps sent to the worker before its answers: the rest wait here, so a worker far
+    # behind never fills the pipe (a full pipe would block the loop on send)
+    IN_FLIGHT = 16
+
+    def __init__(self, body: PhysicsBody):
+        self.robot, self.step, self.medium = body.robot, body.step, body.medium
+        self._describe = body.describe()
+        (self._pose, self._q, self._rates, self.elec_W, self.failed,
+         self.t) = _answer(body)
+        self.behind_s = 0.0
+        self._pending = 0.0
+        self._queue: deque[tuple] = deque()
+        self._in_flight: deque[float] = deque()     # the runs sent, s
+        self._fresh = False
+        ctx = multiprocessing.get_context('fork')
+        self._conn, child = ctx.Pipe()
+        self._proc = ctx.Process(target=_serve, args=(body, child, self._conn), daemon=True,
+                                 name='minirquad_sim physics')
+        self._proc.start()
+        child.close()
+
+    def describe(self) -> str:
+        return self._describe + ' (stepped in a worker process)'
+
+    def place(self, q, x_p: float = 0.0) -> None:
+        """PhysicsBody.place after every step before it, waiting for it (module doc)."""
+        self.wait()
+        self._pending = 0.0
+        self._conn.send(('place', np.asarray(q, dtype=float), float(x_p)))
+        self._take(self._conn.recv())
+
+    def advance(self, dt: float, q_ref, ff, target, tension: float, phi: float,
+                phase: str) -> bool:
+        """Gather dt; queue a step when `step` has gathered. True when a step's answer
+        arrived since the last call."""
+        self._pending += dt
+        if self._pending >= self.step and not self.failed:
+            run, self._pending = self._pending, 0.0
+            self._queue.append(('step', run, np.asarray(q_ref, dtype=float),
+                                np.asarray(ff, dtype=float), np.asarray(target, dtype=float),
+                                float(tension), float(phi), str(phase)))
+        self._pump(block=False)
+        fresh, self._fresh = self._fresh, False
+        return fresh
+
+    def wait(self) -> None:
+        """Block until every step queued has answered."""
+        while self._queue or self._in_flight:
+            self._pump(block=True)
+
+    @property
+    def behind_now_s(self) -> float:
+        """Simulated time queued or running in the worker, s."""
+        return sum(r[1] for r in self._queue) + sum(self._in_flight)
+
+    def close(self) -> None:
+        """End the worker: close the pipe, then terminate, wait and kill if it lingers."""
+        self._conn.close()
+        self._proc.join(timeout=2.0)
+        if self._proc.is_alive():
+            self._proc.terminate()
+            self._proc.join(timeout=2.0)
+            if self._proc.is_alive():
+                self._proc.kill()
+                self._proc.join()
+
+    def _pump(self, block: bool) -> None:
+        """Send what may go, take what has come (one answer at least when `block`)."""
+        while self._queue and len(self._in_flight) < self.IN_FLIGHT:
+            request = self._queue.popleft()
+            self._conn.send(request)
+            self._in_flight.append(request[1])
+        self.behind_s = max(self.behind_s, self.behind_now_s)
+        while self._in_flight and (block or self._conn.poll()):
+            self._take(self._conn.recv())
+            self._in_flight.popleft()
+            block = False
+        if self.failed:
+            self._queue.clear()       # a body that cannot go on takes no more steps
+
+    def _take(self, answer: tuple) -> None:
+        self._pose, self._q, self._rates, self.elec_W, self.failed, self.t = answer
+        self._fresh = True
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        """(x, z) of the tether point p (m) and the pitch theta_b (rad), as of the newest
+        step answered."""
+        return self._pose
+
+    @property
+    def q(self) -> np.ndarray:
+        return self._q
+
+    @property
+    def rates(self) -> np.ndarray:
+        return self._rates
