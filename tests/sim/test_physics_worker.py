@@ -66,7 +66,7 @@ def test_the_loop_does_not_wait_and_the_body_catches_up_step_by_step():
     inline = _placed()
     try:
         t0 = worker.t
-        os.kill(worker._proc.pid, signal.SIGSTOP)
+        os.kill(worker.pid, signal.SIGSTOP)
         try:
             given, answers, calls = 0.0, 0, []
             for _ in range(round(0.8 / STEP)):
@@ -75,7 +75,7 @@ def test_the_loop_does_not_wait_and_the_body_catches_up_step_by_step():
                 calls.append((q, ff))
                 given += STEP
         finally:
-            os.kill(worker._proc.pid, signal.SIGCONT)
+            os.kill(worker.pid, signal.SIGCONT)
         assert answers == 0 and worker.t == t0
         # all 40 due steps waited (less than one step may still be gathering)
         assert worker.behind_s == pytest.approx(worker.behind_now_s)
@@ -93,7 +93,9 @@ def test_the_loop_does_not_wait_and_the_body_catches_up_step_by_step():
 
 def test_close_ends_the_worker():
     worker = BackgroundPhysics(_placed())
-    proc = worker._proc
-    assert proc.is_alive()
+    pid = worker.pid
+    assert pid is not None
+    os.kill(pid, 0)                    # alive
     worker.close()
-    assert not proc.is_alive()
+    with pytest.raises(ProcessLookupError):
+        os.kill(pid, 0)                # gone (and reaped: close joins it)

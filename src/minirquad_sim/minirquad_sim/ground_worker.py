@@ -17,27 +17,22 @@ slips every physics step reaches a new pose: asked inline, the MCU loop stood st
 - with no answer at all for this pull yet, it is computed inline (only before the warm-up).
 
 A process, not a thread: the solver holds the GIL through its compiled calls (a thread left
-gaps of up to 0.8 s in the loop). The worker ends when the simulator does (its end of the
-pipe closes) and ignores SIGINT (a Ctrl-C to the terminal's process group is the simulator's
-to handle).
+gaps of up to 0.8 s in the loop); worker_process.py starts and stops it.
 """
 from __future__ import annotations
 
 import math
-import multiprocessing
-import signal
 from collections import OrderedDict
 
 from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull
 
+from . import worker_process
 from .ground import LiveGround
 
 
-def _serve(ground: LiveGround, conn, parent_end) -> None:
+def _serve(ground: LiveGround, conn) -> None:
     """Worker process: answer (cell, state, phi, pull) requests until the pipe closes."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    parent_end.close()         # the fork's copy: else the pipe never closes when the parent's does
     while True:
         try:
             cell, state, phi, pull = conn.recv()
@@ -59,24 +54,14 @@ class BackgroundGround:
         self._in_flight: tuple | None = None
         self._waiting: tuple | None = None
         self.stand_ins = 0
-        ctx = multiprocessing.get_context('fork')
-        self._conn, child = ctx.Pipe()
-        self._worker = ctx.Process(target=_serve, args=(ground, child, self._conn), daemon=True,
-                                   name='minirquad_sim ground')
-        self._worker.start()
-        child.close()
+        self._conn, self._worker = worker_process.start(_serve, ground, 'minirquad_sim ground')
 
     def describe(self) -> str:
         return self.ground.describe() + ', solved in a worker process'
 
     def close(self) -> None:
         """End the worker now (a solve in progress is not waited for)."""
-        self._conn.close()
-        self._worker.terminate()
-        self._worker.join(1.0)
-        if self._worker.is_alive():
-            self._worker.kill()
-            self._worker.join(1.0)
+        worker_process.stop(self._conn, self._worker)
 
     def _collect(self) -> None:
         """Take in the worker's answer if it is ready; send the waiting request."""

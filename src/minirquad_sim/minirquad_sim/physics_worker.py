@@ -19,19 +19,16 @@ physics.md, "The simulator"). ``BackgroundPhysics`` keeps the same interface as 
 - ``place`` (the hand-over from the scripted walk, 0.1-0.25 s) waits for the steps before it
   and for itself: the robot cannot stand on the physics before it is down.
 
-A process, not a thread: the compiled solver holds the GIL. The worker is forked after the
-body is built (its compiled kernels come with it), ends when the simulator does (its end of
-the pipe closes) and ignores SIGINT (a Ctrl-C to the terminal's process group is the
-simulator's to handle).
+The worker is forked after the body is built (worker_process.py), so the body and its
+compiled kernels come with it.
 """
 from __future__ import annotations
 
-import multiprocessing
-import signal
 from collections import deque
 
 import numpy as np
 
+from . import worker_process
 from .physics import PhysicsBody
 
 
@@ -40,10 +37,8 @@ def _answer(body: PhysicsBody) -> tuple:
             body.elec_W, body.failed, body.sim.t)
 
 
-def _serve(body: PhysicsBody, conn, parent_end) -> None:
+def _serve(body: PhysicsBody, conn) -> None:
     """Worker process: run ('step', ...) and ('place', ...) requests until the pipe closes."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    parent_end.close()         # the fork's copy: else the pipe never closes when the parent's does
     while True:
         try:
             kind, *args = conn.recv()
@@ -77,12 +72,7 @@ class BackgroundPhysics:
         self._queue: deque[tuple] = deque()
         self._in_flight: deque[float] = deque()     # the runs sent, s
         self._fresh = False
-        ctx = multiprocessing.get_context('fork')
-        self._conn, child = ctx.Pipe()
-        self._proc = ctx.Process(target=_serve, args=(body, child, self._conn), daemon=True,
-                                 name='minirquad_sim physics')
-        self._proc.start()
-        child.close()
+        self._conn, self._proc = worker_process.start(_serve, body, 'minirquad_sim physics')
 
     def describe(self) -> str:
         return self._describe + ' (stepped in a worker process)'
@@ -118,16 +108,14 @@ class BackgroundPhysics:
         """Simulated time queued or running in the worker, s."""
         return sum(r[1] for r in self._queue) + sum(self._in_flight)
 
+    @property
+    def pid(self) -> int | None:
+        """The worker's process id."""
+        return self._proc.pid
+
     def close(self) -> None:
-        """End the worker: close the pipe, then terminate, wait and kill if it lingers."""
-        self._conn.close()
-        self._proc.join(timeout=2.0)
-        if self._proc.is_alive():
-            self._proc.terminate()
-            self._proc.join(timeout=2.0)
-            if self._proc.is_alive():
-                self._proc.kill()
-                self._proc.join()
+        """End the worker now (a step in progress is not waited for)."""
+        worker_process.stop(self._conn, self._proc)
 
     def _pump(self, block: bool) -> None:
         """Send what may go, take what has come (one answer at least when `block`)."""
