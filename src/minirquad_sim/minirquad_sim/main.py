@@ -79,7 +79,8 @@ def build_parser() -> argparse.ArgumentParser:
                         'whole-robot simulation on the true robot and medium below (its walk '
                         'overturns the robot and runs slower than real time on this machine: '
                         'docs/design/walk-burrow-physics.md); burrow-physics: the walk '
-                        'scripted, everything else (standing, burrows, tugs, slips) physics')
+                        'scripted, everything else (standing, burrows, tugs, slips) physics '
+                        '(what make demo runs). The physics steps in a worker process')
     t.add_argument('--ground', choices=('live', 'map', 'table'), default='live',
                    help='live: rftgls_core solver (default); map: the shipped map the stack '
                         'predicts with; table: placeholder')

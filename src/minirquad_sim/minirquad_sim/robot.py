@@ -10,10 +10,10 @@ makes it; the pose, the torques and the power emerge. With ``physics_walk`` Fals
 (``--body burrow-physics``) the physics rests while the robot walks, the walk is scripted as
 below, and the physics body is put down where the walk left p once the legs stand after it
 (a STAND; a burrow or leg command stands the robot up first and runs once the physics has
-the body): burrows, tugs and slips emerge, the walk does not. Without a physics body (the
-default, what the demo and the behaviour tests run: the physics' walk overturns the robot
-within two seconds and is slower than real time here, docs/design/walk-burrow-physics.md)
-the body is scripted: walking at ``walk_speed``, burrowing to Table II's mean pose, power
+the body): burrows, tugs and slips emerge, the walk does not (`make demo` runs this body).
+Without a physics body (minirquad_sim's default, what the behaviour tests run: faster and
+repeatable; the physics' walk overturns the robot within two seconds,
+docs/design/walk-burrow-physics.md) the body is scripted: walking at ``walk_speed``, burrowing to Table II's mean pose, power
 from the calibrated ``PowerModel``, the anchor from ``ground``.
 
 Geometry numbers the paper does not give are assumptions, named in ``Geometry``.
