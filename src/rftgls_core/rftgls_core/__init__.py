@@ -8,3 +8,8 @@ Data flow (see README, design section):
 Everything inside is SI (m, kg, s, N, N m, rad). No ROS import anywhere in this package.
 """
 __version__ = '0.1.0'
+
+from . import numba_cache as _numba_cache  # noqa: E402
+
+# before any module decorates a compiled function: the cache must follow the sources
+_numba_cache.configure()
