@@ -118,6 +118,7 @@ def plot_report(records: list[CycleRecord], path: str | Path) -> None:
         rows = [r for r in records if r.sled_kg == sled]
         ax_d, ax_e = axes[0][k], axes[1][k]
         dist = cum = 0.0
+        lines = 1
         xs, ds = [0], [0.0]
         for r in rows:
             x = r.cycle
@@ -130,7 +131,9 @@ def plot_report(records: list[CycleRecord], path: str | Path) -> None:
                          linewidth=0.4, label=phase if x == rows[0].cycle else None)
                 bottom += val
             cum = bottom
-            ax_e.text(x, cum, f'{r.mode}', ha='center', va='bottom', fontsize=9)
+            # a re-burrowed cycle names each gait: one per line, so it stays over its bar
+            ax_e.text(x, cum, r.mode.replace('+', ' +\n'), ha='center', va='bottom', fontsize=8)
+            lines = max(lines, r.mode.count('+') + 1)
             if r.outcome != 'ok':
                 ax_e.plot([x], [cum * 0.5], marker='x', color='red', markersize=14, mew=3)
             dist += r.distance_m
@@ -142,6 +145,8 @@ def plot_report(records: list[CycleRecord], path: str | Path) -> None:
         ax_e.set_xlabel('cycle')
         ax_e.set_ylabel('cumulated energy [J]')
         ax_e.set_xticks([r.cycle for r in rows] or [1])
+        if cum > 0:      # room above the tallest bar for its label
+            ax_e.set_ylim(0.0, cum * (1.08 + 0.07 * lines))
         ax_e.legend(loc='upper left', fontsize=8)
         if any(r.outcome != 'ok' for r in rows):
             ax_e.annotate('X: anchor stopped / refused', xy=(0.98, 0.02),
