@@ -5,7 +5,8 @@ physics (physics.PhysicsBody) mostly runs ten times faster than real time, but a
 deep into packed sand (a re-burrow from a burrowed pose) needs many short substeps: single
 physics steps of 20 ms took 0.5-3.8 s in the simulator's loop, the MCU sent no telemetry
 meanwhile, and the host saw the link go stale again and again
-(docs/design/walk-burrow-physics.md, "The simulator"). ``BackgroundPhysics`` keeps the same interface as PhysicsBody:
+(docs/design/walk-burrow-physics.md, "The simulator"). ``BackgroundPhysics`` keeps the same
+interface as PhysicsBody:
 
 - ``advance`` gathers loop time as before; each physics step that falls due is queued for
   the worker with the leg references of its own time, and the call returns at once. The

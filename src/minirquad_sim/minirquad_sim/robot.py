@@ -13,8 +13,9 @@ below, and the physics body is put down where the walk left p once the legs stan
 the body): burrows, tugs and slips emerge, the walk does not (`make demo` runs this body).
 Without a physics body (minirquad_sim's default, what the behaviour tests run: faster and
 repeatable; the physics' walk overturns the robot within two seconds,
-docs/design/walk-burrow-physics.md) the body is scripted: walking at ``walk_speed``, burrowing to Table II's mean pose, power
-from the calibrated ``PowerModel``, the anchor from ``ground``.
+docs/design/walk-burrow-physics.md) the body is scripted: walking at ``walk_speed``,
+burrowing to Table II's mean pose, power from the calibrated ``PowerModel``, the anchor from
+``ground``.
 
 Geometry numbers the paper does not give are assumptions, named in ``Geometry``.
 """
