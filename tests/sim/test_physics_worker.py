@@ -99,3 +99,17 @@ def test_close_ends_the_worker():
     worker.close()
     with pytest.raises(ProcessLookupError):
         os.kill(pid, 0)                # gone (and reaped: close joins it)
+
+
+def test_the_simulator_says_when_the_physics_falls_behind(capsys):
+    """Once past a second behind the wall clock, again at each further second, and afresh
+    after catching up (minirquad_sim.main.report_lag)."""
+    from minirquad_sim.main import BEHIND_REPORT_S, report_lag
+    said, lines = 0.0, []
+    for t, lag in enumerate((0.2, 0.9, 1.2, 1.5, 2.3, 2.0, 0.0, 0.4, 1.1)):
+        said = report_lag(lag, said, float(t))
+        lines += [x for x in capsys.readouterr().err.splitlines() if x]
+    assert BEHIND_REPORT_S == 1.0
+    assert lines == ['minirquad_sim: the physics runs 1.2 s behind the wall clock at t 2.00 s',
+                     'minirquad_sim: the physics runs 2.3 s behind the wall clock at t 4.00 s',
+                     'minirquad_sim: the physics runs 1.1 s behind the wall clock at t 8.00 s']

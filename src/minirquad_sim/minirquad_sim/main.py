@@ -42,6 +42,9 @@ from .winch import WinchSled
 # A loop turn longer than this is reported: the MCU advances at most 0.1 s per turn
 # (mcu.SimMcu.tick), so beyond it the plant also loses simulated time.
 LATE_TICK_S = 0.1
+# The physics body running this far behind the wall clock (physics_worker.py) is reported,
+# and again at each further step of it: its telemetry describes a body that far in the past.
+BEHIND_REPORT_S = 1.0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -201,6 +204,7 @@ def run(args: argparse.Namespace) -> int:
     reconnect_at: float | None = None
     reset_done = False
     physics_said = ''
+    behind_said_s = 0.0
     behind_s = 0.0
     late_ticks, worst_tick_s = 0, 0.0
 
@@ -278,6 +282,8 @@ def run(args: argparse.Namespace) -> int:
                 physics_said = body.failed
                 print(f'minirquad_sim: physics stopped: {body.failed}', file=sys.stderr,
                       flush=True)
+            if isinstance(body, BackgroundPhysics):
+                behind_said_s = report_lag(body.behind_now_s, behind_said_s, t)
             # Release due bytes, paced like a UART if asked.
             while queue and queue[0][0] <= now and now >= line_free_at:
                 _, wire = queue.popleft()
@@ -322,6 +328,17 @@ def run(args: argparse.Namespace) -> int:
         report.update(exchanges=mcu.exchanges, late_exchanges=mcu.late)
     print(json.dumps(report), flush=True)
     return 0
+
+
+def report_lag(lag: float, said: float, t: float) -> float:
+    """Say on stderr that the physics body runs `lag` s behind the wall clock (its
+    telemetry describes a body that far in the past) when it is BEHIND_REPORT_S beyond what
+    was `said` last; returns what is said now (0 once it has caught up)."""
+    if lag > said + BEHIND_REPORT_S:
+        print(f'minirquad_sim: the physics runs {lag:.1f} s behind the wall clock at t '
+              f'{t:.2f} s', file=sys.stderr, flush=True)
+        return lag
+    return 0.0 if lag == 0.0 else said
 
 
 def _make_mcu(args: argparse.Namespace, ground, config: McuConfig, start: float,

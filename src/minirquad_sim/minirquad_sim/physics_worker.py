@@ -14,7 +14,9 @@ interface as PhysicsBody:
   the same inputs, only later. While it runs slowly the body falls behind the wall clock
   (``behind_s``) and catches up when the steps get cheap again. (Gathering the waiting time
   into one long step instead lost the physics: a 0.9 s step toward leg references that had
-  run far ahead found no balance.)
+  run far ahead found no balance.) A physics slower than real time for good (``--body
+  physics``' walk: 6 s of computing per 1.6 s) falls further behind without end; the
+  simulator says so on stderr at each further second.
 - ``pose``, ``q``, ``rates``, ``elec_W``, ``failed`` are the newest step's answer: sensors
   on a body that has moved that far.
 - ``place`` (the hand-over from the scripted walk, 0.1-0.25 s) waits for the steps before it
