@@ -11,7 +11,7 @@ copied from the paper's Table II. The medium is the simulator's truth (``--true-
 Stepping: the simulator's loop calls in small steps (2 ms); they are gathered into physics
 steps of `step` seconds (the simulation substeps them for accuracy). Within a physics step
 each leg's reference runs on from its value at the start with the MCU's rate. Most steps take
-a tenth of their simulated time, some (a leg driven deep into packed sand) many times it: the
+a tenth of their simulated time, some (in the demo's re-burrows) many times it: the
 simulator runs the body in a worker process (physics_worker.py) so its loop keeps its period.
 """
 from __future__ import annotations

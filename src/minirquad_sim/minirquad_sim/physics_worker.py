@@ -1,9 +1,9 @@
 """The physics body stepped in a worker process, so the simulated MCU loop never waits for it.
 
 A real robot's body moves with the wall clock whatever it costs to compute. The whole-robot
-physics (physics.PhysicsBody) mostly runs ten times faster than real time, but a leg driven
-deep into packed sand (a re-burrow from a burrowed pose) needs many short substeps: single
-physics steps of 20 ms took 0.5-3.8 s in the simulator's loop, the MCU sent no telemetry
+physics (physics.PhysicsBody) mostly runs ten times faster than real time, but some steps
+need many short substeps (seen in the demo's re-burrows, tied to the sled): single physics
+steps of 20 ms took 0.5-3.8 s in the simulator's loop, the MCU sent no telemetry
 meanwhile, and the host saw the link go stale again and again
 (docs/design/walk-burrow-physics.md, "The simulator"). ``BackgroundPhysics`` keeps the same
 interface as PhysicsBody:
