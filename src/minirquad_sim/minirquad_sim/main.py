@@ -203,10 +203,7 @@ def run(args: argparse.Namespace) -> int:
     byte_time = 10.0 / args.pace_baud if args.pace_baud else 0.0
     reconnect_at: float | None = None
     reset_done = False
-    physics_said = ''
-    behind_said_s = 0.0
-    behind_s = 0.0
-    late_ticks, worst_tick_s = 0, 0.0
+    watch = PlantWatch()
 
     def emit(data: bytes, now: float) -> str | None:
         release, wire, fault = faults.outgoing(data, now)
@@ -260,16 +257,9 @@ def run(args: argparse.Namespace) -> int:
                 for frame_bytes in _split(mcu.receive(data, now)):
                     emit(frame_bytes, now)
             # MCU loop.
-            body = getattr(mcu.robot, 'physics', None)   # the MCU's robot is new after a reset
             tick_start = time.monotonic()
             ticked = mcu.tick(now)
-            tick_s = time.monotonic() - tick_start
-            if tick_s > LATE_TICK_S:
-                # the plant fell behind the wall clock: the host sees no telemetry meanwhile
-                late_ticks += 1
-                worst_tick_s = max(worst_tick_s, tick_s)
-                print(f'minirquad_sim: the plant took {tick_s * 1e3:.0f} ms at t {t:.2f} s '
-                      f'(mode {mcu.robot.mode.name})', file=sys.stderr, flush=True)
+            watch.tick(time.monotonic() - tick_start, mcu.robot, t)
             for kind, frame_bytes, _tel in ticked:
                 fault = emit(frame_bytes, now)
                 if kind == 'telemetry':
@@ -277,13 +267,6 @@ def run(args: argparse.Namespace) -> int:
                         recorder.telemetry(s, tm, tel, fault if link.master is not None
                                            else 'disconnected', now + wall_minus_mono)
                     pending_tel.clear()
-            if body and body.failed and body.failed != physics_said:
-                # the plant froze: say so where a person reads the simulator's log
-                physics_said = body.failed
-                print(f'minirquad_sim: physics stopped: {body.failed}', file=sys.stderr,
-                      flush=True)
-            if isinstance(body, BackgroundPhysics):
-                behind_said_s = report_lag(body.behind_now_s, behind_said_s, t)
             # Release due bytes, paced like a UART if asked.
             while queue and queue[0][0] <= now and now >= line_free_at:
                 _, wire = queue.popleft()
@@ -314,20 +297,54 @@ def run(args: argparse.Namespace) -> int:
             ground.close()
         body = getattr(mcu.robot, 'physics', None)
         if isinstance(body, BackgroundPhysics):
-            behind_s = body.behind_s
+            watch.behind_s = body.behind_s
             body.close()
     report = {'mcu': args.mcu, 'faults': dict(faults.counts), 'resets': mcu.resets,
-              'rx_crc_errors': mcu.rx_crc_errors}
-    if physics_said:
-        report['physics_stopped'] = physics_said
-    if late_ticks:
-        report.update(late_ticks=late_ticks, worst_tick_ms=round(worst_tick_s * 1e3, 1))
-    if behind_s:
-        report['physics_behind_s'] = round(behind_s, 3)
+              'rx_crc_errors': mcu.rx_crc_errors, **watch.report()}
     if isinstance(mcu, FirmwareMcu):     # how well the firmware kept up with the wall clock
         report.update(exchanges=mcu.exchanges, late_exchanges=mcu.late)
     print(json.dumps(report), flush=True)
     return 0
+
+
+class PlantWatch:
+    """What the simulator says about its plant keeping time, on stderr as it happens and in
+    its exit report: loop turns longer than LATE_TICK_S, the physics body stopping, and the
+    body running behind the wall clock (physics_worker.py)."""
+
+    def __init__(self) -> None:
+        self.late_ticks, self.worst_tick_s = 0, 0.0
+        self.stopped = ''           # why the physics stopped, once said
+        self.behind_said_s = 0.0
+        self.behind_s = 0.0         # the most the body ran behind (set at the end)
+
+    def tick(self, tick_s: float, robot, t: float) -> None:
+        """After one MCU loop turn of tick_s seconds at simulator time t."""
+        if tick_s > LATE_TICK_S:
+            # the plant fell behind the wall clock: the host sees no telemetry meanwhile
+            self.late_ticks += 1
+            self.worst_tick_s = max(self.worst_tick_s, tick_s)
+            print(f'minirquad_sim: the plant took {tick_s * 1e3:.0f} ms at t {t:.2f} s '
+                  f'(mode {robot.mode.name})', file=sys.stderr, flush=True)
+        body = getattr(robot, 'physics', None)   # the MCU's robot is new after a reset
+        if body and body.failed and body.failed != self.stopped:
+            # the plant froze: say so where a person reads the simulator's log
+            self.stopped = body.failed
+            print(f'minirquad_sim: physics stopped: {body.failed}', file=sys.stderr,
+                  flush=True)
+        if isinstance(body, BackgroundPhysics):
+            self.behind_said_s = report_lag(body.behind_now_s, self.behind_said_s, t)
+
+    def report(self) -> dict:
+        out: dict = {}
+        if self.stopped:
+            out['physics_stopped'] = self.stopped
+        if self.late_ticks:
+            out.update(late_ticks=self.late_ticks,
+                       worst_tick_ms=round(self.worst_tick_s * 1e3, 1))
+        if self.behind_s:
+            out['physics_behind_s'] = round(self.behind_s, 3)
+        return out
 
 
 def report_lag(lag: float, said: float, t: float) -> float:
