@@ -20,7 +20,9 @@ export FASTRTPS_DEFAULT_PROFILES_FILE := $(CURDIR)/ros2_ws/params/fastdds_localh
 export FASTDDS_DEFAULT_PROFILES_FILE := $(FASTRTPS_DEFAULT_PROFILES_FILE)
 export MPLBACKEND := Agg
 ENV := source tools/env.sh
-PYTEST_ARGS ?= -n 2
+# worksteal: an idle worker takes queued tests from the busy one, so the long end-to-end tests
+# do not leave one worker running alone at the end (first phase 5:34 -> 4:41 on this machine).
+PYTEST_ARGS ?= -n 2 --dist worksteal
 
 .PHONY: setup build demo teleop-sim test test-campaign test-cpus colcon-test lint bench lock clean firmware firmware-size
 
