@@ -58,6 +58,29 @@ def test_packed_parts_are_the_engines_wrenches():
         assert np.abs(got[:, j] - ref).max() <= 1e-12 * np.abs(ref).max()
 
 
+def test_ramped_wrenches_are_the_reference_and_a_nan_twist_stays_nan():
+    """The compiled ramped path the root searches use (eps and creep > 0; it skips the
+    stress of facets whose weight is 0) against evaluate.py's numpy reference. Both sum the
+    same per-facet products; the compiled one may fuse a multiply-add (one rounding instead
+    of two, <= 1 ulp per product), so with ~200 facets a part's sum differs by at most
+    ~200 ulp of its largest term: 1e-12 of the largest wrench bounds it. A twist that is not
+    finite gives NaN, never a wrench of zero from the skipped facets."""
+    from rftgls_core.multibody import evaluate
+    robot = from_preset(minirquad())
+    posed = robot.pose(BasePose(0.0, 0.04, math.radians(5.0)), np.radians([-40, 30, -40, 10]))
+    contact = Contact(posed, make_model('agarwal', SAND), np.array([0.5, -0.3, 0.5, 0.2]))
+    pk = contact.packed
+    xs = np.random.default_rng(4).normal(size=(40, 3)) * [0.05, 0.05, 0.5]
+    xs[:5] *= 1e-6                                      # slower than creep: a fraction
+    for eps, creep in ((1e-3, 1e-5), (3e-2, 1e-5), (1e-2, 0.0)):
+        got = contact.part_wrenches(xs, eps, creep=creep)
+        ref = evaluate._numpy(pk._bound, pk.pid, pk.n_parts, xs, contact._offsets, eps,
+                              creep) * pk.counts[None, :, None]
+        assert np.abs(got - ref).max() <= 1e-12 * np.abs(ref).max(), (eps, creep)
+    bad = np.array([[np.nan, 0.0, 0.0], [np.inf, 0.0, 0.0]])
+    assert np.isnan(contact.part_wrenches(bad, 1e-3, creep=1e-5)).any(axis=(1, 2)).all()
+
+
 @pytest.fixture(scope='module')
 def sh_burrow():
     """The paper's SH burrow, tied to a 400 g sled (without it the retracting stroke rolls

@@ -24,6 +24,8 @@ BuriedBody.planar_wrench to round-off (tests/core).
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..rft import kernels
@@ -144,6 +146,11 @@ if kernels.AVAILABLE:
                 lam = lam if moving else 0.0
                 if creep > 0.0 and s < creep:
                     lam *= s / creep
+                if lam == 0.0 and s < math.inf:
+                    # a trailing or resting facet would add (+-0) x its finite stress: nothing,
+                    # to the bit; the root searches' few twists skip its cubics (a twist that
+                    # is not finite still gets its NaN)
+                    continue
                 ax, ay, az = _stress(ux, 0.0, uz, nx, ny, nz, ndx, ndy, ndz, p, capped, mu,
                                      1.0)
                 fx = lam * wf * ax
