@@ -59,12 +59,12 @@ def test_packed_parts_are_the_engines_wrenches():
 
 
 def test_ramped_wrenches_are_the_reference_and_a_nan_twist_stays_nan():
-    """The compiled ramped path the root searches use (eps and creep > 0; it skips the
-    stress of facets whose weight is 0) against evaluate.py's numpy reference. Both sum the
-    same per-facet products; the compiled one may fuse a multiply-add (one rounding instead
-    of two, <= 1 ulp per product), so with ~200 facets a part's sum differs by at most
-    ~200 ulp of its largest term: 1e-12 of the largest wrench bounds it. A twist that is not
-    finite gives NaN, never a wrench of zero from the skipped facets."""
+    """The compiled ramped path the root searches use (eps and creep > 0; SIMD lanes over
+    the facets) against evaluate.py's numpy reference. Both sum the same per-facet products;
+    the compiled one may fuse a multiply-add (one rounding instead of two, <= 1 ulp per
+    product), so with ~200 facets a part's sum differs by at most ~200 ulp of its largest
+    term: 1e-12 of the largest wrench bounds it. A twist that is not finite gives NaN, never
+    a wrench of zero from facets whose weight is 0."""
     from rftgls_core.multibody import evaluate
     robot = from_preset(minirquad())
     posed = robot.pose(BasePose(0.0, 0.04, math.radians(5.0)), np.radians([-40, 30, -40, 10]))

@@ -33,17 +33,17 @@ if kernels.AVAILABLE:
     from .evaluate import _block
 
     @numba.njit(cache=True, nogil=True)
-    def _residuals(xs, ts, a, b, c, offsets, pid, r, n, nd, poly, w, mu, eps, creep, scale,
-                   per, res):   # pragma: no cover - jitted
-        """R at the scaled twists xs (K <= BLOCK, 3) into res (K, 3); each part's wrench (N)
-        into per (K, P, 3)."""
+    def _residuals(xs, ts, a, b, c, fo, pid, cols, mu, eps, creep, scale, fxs, fzs, per,
+                   res):   # pragma: no cover - jitted
+        """R at the scaled twists xs (K, 3) into res (K, 3); each part's wrench (N) into per
+        (K, P, 3). fo, pid, cols: evaluate._block's; fxs, fzs: its scratch."""
         k_n = xs.shape[0]
         tw = np.empty((3, k_n))
         for k in range(k_n):
             for i in range(3):
                 tw[i, k] = xs[k, i] * ts[i]
-        _block(tw, 0, k_n, offsets, pid, r, n, nd, poly, w, mu, eps, creep, REST_TOL,
-               LEADING_TOL, per)
+        _block(tw, 0, k_n, fo, pid, cols, mu, eps, creep, REST_TOL, LEADING_TOL, fxs, fzs,
+               per)
         for k in range(k_n):
             wsum = np.zeros(3)
             for j in range(per.shape[1]):
@@ -71,16 +71,18 @@ if kernels.AVAILABLE:
                 out[i - first, m] = x[m] + step[m] + (fd if i == m + 1 else 0.0)
 
     @numba.njit(cache=True, nogil=True)
-    def _lm(x0, ts, a, b, c, offsets, pid, r, n, nd, poly, w, mu, creep, scale, eps_sched, tol,
-            bound, max_iter):   # pragma: no cover - jitted
+    def _lm(x0, ts, a, b, c, fo, pid, cols, mu, creep, scale, eps_sched, tol, bound,
+            max_iter):   # pragma: no cover - jitted
         """roots.closure_root's stages; returns (x, |R| at the last eps, calls, beyond).
 
         A point's three forward-difference probes are evaluated only once the point is kept
         and is not yet a root: a trial step the damping rejects, or one that lands within
         the stage's tolerance, costs one RFT twist instead of four. Each twist owns its
-        accumulators in evaluate._block, so R at a point is the same bits probed alone or
-        in a batch, and the iterates are those of the four-probe loop."""
-        n_parts = offsets.shape[0]
+        sums in evaluate._block, so R at a point is the same bits probed alone or in a
+        batch, and the iterates are those of the four-probe loop."""
+        n_parts = scale.shape[0]
+        fxs = np.empty(cols.shape[1])            # evaluate._block's scratch
+        fzs = np.empty(cols.shape[1])
         x = x0.copy()
         no_step = np.zeros(3)
         base = np.empty((1, 3))                  # the current point, R there in res
@@ -98,8 +100,8 @@ if kernels.AVAILABLE:
             stage_tol = tol if s == eps_sched.shape[0] - 1 else max(tol, 1e-2 * e)
             fd = min(1e-7, 1e-3 * e) * max(1.0, _norm3(x))
             _probes(x, no_step, fd, 0, 1, base)
-            _residuals(base, ts, a, b, c, offsets, pid, r, n, nd, poly, w, mu, e, creep, scale,
-                       per1, res)
+            _residuals(base, ts, a, b, c, fo, pid, cols, mu, e, creep, scale, fxs, fzs, per1,
+                       res)
             calls += 1
             nf = _norm3(res[0])
             lam = 1e-6
@@ -107,8 +109,8 @@ if kernels.AVAILABLE:
                 if nf <= stage_tol or _norm3(x) > bound:
                     break
                 _probes(x, no_step, fd, 1, 4, diff)
-                _residuals(diff, ts, a, b, c, offsets, pid, r, n, nd, poly, w, mu, e, creep,
-                           scale, per3, res_d)
+                _residuals(diff, ts, a, b, c, fo, pid, cols, mu, e, creep, scale, fxs,
+                           fzs, per3, res_d)
                 calls += 1
                 jac = np.empty((3, 3))
                 for i in range(3):
@@ -132,8 +134,8 @@ if kernels.AVAILABLE:
                         ok = np.all(np.isfinite(step))
                     if ok:
                         _probes(x, step, fd, 0, 1, trial_pt)
-                        _residuals(trial_pt, ts, a, b, c, offsets, pid, r, n, nd, poly, w, mu,
-                                   e, creep, scale, per1, res_t)
+                        _residuals(trial_pt, ts, a, b, c, fo, pid, cols, mu, e, creep,
+                                   scale, fxs, fzs, per1, res_t)
                         calls += 1
                         nt = _norm3(res_t[0])
                         if nt < nf:
@@ -164,27 +166,28 @@ def affine_root(contact: Contact, x0: np.ndarray, ts: np.ndarray, a: np.ndarray,
     each part's wrench there, flattened (zero outside mask)."""
     assert contact.packed is not None
     pk = contact.packed
-    k = pk.body.bound()['fused']
     off = contact._offsets if rates else np.zeros_like(contact._offsets)
     keep = np.ones(pk.n_parts) if mask is None else np.asarray(mask, dtype=float)
     ts, a, b, c = (np.ascontiguousarray(v, dtype=float) for v in (ts, a, b, c))
-    if k is None or k['dtype'] is not np.float64 or not kernels.AVAILABLE:
+    if pk.columns is None:
         def f(x: np.ndarray, e: float = 0.0) -> np.ndarray:
             xi = x * ts
             per = contact.part_wrenches(xi, e, rates, creep) * keep[None, :, None]
             resid = per.sum(axis=1) @ a.T + xi @ b.T + c
             return np.column_stack([resid, per.reshape(len(x), -1)])
         return closure_root(f, x0, tol, eps, accept, bound)
+    k = pk.body.bound()['fused']
     scale = k['xi'] * pk.counts * keep
-    args = (ts, a, b, c, np.ascontiguousarray(off, dtype=float), pk.pid, k['r'], k['n'],
-            k['nd'], k['poly'], k['w'], float(k['mu']))
+    args = (ts, a, b, c, pk.facet_offsets(off), pk.pid, pk.columns, float(k['mu']))
     x, nf, calls, beyond = _lm(np.asarray(x0, dtype=float), *args, float(creep), scale,
                                np.asarray(eps, dtype=float), tol, bound, MAX_ITER)
     per = np.empty((2, pk.n_parts, 3))
     res = np.empty((2, 3))
     pts = np.vstack([x, x])
-    _residuals(pts[:1], *args, float(eps[-1]), float(creep), scale, per[:1], res[:1])
-    _residuals(pts[1:], *args, 0.0, 0.0, scale, per[1:], res[1:])
+    scratch = np.empty(pk.columns.shape[1]), np.empty(pk.columns.shape[1])
+    _residuals(pts[:1], *args, float(eps[-1]), float(creep), scale, *scratch, per[:1],
+               res[:1])
+    _residuals(pts[1:], *args, 0.0, 0.0, scale, *scratch, per[1:], res[1:])
     r_eps = float(np.linalg.norm(res[0]))
     r_exact = float(np.linalg.norm(res[1]))
     return Root(x, r_eps, r_exact, float(np.linalg.norm(res[1] - res[0])), float(eps[-1]),

@@ -24,16 +24,13 @@ BuriedBody.planar_wrench to round-off (tests/core).
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..rft import kernels
 from ..rft.engine import LEADING_TOL, BuriedBody
-from ..rft.kernel_pairs import _cap, _coefficients, _cubics, _jit
+from ..rft.kernel_pairs import _cap, _cubics, _jit
 
 REST_TOL = kernels.REST_TOL
-BLOCK = kernels.BLOCK
 
 
 @_jit(inline=True)
@@ -95,80 +92,130 @@ def _part_stress(stress, mask: np.ndarray, ux: np.ndarray, uz: np.ndarray):
     return sx[:, mask], sy[:, mask], sz[:, mask]
 
 
+# Rows of PackedParts.columns: one column per buried facet, so the compiled pass over the
+# facets reads each quantity contiguously (and LLVM runs it in SIMD lanes).
+RX, RZ, NX, NY, NZ, NDX, NDY, NDZ, W, POLY = range(10)    # POLY: the 30 cubic coefficients
+
+
+def facet_columns(fused: dict) -> np.ndarray:
+    """(39, F) rows RX .. POLY + 29 from the fused kernel's per-facet arrays (rft/engine.py)."""
+    r, n, nd = fused['r'], fused['n'], fused['nd']
+    return np.ascontiguousarray(np.vstack([r[:, 0], r[:, 2], n.T, nd.T, fused['w'],
+                                           fused['poly'].T]))
+
+
 if kernels.AVAILABLE:
     import numba
 
+    @_jit(inline=True)
+    def _row_coefficients(cols, f):   # pragma: no cover - jitted
+        """Facet f's 30 cubic coefficients (kernel_pairs._coefficients' order) from columns."""
+        return (cols[POLY, f], cols[POLY + 1, f], cols[POLY + 2, f], cols[POLY + 3, f],
+                cols[POLY + 4, f], cols[POLY + 5, f], cols[POLY + 6, f], cols[POLY + 7, f],
+                cols[POLY + 8, f], cols[POLY + 9, f], cols[POLY + 10, f], cols[POLY + 11, f],
+                cols[POLY + 12, f], cols[POLY + 13, f], cols[POLY + 14, f],
+                cols[POLY + 15, f], cols[POLY + 16, f], cols[POLY + 17, f],
+                cols[POLY + 18, f], cols[POLY + 19, f], cols[POLY + 20, f],
+                cols[POLY + 21, f], cols[POLY + 22, f], cols[POLY + 23, f],
+                cols[POLY + 24, f], cols[POLY + 25, f], cols[POLY + 26, f],
+                cols[POLY + 27, f], cols[POLY + 28, f], cols[POLY + 29, f])
+
+    @_jit(inline=True)
+    def _velocity(f, t0, t1, t2, fo, cols):   # pragma: no cover - jitted
+        """Facet f's in-plane velocity (vx, vz) and its squared speed for the base twist
+        (t0, t1, t2) plus its part's offset."""
+        twy = t2 + fo[2, f]
+        vx = t0 + fo[0, f] + twy * cols[RZ, f]
+        vz = t1 + fo[1, f] - twy * cols[RX, f]
+        return vx, vz, vx * vx + vz * vz
+
     @numba.njit(cache=True, fastmath={'contract'}, nogil=True, error_model='numpy')
-    def _block(tw, k0, k1, offsets, pid, r, n, nd, poly, w, mu, eps, creep, rest_tol,
-               lead_tol, out):   # pragma: no cover - jitted
-        """Twists k0..k1 of tw (3, K): facets outside, twists inside (the SIMD lanes, as
-        rft/kernels.py lays its loops out); each twist owns its accumulators."""
-        nb = k1 - k0
-        n_parts = offsets.shape[0]
+    def _ramped_forces(t0, t1, t2, fo, cols, mu, eps, creep, capped, fxs,
+                       fzs):   # pragma: no cover - jitted
+        """Each facet's (Fx, Fz) for the twist (t0, t1, t2) on the ramped closure (module
+        doc) into fxs, fzs: one pass whose SIMD lanes are the facets. (A loop that also
+        held the exact rule, chosen per facet by eps, stayed scalar: 2x slower.)"""
+        for f in range(cols.shape[1]):
+            vx, vz, s2 = _velocity(f, t0, t1, t2, fo, cols)
+            s = np.sqrt(s2)
+            nx, ny, nz = cols[NX, f], cols[NY, f], cols[NZ, f]
+            moving = s > 0.0
+            inv = 1.0 / s if moving else 0.0
+            ux = vx * inv
+            uz = vz * inv
+            lead = ux * nx + uz * nz
+            lam = min(1.0, max(0.0, 1.0 + lead / eps))
+            lam = lam if moving else 0.0
+            if creep > 0.0 and s < creep:
+                lam *= s / creep
+            ax, ay, az = _stress(ux, 0.0, uz, nx, ny, nz, cols[NDX, f], cols[NDY, f],
+                                 cols[NDZ, f], _row_coefficients(cols, f), capped, mu, 1.0)
+            fxs[f] = lam * cols[W, f] * ax
+            fzs[f] = lam * cols[W, f] * az
+
+    @numba.njit(cache=True, fastmath={'contract'}, nogil=True, error_model='numpy')
+    def _exact_forces(t0, t1, t2, fo, pid, cols, mu, lim, lead_tol, capped, fxs,
+                      fzs):   # pragma: no cover - jitted
+        """Each facet's (Fx, Fz) for the twist (t0, t1, t2) by RFT's own rule into fxs,
+        fzs: leading with n . v_hat >= -lead_tol, at rest below lim[its part] (m/s)."""
+        for f in range(cols.shape[1]):
+            vx, vz, s2 = _velocity(f, t0, t1, t2, fo, cols)
+            s = np.sqrt(s2)
+            nx, ny, nz = cols[NX, f], cols[NY, f], cols[NZ, f]
+            moving = s > lim[pid[f]]
+            inv = 1.0 / s if moving else 0.0
+            ux = vx * inv
+            uz = vz * inv
+            lead = ux * nx + uz * nz
+            lam = 1.0 if lead >= -lead_tol else 0.0
+            lam = lam if moving else 0.0
+            ax, ay, az = _stress(ux, 0.0, uz, nx, ny, nz, cols[NDX, f], cols[NDY, f],
+                                 cols[NDZ, f], _row_coefficients(cols, f), capped, mu, 1.0)
+            fxs[f] = lam * cols[W, f] * ax
+            fzs[f] = lam * cols[W, f] * az
+
+    @numba.njit(cache=True, fastmath={'contract'}, nogil=True, error_model='numpy')
+    def _block(tw, k0, k1, fo, pid, cols, mu, eps, creep, rest_tol, lead_tol, fxs, fzs,
+               out):   # pragma: no cover - jitted
+        """Twists k0..k1 of tw (3, K) into out[k0:k1] (K, P, 3). fo (3, F): each facet's
+        part's twist offset; fxs, fzs (F,): scratch. The root searches ask for one to three
+        twists at a time, so each twist is one pass over the facets (the SIMD lanes: facets)
+        that puts each facet's force in fxs, fzs, then one sum over the facets in their order
+        into their parts; the products and the order of every sum are those of a facet-by-
+        facet loop, so the result does not depend on the lanes."""
+        n_f = cols.shape[1]
+        n_parts = out.shape[1]
         capped = mu < np.inf
-        acc = np.zeros((n_parts, 3, nb))
-        smax = np.zeros((n_parts, nb))
-        if eps <= 0.0:
-            for f in range(r.shape[0]):
-                j = pid[f]
-                rx, rz = r[f, 0], r[f, 2]
-                ox, oz, ow = offsets[j, 0], offsets[j, 1], offsets[j, 2]
-                for i in range(nb):
-                    twy = tw[2, k0 + i] + ow
-                    vx = tw[0, k0 + i] + ox + twy * rz
-                    vz = tw[1, k0 + i] + oz - twy * rx
-                    smax[j, i] = max(smax[j, i], vx * vx + vz * vz)
+        lim = np.zeros(n_parts)
+        for k in range(k0, k1):
+            t0, t1, t2 = tw[0, k], tw[1, k], tw[2, k]
+            if eps <= 0.0:
+                # the exact path: a facet is at rest below rest_tol x its part's top speed
+                lim[:] = 0.0
+                for f in range(n_f):
+                    lim[pid[f]] = max(lim[pid[f]], _velocity(f, t0, t1, t2, fo, cols)[2])
+                for j in range(n_parts):
+                    lim[j] = rest_tol * max(np.sqrt(lim[j]), 1e-300)
+            if eps > 0.0:
+                _ramped_forces(t0, t1, t2, fo, cols, mu, eps, creep, capped, fxs, fzs)
+            else:
+                _exact_forces(t0, t1, t2, fo, pid, cols, mu, lim, lead_tol, capped, fxs, fzs)
             for j in range(n_parts):
-                for i in range(nb):
-                    smax[j, i] = rest_tol * max(np.sqrt(smax[j, i]), 1e-300)
-        for f in range(r.shape[0]):
-            j = pid[f]
-            rx, rz = r[f, 0], r[f, 2]
-            nx, ny, nz = n[f, 0], n[f, 1], n[f, 2]
-            ndx, ndy, ndz = nd[f, 0], nd[f, 1], nd[f, 2]
-            p = _coefficients(poly, f)
-            wf = w[f]
-            ox, oz, ow = offsets[j, 0], offsets[j, 1], offsets[j, 2]
-            for i in range(nb):
-                twy = tw[2, k0 + i] + ow
-                vx = tw[0, k0 + i] + ox + twy * rz
-                vz = tw[1, k0 + i] + oz - twy * rx
-                s = np.sqrt(vx * vx + vz * vz)
-                moving = s > 0.0 if eps > 0.0 else s > smax[j, i]
-                inv = 1.0 / s if moving else 0.0
-                ux = vx * inv
-                uz = vz * inv
-                lead = ux * nx + uz * nz
-                if eps > 0.0:
-                    lam = min(1.0, max(0.0, 1.0 + lead / eps))
-                else:
-                    lam = 1.0 if lead >= -lead_tol else 0.0
-                lam = lam if moving else 0.0
-                if creep > 0.0 and s < creep:
-                    lam *= s / creep
-                if lam == 0.0 and s < math.inf:
-                    # a trailing or resting facet would add (+-0) x its finite stress: nothing,
-                    # to the bit; the root searches' few twists skip its cubics (a twist that
-                    # is not finite still gets its NaN)
-                    continue
-                ax, ay, az = _stress(ux, 0.0, uz, nx, ny, nz, ndx, ndy, ndz, p, capped, mu,
-                                     1.0)
-                fx = lam * wf * ax
-                fz = lam * wf * az
-                acc[j, 0, i] += fx
-                acc[j, 1, i] += fz
-                acc[j, 2, i] += rz * fx - rx * fz
-        for j in range(n_parts):
-            for c in range(3):
-                for i in range(nb):
-                    out[k0 + i, j, c] = acc[j, c, i]
+                out[k, j, 0] = 0.0
+                out[k, j, 1] = 0.0
+                out[k, j, 2] = 0.0
+            for f in range(n_f):
+                j = pid[f]
+                out[k, j, 0] += fxs[f]
+                out[k, j, 1] += fzs[f]
+                out[k, j, 2] += cols[RZ, f] * fxs[f] - cols[RX, f] * fzs[f]
 
     @numba.njit(cache=True, nogil=True)
-    def _kernel(tw, offsets, pid, r, n, nd, poly, w, mu, eps, creep, rest_tol, lead_tol,
+    def _kernel(tw, fo, pid, cols, mu, eps, creep, rest_tol, lead_tol,
                 out):   # pragma: no cover - jitted
-        for b in range((tw.shape[1] + BLOCK - 1) // BLOCK):
-            _block(tw, b * BLOCK, min(tw.shape[1], (b + 1) * BLOCK), offsets, pid, r, n, nd,
-                   poly, w, mu, eps, creep, rest_tol, lead_tol, out)
+        n_f = cols.shape[1]
+        _block(tw, 0, tw.shape[1], fo, pid, cols, mu, eps, creep, rest_tol, lead_tol,
+               np.empty(n_f), np.empty(n_f), out)
 
 
 class PackedParts:
@@ -185,6 +232,14 @@ class PackedParts:
         self.pid = pid
         self.body = BuriedBody(Facets.concatenate(buried), model, ref=ref, backend=backend)
         self._bound = self.body.bound()
+        k = self._bound['fused']
+        # the compiled path's facet columns (None: the numpy reference evaluates)
+        self.columns = (facet_columns(k) if kernels.AVAILABLE and k is not None
+                        and k['dtype'] is np.float64 else None)
+
+    def facet_offsets(self, offsets: np.ndarray) -> np.ndarray:
+        """(3, F) each buried facet's part twist offset from per-part offsets (P, 3)."""
+        return np.ascontiguousarray(np.asarray(offsets, dtype=float)[self.pid].T)
 
     def wrenches(self, xs: np.ndarray, offsets: np.ndarray, eps: float = 0.0,
                  creep: float = 0.0) -> np.ndarray:
@@ -193,13 +248,13 @@ class PackedParts:
         stress of facets slower than creep (module doc)."""
         xs = np.ascontiguousarray(np.atleast_2d(xs), dtype=float)
         offsets = np.ascontiguousarray(offsets, dtype=float)
-        k = self._bound['fused']
-        if k is None or k['dtype'] is not np.float64:
+        if self.columns is None:
             out = _numpy(self._bound, self.pid, self.n_parts, xs, offsets, eps, creep)
             return out * self.counts[None, :, None]
+        k = self._bound['fused']
         out = np.zeros((len(xs), self.n_parts, 3))
         if len(self.pid):
-            _kernel(np.ascontiguousarray(xs.T), offsets, self.pid, k['r'], k['n'], k['nd'],
-                    k['poly'], k['w'], float(k['mu']), float(eps), float(creep), REST_TOL,
+            _kernel(np.ascontiguousarray(xs.T), self.facet_offsets(offsets), self.pid,
+                    self.columns, float(k['mu']), float(eps), float(creep), REST_TOL,
                     LEADING_TOL, out)
         return out * (k['xi'] * self.counts)[None, :, None]
