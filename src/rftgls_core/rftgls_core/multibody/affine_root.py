@@ -72,8 +72,10 @@ if kernels.AVAILABLE:
 
     @numba.njit(cache=True, nogil=True)
     def _lm(x0, ts, a, b, c, fo, pid, cols, mu, creep, scale, eps_sched, tol, bound,
-            max_iter):   # pragma: no cover - jitted
-        """roots.closure_root's stages; returns (x, |R| at the last eps, calls, beyond).
+            max_iter, per_out, res_out):   # pragma: no cover - jitted
+        """roots.closure_root's stages; returns (x, |R| at the last eps, calls, beyond) and
+        puts R and the parts' wrenches at x into res_out[0], per_out[0] (the last eps and
+        creep) and res_out[1], per_out[1] (exact RFT: eps = creep = 0).
 
         A point's three forward-difference probes are evaluated only once the point is kept
         and is not yet a root: a trial step the damping rejects, or one that lands within
@@ -152,8 +154,14 @@ if kernels.AVAILABLE:
                 if not improved:
                     break
             if _norm3(x) > bound:
-                return x, nf, calls, True
-        return x, nf, calls, False
+                break
+        pt = np.empty((1, 3))
+        pt[0] = x
+        _residuals(pt, ts, a, b, c, fo, pid, cols, mu, eps_sched[-1], creep, scale, fxs, fzs,
+                   per_out[0:1], res_out[0:1])
+        _residuals(pt, ts, a, b, c, fo, pid, cols, mu, 0.0, 0.0, scale, fxs, fzs,
+                   per_out[1:2], res_out[1:2])
+        return x, nf, calls, _norm3(x) > bound
 
 
 def affine_root(contact: Contact, x0: np.ndarray, ts: np.ndarray, a: np.ndarray,
@@ -179,15 +187,10 @@ def affine_root(contact: Contact, x0: np.ndarray, ts: np.ndarray, a: np.ndarray,
     k = pk.body.bound()['fused']
     scale = k['xi'] * pk.counts * keep
     args = (ts, a, b, c, pk.facet_offsets(off), pk.pid, pk.columns, float(k['mu']))
-    x, nf, calls, beyond = _lm(np.asarray(x0, dtype=float), *args, float(creep), scale,
-                               np.asarray(eps, dtype=float), tol, bound, MAX_ITER)
     per = np.empty((2, pk.n_parts, 3))
     res = np.empty((2, 3))
-    pts = np.vstack([x, x])
-    scratch = np.empty(pk.columns.shape[1]), np.empty(pk.columns.shape[1])
-    _residuals(pts[:1], *args, float(eps[-1]), float(creep), scale, *scratch, per[:1],
-               res[:1])
-    _residuals(pts[1:], *args, 0.0, 0.0, scale, *scratch, per[1:], res[1:])
+    x, nf, calls, beyond = _lm(np.asarray(x0, dtype=float), *args, float(creep), scale,
+                               np.asarray(eps, dtype=float), tol, bound, MAX_ITER, per, res)
     r_eps = float(np.linalg.norm(res[0]))
     r_exact = float(np.linalg.norm(res[1]))
     return Root(x, r_eps, r_exact, float(np.linalg.norm(res[1] - res[0])), float(eps[-1]),

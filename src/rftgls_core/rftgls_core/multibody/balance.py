@@ -233,6 +233,11 @@ def balance(posed: PosedMultibody, model: StressModel, servo: ServoSpec, command
             break
         g = excess(servo, command, frac, bal.torques)
         ok = g <= 0.0
+        if ok.all() and np.isnan(hi).all():
+            # every leg within its line and none refused so far: nothing to search (most
+            # steps; the bookkeeping below would end the loop with the same fractions)
+            lo = frac
+            break
         # Illinois: an end kept twice in a row has its excess halved, so the next guess moves
         # it. The torque flattens as the rate grows (concave in the rate), so plain regula
         # falsi keeps the low end for good and creeps down from above: in the walk it ran out

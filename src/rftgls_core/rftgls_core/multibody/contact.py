@@ -62,7 +62,7 @@ class Contact:
         self.rates = np.asarray(rates, dtype=float)
         self.parts: list[Part] = []
         facets = []
-        if posed.base is not None and np.any(posed.base.centroids[:, 2] < 0.0):
+        if posed.base_low < 0.0:
             self.parts.append(Part(None, 0.0, 1, ()))
             facets.append(posed.base)
         done: set[int] = set()
@@ -75,7 +75,7 @@ class Contact:
                     and posed.q[twin] == posed.q[i] and self.rates[twin] == self.rates[i])
             legs: tuple[int, ...] = (i, twin) if pair and twin is not None else (i,)
             done.update(legs)
-            if not np.any(f.centroids[:, 2] < 0.0):
+            if not posed.leg_low[i] < 0.0:
                 continue
             self.parts.append(Part(posed.jac[i], float(self.rates[i]), len(legs), legs))
             facets.append(f)

@@ -227,10 +227,11 @@ class PackedParts:
         from ..geometry.mesh import Facets
         self.n_parts = len(facets)
         self.counts = np.asarray(counts, dtype=float)
-        buried = [f.subset(f.centroids[:, 2] < 0.0) for f in facets]
-        pid = np.concatenate([np.full(len(b), j, dtype=np.int64) for j, b in enumerate(buried)])
-        self.pid = pid
-        self.body = BuriedBody(Facets.concatenate(buried), model, ref=ref, backend=backend)
+        every = Facets.concatenate(facets)
+        buried = every.centroids[:, 2] < 0.0
+        self.pid = np.repeat(np.arange(len(facets), dtype=np.int64),
+                             [len(f) for f in facets])[buried]
+        self.body = BuriedBody(every.subset(buried), model, ref=ref, backend=backend)
         self._bound = self.body.bound()
         k = self._bound['fused']
         # the compiled path's facet columns (None: the numpy reference evaluates)

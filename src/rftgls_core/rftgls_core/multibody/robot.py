@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -54,20 +55,27 @@ class Leg:
     twin: int | None = None
     mesh: TriMesh | None = None        # joint frame, for drawings and the body check
 
-    @property
+    @cached_property
     def axis_base(self) -> np.ndarray:
         return self.frame @ self.axis
 
-    @property
+    @cached_property
     def sign(self) -> float:
         """+1 when the axis points along +y_B, -1 along -y_B."""
         return float(np.sign(self.axis_base[1]))
 
-    def rotation(self, q: float) -> np.ndarray:
-        """Rotation of the leg in B at joint value q (rad)."""
+    @cached_property
+    def _cross(self) -> tuple[np.ndarray, np.ndarray]:
+        """The axis' cross-product matrix K and K @ K (Rodrigues' formula), computed once:
+        the simulation poses every leg at every step."""
         a = self.axis
         k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-        r = np.eye(3) + math.sin(q) * k + (1.0 - math.cos(q)) * (k @ k)
+        return k, k @ k
+
+    def rotation(self, q: float) -> np.ndarray:
+        """Rotation of the leg in B at joint value q (rad)."""
+        k, kk = self._cross
+        r = np.eye(3) + math.sin(q) * k + (1.0 - math.cos(q)) * kk
         return self.frame @ r
 
 
@@ -189,6 +197,19 @@ class PosedMultibody:
     com: np.ndarray
     surface_min_z: float
 
+    @cached_property
+    def leg_low(self) -> np.ndarray:
+        """Each leg's lowest facet centroid, m (world; inf for a leg without facets): whether
+        it touches the sand, asked several times per step."""
+        return np.array([f.centroids[:, 2].min() if len(f) else math.inf for f in self.legs])
+
+    @cached_property
+    def base_low(self) -> float:
+        """The base's lowest facet centroid, m (world; inf without a base mesh)."""
+        if self.base is None or not len(self.base):
+            return math.inf
+        return float(self.base.centroids[:, 2].min())
+
     def buried_counts(self) -> tuple[int, list[int]]:
         """Buried facets of the base and of each leg."""
         b = 0 if self.base is None else int(np.count_nonzero(self.base.centroids[:, 2] < 0.0))
@@ -196,10 +217,7 @@ class PosedMultibody:
 
     def lowest_z(self) -> float:
         """Lowest facet centroid of the whole robot, m (world)."""
-        zs = [f.centroids[:, 2].min() for f in self.legs if len(f)]
-        if self.base is not None and len(self.base):
-            zs.append(self.base.centroids[:, 2].min())
-        return float(min(zs)) if zs else math.inf
+        return float(min(self.leg_low.min(initial=math.inf), self.base_low))
 
 
 # ------------------------------------------------------------------------------ the presets

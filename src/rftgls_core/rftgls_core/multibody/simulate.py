@@ -244,11 +244,11 @@ class Simulator:
     def _step_length(self, dt_max: float, posed, rates: np.ndarray, xi: np.ndarray) -> float:
         opt = self.options
         dt = dt_max
-        for i, facets in enumerate(posed.legs):
+        for i, low in enumerate(posed.leg_low):
             w = abs(rates[i])
             if w == 0.0:
                 continue
-            if facets.centroids[:, 2].min() < self._reach[i] * w * dt_max + 1e-3:
+            if low < self._reach[i] * w * dt_max + 1e-3:
                 dt = min(dt, opt.joint_step / w)
         v = max(math.hypot(xi[0], xi[1]), abs(xi[2]) * self.robot.char_length)
         if v > 0.0:
