@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry.mesh import Facets
 from ..rft import kernels
 from ..rft.engine import LEADING_TOL, BuriedBody
 from ..rft.kernel_pairs import _cap, _cubics, _jit
@@ -98,10 +99,16 @@ RX, RZ, NX, NY, NZ, NDX, NDY, NDZ, W, POLY = range(10)    # POLY: the 30 cubic c
 
 
 def facet_columns(fused: dict) -> np.ndarray:
-    """(39, F) rows RX .. POLY + 29 from the fused kernel's per-facet arrays (rft/engine.py)."""
-    r, n, nd = fused['r'], fused['n'], fused['nd']
-    return np.ascontiguousarray(np.vstack([r[:, 0], r[:, 2], n.T, nd.T, fused['w'],
-                                           fused['poly'].T]))
+    """(POLY + 30, F): rows RX .. POLY + 29 from the fused kernel's per-facet arrays
+    (rft/engine.py)."""
+    r = fused['r']
+    cols = np.empty((POLY + 30, len(r)))
+    cols[RX], cols[RZ] = r[:, 0], r[:, 2]
+    cols[NX:NZ + 1] = fused['n'].T
+    cols[NDX:NDZ + 1] = fused['nd'].T
+    cols[W] = fused['w']
+    cols[POLY:] = fused['poly'].T
+    return cols
 
 
 if kernels.AVAILABLE:
@@ -224,7 +231,6 @@ class PackedParts:
 
     def __init__(self, facets: list, counts: list[int], model, ref: np.ndarray,
                  backend: str = 'auto'):
-        from ..geometry.mesh import Facets
         self.n_parts = len(facets)
         self.counts = np.asarray(counts, dtype=float)
         every = Facets.concatenate(facets)
