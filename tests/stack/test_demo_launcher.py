@@ -39,6 +39,8 @@ def test_demo_one_cycle_exits_and_writes_report(tmp_path):
     assert proc.returncode == 0, text
     m = re.search(r'ROS_DOMAIN_ID=(\d+), DDS discovery LOCALHOST', text)
     assert m and 1 <= int(m.group(1)) <= 100, text
+    # the solvers compiled (or loaded) before any node needs them (rftgls_ros/warm_up.py)
+    assert text.index('solvers ready') < text.index('[behavior_node]'), text
     # The default burrows are planned: the cheapest gait of the 400 g gait map whose lower
     # bound covers 1.96 N (docs/design/burrow-planner.md: (-40, -20) -> (-40, -20), 2.74 N).
     assert 'decision (planned pose): g-40/-20>-40/-20' in text

@@ -50,8 +50,10 @@ from rftgls_core.quantities import MASS_KG, RUN_TIMEOUT_S, bounded_int
 from rftgls_node_base.node_main import program_args, stop_on_signals
 
 from .behavior.report import CycleRecord, read_csv, write_report
+from .warm_up import warm_up
 
 _stop = threading.Event()
+CAPACITY_PARAMS = Path('ros2_ws/params/capacity_node.yaml')   # the shipped capacity_node file
 
 
 def _reserve_domain() -> tuple[int, socket.socket]:
@@ -160,9 +162,8 @@ def run_set(args, sled: float, env: dict, out: Path, params: Path | None) -> Pat
         stack.start('bridge_node', [*_ros2_run('bridge_node'),
                                     '--ros-args', '-p', f'port:={port}'])
         cap = [*_ros2_run('capacity_node'), '--ros-args']
-        cap_params = Path('ros2_ws/params/capacity_node.yaml')
-        if cap_params.exists():
-            cap += ['--params-file', str(cap_params)]
+        if CAPACITY_PARAMS.exists():
+            cap += ['--params-file', str(CAPACITY_PARAMS)]
         cap += ['-p', 'phi_topic:=winch/phi']   # relative: behavior_node's winch/phi
         stack.start('capacity_node', cap)
         # /tf and /tf_static for RViz/Foxglove (odom -> base_link -> legs, imu_link, winch_link)
@@ -235,6 +236,11 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.monotonic()
     print(f'behavior_demo: ROS_DOMAIN_ID={env["ROS_DOMAIN_ID"]}, DDS discovery '
           f'{env["ROS_AUTOMATIC_DISCOVERY_RANGE"]}, logs in {out / "logs"}', flush=True)
+    # The nodes' numba kernels, compiled before they are needed mid-tug (warm_up.py).
+    print('behavior_demo: preparing the solvers (compiled on first use: slow only on a '
+          "machine's first run)", flush=True)
+    took = warm_up(CAPACITY_PARAMS if CAPACITY_PARAMS.exists() else None)
+    print(f'behavior_demo: solvers ready ({took:.1f} s)', flush=True)
     records = []
     missing = []
     try:
