@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import yaml
+
 from rftgls_core.multibody.simulate import Simulator
 from rftgls_ros import warm_up as wu
 
@@ -29,7 +31,7 @@ class _Combined:
 def test_the_shipped_parameters_are_the_nodes(tmp_path):
     p = wu.capacity_parameters(PARAMS)
     assert set(p) == set(wu.PARAMETERS)
-    shipped = wu.yaml.safe_load(PARAMS.read_text())['/**/capacity_node']['ros__parameters']
+    shipped = yaml.safe_load(PARAMS.read_text())['/**/capacity_node']['ros__parameters']
     assert all(p[k] == v for k, v in shipped.items())
     assert wu.capacity_parameters(None) == {n: s.default for n, s in wu.PARAMETERS.items()}
     # another node's section is not capacity_node's

@@ -61,6 +61,15 @@ def node_class(module):
     return classes[0] if classes else None
 
 
+def file_sections(params: Path, node_name: str) -> list[dict[str, Any]]:
+    """The ``ros__parameters`` sections of a ROS 2 parameter file that apply to node_name
+    (``/**``, the bare name, ``/name``, ``/**/name``), in that order (later wins)."""
+    doc = load_yaml(params, 'params', 'parameter file') or {}
+    return [doc[k]['ros__parameters'] for k in ('/**', node_name, '/' + node_name,
+                                                '/**/' + node_name)
+            if k in doc and 'ros__parameters' in (doc[k] or {})]
+
+
 def parameter_values(p: Process, node_name: str) -> tuple[dict[str, Any], list[str]]:
     """The parameters a Node action sets for `node_name`, in order (later wins), and the
     problems with its files."""
@@ -74,10 +83,7 @@ def parameter_values(p: Process, node_name: str) -> tuple[dict[str, Any], list[s
             problems.append(f'{p.source}: {p.executable}: parameter file {params} '
                             'does not exist')
             continue
-        doc = load_yaml(params, 'params', 'parameter file') or {}
-        sections = [doc[k]['ros__parameters'] for k in ('/**', node_name, '/' + node_name,
-                                                        '/**/' + node_name)
-                    if k in doc and 'ros__parameters' in (doc[k] or {})]
+        sections = file_sections(params, node_name)
         if not sections:
             problems.append(f'{p.source}: {p.executable}: {params.name} has no section for '
                             f'node {node_name!r}')

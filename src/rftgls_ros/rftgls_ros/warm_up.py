@@ -16,7 +16,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from rftgls_core.multibody.robot import from_preset
 from rftgls_core.multibody.simulate import Simulator
@@ -26,6 +25,7 @@ from rftgls_core.types import AnchorState
 
 from .capacity.node_predictor import predictor_from_params
 from .capacity.params import PARAMETERS
+from .launch_check import file_sections
 
 # Two states near the paper's DH anchor (h 34 mm, pitch 5 deg, legs -40 / 30 deg), a tether at
 # -20 deg: the first answer runs the live solver cold, the second warm (their kernels differ).
@@ -40,10 +40,8 @@ def capacity_parameters(params_file: Path | None) -> dict:
     ``/**``) if given."""
     p = {name: spec.default for name, spec in PARAMETERS.items()}
     if params_file is not None:
-        doc = yaml.safe_load(Path(params_file).read_text()) or {}
-        for key, section in doc.items():
-            if isinstance(section, dict) and str(key).split('/')[-1] in ('capacity_node', '**'):
-                p.update(section.get('ros__parameters', {}))
+        for section in file_sections(Path(params_file), 'capacity_node'):
+            p.update(section)
     return p
 
 
