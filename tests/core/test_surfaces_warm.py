@@ -22,6 +22,9 @@ from rftgls_core.types import AnchorState, Pull, Status
 
 RTOL = 1e-6
 DH = (0.034, math.radians(5.0), math.radians(-40.0), math.radians(30.0))
+# The 600 g sled's anchor in `make demo` after the physics burrow (capacity_node's state
+# during the tug): h m, theta_B, theta_L1, theta_L2 rad.
+PARKED = (0.043278, math.radians(10.9), math.radians(-20.0), math.radians(-20.0))
 
 
 def _medium(robot: str) -> str:
@@ -187,6 +190,45 @@ def test_scalar_kernels_agree_with_the_numpy_versions():
             # (u, v): the crossing point on the face, v0 + u (v1 - v0) + w (v2 - v0)
             a, b, c = v[tri[f]]
             assert np.allclose(a + u * (b - a) + w * (c - a), s * d, atol=1e-12)
+
+
+def test_clearance_bounds_kernel_is_the_numpy_reference_bitwise():
+    # The same operations in the same order (no fused multiply-add without fastmath), so
+    # equal to the last bit, NaN and inf where the reference has them, on the dense support
+    # mesh of a cold solve next to the support edge (15,996 faces).
+    from rftgls_core.surfaces import warm_guards as G
+    from rftgls_core.surfaces import warm_kernels as K
+    warm = RobotPredictor(get_robot('minirquad'), get_medium('m90_sand'), method='direct-warm')
+    warm.predict(AnchorState(*PARKED), math.radians(-8.0), Pull.BACKWARD)
+    surface = warm.solver(Pull.BACKWARD)._fit[1]
+    dense, wsd = surface.support_samples_
+    meshes = [(surface._ws, surface.sphere.faces), (wsd, dense.faces)]
+    bad = surface._ws.copy()
+    bad[3, 1], bad[9, 0] = np.nan, np.inf
+    meshes.append((bad, surface.sphere.faces))
+    for ws, faces in meshes:
+        for p in (np.zeros(3), np.array([0.05, -0.2, 0.1])):
+            got = K.clearance_bounds(ws, faces, *p)
+            ref = G.clearance_bounds_reference(ws, faces, p)
+            assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(got, ref))
+
+
+def test_clearances_of_several_points_are_exact_near_and_lower_bounds_far():
+    from rftgls_core.surfaces.warm_guards import triangle_clearance, triangle_clearances
+    rng = np.random.default_rng(8)
+    v = unit_rows_of(rng.normal(size=(200, 3))) * rng.uniform(0.5, 1.5, size=(200, 1))
+    faces = np.array([rng.choice(200, 3, replace=False) for _ in range(400)])
+    points = rng.normal(size=(7, 3)) * 0.3
+    mask = rng.random(400) > 0.2
+    got = triangle_clearances(v, faces, points, mask)
+    for p, row in zip(points, got):
+        exact = triangle_distances(v, faces, p)
+        assert np.all(np.isinf(row[~mask]))
+        assert np.all(row[mask] <= exact[mask])          # a lower bound everywhere...
+        near = np.argsort(exact[mask])[:12]              # ...and the exact distance where
+        assert np.array_equal(row[mask][near], exact[mask][near])   # the guards are taken
+        # one point alone is the same as one of several
+        assert np.array_equal(triangle_clearance(v, faces, p, mask), row)
 
 
 def test_scaled_evaluator_is_the_problems_scaled_map_bitwise():

@@ -57,7 +57,7 @@ from .closure import (
 )
 from .direct import DirectSurface
 from .newton import unit_rows
-from .warm_guards import ray_hits, triangle_clearance
+from .warm_guards import ray_hits, triangle_clearance, triangle_clearances
 from .warm_kernels import HAVE_NUMBA, guard_use_loop, patch_twists, ray_hits_loop
 from .warm_newton import fd_batch, newton_batch, newton_one, scaled_evaluator, tangent_jacobian
 
@@ -385,8 +385,9 @@ class WarmDirect:
         c_coarse = triangle_clearance(ws, sphere.faces, np.zeros(3))
         p_coarse = np.zeros((len(sphere.faces), 3))
         step = s / (_SEGMENT_POINTS - 1)
-        for p in np.arange(1, _SEGMENT_POINTS)[:, None] * step * d[None, :]:
-            c_seg = triangle_clearance(ws, sphere.faces, p, ~near_exit) - 0.5 * step
+        seg = np.arange(1, _SEGMENT_POINTS)[:, None] * step * d[None, :]
+        for p, c_seg in zip(seg, triangle_clearances(ws, sphere.faces, seg, ~near_exit)
+                            - 0.5 * step):
             closer = c_seg < c_coarse
             c_coarse[closer], p_coarse[closer] = c_seg[closer], p
         meshes = [(sphere.twists_scaled, sphere.faces, c_coarse, p_coarse)]

@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from .newton import cross_rows
+from .warm_kernels import HAVE_NUMBA, clearance_bounds
 
 
 def triangle_distances(vertices: np.ndarray, faces: np.ndarray, point: np.ndarray
@@ -67,22 +68,50 @@ def ray_hits(tri: np.ndarray, d: np.ndarray, bary_tol: float = 1e-9,
     return ss[keep], order[keep]
 
 
+def clearance_bounds_reference(ws: np.ndarray, faces: np.ndarray, point: np.ndarray
+                               ) -> tuple[np.ndarray, np.ndarray]:
+    """(upper, lower) bounds of each face's distance to `point`: its nearest vertex's
+    distance, and that less its longest edge / sqrt(3). The numpy reference of
+    warm_kernels.clearance_bounds (one compiled pass, no (F, 3, 3) temporaries: the dense
+    support mesh's 16,000 faces cost 5 ms per anchor here)."""
+    upper = np.linalg.norm(ws - point, axis=1)[faces].min(axis=1)
+    edge = np.linalg.norm(ws[faces] - ws[np.roll(faces, 1, axis=1)], axis=2).max(axis=1)
+    return upper, upper - edge / math.sqrt(3.0)
+
+
 def triangle_clearance(ws: np.ndarray, faces: np.ndarray, point: np.ndarray,
-               mask: np.ndarray | None = None) -> np.ndarray:
+                       mask: np.ndarray | None = None) -> np.ndarray:
     """Distance of every triangle to `point`; only triangles that can be close are measured
     exactly (inf elsewhere, and where `mask` is False): a triangle is no closer than its
     nearest vertex minus 0.58 of its longest edge (every point of a triangle lies within
     L / sqrt(3) of some vertex)."""
-    v = ws - point
-    upper = np.linalg.norm(v, axis=1)[faces].min(axis=1)
-    edge = np.linalg.norm(ws[faces] - ws[np.roll(faces, 1, axis=1)], axis=2).max(axis=1)
-    lower = upper - edge / math.sqrt(3.0)
-    ok = np.ones(len(faces), dtype=bool) if mask is None else mask
+    return triangle_clearances(ws, faces, np.asarray(point, dtype=float)[None, :], mask)[0]
+
+
+def triangle_clearances(ws: np.ndarray, faces: np.ndarray, points: np.ndarray,
+                        mask: np.ndarray | None = None) -> np.ndarray:
+    """triangle_clearance of each row of `points` (P, 3): (P, F). The exact distances of
+    every point's candidates are taken in one call (numpy's per-call cost, not the
+    arithmetic, is most of a few dozen triangles' time)."""
+    n = len(faces)
+    out = np.full((len(points), n), np.inf)
+    ok = np.ones(n, dtype=bool) if mask is None else mask
     if not np.any(ok):
-        return np.full(len(faces), np.inf)
-    # enough candidates to know the few closest and a bound on all others
-    bound = np.partition(upper[ok], min(64, int(ok.sum()) - 1))[min(64, int(ok.sum()) - 1)]
-    cand = np.flatnonzero(ok & (lower <= bound))
-    out = np.where(ok, np.maximum(lower, 0.0), np.inf)
-    out[cand] = triangle_distances(ws, faces[cand], point)
+        return out
+    k = min(64, int(ok.sum()) - 1)
+    rows, cands = [], []
+    for i, p in enumerate(points):
+        if HAVE_NUMBA:
+            upper, lower = clearance_bounds(ws, faces, float(p[0]), float(p[1]), float(p[2]))
+        else:
+            upper, lower = clearance_bounds_reference(ws, faces, p)
+        # enough candidates to know the few closest and a bound on all others
+        bound = np.partition(upper[ok], k)[k]
+        cand = np.flatnonzero(ok & (lower <= bound))
+        out[i] = np.where(ok, np.maximum(lower, 0.0), np.inf)
+        rows.append(np.full(len(cand), i))
+        cands.append(cand)
+    r, c = np.concatenate(rows), np.concatenate(cands)
+    f, at = faces[c], points[r]
+    out[r, c] = _distances(*(ws[f[:, j]] - at for j in range(3)))
     return out

@@ -53,6 +53,33 @@ def point_triangle(ax, ay, az, bx, by, bz, cx, cy, cz):
     return best
 
 
+def clearance_bounds(ws, faces, px, py, pz):
+    """(upper, lower) of warm_guards.triangle_clearance for every face (F, 3) of ws (V, 3):
+    the distance from (px, py, pz) to the face's nearest vertex, and that less the face's
+    longest edge / sqrt(3) (the numpy reference's operations in its order; NaN propagates as
+    numpy's min and max propagate it)."""
+    n = faces.shape[0]
+    upper = np.empty(n)
+    lower = np.empty(n)
+    r3 = math.sqrt(3.0)
+    for k in range(n):
+        near = math.inf
+        edge = -math.inf
+        for c in range(3):
+            i, j = faces[k, c], faces[k, c - 1]
+            dx, dy, dz = ws[i, 0] - px, ws[i, 1] - py, ws[i, 2] - pz
+            r = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if not r >= near and near == near:   # r nearer, or r NaN (kept once NaN)
+                near = r
+            ex, ey, ez = ws[i, 0] - ws[j, 0], ws[i, 1] - ws[j, 1], ws[i, 2] - ws[j, 2]
+            e = math.sqrt(ex * ex + ey * ey + ez * ez)
+            if not e <= edge and edge == edge:
+                edge = e
+        upper[k] = near
+        lower[k] = near - edge / r3
+    return upper, lower
+
+
 def guard_use_loop(wg, w0, tri, points, slack, clearance, swing):
     """(largest closed-in fraction of a guard triangle's clearance, median guard motion)."""
     closed = -math.inf
@@ -247,6 +274,7 @@ def newton_update(t, u, v, w, d, h, rtol, best_t, best_r, best_step, bu, bv, lam
 if numba is not None:
     _jit = numba.njit(cache=True, nogil=True)
     point_triangle = _jit(point_triangle)
+    clearance_bounds = _jit(clearance_bounds)
     guard_use_loop = _jit(guard_use_loop)
     ray_hits_loop = _jit(ray_hits_loop)
     newton_batch_twists = _jit(newton_batch_twists)
