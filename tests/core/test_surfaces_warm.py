@@ -11,6 +11,7 @@ import math
 import numpy as np
 import pytest
 
+from rftgls_core.benchmarks.live import PARKED_PHIS, PARKED_STATE
 from rftgls_core.predictor.live import RobotPredictor
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
@@ -22,9 +23,8 @@ from rftgls_core.types import AnchorState, Pull, Status
 
 RTOL = 1e-6
 DH = (0.034, math.radians(5.0), math.radians(-40.0), math.radians(30.0))
-# The 600 g sled's anchor in `make demo` after the physics burrow (capacity_node's state
-# during the tug): h m, theta_B, theta_L1, theta_L2 rad.
-PARKED = (0.043278, math.radians(10.9), math.radians(-20.0), math.radians(-20.0))
+# The 600 g sled's anchor in `make demo` after the physics burrow (benchmarks/live.py).
+PARKED = PARKED_STATE.as_tuple()
 
 
 def _medium(robot: str) -> str:
@@ -229,6 +229,28 @@ def test_clearances_of_several_points_are_exact_near_and_lower_bounds_far():
         assert np.array_equal(row[mask][near], exact[mask][near])   # the guards are taken
         # one point alone is the same as one of several
         assert np.array_equal(triangle_clearance(v, faces, p, mask), row)
+
+
+def test_a_state_parked_next_to_a_jump_rests_its_anchors_and_answers_as_cold():
+    # The 600 g anchor of `make demo` as the physics left it: at this pose a facet switches
+    # next to the root, and almost every warm attempt is refused (jump_near, local_exit).
+    # With patience the stream stops building anchors for a while; the answers stay the
+    # cold ones either way.
+    states = [PARKED_STATE] * 60
+    phis = PARKED_PHIS[:60]
+    rob, med = get_robot('minirquad'), get_medium('m90_sand')
+    cold = RobotPredictor(rob, med, method='direct')
+    runs = {}
+    for patience in (0, 3):
+        warm = RobotPredictor(rob, med, method='direct-warm',
+                              surface_options={'patience': patience})
+        for st, phi in zip(states, phis):
+            rw, rc = warm.predict(st, phi, Pull.BACKWARD), cold.predict(st, phi, Pull.BACKWARD)
+            assert rw.status is rc.status
+            assert rw.capacity_N == pytest.approx(rc.capacity_N, rel=RTOL), (phi, rw.detail)
+        runs[patience] = warm.solver(Pull.BACKWARD).fallback_reasons_
+    assert 'resting' not in runs[0] and runs[0]['jump_near'] >= 10, runs[0]
+    assert runs[3]['resting'] >= 20, runs[3]
 
 
 def test_scaled_evaluator_is_the_problems_scaled_map_bitwise():

@@ -23,6 +23,14 @@ LIVE_DRIFT = (-0.001, 0.0, math.radians(-2.0), 0.0)
 LIVE_SIGMA = (5e-5, math.radians(0.06), math.radians(0.06), math.radians(0.06))
 
 
+# A parked stream: the 600 g sled's anchor in `make demo` as the physics burrow left it
+# (capacity_node's state through the tug: h m, theta_B, theta_L1, theta_L2 rad), the tether
+# angle creeping 0.01 deg per message from -8 deg. Next to this pose a facet switches beside
+# the root, and most warm attempts are refused (surfaces/warm.py, patience).
+PARKED_STATE = AnchorState(0.043278, math.radians(10.9), math.radians(-20.0), math.radians(-20.0))
+PARKED_PHIS = np.radians(-8.0 - 0.01 * np.arange(300))
+
+
 def live_stream(n: int = LIVE_STATES, seed: int = 16) -> list[AnchorState]:
     """The states of the live benchmark (see LIVE_DRIFT, LIVE_SIGMA), SI."""
     rng = np.random.default_rng(seed)
@@ -53,6 +61,13 @@ def live_figures() -> list[Figure]:
         t_cold.append(time.perf_counter() - t0)
     us = np.sort(np.asarray(times)) * 1e6
     solver = warm.solver(Pull.BACKWARD)
+    parked = RobotPredictor(robot, medium, method='direct-warm')
+    t_parked = []
+    for phi in PARKED_PHIS:
+        c0 = time.thread_time()
+        parked.predict(PARKED_STATE, float(phi), Pull.BACKWARD)
+        t_parked.append(time.thread_time() - c0)
+    stuck = parked.solver(Pull.BACKWARD)
     what = f'{len(states)} MiniRQuad states near DH, noise and slow burrowing'
     return [
         Figure('capacity_live_warm_us_median', float(np.median(us)), 'us', budget='<= 1000',
@@ -70,4 +85,8 @@ def live_figures() -> list[Figure]:
                note='same calls, thread CPU time'),
         Figure('capacity_live_warm_cpu_us_p99', 1e6 * float(np.percentile(cpu, 99)), 'us',
                note='same calls, thread CPU time'),
+        # The mean: a parked stream's calls are a mix of warm steps and cold solves.
+        Figure('capacity_live_parked_cpu_us_mean', 1e6 * float(np.mean(t_parked)), 'us',
+               note=f'{len(PARKED_PHIS)} messages at a pose parked next to a jump (the demo\'s '
+                    f'600 g tug), thread CPU time; {dict(stuck.fallback_reasons_)}'),
     ]

@@ -35,6 +35,9 @@ have changed:
   of them can end on a nearer one that no local probe around the warm root sees.
 
 Anything else falls back to the cold solve, which becomes the next anchor when it is clean.
+A state parked next to a jump (its warm attempts refused `patience` times in a row) takes
+`rest_steps` cold steps without building anchors: there an anchor costs as much as the cold
+solve and the next attempt is refused again (docs/design/warm-direct.md, "Parked states").
 """
 from __future__ import annotations
 
@@ -115,6 +118,11 @@ class WarmDirect:
         barycentric and vertex twists) with the warm seed in one batched Newton; each must
         reach the warm root (False: the faster warm step that can miss a nearer root).
     seed_iter: Newton iterations of that batch (at least max_iter).
+    patience, rest_steps: after `patience` warm attempts in a row that the checks refused
+        (a jump or a second sheet keeps sitting next to the root: the state is parked on
+        RFT's set-valued closure), the next `rest_steps` steps are cold without building an
+        anchor (an anchor costs about as much as the cold solve, and a warm attempt there
+        is refused again); 0 patience: always build one. Every answer stays the cold one.
     direct_options: passed to DirectSurface (rtol, fd_step, max_iter, gap_tol).
 
     Learned state: anchor_ (None until a clean cold solve), twist_ and jac_ (last exit twist,
@@ -130,7 +138,8 @@ class WarmDirect:
                  max_capacity_change: float = 0.2, max_jacobian_change: float = 0.25,
                  max_phi_change_rad: float = 0.02, exit_exclusion_rad: float = 0.35,
                  ring_rad: float = 3e-3, ring_tol: float = 2e-4, max_iter: int = 10,
-                 seed_check: bool = True, seed_iter: int = 10, **direct_options) -> None:
+                 seed_check: bool = True, seed_iter: int = 10, patience: int = 3,
+                 rest_steps: int = 8, **direct_options) -> None:
         self.n_twists = int(n_twists)
         self.guard_triangles = int(guard_triangles)
         self.clearance_fraction = float(clearance_fraction)
@@ -143,6 +152,7 @@ class WarmDirect:
         self.max_iter = int(max_iter)
         self.seed_check = bool(seed_check)
         self.seed_iter = int(seed_iter)
+        self.patience, self.rest_steps = int(patience), int(rest_steps)
         self.direct_options = dict(direct_options)
         self.reset()
 
@@ -156,6 +166,8 @@ class WarmDirect:
         self.fallback_reasons_: Counter[str] = Counter()
         self.last_warm_ = False
         self.last_reason_ = ''
+        self._refused = 0       # warm attempts refused in a row
+        self._resting = 0       # cold steps left without an anchor
         self._fit: tuple[GLSProblem, DirectSurface] | None = None
         return self
 
@@ -177,8 +189,12 @@ class WarmDirect:
         if not why:
             r, why = self._warm(problem, float(phi))
             if r is not None:
+                self._refused = 0
                 self.last_warm_, self.last_reason_ = True, ''
                 return r
+            self._refused += 1
+            if self.patience and self._refused >= self.patience:
+                self._refused, self._resting = 0, self.rest_steps
         self.n_fallbacks_ += 1
         self.fallback_reasons_[why] += 1
         self.last_warm_, self.last_reason_ = False, why
@@ -187,7 +203,7 @@ class WarmDirect:
     def _why_not_warm(self, phi: float) -> str:
         a = self.anchor_
         if a is None:
-            return 'no_anchor'
+            return 'resting' if self._resting else 'no_anchor'
         if not math.isfinite(phi) or abs(phi - a.phi) > self.max_phi_change_rad:
             return 'phi_moved'
         return ''
@@ -362,7 +378,9 @@ class WarmDirect:
             self._fit = (problem, surface)
         r = surface.capacity(phi)
         self.anchor_, self.twist_ = None, None
-        if _clean(r) and r.slip_twist_scaled is not None:
+        if self._resting:
+            self._resting -= 1
+        elif _clean(r) and r.slip_twist_scaled is not None:
             self.anchor_ = self._make_anchor(surface, problem, float(phi), r)
             if self.anchor_ is not None:
                 self.twist_, self.jac_ = self.anchor_.twist, self.anchor_.jacobian
