@@ -39,16 +39,17 @@ SLOW_MS = 20.0        # two tension periods: an estimate this slow ages the evid
 
 
 def run(step_rad: float, prefetch: bool, n: int | None, pitch_step_rad: float = 0.0,
-        creep_rad: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        creep_rad: float = 0.0, pose: tuple[float, float, float, float] = POSE
+        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(estimate ms, estimate + prefetch ms, lower bound N) per tension sample of the tug (its
-    first n samples, or all)."""
+    first n samples, or all); pose: h m, theta_B, theta_L1, theta_L2 rad."""
     shipped = yaml.safe_load((ROOT / 'ros2_ws/params/capacity_node.yaml').read_text())
     p = {**DEFAULTS, **shipped['/**/capacity_node']['ros__parameters'],
          'lower_bound_phi_step_rad': step_rad, 'lower_bound_theta_b_step_rad': pitch_step_rad}
     p['map_file'] = str(ROOT / p['map_file'])
     est_cfg, _ = configs(p)
     e = CapacityEstimator(predictor_from_params(p), est_cfg)
-    h, pitch, l1, l2 = POSE
+    h, pitch, l1, l2 = pose
     tether = TetherTracker(rope_length=ROPE_M)
     total = int((ROPE_M - LEFT_M) / REEL_PER_SAMPLE_M)
     t_est, t_all, lower = [], [], []
@@ -77,6 +78,10 @@ def main() -> None:
     ap.add_argument('--theta-b-step-deg', type=float, default=0.0)
     ap.add_argument('--pitch-creep-deg', type=float, default=0.0,
                     help='body pitch change per tension sample, deg')
+    ap.add_argument('--pose', type=float, nargs=4, metavar=('H_MM', 'THETA_B', 'L1', 'L2'),
+                    help='the held pose, mm and deg (default: the planned gait\'s, '
+                         f'{POSE[0] * 1e3:.1f} mm, '
+                         + ', '.join(f'{math.degrees(x):.1f}' for x in POSE[1:]) + ' deg)')
     ap.add_argument('--prefetch', action='store_true')
     ap.add_argument('--samples', type=int, default=None,
                     help='only the first N tension samples (default: the whole tug, 910)')
@@ -84,16 +89,18 @@ def main() -> None:
                     help='also run the exact bound and report grid - exact, N')
     a = ap.parse_args()
     creep = math.radians(a.pitch_creep_deg)
+    pose = POSE if a.pose is None else (a.pose[0] * 1e-3, *map(math.radians, a.pose[1:]))
     t_est, t_all, lower = run(math.radians(a.phi_step_deg), a.prefetch, a.samples,
-                              math.radians(a.theta_b_step_deg), creep)
+                              math.radians(a.theta_b_step_deg), creep, pose)
     skip = 5   # the first estimates load and compile
     for name, t in (('estimate', t_est[skip:]), ('estimate + prefetch', t_all[skip:])):
         q = np.percentile(t, [50, 90, 99])
         print(f'{name}: median {q[0]:.2f} ms, 90 % {q[1]:.1f} ms, 99 % {q[2]:.1f} ms, '
               f'max {t.max():.1f} ms; {int(np.sum(t > SLOW_MS))} of {len(t)} over '
-              f'{SLOW_MS:g} ms')
+              f'{SLOW_MS:g} ms; {t.sum() * 1e-3:.1f} s of computing in a '
+              f'{len(t) * 1e-2:.1f} s tug')
     if a.compare_exact:
-        exact = run(0.0, False, a.samples, 0.0, creep)[2]
+        exact = run(0.0, False, a.samples, 0.0, creep, pose)[2]
         d = lower - exact
         print(f'grid - exact lower bound: min {d.min():+.4f} N, max {d.max():+.4f} N '
               f'({int(np.sum(d > 0))} of {len(d)} samples above the exact bound)')
