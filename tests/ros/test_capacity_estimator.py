@@ -316,3 +316,33 @@ def test_a_malformed_value_keeps_its_provenance_until_a_good_one():
     assert e.status is Status.INVALID_INPUT and e.assumed == ('height',)
     est.update('height', 0.2, DH.h, 'measured')
     assert est.estimate(0.2).status is Status.OK
+
+
+def test_the_point_estimate_is_solved_at_the_rounded_angles_and_reports_the_measured_ones(
+        live_predictor):
+    """Resolution 0.05 deg: a tether angle creeping 0.01 deg per sample asks the predictor
+    once per 0.05 deg; each estimate is the predictor's answer at phi and theta_B rounded to
+    the nearest multiple of 0.05 deg, and reports the measured phi and state."""
+    res = math.radians(0.05)
+    est = CapacityEstimator(live_predictor, EstimatorConfig(
+        pull='backward', phi_resolution_rad=res, theta_b_resolution_rad=res))
+    pitch = DH.theta_b + math.radians(0.013)
+    state = DH.__class__(DH.h, pitch, DH.theta_l1, DH.theta_l2)
+    n0 = est.predictions
+    seen = set()
+    for k in range(25):                      # 0.25 deg of phi
+        phi = PHI - math.radians(0.01) * k
+        feed(est, 0.01 * k, state=state, phi=phi)
+        e = est.estimate(0.01 * k)
+        rounded = (round(phi / res) * res, round(pitch / res) * res)
+        seen.add(rounded)
+        core = live_predictor.predict(DH.__class__(DH.h, rounded[1], DH.theta_l1, DH.theta_l2),
+                                      rounded[0], Pull.BACKWARD)
+        assert e.status is Status.OK and e.capacity_N == core.capacity_N
+        assert e.phi_rad == phi and e.state == state
+    assert est.predictions - n0 == len(seen) <= 7
+
+
+def test_a_negative_resolution_is_refused():
+    with pytest.raises(ConfigError, match='phi_resolution_rad'):
+        EstimatorConfig(phi_resolution_rad=-1e-4).check()

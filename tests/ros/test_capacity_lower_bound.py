@@ -203,6 +203,22 @@ def test_prefetch_prepares_the_bracket_the_phi_enters_at_every_grid_angle(cmap):
     assert not missed, missed
 
 
+def test_prefetch_prepares_the_side_phi_moved_to_first(cmap):
+    """A tug's phi creeps one way: after it moved down (then up), the first predictions of
+    prefetch all go to the grid angle below (above) the bracket."""
+    from rftgls_ros.capacity.lower_bound import BoundSettings, LowerBound
+    i = math.floor(-0.0541 / STEP)
+    for direction, side in ((-1, i * STEP - STEP), (+1, (i + 2) * STEP)):
+        f, calls = counted(cmap)
+        bound = LowerBound(f, BoundSettings(**SETTINGS, phi_step_rad=STEP))
+        for phi in (-0.0541 - direction * 1e-4, -0.0541):
+            bound.bound(DH, phi, cmap.query(DH, phi, 'backward'), MODELLED_H)
+        n = len(calls)
+        for _ in range(5):
+            bound.prefetch()
+        assert {p for _, p in calls[n:]} == {side}, (direction, calls[n:])
+
+
 def test_prefetch_does_nothing_at_the_exact_phi():
     from rftgls_ros.capacity.lower_bound import BoundSettings, LowerBound
     bound = LowerBound(lambda st, ph: pytest.fail('no prediction expected'),

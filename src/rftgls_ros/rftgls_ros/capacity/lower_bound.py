@@ -30,9 +30,9 @@ width, and is well inside the IMU's own error.
 
 A new grid cell still costs its nine solves per corner at once, 25-40 ms next to the edge:
 longer than the tension period. `prefetch` prepares the cells on either side of the current
-one (in phi, then in theta_B) one prediction per call (capacity_node calls it after each
-answer), so the cell the creeping phi or pitch enters next is usually known before it gets
-there.
+one one prediction per call (capacity_node calls it after each answer), first the side each
+of phi and theta_B last moved to (a tug's phi creeps one way), so the cell the creeping phi or
+pitch enters next is usually known before it gets there.
 
 Units SI: h in m, angles in rad, capacities in N. No ROS.
 """
@@ -92,36 +92,46 @@ class LowerBound:
         self.settings = settings
         self._known: OrderedDict[tuple, float] = OrderedDict()
         self._last: tuple[AnchorState, float, Ranges] | None = None
+        # which way phi and theta_B moved last (-1, 0, +1): prefetch prepares that side first
+        self._heading = (0, 0)
         # predictions made ahead for a grid angle's bound, by that bound's key
         self._ahead: dict[tuple, dict[tuple, CapacityResult]] = {}
 
-    def bound(self, state: AnchorState, phi: float, center: CapacityResult,
+    def bound(self, state: AnchorState, phi: float, center: CapacityResult | None,
               ranges: Ranges) -> float | None:
         """The lower bound (N, >= 0) at state and phi, whose own prediction is `center`
-        (status ok or assumed, with a capacity); None when neither part applies."""
+        (status ok or assumed, with a capacity; None: not made at exactly this state and
+        phi); None when neither part applies."""
         s = self.settings
         if s.level <= 0.0 and not ranges:
             return None
         if not s.gridded:
             return self._at(state, phi, ranges, center)
+        if self._last is not None:
+            last, last_phi, _ = self._last
+            self._heading = (_sign(phi - last_phi, self._heading[0]),
+                             _sign(state.theta_b - last.theta_b, self._heading[1]))
         self._last = (state, phi, ranges)
         return min(self._at(st, p, ranges, None)
                    for st in self._pitches(state) for p in self._phis(phi))
 
     def prefetch(self) -> bool:
-        """Make one prediction toward the bound of a grid corner next to the last cell (in
-        phi below, then above; then in theta_B below, then above). False when all are known
-        or there is nothing to do."""
+        """Make one prediction toward the bound of a grid corner next to the last cell: the
+        phi row on the side phi last moved to, the theta_B row on the side theta_B last moved
+        to, then the other two. False when all are known or there is nothing to do."""
         if self._last is None or not self.settings.gridded:
             return False
         state, phi, ranges = self._last
         s = self.settings
-        todo: list[tuple[AnchorState, float]] = []
-        for p in _neighbours(phi, s.phi_step_rad):
-            if abs(p) <= s.phi_limit_rad:
-                todo += [(st, p) for st in self._pitches(state)]
-        for t in _neighbours(state.theta_b, s.theta_b_step_rad):
-            todo += [(_with_pitch(state, t), p) for p in self._phis(phi)]
+        rows: list[list[tuple[AnchorState, float]]] = [[], [], [], []]
+        for k, p in enumerate(_neighbours(phi, s.phi_step_rad)):
+            if abs(p) <= s.phi_limit_rad:   # k 0: below, 1: above
+                ahead = (k == 1) == (self._heading[0] > 0)
+                rows[0 if ahead else 2] += [(st, p) for st in self._pitches(state)]
+        for k, t in enumerate(_neighbours(state.theta_b, s.theta_b_step_rad)):
+            ahead = (k == 1) == (self._heading[1] > 0)
+            rows[1 if ahead else 3] += [(_with_pitch(state, t), p) for p in self._phis(phi)]
+        todo = [corner for row in rows for corner in row]
         for st, p in todo:
             key = (st.as_tuple(), p, ranges)
             if key in self._known:
@@ -202,6 +212,11 @@ def _grid(i: int, step: float) -> float:
     return i * step
 
 
+def nearest(x: float, step: float) -> float:
+    """The grid value nearest x (x itself without a grid, step 0), formed as _grid's."""
+    return x if step <= 0.0 else _grid(round(x / step), step)
+
+
 def _bracket(x: float, step: float, limit: float) -> list[float]:
     """The grid values on either side of x (x itself on a node, or without a grid)."""
     if step <= 0.0:
@@ -217,6 +232,11 @@ def _neighbours(x: float, step: float) -> list[float]:
         return []
     i = math.floor(x / step)
     return [_grid(i - 1, step), _grid((i if _grid(i, step) == x else i + 1) + 1, step)]
+
+
+def _sign(change: float, before: int) -> int:
+    """-1 or +1 for a change, `before` when nothing changed."""
+    return before if change == 0.0 else (1 if change > 0.0 else -1)
 
 
 def _with_pitch(state: AnchorState, theta_b: float) -> AnchorState:

@@ -111,6 +111,11 @@ PARAMETERS: dict[str, Param] = {
                                           'on (the smaller over the two bracketing pitches; '
                                           'each remembered); 0 = at the exact pitch, rad',
                                           0.0, 0.05),
+    'phi_resolution_rad': Param(0.0, 'the point estimate is solved at phi rounded to this '
+                                '(the lower bound is not); 0 = exact, rad', 0.0, 0.02),
+    'theta_b_resolution_rad': Param(0.0, 'the point estimate is solved at theta_B rounded to '
+                                    'this (the lower bound is not); 0 = exact, rad',
+                                    0.0, 0.02),
     'capacity_rel_sigma': Param(0.0, 'relative standard deviation of the capacity (e.g. '
                                 'sigma(xi_n)/xi_n from rftgls calibrate)', 0.0, 10.0),
     # timing
@@ -141,7 +146,7 @@ RUNTIME = frozenset({
     'assumed_height_range_m',
     'assumed_phi_range_rad', 'lower_bound_level', 'h_sigma_m', 'theta_b_sigma_rad',
     'capacity_rel_sigma', 'lower_bound_phi_step_rad', 'lower_bound_theta_b_step_rad',
-    'clock_offset_tolerance_s',
+    'phi_resolution_rad', 'theta_b_resolution_rad', 'clock_offset_tolerance_s',
     'diagnostics_period_s',
     *(f'{name}_timeout_s' for name in DEFAULT_TIMEOUTS_S),
 })
@@ -205,7 +210,9 @@ def configs(p: Mapping[str, Any]) -> tuple[EstimatorConfig, NodeConfig]:
         h_sigma_m=p['h_sigma_m'], theta_b_sigma_rad=p['theta_b_sigma_rad'],
         capacity_rel_sigma=p['capacity_rel_sigma'],
         lower_bound_phi_step_rad=p['lower_bound_phi_step_rad'],
-        lower_bound_theta_b_step_rad=p['lower_bound_theta_b_step_rad']).check()
+        lower_bound_theta_b_step_rad=p['lower_bound_theta_b_step_rad'],
+        phi_resolution_rad=p['phi_resolution_rad'],
+        theta_b_resolution_rad=p['theta_b_resolution_rad']).check()
     node = NodeConfig(p['tension_component'], p['freshness_source'], p['imu_tilt_limit_rad'],
                       p['imu_roll_limit_rad'], p['imu_frame_id'], p['tension_frame_id'],
                       frozenset(p['trigger_inputs']), p['publish_rate_hz'],
