@@ -327,3 +327,19 @@ def test_topics_are_relative_so_namespaces_apply(ros_context):
             '/robot2/winch/height'} <= subs
     assert {'/robot2/capacity_node/capacity', '/robot2/capacity_node/status',
             '/diagnostics'} <= pubs
+
+
+def test_the_live_solvers_answer_before_the_node_subscribes(ros_context):
+    """warm_up_solvers (on by default): the shipped map's edge-check solver has answered
+    the two warm-up states (a cold and a warm step) when the node is built, so a fresh
+    machine compiles it at start-up, not in a tug's first estimate; off: it has answered
+    nothing."""
+    for warm in (True, False):
+        node = CapacityNode(context=ros_context, parameter_overrides=[
+            Parameter('warm_up_solvers', value=warm)])
+        try:
+            steps = node.estimator.predictor.edge.stats().get('steps', 0.0)
+            assert steps == (2.0 if warm else 0.0)
+            assert (node.warm_up_s is not None) is warm
+        finally:
+            node.destroy_node()

@@ -39,7 +39,7 @@ from rftgls_node_base.parameters import ConfigError, declare
 from .capacity.estimator import JOINTS, CapacityEstimator, Estimate
 from .capacity.fresh_triggers import FreshTriggers
 from .capacity.inputs import frame_problem, imu_problem, quat_xyzw_to_pitch
-from .capacity.node_predictor import predictor_from_params
+from .capacity.node_predictor import predictor_from_params, warm_up_predictor
 from .capacity.params import PARAMETERS, RUNTIME, configs
 from .capacity_msgs import estimate_msg, read_input_value
 from .capacity_query import answer_query
@@ -63,6 +63,10 @@ class CapacityNode(Node):
         self.params = p
         est_cfg, self.config = configs(p)
         self.estimator = CapacityEstimator(predictor_from_params(p), est_cfg)
+        # Compile the live solvers now, not in the first estimate of a tug (node_predictor.py):
+        # the node answers nothing until they are ready.
+        self.warm_up_s = warm_up_predictor(self.estimator.predictor, p['pull']) \
+            if p['warm_up_solvers'] else None
         self.frame_id = p['frame_id']
         self.tension_component = self.config.tension_component
         self.use_stamps = self.config.freshness_source == 'header_stamp'
@@ -132,7 +136,8 @@ class CapacityNode(Node):
         self.get_logger().info(
             f'predictor {predictor_name(self.estimator.predictor)}, pull {p["pull"]}, '
             f'triggers {sorted(self.triggers)}, heartbeat {rate:g} Hz, freshness from '
-            f'{p["freshness_source"]}')
+            f'{p["freshness_source"]}'
+            + ('' if self.warm_up_s is None else f'; solvers ready ({self.warm_up_s:.1f} s)'))
         cmap = getattr(self.estimator.predictor, 'primary', self.estimator.predictor)
         if getattr(cmap, 'integrity', None) == 'unverified':
             self.get_logger().error(

@@ -11,7 +11,6 @@ starts: slow only on a machine's first run, ~1 s (loading from the cache) after 
 """
 from __future__ import annotations
 
-import math
 import time
 from pathlib import Path
 
@@ -21,17 +20,10 @@ from rftgls_core.multibody.robot import from_preset
 from rftgls_core.multibody.simulate import Simulator
 from rftgls_core.rft.media import get_medium
 from rftgls_core.robots.presets import get_robot
-from rftgls_core.types import AnchorState
 
-from .capacity.node_predictor import predictor_from_params
+from .capacity.node_predictor import predictor_from_params, warm_up_predictor
 from .capacity.params import PARAMETERS
 from .launch_check import file_sections
-
-# Two states near the paper's DH anchor (h 34 mm, pitch 5 deg, legs -40 / 30 deg), a tether at
-# -20 deg: the first answer runs the live solver cold, the second warm (their kernels differ).
-STATES = (AnchorState(0.034, math.radians(5.0), math.radians(-40.0), math.radians(30.0)),
-          AnchorState(0.034, math.radians(5.3), math.radians(-40.0), math.radians(30.0)))
-PHI = math.radians(-20.0)
 
 
 def capacity_parameters(params_file: Path | None) -> dict:
@@ -50,12 +42,7 @@ def warm_up(params_file: Path | None, robot: str = 'minirquad') -> float:
     settle the whole-robot simulation of the robot preset once. Returns the seconds taken."""
     t0 = time.perf_counter()
     p = capacity_parameters(params_file)
-    predictor = predictor_from_params(p)
-    live = [x for x in (getattr(predictor, 'edge', None), getattr(predictor, 'fallback', None))
-            if x is not None] or [predictor]
-    for part in live:
-        for state in STATES:
-            part.predict(state, PHI, p['pull'])
+    warm_up_predictor(predictor_from_params(p), p['pull'])
     body = from_preset(get_robot(robot))
     Simulator(body, get_medium('m90_sand')).place(np.zeros(len(body.legs)))
     return time.perf_counter() - t0

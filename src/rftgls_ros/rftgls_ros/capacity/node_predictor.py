@@ -15,12 +15,15 @@ behavior_node's own map (capacity_source local_map) is built the same way.
 """
 from __future__ import annotations
 
+import math
+import time
 from collections.abc import Mapping
 from typing import Any
 
 from rftgls_core.predictor import InputNames, Predictor, PredictorError, PredictorSpec
 from rftgls_core.predictor import build_predictor as build
 from rftgls_core.surfaces.registry import DEFAULT_TWISTS, LIVE_METHODS, PREDICTOR_METHODS
+from rftgls_core.types import AnchorState
 from rftgls_node_base.parameters import ConfigError
 
 # The installed (shipped) map; rftgls_core.maps.resolve_map maps this name to maps_dir().
@@ -89,3 +92,25 @@ def predictor_from_params(p: Mapping[str, Any]) -> Predictor:
                           anchor_description_file=p['anchor_description_file'],
                           anchor_state_variables=p['anchor_state_variables'],
                           edge_live_method=p['edge_live_method'])
+
+
+# Two states near the paper's DH anchor (h 34 mm, pitch 5 deg, legs -40 / 30 deg), a tether at
+# -20 deg: the first answer runs a live solver cold, the second warm (their kernels differ).
+WARM_UP_STATES = (AnchorState(0.034, math.radians(5.0), math.radians(-40.0), math.radians(30.0)),
+                  AnchorState(0.034, math.radians(5.3), math.radians(-40.0), math.radians(30.0)))
+WARM_UP_PHI = math.radians(-20.0)
+
+
+def warm_up_predictor(predictor: Predictor, pull: str) -> float:
+    """Answer WARM_UP_STATES with the live solvers of `predictor` (a map's edge check and
+    out-of-range fallback, else the predictor itself), so numba compiles them now and not in
+    the first estimate of a run: ~10-25 s on a machine's first run, well under a second from
+    the cache after that (rftgls_core/numba_cache.py). Any answer will do (a described anchor
+    may not hold at these states). Returns the seconds taken."""
+    t0 = time.perf_counter()
+    live = [x for x in (getattr(predictor, 'edge', None), getattr(predictor, 'fallback', None))
+            if x is not None] or [predictor]
+    for part in live:
+        for state in WARM_UP_STATES:
+            part.predict(state, WARM_UP_PHI, pull)
+    return time.perf_counter() - t0

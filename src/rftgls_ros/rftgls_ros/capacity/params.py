@@ -58,6 +58,9 @@ PARAMETERS: dict[str, Param] = {
                                     "variables' own names"),
     'medium': Param('m90_sand', 'medium preset (must match the map)'),
     'pull': Param('backward', "C-leg orientation to the pull: 'forward' or 'backward'"),
+    'warm_up_solvers': Param(True, 'answer two states with the live solvers at start-up, '
+                             'so they are compiled before the first estimate (slow only on a '
+                             "machine's first run)"),
     # input topics (relative names: namespaces and remapping apply)
     'joint_states_topic': Param('joint_states', 'sensor_msgs/JointState topic'),
     'imu_topic': Param('imu/data', 'sensor_msgs/Imu topic (REP-145; orientation -> theta_B)'),
