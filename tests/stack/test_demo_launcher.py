@@ -44,8 +44,11 @@ def test_demo_one_cycle_exits_and_writes_report(tmp_path):
     # The default burrows are planned: the cheapest gait of the 400 g gait map whose lower
     # bound covers 1.96 N (docs/design/burrow-planner.md: (-40, -20) -> (-40, -20), 2.74 N).
     assert 'decision (planned pose): g-40/-20>-40/-20' in text
-    line = re.search(r'400 g sled -> g-40/-20>-40/-20: lower bound ([\d.]+) N \(decided on\), '
-                     r'point estimate '
+    # The cycle's burrows: the planned gait first, then any re-burrow its check asked for
+    # (a measured pitch outside the replayed band: seen once under CI load, the scripted body
+    # then at -11.6 deg); the numbers are those of the gait the tug was decided on.
+    line = re.search(r'400 g sled -> g-40/-20>-40/-20(?:\+g-[\d/>-]+)*: lower bound ([\d.]+) N '
+                     r'\(decided on\), point estimate '
                      r'([\d.]+) N, need ([\d.]+) N; burrow energy [\d.]+ J above idle predicted, '
                      r'[\d.]+ J measured', text)
     assert line, text
