@@ -1,13 +1,24 @@
 """The start-up helpers every executable shares (rftgls_node_base.node_main): ROS arguments as
 `ros2 run` and launch_ros append them are stripped by rcl's own parser, before and after a
-closing `--`; bad ROS arguments are one line and exit 2, like argparse's own errors."""
+closing `--`; bad ROS arguments are one line and exit 2, like argparse's own errors; a stop
+that cannot finish ends by itself, saying where it was stuck."""
 from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
 
 import pytest
 
 pytest.importorskip('rclpy')
 
-from rftgls_node_base.node_main import program_args, user_args, wants_help  # noqa: E402
+from rftgls_node_base.node_main import (  # noqa: E402
+    STOP_GRACE_S,
+    program_args,
+    user_args,
+    wants_help,
+)
 
 
 def test_launch_ros_argv_is_stripped(tmp_path):
@@ -35,3 +46,70 @@ def test_bad_ros_arguments_are_one_line_and_exit_2(tmp_path, capsys):
 def test_help_is_seen_only_among_the_programs_own_arguments():
     assert wants_help(['--help', '--ros-args', '-r', '__node:=x'])
     assert not wants_help(['--ros-args', '-r', '__node:=x'])
+
+
+GRACE_S = 1.5    # the stop watchdog's grace for the stuck program below (8 s by default)
+
+
+def node_program(safe_stop: str, grace: str) -> str:
+    """A node program that prints 'up' once spinning; its safe stop runs `safe_stop`."""
+    return NODE_PROGRAM.replace('@SAFE_STOP@', safe_stop).replace('@GRACE@', grace)
+
+
+NODE_PROGRAM = '''
+import sys, threading
+from rclpy.node import Node
+from rftgls_node_base.node_main import STOP_GRACE_S, run_node
+
+def make():
+    node = Node('stuck_node')
+    node.create_timer(0.05, lambda: print('up', flush=True))
+    return node
+
+def never_returns(node):
+    @SAFE_STOP@
+
+run_node(make, 'stuck_node', on_exit=never_returns, args=None, stop_grace_s=@GRACE@)
+'''
+
+
+@pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
+def test_a_stop_that_cannot_finish_ends_with_every_stack_and_exit_1(tmp_path, spawn, sig):
+    """The stop watchdog (node_main.stop_watchdog): a node program whose stop blocks ends
+    its grace after the signal by itself, exit code 1, with the stuck frame on stderr,
+    instead of lingering until launch escalates to SIGTERM and SIGKILL."""
+    script = tmp_path / 'stuck_node.py'
+    # as a callback stuck in native code or a teardown that blocks would
+    script.write_text(node_program('threading.Event().wait()', str(GRACE_S)))
+    err = tmp_path / 'stderr.txt'
+    proc = spawn([sys.executable, str(script)], stdout=subprocess.PIPE,
+                 stderr=open(err, 'w'), text=True)
+    assert proc.stdout is not None
+    assert proc.stdout.readline().strip() == 'up', err.read_text()
+    t0 = time.monotonic()
+    proc.send_signal(sig)
+    code = proc.wait(timeout=GRACE_S + 10.0)
+    took = time.monotonic() - t0
+    text = err.read_text()
+    assert code == 1, text
+    # not before the grace (the stop may take that long), and well before launch's SIGKILL
+    # (SIGINT + 5 s SIGTERM + 5 s); the upper margin is scheduling slack on a loaded machine
+    assert GRACE_S - 0.1 <= took <= GRACE_S + 5.0, (took, text)
+    assert 'never_returns' in text and 'Timeout' in text, text
+
+
+def test_a_clean_stop_is_not_cut_short(tmp_path, spawn):
+    """The same node program with a safe stop that returns exits 0 at once: the watchdog
+    only ends a stop that overruns."""
+    script = tmp_path / 'quick_node.py'
+    script.write_text(node_program('pass', 'STOP_GRACE_S'))
+    proc = spawn([sys.executable, str(script)], stdout=subprocess.PIPE,
+                 stderr=subprocess.PIPE, text=True)
+    assert proc.stdout is not None
+    assert proc.stdout.readline().strip() == 'up'
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=STOP_GRACE_S + 10.0)
+    assert proc.returncode == 0, err
+    assert time.monotonic() - t0 < STOP_GRACE_S, err
+    assert 'Timeout' not in err

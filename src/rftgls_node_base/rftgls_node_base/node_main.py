@@ -12,10 +12,17 @@ the signal only sets an event, the spin loop ends at its next turn, the node's s
 (the winch commanded to 0 while the link still works), the node is destroyed (its threads
 joined) and only then the context is shut down. Why spin_once with a timeout and not
 rclpy.spin: docs/design/ros2-from-pip.md#stopping-nodes.
+
+A program that cannot finish stopping (a callback still computing, a teardown that blocks)
+does not wait for launch's SIGTERM and SIGKILL: from the first signal (or the end of its spin
+loop) it has STOP_GRACE_S to end, after which the interpreter's fault handler writes every
+thread's stack to stderr and ends the process with exit code 1 (`stop_watchdog`): an unclean
+stop that says where it was stuck. docs/design/jazzy-robot.md, "Stopping on SIGINT".
 """
 from __future__ import annotations
 
 import ctypes
+import faulthandler
 import os
 import signal
 import sys
@@ -28,6 +35,12 @@ from rftgls_conventions import one_line
 from .dds_loopback import during_init
 
 HELP_FLAGS = ('-h', '--help')
+# s from the stop request to the end of the process before the stop watchdog ends it. launch
+# sends SIGTERM 5 s after SIGINT (sigterm_timeout; a node here takes it as one more stop
+# request) and SIGKILL 5 s later (sigkill_timeout): 8 s writes the stacks before the SIGKILL
+# that would end the process silently, and leaves a slow safe stop (behavior_node's report
+# and plot on a loaded machine) four times the 2 s a stop is tested to take.
+STOP_GRACE_S = 8.0
 
 
 def user_args(argv: Sequence[str]) -> list[str]:
@@ -71,16 +84,34 @@ def usage(executable: str, package: str, doc: str | None,
     return '\n'.join(lines)
 
 
-def stop_on_signals(event: threading.Event | None = None) -> threading.Event:
+def stop_on_signals(event: threading.Event | None = None,
+                    on_stop: Callable[[], None] | None = None) -> threading.Event:
     """SIGINT (Ctrl-C) and SIGTERM set `event` (a new one if None) instead of raising, so a
-    loop that checks it finishes its iteration and cleans up. Returns the event."""
+    loop that checks it finishes its iteration and cleans up; on_stop() runs at each signal
+    (e.g. a stop_watchdog's arm). Returns the event."""
     event = event or threading.Event()
 
     def _set(_sig, _frame) -> None:
         event.set()
+        if on_stop is not None:
+            on_stop()
     signal.signal(signal.SIGINT, _set)
     signal.signal(signal.SIGTERM, _set)
     return event
+
+
+def stop_watchdog(grace_s: float = STOP_GRACE_S) -> Callable[[], None]:
+    """A function that arms, once, the fault handler's timer: grace_s later every thread's
+    stack goes to stderr and the process ends with exit code 1, unless it has ended by then.
+    The timer is a C thread: it fires even when the main thread is stuck in native code, where
+    no Python signal handler can run. Only for a process that is about to end (`finish`)."""
+    armed = threading.Event()
+
+    def arm() -> None:
+        if not armed.is_set():
+            armed.set()
+            faulthandler.dump_traceback_later(grace_s, exit=True)
+    return arm
 
 
 def wants_help(argv: Sequence[str] | None) -> bool:
@@ -114,7 +145,7 @@ def run_node(make_node: Callable[[], Any], executable: str, *,
              tick: Callable[[Any], bool] | None = None,
              on_exit: Callable[[Any], None] | None = None,
              spin_period_s: float = 0.1, args: Sequence[str] | None = None,
-             exit_process: bool | None = None) -> int:
+             exit_process: bool | None = None, stop_grace_s: float = STOP_GRACE_S) -> int:
     """rclpy.init, build the node, spin until shutdown; returns the exit code.
 
     make_node: builds the node (after rclpy.init); an exception of `config_errors` (or
@@ -124,9 +155,16 @@ def run_node(make_node: Callable[[], Any], executable: str, *,
         Ctrl-C, while ROS still works; an error there is one line on stderr.
     exit_process: end the process with the code right after the clean shutdown (`finish`)
         instead of returning it; default: when running as the program (args is None).
+    stop_grace_s: s from the first SIGINT/SIGTERM (or the end of the spin loop) that such a
+        process has to end before the stop watchdog writes every thread's stack to stderr and
+        ends it with exit code 1 (stop_watchdog).
     """
-    code = _run_node(make_node, executable, config_errors, tick, on_exit, spin_period_s, args)
-    if exit_process if exit_process is not None else args is None:
+    exiting = exit_process if exit_process is not None else args is None
+    # Only a process about to end may be ended by the watchdog (not a test calling main(args)).
+    arm = stop_watchdog(stop_grace_s) if exiting else None
+    code = _run_node(make_node, executable, config_errors, tick, on_exit, spin_period_s, args,
+                     arm)
+    if exiting:
         release_ros()
         finish(code)
     return code
@@ -145,13 +183,13 @@ def release_ros() -> None:
 
 
 def _run_node(make_node, executable, config_errors, tick, on_exit, spin_period_s,
-              args) -> int:
+              args, arm: Callable[[], None] | None) -> int:
     import rclpy
     from rclpy.exceptions import ParameterException
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions
 
-    stop = stop_on_signals()       # before init: a signal never meets a half-built node
+    stop = stop_on_signals(on_stop=arm)   # before init: no signal meets a half-built node
     try:
         with during_init():        # DDS on loopback (dds_loopback.py)
             rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
@@ -174,6 +212,8 @@ def _run_node(make_node, executable, config_errors, tick, on_exit, spin_period_s
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        if arm is not None:
+            arm()                  # the stop has begun, whatever ended the loop
         # The safe stop first, while the context and the node's publishers still work.
         if on_exit is not None:
             try:
