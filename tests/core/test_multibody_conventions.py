@@ -168,7 +168,8 @@ def test_the_servo_line_search_converges_on_a_flattening_torque(monkeypatch):
     def torque(rate):                   # N m against |rate| rad/s, toward the command's sign
         return -0.221 * (1.0 - math.exp(-abs(rate) / 0.8))
 
-    def fake_step(posed, model, rates, load, xi_prev, dt, creep, backend='auto', packs=None):
+    def fake_step(posed, model, rates, load, xi_prev, dt, creep, backend='auto', packs=None,
+                  restarts=0):
         n = len(rates)
         b = bal_mod.Balance('move', np.zeros(3), np.asarray(rates, float).copy(), np.zeros(n),
                             np.zeros(n, bool), np.zeros(n, bool))
@@ -182,6 +183,79 @@ def test_the_servo_line_search_converges_on_a_flattening_torque(monkeypatch):
     rate = abs(b.rates[2])
     assert abs(torque(rate)) <= servo.torque_limit(rate) * (1.0 + 1e-9)
     assert meet - rate <= bal_mod.FRACTION_TOL * abs(command[2])
+
+
+@pytest.mark.parametrize('near', [0.999, 1.01, 0.9, 1.3, 0.3])
+def test_the_servo_line_search_from_the_last_rate_meets_the_same_tolerance(monkeypatch, near):
+    """balance's prior: a leg the line refuses tries the rate the last step settled on
+    (here `near` x where torque and line meet) and then one tolerance beside it. Close priors
+    (0.1 %, 1 % off) close the bracket in three solves (full command, prior, beside) where the
+    search without one takes more; far ones (10 %, 30 %, 70 % off) hand their bracket to
+    the search. Either way the answer is within the line and within FRACTION_TOL of the
+    meeting rate, as without a prior. Same stand-in torque as the test above."""
+    from scipy.optimize import brentq
+
+    from rftgls_core.multibody import balance as bal_mod
+    from rftgls_core.multibody.servo import XL330_M077_5V as servo
+
+    def torque(rate):
+        return -0.221 * (1.0 - math.exp(-abs(rate) / 0.8))
+
+    solves = []
+
+    def fake_step(posed, model, rates, load, xi_prev, dt, creep, backend='auto', packs=None,
+                  restarts=0):
+        solves.append(rates.copy())
+        n = len(rates)
+        b = bal_mod.Balance('move', np.zeros(3), np.asarray(rates, float).copy(), np.zeros(n),
+                            np.zeros(n, bool), np.zeros(n, bool))
+        b.torques = np.array([torque(r) if r else 0.0 for r in rates])
+        return b
+
+    monkeypatch.setattr(bal_mod, 'step_balance', fake_step)
+    command = np.array([0.0, 0.0, -5.919, 0.0])
+    meet = brentq(lambda r: -torque(r) - servo.torque_limit(r), 1e-6, abs(command[2]))
+    bal_mod.balance(None, None, servo, command, np.zeros(3), np.zeros(3), 1e-3, 1e-5)
+    without = len(solves)
+    solves.clear()
+    prior = np.array([0.0, 0.0, -near * meet, 0.0])
+    b = bal_mod.balance(None, None, servo, command, np.zeros(3), np.zeros(3), 1e-3, 1e-5,
+                        prior=prior)
+    rate = abs(b.rates[2])
+    assert abs(torque(rate)) <= servo.torque_limit(rate) * (1.0 + 1e-9)
+    assert meet - rate <= bal_mod.FRACTION_TOL * abs(command[2])
+    if abs(near - 1.0) < bal_mod.BESIDE:
+        assert len(solves) == 3 < without, (len(solves), without)
+
+
+def test_the_servo_line_search_probes_without_restarts_and_answers_with_them(monkeypatch):
+    """The search's probes skip step_balance's random restarts; the answer it keeps never
+    does: a probe that found no balance is solved again with them when it is the answer.
+    Stand-in: no balance without restarts anywhere, the same torque as above with them."""
+    from rftgls_core.multibody import balance as bal_mod
+    from rftgls_core.multibody.servo import XL330_M077_5V as servo
+
+    def torque(rate):
+        return -0.221 * (1.0 - math.exp(-abs(rate) / 0.8))
+
+    calls = []
+
+    def fake_step(posed, model, rates, load, xi_prev, dt, creep, backend='auto', packs=None,
+                  restarts=bal_mod.RESTARTS):
+        calls.append((rates.copy(), restarts))
+        n = len(rates)
+        b = bal_mod.Balance('move', np.zeros(3), np.asarray(rates, float).copy(), np.zeros(n),
+                            np.zeros(n, bool), np.zeros(n, bool), converged=restarts > 0)
+        b.torques = np.array([torque(r) if r else 0.0 for r in rates])
+        return b
+
+    monkeypatch.setattr(bal_mod, 'step_balance', fake_step)
+    command = np.array([0.0, 0.0, -5.919, 0.0])
+    b = bal_mod.balance(None, None, servo, command, np.zeros(3), np.zeros(3), 1e-3, 1e-5)
+    assert b.converged
+    assert calls[0][1] == bal_mod.RESTARTS and calls[-1][1] == bal_mod.RESTARTS
+    assert np.array_equal(calls[-1][0], b.rates)
+    assert all(r == 0 for _, r in calls[1:-1]) and len(calls) > 3
 
 
 def test_a_walking_leg_in_the_sand_runs_where_its_line_allows():
@@ -207,3 +281,10 @@ def test_a_walking_leg_in_the_sand_runs_where_its_line_allows():
     rates[i] = rate + 0.05 * command[i]
     b2 = bal_mod.step_balance(posed, MODEL, rates, posed.gravity, xi_prev, 0.00177, 1e-5)
     assert abs(b2.torques[i]) > servo.torque_limit(rates[i])
+    # Started from the rates of a step before (this answer 1 % slower), the search ends at a
+    # rate within the line again, within FRACTION_TOL of the answer without a prior (each
+    # answer is within the tolerance of where torque and line meet, on its low side).
+    b3 = bal_mod.balance(posed, MODEL, servo, command, posed.gravity, xi_prev, 0.00177, 1e-5,
+                         prior=0.99 * b.rates)
+    assert abs(b3.torques[i]) <= servo.torque_limit(b3.rates[i]) * (1.0 + 1e-9)
+    assert abs(b3.rates[i] - rate) <= bal_mod.FRACTION_TOL * abs(command[i])

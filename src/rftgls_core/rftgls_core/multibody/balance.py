@@ -56,6 +56,9 @@ RESTARTS = 8
 STALL_ITERATIONS = 16  # servo-line searches per step at most (balance; Illinois needs ~6-12)
 MIN_FRACTION = 1e-3    # a leg slowed below this fraction of its command stalls
 FRACTION_TOL = 0.02    # the servo-line search stops within 2 % of a leg's rate (balance)
+# a probe one tolerance beside a prior that closes the bracket (width <= FRACTION_TOL x its
+# top) with room for rounding
+BESIDE = 0.95 * FRACTION_TOL
 
 
 @dataclass
@@ -122,9 +125,10 @@ def record(bal: Balance, parts: list[Part], wrenches) -> None:
 
 def step_balance(posed: PosedMultibody, model: StressModel, rates: np.ndarray, load: np.ndarray,
                  xi_prev: np.ndarray, dt: float, creep: float, backend: str = 'auto',
-                 packs: dict | None = None) -> Balance:
+                 packs: dict | None = None, restarts: int = RESTARTS) -> Balance:
     """(1) at fixed leg rates (rad/s). load: gravity plus tether (N, N, N m about p).
-    packs: the pose's bound parts, shared between calls at one pose (contact.Contact)."""
+    packs: the pose's bound parts, shared between calls at one pose (contact.Contact).
+    restarts: how many random restarts (two ramp schedules each) follow the fixed starts."""
     n = len(posed.legs)
     rates = np.asarray(rates, dtype=float)
     bal = Balance('move', np.zeros(3), rates.copy(), np.zeros(n), np.zeros(n, bool),
@@ -151,7 +155,8 @@ def step_balance(posed: PosedMultibody, model: StressModel, rates: np.ndarray, l
     # e.g. a fall coming to rest, the ramps' first stages can lead the last twist astray).
     last = np.asarray(xi_prev, dtype=float) / ts
     a, b, c = np.diag(1.0 / fscale), -m_dt / fscale[:, None], (load + m_dt @ xi_prev) / fscale
-    for x0, eps in _starts(last, lambda: (xi_prev + dt * np.linalg.solve(mm, load)) / ts):
+    for x0, eps in _starts(last, lambda: (xi_prev + dt * np.linalg.solve(mm, load)) / ts,
+                           restarts):
         root = affine_root(contact, x0, ts, a, b, c, NEWTON_TOL, creep=creep, eps=eps)
         if root.converged:
             break
@@ -171,7 +176,7 @@ def step_balance(posed: PosedMultibody, model: StressModel, rates: np.ndarray, l
     return bal
 
 
-def _starts(last: np.ndarray, falling: Callable[[], np.ndarray]
+def _starts(last: np.ndarray, falling: Callable[[], np.ndarray], restarts: int = RESTARTS
             ) -> Iterator[tuple[np.ndarray, tuple[float, ...]]]:
     """The root search's starting points (scaled twists) with their ramp schedules, in the
     order step_balance tries them: from the last twist, from rest, from a free fall
@@ -187,14 +192,15 @@ def _starts(last: np.ndarray, falling: Callable[[], np.ndarray]
     yield last, EPS[3]
     rng = np.random.default_rng(0)      # restarts: the same ones every run
     spread = 0.3 * max(1.0, float(np.linalg.norm(last)))
-    for _ in range(RESTARTS):
+    for _ in range(restarts):
         for e in (EPS[0], EPS[2]):
             yield last + spread * rng.normal(size=3), e
 
 
 def balance(posed: PosedMultibody, model: StressModel, servo: ServoSpec, command: np.ndarray,
             load: np.ndarray, xi_prev: np.ndarray, dt: float, creep: float,
-            backend: str = 'auto', packs: dict | None = None) -> Balance:
+            backend: str = 'auto', packs: dict | None = None,
+            prior: np.ndarray | None = None) -> Balance:
     """(1) with torque-limited servos (module doc). command: rate per leg, rad/s.
 
     A leg whose torque at its commanded rate exceeds the servo's line runs at the rate where
@@ -205,21 +211,37 @@ def balance(posed: PosedMultibody, model: StressModel, servo: ServoSpec, command
     speed the line allows at the full-rate torque, then regula falsi (Illinois: an end kept
     twice has its excess halved). The step keeps the largest fraction found within the line
     (0: stalled, held by its gear). packs: as in step_balance; the simulator passes one per
-    pose, so a step it shortens and solves again reuses the bound parts."""
+    pose, so a step it shortens and solves again reuses the bound parts.
+
+    prior: each leg's rate (rad/s) the previous step settled on. The rate where torque and
+    line meet moves little from one step to the next, so a leg the line refuses at its
+    command tries that rate first, then the rate one tolerance beside it (above if it was
+    within the line, below if not): two solves bracket the answer to FRACTION_TOL where the
+    search from the full-rate guess takes six to twelve. A prior that misses hands the
+    bracket it found to the search; the answer meets the same tolerance either way."""
     command = np.asarray(command, dtype=float)
-    solved: dict[bytes, Balance] = {}
+    guess = _prior_fractions(command, prior)
+    solved: dict[bytes, tuple[Balance, bool]] = {}
     packs = {} if packs is None else packs    # the pose's bound parts, by grouping of legs
 
-    def solve(frac: np.ndarray) -> Balance:
-        """step_balance at these fractions of the command. The search can come back to
-        fractions it has solved (the bracket's low end when it closes: 3.5 % of the walk
-        benchmark's solves), and step_balance is a pure function of its inputs (its restarts
-        are seeded), so those reuse the earlier Balance: the same one, bit for bit."""
+    def solve(frac: np.ndarray, thorough: bool = False) -> Balance:
+        """step_balance at these fractions of the command; thorough: with its random
+        restarts (the answer the step may keep), else without (a probe of the search: where
+        no balance exists, the sixteen restart searches cost ~2,000 RFT evaluations, a
+        hundred converging solves' worth, and in the walk they found one for 2 % of the
+        solves). The search can come back to fractions it has solved (the bracket's low end
+        when it closes), and step_balance is a pure function of its inputs (its restarts are
+        seeded), so those reuse the earlier Balance unless a thorough one is asked for where
+        a probe found none."""
         key = frac.tobytes()
-        if key not in solved:
-            solved[key] = step_balance(posed, model, frac * command, load, xi_prev, dt, creep,
-                                       backend, packs)
-        return solved[key]
+        if key in solved:
+            bal, was = solved[key]
+            if was or bal.converged or not thorough:
+                return bal
+        bal = step_balance(posed, model, frac * command, load, xi_prev, dt, creep, backend,
+                           packs, RESTARTS if thorough else 0)
+        solved[key] = bal, thorough
+        return bal
 
     frac = np.where(command != 0.0, 1.0, 0.0)
     lo = np.zeros_like(frac)                 # fractions known to be within the line
@@ -227,7 +249,7 @@ def balance(posed: PosedMultibody, model: StressModel, servo: ServoSpec, command
     g_lo = np.full_like(frac, -1.0)          # excess torque (N m) at lo and hi
     g_hi = np.full_like(frac, np.nan)
     moved = np.zeros_like(frac)              # the end the last guess replaced: -1 lo, +1 hi
-    bal = solve(frac)
+    bal = solve(frac, thorough=True)         # at full command: most steps' answer
     for _ in range(STALL_ITERATIONS):
         if bal.mode == 'air':
             break
@@ -250,7 +272,7 @@ def balance(posed: PosedMultibody, model: StressModel, servo: ServoSpec, command
         moved = side
         lo, g_lo = np.where(ok, frac, lo), np.where(ok, g, g_lo)
         hi, g_hi = np.where(ok, hi, frac), np.where(ok, g_hi, g)
-        new = next_fractions(servo, command, frac, bal.torques, lo, hi, g_lo, g_hi)
+        new = next_fractions(servo, command, frac, bal.torques, lo, hi, g_lo, g_hi, guess)
         if np.array_equal(new, frac):
             break
         frac = new
@@ -258,7 +280,7 @@ def balance(posed: PosedMultibody, model: StressModel, servo: ServoSpec, command
     if bal.mode != 'air' and not np.array_equal(frac, lo):
         # the search ended off its feasible end: the largest fraction known within the line
         frac = lo
-        bal = solve(frac)
+    bal = solve(frac, thorough=True)
     bal.stalled = (command != 0.0) & (frac == 0.0)
     bal.slowed = (frac > 0.0) & (frac < 1.0)
     for i in np.flatnonzero(bal.stalled):
@@ -280,15 +302,30 @@ def excess(servo: ServoSpec, command: np.ndarray, frac: np.ndarray, torques: np.
     return out
 
 
+def _prior_fractions(command: np.ndarray, prior: np.ndarray | None) -> np.ndarray:
+    """Each leg's prior rate as a fraction of its command; NaN where there is none to try (no
+    prior, a leg at rest before, turning the other way, or at least as fast as commanded)."""
+    out = np.full(len(command), np.nan)
+    if prior is None:
+        return out
+    for i, c in enumerate(command):
+        f = float(prior[i]) / c if c != 0.0 else 0.0
+        if 0.0 < f < 1.0:
+            out[i] = f
+    return out
+
+
 def next_fractions(servo: ServoSpec, command: np.ndarray, frac: np.ndarray, torques: np.ndarray,
-                   lo: np.ndarray, hi: np.ndarray, g_lo: np.ndarray, g_hi: np.ndarray
-                   ) -> np.ndarray:
+                   lo: np.ndarray, hi: np.ndarray, g_lo: np.ndarray, g_hi: np.ndarray,
+                   guess: np.ndarray | None = None) -> np.ndarray:
     """The next rate fraction per leg (balance). A leg never refused keeps its fraction. A
-    refused one is searched inside (lo, hi): while nothing above 0 is known within the line,
-    the speed the line allows at the torque just refused; once both ends are known, regula
-    falsi on the excess torque; each guess kept 5 % of the bracket away from its ends. A
-    bracket narrower than FRACTION_TOL of its top ends the search at lo, and a leg refused
-    below MIN_FRACTION of its command stalls (lo = 0)."""
+    refused one is searched inside (lo, hi): its guess (the prior rate as a fraction, NaN for
+    none) first, then one tolerance above it if it was within the line or below it if not;
+    after that, while nothing above 0 is known within the line, the speed the line allows at
+    the torque just refused; once both ends are known, regula falsi on the excess torque,
+    kept 5 % of the bracket away from its ends. A bracket narrower than FRACTION_TOL of its
+    top ends the search at lo, and a leg refused below MIN_FRACTION of its command stalls
+    (lo = 0)."""
     new = frac.copy()
     for i, c in enumerate(command):
         if c == 0.0 or math.isnan(hi[i]):
@@ -296,6 +333,16 @@ def next_fractions(servo: ServoSpec, command: np.ndarray, frac: np.ndarray, torq
         width = hi[i] - lo[i]
         if width <= FRACTION_TOL * hi[i] or hi[i] <= MIN_FRACTION:
             new[i] = lo[i]
+            continue
+        p = math.nan if guess is None else guess[i]
+        if lo[i] < p < hi[i]:            # not tried yet (a tried guess becomes an end)
+            new[i] = p
+            continue
+        if p == lo[i]:                   # within the line: is one tolerance faster too?
+            new[i] = min(p * (1.0 + BESIDE), 0.5 * (p + hi[i]))
+            continue
+        if p == hi[i] and lo[i] < p * (1.0 - BESIDE):   # refused: one tolerance slower?
+            new[i] = p * (1.0 - BESIDE)
             continue
         if lo[i] > 0.0:
             f = lo[i] + width * (-g_lo[i]) / (g_hi[i] - g_lo[i])

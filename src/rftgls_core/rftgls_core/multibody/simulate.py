@@ -211,9 +211,12 @@ class Simulator:
         # that step; a twist that would overrun body_step shortens the step and is solved again
         dt = self._step_length(dt_max, posed, cmd, self.xi)
         packs: dict = {}           # the pose's bound parts, for every solve of this step
+        # the servo-line search starts from the rates last settled on: the last step's, then
+        # this step's own when it is solved again shorter (balance.balance, prior)
+        prior = None if self.last is None else self.last.rates
         for _ in range(24):
             b = bal_mod.balance(posed, self.model, self.servo, cmd, load, self.xi, dt,
-                                opt.creep, self.backend, packs)
+                                opt.creep, self.backend, packs, prior)
             if not b.converged:
                 # a shorter step weighs the inertia more: the balance moves toward the last
                 # twist, where a root lies for a short enough step (balance.py)
@@ -225,7 +228,7 @@ class Simulator:
             shorter = self._step_length(dt, posed, b.rates, b.xi)
             if shorter >= dt * (1.0 - 1e-9):
                 break
-            dt = shorter
+            dt, prior = shorter, b.rates
         if book:
             power = self.meter.add(phase, b.torques, b.rates, b.stalled, dt)
         self.pose = self.pose.moved(b.xi, posed.ref, dt)
