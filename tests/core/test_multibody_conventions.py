@@ -153,105 +153,95 @@ def test_a_walk_starts_from_standing_level():
     assert abs(math.degrees(sim.pose.theta_b)) < 2.0
 
 
-def test_the_servo_line_search_converges_on_a_flattening_torque(monkeypatch):
-    """The sand's torque on a leg rises steeply at small rates and flattens at large ones
-    (concave). Plain regula falsi then keeps its low end for good and creeps down from above:
-    with its 6 searches it stopped a walking leg at 5 % of its command where the line allowed
-    30-50 % (check 15). The search must end within balance.FRACTION_TOL of where torque and line
-    meet. The torque here is a stand-in of the shape measured in the walk at 1.1 s
-    (0.076, 0.165, 0.21, 0.22 N m at 5, 20, 50, 100 % of a 5.9 rad/s command)."""
-    from scipy.optimize import brentq
+def flattening_torque(rate: float) -> float:
+    """A stand-in for the sand's torque on a walking leg (N m against |rate| rad/s, toward the
+    command's sign), of the shape measured in the walk at 1.1 s: 0.076, 0.165, 0.21, 0.22 N m
+    at 5, 20, 50, 100 % of a 5.9 rad/s command."""
+    return -0.221 * (1.0 - math.exp(-abs(rate) / 0.8))
 
+
+COMMAND = np.array([0.0, 0.0, -5.919, 0.0])     # rad/s: one leg driven, as at 1.1 s
+
+
+@pytest.fixture
+def stand_in(monkeypatch):
+    """balance.step_balance replaced by the stand-in torque; returns the list of its calls
+    (rates, restarts). converged[0] False: no balance is found without restarts."""
     from rftgls_core.multibody import balance as bal_mod
-    from rftgls_core.multibody.servo import XL330_M077_5V as servo
-
-    def torque(rate):                   # N m against |rate| rad/s, toward the command's sign
-        return -0.221 * (1.0 - math.exp(-abs(rate) / 0.8))
-
-    def fake_step(posed, model, rates, load, xi_prev, dt, creep, backend='auto', packs=None,
-                  restarts=0):
-        n = len(rates)
-        b = bal_mod.Balance('move', np.zeros(3), np.asarray(rates, float).copy(), np.zeros(n),
-                            np.zeros(n, bool), np.zeros(n, bool))
-        b.torques = np.array([torque(r) if r else 0.0 for r in rates])
-        return b
-
-    monkeypatch.setattr(bal_mod, 'step_balance', fake_step)
-    command = np.array([0.0, 0.0, -5.919, 0.0])
-    b = bal_mod.balance(None, None, servo, command, np.zeros(3), np.zeros(3), 1e-3, 1e-5)
-    meet = brentq(lambda r: -torque(r) - servo.torque_limit(r), 1e-6, abs(command[2]))
-    rate = abs(b.rates[2])
-    assert abs(torque(rate)) <= servo.torque_limit(rate) * (1.0 + 1e-9)
-    assert meet - rate <= bal_mod.FRACTION_TOL * abs(command[2])
-
-
-@pytest.mark.parametrize('near', [0.999, 1.01, 0.9, 1.3, 0.3])
-def test_the_servo_line_search_from_the_last_rate_meets_the_same_tolerance(monkeypatch, near):
-    """balance's prior: a leg the line refuses tries the rate the last step settled on
-    (here `near` x where torque and line meet) and then one tolerance beside it. Close priors
-    (0.1 %, 1 % off) close the bracket in three solves (full command, prior, beside) where the
-    search without one takes more; far ones (10 %, 30 %, 70 % off) hand their bracket to
-    the search. Either way the answer is within the line and within FRACTION_TOL of the
-    meeting rate, as without a prior. Same stand-in torque as the test above."""
-    from scipy.optimize import brentq
-
-    from rftgls_core.multibody import balance as bal_mod
-    from rftgls_core.multibody.servo import XL330_M077_5V as servo
-
-    def torque(rate):
-        return -0.221 * (1.0 - math.exp(-abs(rate) / 0.8))
-
-    solves = []
-
-    def fake_step(posed, model, rates, load, xi_prev, dt, creep, backend='auto', packs=None,
-                  restarts=0):
-        solves.append(rates.copy())
-        n = len(rates)
-        b = bal_mod.Balance('move', np.zeros(3), np.asarray(rates, float).copy(), np.zeros(n),
-                            np.zeros(n, bool), np.zeros(n, bool))
-        b.torques = np.array([torque(r) if r else 0.0 for r in rates])
-        return b
-
-    monkeypatch.setattr(bal_mod, 'step_balance', fake_step)
-    command = np.array([0.0, 0.0, -5.919, 0.0])
-    meet = brentq(lambda r: -torque(r) - servo.torque_limit(r), 1e-6, abs(command[2]))
-    bal_mod.balance(None, None, servo, command, np.zeros(3), np.zeros(3), 1e-3, 1e-5)
-    without = len(solves)
-    solves.clear()
-    prior = np.array([0.0, 0.0, -near * meet, 0.0])
-    b = bal_mod.balance(None, None, servo, command, np.zeros(3), np.zeros(3), 1e-3, 1e-5,
-                        prior=prior)
-    rate = abs(b.rates[2])
-    assert abs(torque(rate)) <= servo.torque_limit(rate) * (1.0 + 1e-9)
-    assert meet - rate <= bal_mod.FRACTION_TOL * abs(command[2])
-    if abs(near - 1.0) < bal_mod.BESIDE:
-        assert len(solves) == 3 < without, (len(solves), without)
-
-
-def test_the_servo_line_search_probes_without_restarts_and_answers_with_them(monkeypatch):
-    """The search's probes skip step_balance's random restarts; the answer it keeps never
-    does: a probe that found no balance is solved again with them when it is the answer.
-    Stand-in: no balance without restarts anywhere, the same torque as above with them."""
-    from rftgls_core.multibody import balance as bal_mod
-    from rftgls_core.multibody.servo import XL330_M077_5V as servo
-
-    def torque(rate):
-        return -0.221 * (1.0 - math.exp(-abs(rate) / 0.8))
-
-    calls = []
+    calls: list = []
+    converged = [True]
 
     def fake_step(posed, model, rates, load, xi_prev, dt, creep, backend='auto', packs=None,
                   restarts=bal_mod.RESTARTS):
         calls.append((rates.copy(), restarts))
         n = len(rates)
         b = bal_mod.Balance('move', np.zeros(3), np.asarray(rates, float).copy(), np.zeros(n),
-                            np.zeros(n, bool), np.zeros(n, bool), converged=restarts > 0)
-        b.torques = np.array([torque(r) if r else 0.0 for r in rates])
+                            np.zeros(n, bool), np.zeros(n, bool),
+                            converged=converged[0] or restarts > 0)
+        b.torques = np.array([flattening_torque(r) if r else 0.0 for r in rates])
         return b
 
     monkeypatch.setattr(bal_mod, 'step_balance', fake_step)
-    command = np.array([0.0, 0.0, -5.919, 0.0])
-    b = bal_mod.balance(None, None, servo, command, np.zeros(3), np.zeros(3), 1e-3, 1e-5)
+    return calls, converged
+
+
+def meeting_rate(servo) -> float:
+    """|rate| (rad/s) where the stand-in torque meets the servo's line."""
+    from scipy.optimize import brentq
+    return brentq(lambda r: -flattening_torque(r) - servo.torque_limit(r), 1e-6,
+                  abs(COMMAND[2]))
+
+
+def search(prior=None):
+    from rftgls_core.multibody import balance as bal_mod
+    from rftgls_core.multibody.servo import XL330_M077_5V as servo
+    return bal_mod.balance(None, None, servo, COMMAND, np.zeros(3), np.zeros(3), 1e-3, 1e-5,
+                           prior=prior)
+
+
+def test_the_servo_line_search_converges_on_a_flattening_torque(stand_in):
+    """The sand's torque on a leg rises steeply at small rates and flattens at large ones
+    (concave). Plain regula falsi then keeps its low end for good and creeps down from above:
+    with its 6 searches it stopped a walking leg at 5 % of its command where the line allowed
+    30-50 % (check 15). The search must end within balance.FRACTION_TOL of where torque and line
+    meet (flattening_torque)."""
+    from rftgls_core.multibody import balance as bal_mod
+    from rftgls_core.multibody.servo import XL330_M077_5V as servo
+    rate = abs(search().rates[2])
+    assert abs(flattening_torque(rate)) <= servo.torque_limit(rate) * (1.0 + 1e-9)
+    assert meeting_rate(servo) - rate <= bal_mod.FRACTION_TOL * abs(COMMAND[2])
+
+
+@pytest.mark.parametrize('near', [0.999, 1.01, 0.9, 1.3, 0.3])
+def test_the_servo_line_search_from_the_last_rate_meets_the_same_tolerance(stand_in, near):
+    """balance's prior: a leg the line refuses tries the rate the last step settled on
+    (here `near` x where torque and line meet) and then one tolerance beside it. Close priors
+    (0.1 %, 1 % off) close the bracket in three solves (full command, prior, beside) where the
+    search without one takes more; far ones (10 %, 30 %, 70 % off) hand their bracket to
+    the search. Either way the answer is within the line and within FRACTION_TOL of the
+    meeting rate, as without a prior."""
+    from rftgls_core.multibody import balance as bal_mod
+    from rftgls_core.multibody.servo import XL330_M077_5V as servo
+    calls, _ = stand_in
+    meet = meeting_rate(servo)
+    search()
+    without = len(calls)
+    calls.clear()
+    rate = abs(search(prior=np.array([0.0, 0.0, -near * meet, 0.0])).rates[2])
+    assert abs(flattening_torque(rate)) <= servo.torque_limit(rate) * (1.0 + 1e-9)
+    assert meet - rate <= bal_mod.FRACTION_TOL * abs(COMMAND[2])
+    if abs(near - 1.0) < bal_mod.BESIDE:
+        assert len(calls) == 3 < without, (len(calls), without)
+
+
+def test_the_servo_line_search_probes_without_restarts_and_answers_with_them(stand_in):
+    """The search's probes skip step_balance's random restarts; the answer it keeps never
+    does: a probe that found no balance is solved again with them when it is the answer.
+    Stand-in: no balance without restarts anywhere, the same torque with them."""
+    from rftgls_core.multibody import balance as bal_mod
+    calls, converged = stand_in
+    converged[0] = False
+    b = search()
     assert b.converged
     assert calls[0][1] == bal_mod.RESTARTS and calls[-1][1] == bal_mod.RESTARTS
     assert np.array_equal(calls[-1][0], b.rates)
