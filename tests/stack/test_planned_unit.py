@@ -215,6 +215,56 @@ def test_the_burrowed_height_is_simulated_over_the_measured_legs(predictor):
           f"{math.degrees(gait.pose.theta_b_rad):.1f} deg")
 
 
+@pytest.mark.slow
+def test_a_slow_replay_does_not_use_up_the_wait_for_capacity_node(predictor):
+    """In a `make demo` run the replay of a planned burrow took most of CHECK's first 3 s;
+    the height it settled was new to capacity_node, and CHECK, counting capacity_wait_s from
+    its own start, aborted the attempt (estimate_other_height) at its first look at the
+    evidence. The wait counts from the settled height: here the replay answers 1.5 s after
+    capacity_wait_s and capacity_node takes 0.3 s to answer at the new height; the tug starts
+    on an estimate at that height, nothing aborted."""
+    from rftgls_core.planning.replay import inputs_for_map
+    from rftgls_ros.behavior.replay import InlineReplayer
+    gmap = sled_map('minirquad', 0.4)
+    plant = Plant(0.4, predictor, gait_poses=GaitPoses.for_sled(0.4))
+    cfg = fast_config(burrow_modes='planned', cycles=1, walk_time_s=2.5).check()
+
+    class SlowReplayer(InlineReplayer):
+        """The inline replay, answered capacity_wait_s + 1.5 s of plant time after submit."""
+        ready_at = math.inf
+
+        def submit(self, record, plan_pose):
+            super().submit(record, plan_pose)
+            self.ready_at = plant.t + cfg.capacity_wait_s + 1.5
+
+        def result(self):
+            return super().result() if plant.t >= self.ready_at else None
+
+    m = BehaviorMachine(cfg, GaitChooser(predictor, gmap, 1.0, cfg.phis_rad,
+                                         cfg.plan_confidence),
+                        SlowReplayer(inputs_for_map(gmap, 'minirquad')))
+    sent = {'h': None, 't': 0.0, 'old': None}
+
+    def lagging(p):        # capacity_node answers at a new height 0.3 s after it is sent
+        if p.h != sent['h']:
+            sent.update(old=sent['h'], h=p.h, t=p.t)
+        return sent['old'] if p.t - sent['t'] < 0.3 and sent['old'] is not None else p.h
+    plant.estimate_height = lagging
+    at_tug = []
+
+    def watch(p, mach):
+        if mach.state == State.TUG and not at_tug:
+            at_tug.append((mach.obs.capacity_h, mach.height, mach.elapsed()))
+    run_loop(m, plant, t_max=60, on_step=watch)
+    texts = [e['text'] for e in m.events]
+    assert [r.outcome for r in m.records] == ['ok'], texts[-8:]
+    assert any('replayed over' in t for t in texts)
+    assert at_tug and at_tug[0][0] == at_tug[0][1], at_tug
+    check = next(e['t'] for e in m.events if e.get('to') == 'CHECK')
+    tug = next(e['t'] for e in m.events if e.get('to') == 'TUG')
+    assert tug - check >= cfg.capacity_wait_s + 1.5
+
+
 class FixedReplayer:
     """A replay that answers `answer` (or nothing yet: None)."""
 

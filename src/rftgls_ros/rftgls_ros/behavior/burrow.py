@@ -35,11 +35,13 @@ if TYPE_CHECKING:
 @dataclass
 class AnchorCheck:
     """CHECK's progress: the prediction at the measured pose said sufficient (why), or the
-    query went unanswered (warned once)."""
+    query went unanswered (warned once); since when (s) the height it checks is settled (the
+    replay done), from which its waits for capacity_node count."""
 
     passed: bool = False
     why: str = ''
     unanswered: bool = False
+    settled_since: float | None = None
 
 
 @dataclass(frozen=True)
@@ -255,13 +257,15 @@ class Burrow:
             return
         if not self._replay_done():
             return
+        if self.check.settled_since is None:
+            self.check.settled_since = m.obs.t
         if not self.check.passed and not self._still_passed():
             self._check_prediction()
             return
         # The prediction holds; the tug starts only on capacity_node's live evidence.
         v = m.evidence()
         if not v.usable:
-            if m.elapsed() >= m.cfg.capacity_wait_s:
+            if self._waited() >= m.cfg.capacity_wait_s:
                 m.retry.abort(v, in_tug=False)
             return
         cap = m.decision_capacity()
@@ -274,6 +278,13 @@ class Burrow:
             return
         m.go(State.TUG, f'{m.mode} holds at the measured pose ({self.check.why}; '
                         f'capacity_node lower bound {cap:.2f} N >= {required:.2f} N)')
+
+    def _waited(self) -> float:
+        """s CHECK has waited for capacity_node since the height it checks settled: not since
+        CHECK began, because the replay before can take seconds on a busy robot (as long as
+        capacity_wait_s in a demo run) and the height it settles is new to capacity_node."""
+        assert self.check.settled_since is not None
+        return self.m.obs.t - self.check.settled_since
 
     def _still_passed(self) -> bool:
         """A re-check (after a link gap, an evidence wait or an aborted tug) of an anchor
@@ -332,7 +343,7 @@ class Burrow:
             self.check.unanswered = True
             m.event('warn', f'check {m.mode}: the capacity query is unanswered (stale); '
                             'waiting for evidence, not re-burrowing', mode=m.mode)
-        if m.elapsed() >= m.cfg.capacity_wait_s:
+        if self._waited() >= m.cfg.capacity_wait_s:
             v = m.evidence()
             m.retry.abort(v if not v.usable else evidence.Verdict(
                 False, evidence.NO_VALUE, True, 'capacity query unanswered'), in_tug=False)
