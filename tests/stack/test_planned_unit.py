@@ -319,6 +319,12 @@ def test_the_replayed_pose_and_the_pitch_check_decide_the_height_sent(predictor,
     assert (h, band) == (pose.h_m, pose.h_band_m) and 'replay' in source
     assert prov is (Provenance.ASSUMED if case == 'disagrees' else Provenance.MODELLED)
     assert ('did not go as modelled' in texts) is (case == 'disagrees')
+    # This node's own checks judge at the height it sends, over its band: not the plan's
+    # (a demo run checked at the plan's 55.8 mm, whose band left the map, while it sent the
+    # replay's 51.4 mm, and gave up an anchor capacity_node could have shown to hold).
+    m.obs = dataclasses.replace(m.obs, legs=m.burrow_mode().final, t_legs=30.0)
+    state = m.measured_state()
+    assert state is not None and (state.h, m.anchor_height()[1]) == (h, band)
 
 
 def test_a_planned_burrow_waits_at_standing_for_legs_that_lag(predictor):

@@ -312,7 +312,8 @@ class Burrow:
         state = m.measured_state()
         if state is None:
             return
-        c = m.chooser.evaluate(m.mode, state, m.need.value, m.energy.estimate(m.mode))
+        c = m.chooser.evaluate(m.mode, state, m.need.value, m.energy.estimate(m.mode),
+                               m.anchor_height()[1])
         m.weakest = c.weakest
         if not c.sufficient and all(s == str(Status.STALE) for s in c.statuses):
             self._check_missing_evidence()

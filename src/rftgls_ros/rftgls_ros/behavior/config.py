@@ -43,8 +43,8 @@ class BehaviorConfig:
     evidence_grace_s: after a *transient* loss (no estimate, too old, 'stale') the winch stays
     stopped and the attempt is aborted if evidence is not back within this time; explicit
     no-value statuses abort at once. capacity_wait_s: time CHECK waits for a usable estimate
-    before the tug starts, from when its pose check passed (the replayed height is then new
-    to capacity_node). Retry policy: after an abort the
+    before the tug starts, counted from when the height it checks is settled (the replay of
+    a planned burrow done: that height is new to capacity_node). Retry policy: after an abort the
     machine waits, winch braked, for evidence usable for evidence_settle_s, then re-checks the
     same anchor and tugs again as the next cycle; it gives up (FINISHED) if evidence is not
     back within evidence_wait_s or after max_aborts aborts in one run.

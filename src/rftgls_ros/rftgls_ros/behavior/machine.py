@@ -219,14 +219,15 @@ class BehaviorMachine:
         not stated), assumed."""
         m = self.burrow_mode()
         if m is not None and self.state in BURROWED:
+            h, band = self.anchor_height()
             r = self.replayed
             if r is not None:
-                return r.h_m, r.h_band_m, f'{r.source}, not measured', (
+                return h, band, f'{r.source}, not measured', (
                     Provenance.ASSUMED if self.pose_disagrees else Provenance.MODELLED)
             if self.planned_gait() is not None:
-                return (m.h, m.h_band, f'burrow simulation of gait {m.name} (planner), '
+                return (h, band, f'burrow simulation of gait {m.name} (planner), '
                         'not measured', Provenance.MODELLED)
-            return m.h, m.h_band, f'Table II mean of {m.name} (paper), not measured', \
+            return h, band, f'Table II mean of {m.name} (paper), not measured', \
                 Provenance.ASSUMED
         return self.cfg.h_walk_m, math.nan, 'h_walk_m parameter (walking), not measured', \
             Provenance.ASSUMED
@@ -254,9 +255,19 @@ class BehaviorMachine:
     def capacity_valid(self) -> bool:
         return self.evidence().usable
 
+    def anchor_height(self) -> tuple[float, float]:
+        """(h m, band m) of p in the burrowed mode (burrow_mode() not None): the burrow
+        simulation over the measured legs once it is in, else the mode's own (the plan's
+        prediction, or Table II's mean). The height sent to capacity_node (height_input) and
+        the one this node's own checks judge at are this one."""
+        m = self.burrow_mode()
+        assert m is not None
+        r = self.replayed
+        return (r.h_m, r.h_band_m) if r is not None else (m.h, m.h_band)
+
     def measured_state(self) -> AnchorState | None:
         """The anchor state of the burrowed mode at the measured legs and pitch (leg angles
-        within pose_snap_rad of Table II taken as Table II), h from Table II."""
+        within pose_snap_rad of the mode's final pose taken as it), h from anchor_height."""
         m = self.burrow_mode()
         if m is None or self.obs.legs is None:
             return None
@@ -266,16 +277,16 @@ class BehaviorMachine:
             l1 = m.final[0]
         if abs(l2 - m.final[1]) <= self.cfg.pose_snap_rad:
             l2 = m.final[1]
-        return AnchorState(m.h, tb, l1, l2)
+        return AnchorState(self.anchor_height()[0], tb, l1, l2)
 
     def own_capacity(self) -> tuple[float | None, str]:
         """This node's map prediction (N, status) at the measured pose and estimated phi: its
-        lower end over the burrowed mode's height band."""
-        state, mode = self.measured_state(), self.burrow_mode()
-        if state is None or mode is None:
+        lower end over the anchor height's band."""
+        state = self.measured_state()
+        if state is None:
             return None, 'stale'
         cap, status = self.chooser.lower_capacity(state, self.tether.phi(self.height),
-                                                  mode.h_band)
+                                                  self.anchor_height()[1])
         return cap, str(status)
 
     # ------------------------------------------------------------------ step

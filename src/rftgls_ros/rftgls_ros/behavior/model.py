@@ -272,12 +272,15 @@ class ModeChooser:
             lower = cap if lower is None else min(lower, cap)
         return BandScan(lower, point, Status.OK, gap)
 
-    def evaluate(self, mode: str, state: AnchorState, need: float, energy: float) -> Candidate:
-        """The mode at ``state``: per pull angle the lower capacity over the mode's height
-        band (a decision uses the lower bound, not the point estimate), times ``scale``; the
-        point estimate at the state's own h is kept for the report."""
+    def evaluate(self, mode: str, state: AnchorState, need: float, energy: float,
+                 h_band: float | None = None) -> Candidate:
+        """The mode at ``state``: per pull angle the lower capacity over the height band
+        h_band (m; default the mode's own) around state.h (a decision uses the lower bound,
+        not the point estimate), times ``scale``; the point estimate at the state's own h is
+        kept for the report."""
         caps, stats, points, gaps = [], [], [], []
-        band = self.modes[mode].h_band if mode in self.modes else 0.0
+        band = h_band if h_band is not None else (
+            self.modes[mode].h_band if mode in self.modes else 0.0)
         for phi in self.phis:
             scan = self.band_scan(state, phi, band)
             cap = scan.lower
