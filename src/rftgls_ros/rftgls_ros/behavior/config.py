@@ -44,10 +44,10 @@ class BehaviorConfig:
     stopped and the attempt is aborted if evidence is not back within this time; explicit
     no-value statuses abort at once. capacity_wait_s: time CHECK waits for a usable estimate
     before the tug starts, counted from when the height it checks is settled (the replay of
-    a planned burrow done: that height is new to capacity_node). Retry policy: after an abort the
-    machine waits, winch braked, for evidence usable for evidence_settle_s, then re-checks the
-    same anchor and tugs again as the next cycle; it gives up (FINISHED) if evidence is not
-    back within evidence_wait_s or after max_aborts aborts in one run.
+    a planned burrow done: that height is new to capacity_node). Retry policy: after an abort
+    the machine waits, winch braked, for evidence usable for evidence_settle_s, then
+    re-checks the same anchor and tugs again as the next cycle; it gives up (FINISHED) if
+    evidence is not back within evidence_wait_s or after max_aborts aborts in one run.
     accept_assumed_inputs: inputs capacity_node may assume (status 'assumed') and still
     count as evidence, e.g. ('height',); default none. own_capacity_fallback: when (and only
     when) capacity_node has gone silent after a value-carrying status, use this node's map
