@@ -351,6 +351,36 @@ def test_report_csv_and_png(tmp_path, predictor):
     assert png_path.stat().st_size > 10_000
 
 
+def test_a_report_cut_short_while_plotting_keeps_both_tables(tmp_path, predictor, monkeypatch):
+    """behavior_node's report at its stop: the cycle table and the tug series are on disk
+    before any plot is drawn, so a stop the watchdog (or launch's SIGKILL) cuts while
+    matplotlib starts loses at most the plots. The cut is a plot that never returns."""
+    import types
+
+    from rftgls_ros import behavior_node
+    from rftgls_ros.behavior.tug_series import TugSeries
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    run_loop(m, Plant(0.4, predictor))
+    series = TugSeries()
+    for k in range(5):
+        series.add(0.1 * k, 1.0, 3.0, 2.5, 'ok', 'TUG')
+
+    class Cut(BaseException):
+        pass
+
+    def cut(*_a, **_k):
+        raise Cut
+    monkeypatch.setattr(behavior_node, 'plot_report', cut)
+    monkeypatch.setattr(behavior_node, 'plot_tug_series', cut)
+    node = types.SimpleNamespace(report_dir=str(tmp_path), machine=m, tug_series=series,
+                                 report_stem='r', cfg=cfg, get_logger=None)
+    with pytest.raises(Cut):
+        behavior_node.BehaviorNode.write_report(node)
+    assert read_csv(tmp_path / 'r.csv')[0].mode == m.records[0].mode
+    assert len((tmp_path / 'r_tug.csv').read_text().splitlines()) == 1 + 5
+
+
 def test_modes_match_table_ii():
     assert ANCHOR_MODES['DH'].expected_state().h == 0.034
     assert math.degrees(ANCHOR_MODES['SH'].retract[1]) == pytest.approx(-20)

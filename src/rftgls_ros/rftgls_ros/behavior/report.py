@@ -90,9 +90,18 @@ def read_csv(path: str | Path) -> list[CycleRecord]:
 def write_report(records: list[CycleRecord], out_dir: str | Path,
                  stem: str = 'cycle_report') -> tuple[Path, Path]:
     """Write ``stem``.csv and ``stem``.png in ``out_dir``; returns both paths."""
+    csv_path = write_report_csv(records, out_dir, stem)
+    png_path = csv_path.with_suffix('.png')
+    plot_report(records, png_path)
+    return csv_path, png_path
+
+
+def write_report_csv(records: list[CycleRecord], out_dir: str | Path,
+                     stem: str = 'cycle_report') -> Path:
+    """Write the table alone, ``stem``.csv in ``out_dir``; returns its path."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    csv_path, png_path = out / f'{stem}.csv', out / f'{stem}.png'
+    csv_path = out / f'{stem}.csv'
     names = [f.name for f in fields(CycleRecord)]
     with io.StringIO(newline='') as f:
         w = csv.DictWriter(f, fieldnames=names)
@@ -101,8 +110,7 @@ def write_report(records: list[CycleRecord], out_dir: str | Path,
             w.writerow({k: (f'{v:.4f}' if isinstance(v, float) else v)
                         for k, v in asdict(r).items()})
         write_text(csv_path, f.getvalue())     # atomic; a planted link is replaced
-    plot_report(records, png_path)
-    return csv_path, png_path
+    return csv_path
 
 
 def plot_report(records: list[CycleRecord], path: str | Path) -> None:

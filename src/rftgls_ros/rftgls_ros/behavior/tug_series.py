@@ -113,6 +113,16 @@ def write_tug_series(series: TugSeries, out_dir: str | Path, stem: str,
                      slow_ratio: float | None = 0.90, stop_ratio: float = 0.97,
                      title: str = '') -> tuple[Path, Path] | None:
     """``stem``_tug.csv and ``stem``_tug.png in ``out_dir``; None when nothing was recorded."""
+    csv_path = write_tug_csv(series, out_dir, stem)
+    if csv_path is None:
+        return None
+    png = plot_tug_series(series.samples, csv_path.with_suffix('.png'), slow_ratio, stop_ratio,
+                          title)
+    return csv_path, png
+
+
+def write_tug_csv(series: TugSeries, out_dir: str | Path, stem: str) -> Path | None:
+    """The table alone, ``stem``_tug.csv in ``out_dir``; None when nothing was recorded."""
     if not series.samples:
         return None
     out = Path(out_dir)
@@ -123,6 +133,4 @@ def write_tug_series(series: TugSeries, out_dir: str | Path, stem: str,
         w.writerow([fl.name for fl in fields(TugSample)])
         w.writerows(astuple(s) for s in series.samples)
         write_text(csv_path, f.getvalue())     # atomic; a planted link is replaced
-    png = plot_tug_series(series.samples, out / f'{stem}_tug.png', slow_ratio, stop_ratio,
-                          title)
-    return csv_path, png
+    return csv_path
