@@ -198,7 +198,8 @@ class BehaviorMachine:
 
     @property
     def height(self) -> float:
-        """Height of p (m): not measured on MiniRQuad; the burrow's predicted or Table II h."""
+        """Height of p (m) as sent (height_input): not measured on MiniRQuad; the burrow
+        replayed over the measured legs, the plan's prediction, Table II's mean or h_walk_m."""
         return self.height_input()[0]
 
     def burrow_mode(self) -> AnchorMode | None:
