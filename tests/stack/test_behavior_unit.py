@@ -358,6 +358,7 @@ def test_a_report_cut_short_while_plotting_keeps_both_tables(tmp_path, predictor
     import types
 
     from rftgls_ros import behavior_node
+    from rftgls_ros.behavior import report
     from rftgls_ros.behavior.tug_series import TugSeries
     cfg = fast_config(sled_mass_kg=0.4, cycles=1)
     m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
@@ -371,8 +372,8 @@ def test_a_report_cut_short_while_plotting_keeps_both_tables(tmp_path, predictor
 
     def cut(*_a, **_k):
         raise Cut
-    monkeypatch.setattr(behavior_node, 'plot_report', cut)
-    monkeypatch.setattr(behavior_node, 'plot_tug_series', cut)
+    monkeypatch.setattr(report, 'plot_report', cut)
+    monkeypatch.setattr(report, 'plot_tug_series', cut)
     node = types.SimpleNamespace(report_dir=str(tmp_path), machine=m, tug_series=series,
                                  report_stem='r', cfg=cfg, get_logger=None)
     with pytest.raises(Cut):

@@ -62,8 +62,8 @@ from .behavior import (
 )
 from .behavior.planned import GaitChooser, sled_map
 from .behavior.replay import ProcessReplayer
-from .behavior.report import plot_report, write_report_csv
-from .behavior.tug_series import TugSample, TugSeries, plot_tug_series, write_tug_csv
+from .behavior.report import write_run_report
+from .behavior.tug_series import TugSample, TugSeries
 from .capacity.node_predictor import DEFAULT_MAP, node_predictor
 from .capacity_msgs import input_value, status_word
 from .capacity_query import CAPACITY_SOURCES, ServicePredictor
@@ -387,20 +387,14 @@ class BehaviorNode(Node):
         self.write_report()
 
     def write_report(self) -> None:
-        """The cycle table and the tug time series, then their plots: both tables are on
-        disk before any plot is drawn, so a stop cut short (the stop watchdog, launch's
-        SIGKILL; matplotlib is slow to start on a robot's computer) loses at most a plot."""
+        """The cycle table and the tug time series with their plots (tables first)."""
         if not (self.report_dir and self.machine.records):
             return
-        records = self.machine.records
-        csv_path = write_report_csv(records, self.report_dir, self.report_stem)
-        tug_csv = write_tug_csv(self.tug_series, self.report_dir, self.report_stem)
-        png_path = csv_path.with_suffix('.png')
-        plot_report(records, png_path)
+        csv_path, png_path, tug_png = write_run_report(
+            self.machine.records, self.tug_series, self.report_dir, self.report_stem,
+            self.cfg.slow_ratio, self.cfg.stop_ratio)
         self.get_logger().info(f'cycle report: {csv_path} and {png_path}')
-        if tug_csv is not None:
-            tug_png = plot_tug_series(self.tug_series.samples, tug_csv.with_suffix('.png'),
-                                      self.cfg.slow_ratio, self.cfg.stop_ratio)
+        if tug_png is not None:
             self.get_logger().info(f'tug time series: {tug_png}')
 
 

@@ -20,6 +20,8 @@ from rftgls_conventions.safe_read import read_text
 from rftgls_conventions.safe_write import write_text
 from rftgls_core.charts.figure_io import save
 
+from .tug_series import TugSeries, plot_tug_series, write_tug_csv
+
 
 @dataclass
 class CycleRecord:
@@ -94,6 +96,23 @@ def write_report(records: list[CycleRecord], out_dir: str | Path,
     png_path = csv_path.with_suffix('.png')
     plot_report(records, png_path)
     return csv_path, png_path
+
+
+def write_run_report(records: list[CycleRecord], series: TugSeries, out_dir: str | Path,
+                     stem: str, slow_ratio: float | None, stop_ratio: float
+                     ) -> tuple[Path, Path, Path | None]:
+    """A run's report: ``stem``.csv, ``stem``_tug.csv, then ``stem``.png and ``stem``_tug.png
+    (write_report, write_tug_series): both tables are on disk before either plot is drawn,
+    so a stop cut short while plotting (the stop watchdog, launch's SIGKILL; matplotlib is
+    slow to start on a robot's computer) loses at most a plot. Returns the cycle table's and
+    plot's paths and the tug plot's (None when no tug was recorded)."""
+    csv_path = write_report_csv(records, out_dir, stem)
+    tug_csv = write_tug_csv(series, out_dir, stem)
+    png_path = csv_path.with_suffix('.png')
+    plot_report(records, png_path)
+    tug_png = None if tug_csv is None else plot_tug_series(
+        series.samples, tug_csv.with_suffix('.png'), slow_ratio, stop_ratio)
+    return csv_path, png_path, tug_png
 
 
 def write_report_csv(records: list[CycleRecord], out_dir: str | Path,
