@@ -105,11 +105,12 @@ def stop_watchdog(grace_s: float = STOP_GRACE_S) -> Callable[[], None]:
     stack goes to stderr and the process ends with exit code 1, unless it has ended by then.
     The timer is a C thread: it fires even when the main thread is stuck in native code, where
     no Python signal handler can run. Only for a process that is about to end (`finish`)."""
-    armed = threading.Event()
+    armed = False
 
     def arm() -> None:
-        if not armed.is_set():
-            armed.set()
+        nonlocal armed
+        if not armed:           # arming again would restart the timer
+            armed = True
             faulthandler.dump_traceback_later(grace_s, exit=True)
     return arm
 
