@@ -237,6 +237,45 @@ def test_behavior_query_without_capacity_node_is_no_value(ros_context):
         asker.destroy_node()
 
 
+def test_a_stop_request_ends_a_waiting_question_at_once(ros_context):
+    """A service that is there but never answers (its node is not spun, as capacity_node's
+    at the same SIGINT): a stop request during the wait ends the question within a wait
+    slice with no value, not after its timeout, and later questions are not asked at all.
+    Without the stop the question would wait its whole 20 s timeout."""
+    import threading
+    import time
+
+    from rftgls_core.types import Status
+    from rftgls_interfaces.srv import QueryCapacity
+    from rftgls_ros.capacity_query import WAIT_SLICE_S, ServicePredictor
+    server = rclpy.create_node('mute_capacity_node', context=ros_context)
+    server.create_service(QueryCapacity, '/mute/query_capacity', lambda req, res: res)
+    asker = rclpy.create_node('stopping_behavior', context=ros_context)
+    stop = threading.Event()
+    pred = ServicePredictor(asker, '/mute/query_capacity', timeout_s=20.0, retry_s=0.0,
+                            stopping=stop.is_set)
+    try:
+        deadline = time.monotonic() + 10.0
+        while not pred._client.service_is_ready() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert pred._client.service_is_ready()
+        threading.Timer(0.5, stop.set).start()
+        t0 = time.monotonic()
+        r = pred.predict(DH, PHI)
+        took = time.monotonic() - t0
+        assert (r.status, r.capacity_N, r.reason) == (Status.STALE, None, 'stopping')
+        # the stop came 0.5 s in; one slice to see it, the rest scheduling slack
+        assert 0.45 <= took <= 0.5 + WAIT_SLICE_S + 1.0, took
+        t1 = time.monotonic()
+        assert pred.predict(DH, PHI).reason == 'stopping'
+        assert time.monotonic() - t1 < WAIT_SLICE_S
+        assert pred.calls == 0
+    finally:
+        pred.destroy()
+        asker.destroy_node()
+        server.destroy_node()
+
+
 def test_behavior_node_asks_the_service_unless_configured(ros_context):
     """capacity_source: service (default) -> ServicePredictor; local_map, or the explicit
     own_capacity_fallback, -> its own map; anything else refuses to start."""

@@ -113,3 +113,41 @@ def test_a_clean_stop_is_not_cut_short(tmp_path, spawn):
     assert proc.returncode == 0, err
     assert time.monotonic() - t0 < STOP_GRACE_S, err
     assert 'Timeout' not in err
+
+
+WAITING_PROGRAM = '''
+import time
+from rclpy.node import Node
+from rftgls_node_base.node_main import run_node, stop_requested
+
+def make():
+    node = Node('waiting_node')
+    def wait_in_a_callback():
+        print('up', flush=True)
+        t_end = time.monotonic() + 30.0      # a question with a long timeout
+        while time.monotonic() < t_end and not stop_requested():
+            time.sleep(0.01)
+        print('stop seen' if stop_requested() else 'timed out', flush=True)
+    node.create_timer(0.05, wait_in_a_callback)
+    return node
+
+run_node(make, 'waiting_node', args=None)
+'''
+
+
+def test_a_callback_that_waits_sees_the_stop_request(tmp_path, spawn):
+    """node_main.stop_requested: a callback that waits (as behavior_node's capacity
+    questions do) sees the SIGINT while the spin loop cannot (it is inside the callback), so
+    the node stops within the tested 2 s, exit 0, instead of after the wait's 30 s."""
+    script = tmp_path / 'waiting_node.py'
+    script.write_text(WAITING_PROGRAM)
+    proc = spawn([sys.executable, str(script)], stdout=subprocess.PIPE,
+                 stderr=subprocess.PIPE, text=True)
+    assert proc.stdout is not None
+    assert proc.stdout.readline().strip() == 'up'
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=STOP_GRACE_S + 10.0)
+    assert proc.returncode == 0, err
+    assert out.split() == ['stop', 'seen'], (out, err)
+    assert time.monotonic() - t0 < 2.0, err

@@ -41,6 +41,15 @@ HELP_FLAGS = ('-h', '--help')
 # that would end the process silently, and leaves a slow safe stop (behavior_node's report
 # and plot on a loaded machine) four times the 2 s a stop is tested to take.
 STOP_GRACE_S = 8.0
+# The running node's stop request: set by SIGINT/SIGTERM, cleared when run_node starts.
+_STOP = threading.Event()
+
+
+def stop_requested() -> bool:
+    """Whether the node run_node is running has been asked to stop (SIGINT or SIGTERM).
+    The spin loop sees a stop only between callbacks: a callback that waits (a service call
+    with a timeout) polls this to give up at once instead of running its wait out."""
+    return _STOP.is_set()
 
 
 def user_args(argv: Sequence[str]) -> list[str]:
@@ -190,7 +199,8 @@ def _run_node(make_node, executable, config_errors, tick, on_exit, spin_period_s
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions
 
-    stop = stop_on_signals(on_stop=arm)   # before init: no signal meets a half-built node
+    _STOP.clear()
+    stop = stop_on_signals(_STOP, on_stop=arm)  # before init: no signal meets a half-built node
     try:
         with during_init():        # DDS on loopback (dds_loopback.py)
             rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)

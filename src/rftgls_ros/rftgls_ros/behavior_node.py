@@ -51,7 +51,7 @@ from rftgls_conventions import (
 )
 from rftgls_core.planning.replay import inputs_for_map
 from rftgls_interfaces.msg import AnchorEstimate, InputValue, LinkState
-from rftgls_node_base.node_main import run_node, usage, wants_help
+from rftgls_node_base.node_main import run_node, stop_requested, usage, wants_help
 from rftgls_node_base.parameters import declare
 
 from .behavior import (
@@ -145,7 +145,9 @@ class BehaviorNode(Node):
                                        anchor_description_file=desc,
                                        anchor_state_variables=desc_vars)
         else:
-            predictor = ServicePredictor(self, f'{cap_ns}/query_capacity')
+            # A stop request ends a question at once: a mode choice asks dozens in one step.
+            predictor = ServicePredictor(self, f'{cap_ns}/query_capacity',
+                                         stopping=stop_requested)
         self.predictor = predictor
         self.replayer: ProcessReplayer | None = None
         self.machine = self.new_machine(self.cfg)

@@ -8,7 +8,10 @@ map or model as the estimates it tugs on (it loads no copy of its own).
 ``ServicePredictor`` is the ModeChooser's predictor ``(state, phi) -> (capacity N | None,
 Status)`` answered by that service. The call blocks the caller for at most ``timeout_s``: the
 client lives on a private node spun by a private executor, so it can be called from a callback
-of the behaviour node's own executor.
+of the behaviour node's own executor. It waits in slices of ``WAIT_SLICE_S`` and gives up
+within one slice once ``stopping()`` is true (node_main.stop_requested: a SIGINT): a mode
+choice asks dozens of questions in one callback, and the node's stop cannot begin before that
+callback returns.
 
 Safety: an unanswered question is no value. A missing service, a timeout or a malformed answer
 gives ``(None, Status.STALE)``, which the chooser never counts as sufficient (no tug on it);
@@ -19,6 +22,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
@@ -30,6 +34,8 @@ from rftgls_interfaces.srv import QueryCapacity
 from .capacity_msgs import num_or_nan, twist_msg
 
 CAPACITY_SOURCES = ('service', 'local_map')
+# s: how often a waiting question looks at stopping(); a stop ends the wait within this.
+WAIT_SLICE_S = 0.05
 
 
 def answer_query(predictor, default_pull: str, req, res):
@@ -63,11 +69,12 @@ class ServicePredictor:
     """Capacity of hypothetical states from capacity_node's query service (see module doc)."""
 
     def __init__(self, node, service: str, pull: str = 'backward', timeout_s: float = 2.0,
-                 retry_s: float = 1.0):
+                 retry_s: float = 1.0, stopping: Callable[[], bool] = lambda: False):
         self.path = f'service {service}'   # what behavior_node logs as its capacity source
         self.pull = pull
         self.timeout_s = timeout_s
         self.retry_s = retry_s
+        self.stopping = stopping
         # Without the process's global ROS arguments: launch_ros passes `-r __node:=<name>`,
         # which would rename this helper node to its owner's name (two nodes of one name, one
         # rosout publisher between them). Its namespace and service name are given explicitly.
@@ -85,17 +92,23 @@ class ServicePredictor:
         answer in time, or an answer this node cannot read, is `stale` with no value."""
         if time.monotonic() < self._down_until:
             return self._no_value(phi, 'capacity_query_backoff')
-        if not self._client.wait_for_service(timeout_sec=self.timeout_s):
+        if self.stopping():
+            return self._no_value(phi, 'stopping')
+        if not self._wait(self._client.service_is_ready):
+            if self.stopping():
+                return self._no_value(phi, 'stopping')
             return self._failed(phi, f'service {self._client.srv_name} not available')
         req = QueryCapacity.Request(h_m=float(state.h), theta_b_rad=float(state.theta_b),
                                     theta_l1_rad=float(state.theta_l1),
                                     theta_l2_rad=float(state.theta_l2), phi_rad=float(phi),
                                     pull=str(pull or self.pull))
         future = self._client.call_async(req)
-        self._executor.spin_until_future_complete(future, timeout_sec=self.timeout_s)
+        self._wait(future.done)
         res = future.result() if future.done() else None
         if res is None:
             self._client.remove_pending_request(future)
+            if self.stopping():
+                return self._no_value(phi, 'stopping')
             return self._failed(phi, f'no answer within {self.timeout_s:g} s')
         try:
             status = Status(res.status)
@@ -118,6 +131,17 @@ class ServicePredictor:
         """(capacity N or None, status): the short form the tests and tools print."""
         r = self.predict(state, phi)
         return (r.capacity_N if r.status.has_value else None), r.status
+
+    def _wait(self, done: Callable[[], bool]) -> bool:
+        """Spin the private executor until done(); False after timeout_s, at a stop request
+        (within WAIT_SLICE_S) or once the context is shut down."""
+        deadline = time.monotonic() + self.timeout_s
+        while not done():
+            left = deadline - time.monotonic()
+            if left <= 0.0 or self.stopping() or not self._node.context.ok():
+                return False
+            self._executor.spin_once(timeout_sec=min(WAIT_SLICE_S, left))
+        return True
 
     def _no_value(self, phi: float, reason: str) -> CapacityResult:
         return CapacityResult(phi=phi, status=Status.STALE, method='capacity_query',
