@@ -403,3 +403,61 @@ def test_a_slip_after_a_burrow_run_leg_by_leg_turns_the_simulated_body(predictor
     assert pitch and 0.0 < plant.tug_slip < 0.020, plant.tug_slip
     assert abs(pitch[-1] - pitch[0]) > math.radians(0.05)
     assert m.records[0].outcome == 'ok'
+
+
+def test_a_replay_no_longer_wanted_is_not_waited_for():
+    """ProcessReplayer, the worker behavior_node replays in: its answer is replay_burrow's
+    in this process (the reference: the same function, same inputs, same CPU and thread
+    count, so the same bits); a cancel or a close while a replay runs ends its worker at once
+    instead of waiting out the replay (behavior_node's stop closes it: a wait there held the
+    stop), and after a cancel the next replay is answered by a fresh worker."""
+    import multiprocessing
+    import time
+
+    import numpy as np
+
+    from rftgls_core.planning.burrowed import burrowed_pose
+    from rftgls_core.planning.replay import BurrowRecord, inputs_for_map, replay_burrow
+    from rftgls_ros.behavior.replay import ProcessReplayer
+    gmap = sled_map('minirquad', 0.4)
+    inputs = inputs_for_map(gmap, 'minirquad')
+    answer = plan_from_map(gmap, PHIS, 0.0, 0.95).answers[0]
+    plan = burrowed_pose(answer, 'plan')
+    gait = answer.gait.burrow(inputs.multibody())
+    record = BurrowRecord.of([(t, *gait.dof_reference(t)[0])
+                              for t in np.arange(0.0, 5.0, 0.05)])
+    here = replay_burrow(inputs, record, plan)
+    assert here.pose is not None
+
+    def answered(replayer: ProcessReplayer, timeout_s: float = 60.0):
+        deadline = time.monotonic() + timeout_s
+        while (r := replayer.result()) is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+        return r
+
+    def workers() -> set[int]:
+        return {p.pid for p in multiprocessing.active_children()}
+
+    replayer = ProcessReplayer(inputs)
+    try:
+        replayer.submit(record, plan)
+        first = answered(replayer)
+        assert first is not None and first.pose == here.pose
+        t0 = time.monotonic()
+        replayer.submit(record, plan)
+        assert answered(replayer) is not None
+        replay_s = time.monotonic() - t0         # one replay in the warm worker
+        before = workers()
+        replayer.submit(record, plan)
+        replayer.cancel()                         # while it runs: its worker is ended
+        assert before and not before & workers()
+        replayer.submit(record, plan)
+        assert answered(replayer).pose == here.pose
+        replayer.submit(record, plan)
+        t0 = time.monotonic()
+        replayer.close()
+        # a terminate and a join, not the rest of a replay; the same load slows both
+        assert time.monotonic() - t0 < 0.5 * replay_s, replay_s
+        assert workers() == set()
+    finally:
+        replayer.close()

@@ -11,7 +11,8 @@ for the closed-loop tests without ROS. Both answer `result()`: None while nothin
 from __future__ import annotations
 
 import multiprocessing
-from concurrent.futures import Future, ProcessPoolExecutor
+import multiprocessing.pool
+from multiprocessing.pool import AsyncResult
 
 from rftgls_core.planning.burrowed import BurrowedPose
 from rftgls_core.planning.predict import PlanInputs
@@ -50,37 +51,50 @@ class InlineReplayer:
 
 
 class ProcessReplayer(InlineReplayer):
-    """Replays in one worker process; a new submit supersedes a replay still running."""
+    """Replays in one worker process. A replay that is no longer wanted (a new submit, a
+    cancel, the node's stop) is not waited for: its worker is terminated (multiprocessing's
+    Pool.terminate) and, unless closing, a fresh one started. A stop then takes no replay's
+    1-3 s, and a superseded replay stops taking one of the robot computer's cores."""
 
     def __init__(self, inputs: PlanInputs):
         super().__init__(inputs)
-        ctx = multiprocessing.get_context('forkserver')
-        self._pool = ProcessPoolExecutor(max_workers=1, mp_context=ctx)
-        self._future: Future | None = None
-        self._pool.submit(_warm)
+        self._pool = self._start()
+        self._running: AsyncResult | None = None
+
+    @staticmethod
+    def _start() -> multiprocessing.pool.Pool:
+        pool = multiprocessing.get_context('forkserver').Pool(processes=1)
+        pool.apply_async(_warm)
+        return pool
 
     def submit(self, record: BurrowRecord, plan_pose: BurrowedPose) -> None:
         self.submitted += 1
         self.cancel()
-        self._future = self._pool.submit(replay_burrow, self.inputs, record, plan_pose)
+        self._running = self._pool.apply_async(replay_burrow,
+                                               (self.inputs, record, plan_pose))
 
     def result(self) -> ReplayedBurrow | None:
-        f = self._future
-        if f is None or not f.done():
+        f = self._running
+        if f is None or not f.ready():
             return None
-        self._future = None
+        self._running = None
         try:
-            return f.result()
+            return f.get()
         except Exception as exc:      # a crashed worker is a replay without a pose, not a crash
             return ReplayedBurrow(None, float('nan'), f'replay_failed: {exc!r}', 0)
 
     def cancel(self) -> None:
-        if self._future is not None:
-            self._future.cancel()
-            self._future = None
+        if self._running is not None and not self._running.ready():
+            self._stop()
+            self._pool = self._start()
+        self._running = None
 
     def close(self) -> None:
-        # Joined, not abandoned: an abandoned pool leaves its worker and semaphores to the
-        # interpreter's exit (resource_tracker warnings). A replay still running is waited for.
-        self.cancel()
-        self._pool.shutdown(wait=True, cancel_futures=True)
+        self._running = None
+        self._stop()
+
+    def _stop(self) -> None:
+        # Terminated and joined (not abandoned to the interpreter's exit, which would leave
+        # the worker and its semaphores behind: resource_tracker warnings).
+        self._pool.terminate()
+        self._pool.join()
