@@ -98,20 +98,32 @@ def test_a_stop_that_cannot_finish_ends_with_every_stack_and_exit_1(tmp_path, sp
     assert 'never_returns' in text and 'Timeout' in text, text
 
 
+def run_until_up(spawn, script) -> subprocess.Popen:
+    """The program started as a node program is (stdout and stderr piped), once it says up."""
+    proc = spawn([sys.executable, str(script)], stdout=subprocess.PIPE,
+                 stderr=subprocess.PIPE, text=True)
+    assert proc.stdout is not None
+    assert proc.stdout.readline().strip() == 'up'
+    return proc
+
+
+def interrupt(proc: subprocess.Popen) -> tuple[str, str, float]:
+    """SIGINT, then (the rest of stdout, stderr, s from the signal to the exit)."""
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=STOP_GRACE_S + 10.0)
+    return out, err, time.monotonic() - t0
+
+
 def test_a_clean_stop_is_not_cut_short(tmp_path, spawn):
     """The same node program with a safe stop that returns exits 0 at once: the watchdog
     only ends a stop that overruns."""
     script = tmp_path / 'quick_node.py'
     script.write_text(node_program('pass', 'STOP_GRACE_S'))
-    proc = spawn([sys.executable, str(script)], stdout=subprocess.PIPE,
-                 stderr=subprocess.PIPE, text=True)
-    assert proc.stdout is not None
-    assert proc.stdout.readline().strip() == 'up'
-    t0 = time.monotonic()
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=STOP_GRACE_S + 10.0)
+    proc = run_until_up(spawn, script)
+    _, err, took = interrupt(proc)
     assert proc.returncode == 0, err
-    assert time.monotonic() - t0 < STOP_GRACE_S, err
+    assert took < STOP_GRACE_S, err
     assert 'Timeout' not in err
 
 
@@ -141,13 +153,8 @@ def test_a_callback_that_waits_sees_the_stop_request(tmp_path, spawn):
     the node stops within the tested 2 s, exit 0, instead of after the wait's 30 s."""
     script = tmp_path / 'waiting_node.py'
     script.write_text(WAITING_PROGRAM)
-    proc = spawn([sys.executable, str(script)], stdout=subprocess.PIPE,
-                 stderr=subprocess.PIPE, text=True)
-    assert proc.stdout is not None
-    assert proc.stdout.readline().strip() == 'up'
-    t0 = time.monotonic()
-    proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=STOP_GRACE_S + 10.0)
+    proc = run_until_up(spawn, script)
+    out, err, took = interrupt(proc)
     assert proc.returncode == 0, err
     assert out.split() == ['stop', 'seen'], (out, err)
-    assert time.monotonic() - t0 < 2.0, err
+    assert took < 2.0, err
