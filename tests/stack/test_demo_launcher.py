@@ -5,6 +5,7 @@ predicts); the default body, the physics, is checked for what it must do whateve
 does: burrow with the physics, decide on the lower bound, say why, exit cleanly."""
 from __future__ import annotations
 
+import math
 import os
 import re
 import subprocess
@@ -82,7 +83,12 @@ def test_the_default_demo_burrows_with_the_physics_and_decides_on_the_lower_boun
     assert re.search(r'check g-[\d/>-]+ at the measured pose .* lower bound', text), text
     rows = read_csv(out / 'cycle_report.csv')
     assert rows and all(r.outcome in ('ok', 'stopped') for r in rows), rows
-    assert all(r.reel_lower_margin_n >= 0.0 for r in rows), rows
+    # Never a reel-in below the need; NaN is a cycle whose winch never reeled in (report.py),
+    # which only a stopped one may be (seen under the load of three test workers: three
+    # burrows, none whose pose check passed, no tug).
+    assert all(r.reel_lower_margin_n >= 0.0
+               or (r.outcome == 'stopped' and math.isnan(r.reel_lower_margin_n))
+               for r in rows), rows
     report = (out / 'logs' / 'sled_400g' / 'minirquad_sim.log').read_text()
     assert 'physics stopped' not in report and 'physics_behind_s' in report, report
 
