@@ -34,6 +34,7 @@ command, and so does the test (the figures from the signal are kept in the resul
 """
 from __future__ import annotations
 
+import collections
 import csv
 import json
 import os
@@ -239,6 +240,8 @@ class Probe:
         self.state, self.winch, self.winch_since = '', 0.0, time.monotonic()
         self.events: list[dict] = []
         self.estimates: list[tuple[float, float]] = []   # (sample s, received s), capacity_node's
+        # the last estimates as received (a campaign that waits in vain prints them)
+        self.recent: collections.deque[str] = collections.deque(maxlen=12)
         self.injecting = False
         self.links: list[tuple[float, int, float]] = []  # (stamp s, state, loss)
         self.tension_stamp = 0.0
@@ -288,8 +291,11 @@ class Probe:
     def _on_estimate(self, msg):
         # An estimate is as old as the tension sample it is built on (a heartbeat estimate
         # carries capacity_node's clock): the newer of the two cannot be its sample time.
-        if not self.injecting:
-            with self.lock:
+        with self.lock:
+            self.recent.append(f'{time.time():.3f} {"injected " if self.injecting else ""}'
+                               f'{msg.status} {msg.reason} stale {list(msg.stale_inputs)} '
+                               f'{msg.detail[:160]}')
+            if not self.injecting:
                 self.estimates.append((min(self._s(msg.header.stamp), self.tension_stamp),
                                        time.time()))
 
@@ -345,7 +351,15 @@ def _cpu_hogs(spawn, n=2):
 
 def _one_run(cls: str, stack: Stack, probe: Probe, record: Record, spawn) -> dict:
     """Start fault `cls` mid-tug; return t0, the stop (s, m) and the recorded reason."""
-    _wait(lambda: probe.reeling_for() >= 0.25, 240, f'a reeling tug before {cls}')
+    try:
+        _wait(lambda: probe.reeling_for() >= 0.25, 240, f'a reeling tug before {cls}')
+    except AssertionError as exc:   # what capacity_node said last, and behavior_node's state
+        with probe.lock:
+            said = '\n'.join(probe.recent) or 'no estimate received'
+            state, events = probe.state, probe.events[-3:]
+        raise AssertionError(f'{exc}; now {time.time():.3f}, behavior_node {state}, its last '
+                             f'events {events}; capacity_node\'s last estimates:\n{said}') \
+            from None
     since = time.time()
     out: dict = {'class': cls}
     if cls in ('capacity_killed', 'capacity_stopped'):
