@@ -164,8 +164,13 @@ class BehaviorNode(Node):
         self.pub_burrow = self.create_publisher(String, 'burrow', 10)
         self.pub_legs = self.create_publisher(JointState, 'leg_targets', 10)
         self.pub_winch = self.create_publisher(Float64, 'winch/speed', 10)
-        self.pub_height = self.create_publisher(InputValue, 'winch/height_estimate', 10)
-        self.pub_phi = self.create_publisher(Float64, 'winch/phi', 10)
+        # h and phi are a 50 Hz stream of the latest value, read best-effort by capacity_node
+        # and state_publisher: best-effort here too (a reliable writer kept nothing better,
+        # and after capacity_node was frozen for seconds its samples stopped reaching it for
+        # good in the stop campaign: docs/design/tug-safety.md).
+        self.pub_height = self.create_publisher(InputValue, 'winch/height_estimate',
+                                                qos_profile_sensor_data)
+        self.pub_phi = self.create_publisher(Float64, 'winch/phi', qos_profile_sensor_data)
         self.pub_state = self.create_publisher(String, '~/state', LATCHED)
         self.pub_events = self.create_publisher(String, '~/events', 50)
 
