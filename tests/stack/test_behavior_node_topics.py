@@ -143,7 +143,9 @@ def test_burrow_modes_planned_without_a_gait_map_for_the_sled_is_refused_in_one_
 def test_the_height_it_sends_is_marked_assumed(rig):
     node, probe, ex = rig(h_walk_m=0.055)
     got = []
-    probe.create_subscription(InputValue, '/winch/height_estimate', got.append, 10)
+    # best-effort, as behavior_node publishes it (and capacity_node reads it)
+    probe.create_subscription(InputValue, '/winch/height_estimate', got.append,
+                              qos_profile_sensor_data)
     assert spin_until(ex, lambda: len(got) >= 3)
     m = got[-1]
     assert (m.value, m.provenance) == (0.055, InputValue.ASSUMED)
