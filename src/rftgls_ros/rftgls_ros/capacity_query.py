@@ -92,11 +92,9 @@ class ServicePredictor:
         answer in time, or an answer this node cannot read, is `stale` with no value."""
         if time.monotonic() < self._down_until:
             return self._no_value(phi, 'capacity_query_backoff')
-        if self.stopping():
+        if self.stopping():                   # no new question once a stop is requested
             return self._no_value(phi, 'stopping')
         if not self._wait(self._client.service_is_ready):
-            if self.stopping():
-                return self._no_value(phi, 'stopping')
             return self._failed(phi, f'service {self._client.srv_name} not available')
         req = QueryCapacity.Request(h_m=float(state.h), theta_b_rad=float(state.theta_b),
                                     theta_l1_rad=float(state.theta_l1),
@@ -107,8 +105,6 @@ class ServicePredictor:
         res = future.result() if future.done() else None
         if res is None:
             self._client.remove_pending_request(future)
-            if self.stopping():
-                return self._no_value(phi, 'stopping')
             return self._failed(phi, f'no answer within {self.timeout_s:g} s')
         try:
             status = Status(res.status)
@@ -148,6 +144,10 @@ class ServicePredictor:
                               reason=reason)
 
     def _failed(self, phi: float, why: str) -> CapacityResult:
+        """No value; after a failure the service rests for retry_s. A question cut short by a
+        stop request is no failure of the service: `stopping`, no rest, nothing logged."""
+        if self.stopping():
+            return self._no_value(phi, 'stopping')
         self._node.get_logger().warning(f'capacity query failed ({why}): no value for '
                                         f'{self.retry_s:g} s')
         self._down_until = time.monotonic() + self.retry_s
