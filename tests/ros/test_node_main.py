@@ -19,6 +19,7 @@ from rftgls_node_base.node_main import (  # noqa: E402
     user_args,
     wants_help,
 )
+from rftgls_node_base.teardown_timer import TEARDOWN_S  # noqa: E402
 
 
 def test_launch_ros_argv_is_stripped(tmp_path):
@@ -125,6 +126,7 @@ def test_a_clean_stop_is_not_cut_short(tmp_path, spawn):
     assert proc.returncode == 0, err
     assert took < STOP_GRACE_S, err
     assert 'Timeout' not in err
+    assert 'ROS teardown' not in err          # nor the teardown timer (below)
 
 
 WAITING_PROGRAM = '''
@@ -158,3 +160,45 @@ def test_a_callback_that_waits_sees_the_stop_request(tmp_path, spawn):
     assert proc.returncode == 0, err
     assert out.split() == ['stop', 'seen'], (out, err)
     assert took < 2.0, err
+
+
+STUCK_TEARDOWN_PROGRAM = '''
+import ctypes
+from rclpy.node import Node
+from rftgls_node_base.node_main import run_node
+
+class StuckNode(Node):
+    def destroy_node(self):
+        # as rcl_node_fini spinning in Fast DDS's participant deletion: native code that
+        # holds the GIL (PyDLL keeps it), where no Python thread or handler can run
+        ctypes.PyDLL(None).sleep(30)
+
+def make():
+    node = StuckNode('stuck_teardown_node')
+    node.create_timer(0.05, lambda: print('up', flush=True))
+    return node
+
+def safe_stop(node):
+    print('safe stop done', flush=True)
+
+run_node(make, 'stuck_teardown_node', on_exit=safe_stop, args=None)
+'''
+
+
+def test_a_teardown_stuck_in_native_code_ends_at_the_teardown_timer_with_exit_0(
+        tmp_path, spawn):
+    """node_main arms teardown_timer before the ROS teardown of an exiting program: a
+    teardown stuck in native code with the GIL held (as Fast DDS's participant deletion can
+    spin, docs/design/jazzy-robot.md) ends TEARDOWN_S after the safe stop, exit 0 with one
+    line saying so, inside the 2 s a stop is tested to take; not at the stop watchdog's 8 s
+    with exit 1. Without the timer this program runs into the watchdog."""
+    script = tmp_path / 'stuck_teardown_node.py'
+    script.write_text(STUCK_TEARDOWN_PROGRAM)
+    proc = run_until_up(spawn, script)
+    out, err, took = interrupt(proc)
+    assert proc.returncode == 0, err
+    assert 'safe stop done' in out, (out, err)
+    assert 'the ROS teardown did not end within 1 s' in err, err
+    assert 'Timeout' not in err, err                    # the watchdog did not fire
+    # not before the timer; the upper bound is the stop budget of the launch tests
+    assert TEARDOWN_S <= took < 2.0, (took, err)

@@ -17,7 +17,9 @@ A program that cannot finish stopping (a callback still computing, a teardown th
 does not wait for launch's SIGTERM and SIGKILL: from the first signal (or the end of its spin
 loop) it has STOP_GRACE_S to end, after which the interpreter's fault handler writes every
 thread's stack to stderr and ends the process with exit code 1 (`stop_watchdog`): an unclean
-stop that says where it was stuck. docs/design/jazzy-robot.md, "Stopping on SIGINT".
+stop that says where it was stuck. docs/design/jazzy-robot.md, "Stopping on SIGINT". Once
+the safe stop is done, the ROS teardown itself has TEARDOWN_S (teardown_timer.py): Fast DDS
+can spin for good deleting the participant, after everything the robot needs is done.
 """
 from __future__ import annotations
 
@@ -33,6 +35,7 @@ from typing import Any, NoReturn
 from rftgls_conventions import one_line
 
 from .dds_loopback import during_init
+from .teardown_timer import arm_teardown_timer
 
 HELP_FLAGS = ('-h', '--help')
 # s from the stop request to the end of the process before the stop watchdog ends it. launch
@@ -172,8 +175,10 @@ def run_node(make_node: Callable[[], Any], executable: str, *,
     exiting = exit_process if exit_process is not None else args is None
     # Only a process about to end may be ended by the watchdog (not a test calling main(args)).
     arm = stop_watchdog(stop_grace_s) if exiting else None
+    # ... and only such a process has its ROS teardown bounded (teardown_timer.py).
+    bound_teardown = (lambda: arm_teardown_timer(executable)) if exiting else None
     code = _run_node(make_node, executable, config_errors, tick, on_exit, spin_period_s, args,
-                     arm)
+                     arm, bound_teardown)
     if exiting:
         release_ros()
         finish(code)
@@ -193,7 +198,8 @@ def release_ros() -> None:
 
 
 def _run_node(make_node, executable, config_errors, tick, on_exit, spin_period_s,
-              args, arm: Callable[[], None] | None) -> int:
+              args, arm: Callable[[], None] | None,
+              bound_teardown: Callable[[], bool] | None) -> int:
     import rclpy
     from rclpy.exceptions import ParameterException
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -231,6 +237,8 @@ def _run_node(make_node, executable, config_errors, tick, on_exit, spin_period_s
                 on_exit(node)
             except Exception as exc:  # noqa: BLE001 - shutting down anyway, but say so
                 print(f'{executable}: safe stop failed: {one_line(exc)}', file=sys.stderr)
+        if bound_teardown is not None:
+            bound_teardown()
         executor.remove_node(node)
         node.destroy_node()        # joins the node's own threads before the context goes
         executor.shutdown(timeout_sec=0.5)
