@@ -371,6 +371,49 @@ def test_a_planned_burrow_waits_at_standing_for_legs_that_lag(predictor):
     assert targets(t0 + t_stand + STAND_WAIT_S + 0.3, lag) != pytest.approx(STAND)
 
 
+def test_a_late_step_records_every_leg_sample_that_arrived_since_the_last(predictor):
+    """behavior_node hands the machine every leg sample since its last step
+    (Observation.leg_samples; 100 Hz from the bridge, a deep joint_states history): a planned
+    burrow's record, which its replay follows, keeps each one even when a step runs late. (A
+    first burrow was once replayed over 62 samples where the later ones had 95, and its
+    replayed pitch missed the body's by 1.7 deg.) Without leg_samples a step records the
+    latest legs, as the plant of these tests gives them."""
+    from dataclasses import replace
+
+    from rftgls_core.planning.gaits import STAND
+    from rftgls_ros.behavior import Observation
+    plant = Plant(0.4, predictor, gait_poses=GaitPoses.for_sled(0.4))
+    cfg = fast_config(burrow_modes='planned', cycles=1).check()
+    m = BehaviorMachine(cfg, GaitChooser(predictor, sled_map('minirquad', 0.4), 1.0,
+                                         cfg.phis_rad, cfg.plan_confidence))
+    obs = Observation(t=0.0)
+    while m.state != State.BURROW and plant.t < 30.0:
+        plant.apply(m.step(obs))
+        for _ in range(5):
+            obs = plant.advance(0.002)
+    assert m.state == State.BURROW
+    record = m.burrow.record
+
+    def step(t, legs, samples=()):
+        m.step(replace(obs, t=t, legs=legs, t_legs=t, t_tension=t, leg_samples=list(samples)))
+        assert m.state == State.BURROW, m.reason
+
+    t1 = obs.t + 0.02
+    n = len(record)
+    step(t1, STAND)                                   # the latest legs only
+    assert record[n:] == [(t1, *STAND)]
+    # a step 0.5 s late: the 50 samples taken meanwhile, the newest also as the latest legs
+    late = [(t1 + 0.01 * k, STAND[0] - 0.001 * k, STAND[1] + 0.001 * k) for k in range(1, 51)]
+    n = len(record)
+    step(late[-1][0], late[-1][1:], late)
+    assert record[n:] == late
+    # a sample already recorded is not recorded again
+    n = len(record)
+    newer = (late[-1][0] + 0.01, *STAND)
+    step(newer[0], STAND, [late[-1], newer])
+    assert record[n:] == [newer]
+
+
 def test_a_replay_still_running_holds_the_check():
     from rftgls_ros.behavior import Observation
     cfg = fast_config(burrow_modes='planned', cycles=1).check()

@@ -71,6 +71,11 @@ from .tug_action import TugActionServer
 
 EXPIRY_CHECK_S = 0.005  # s: how often a reeling winch's evidence is checked between steps
 WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's deadman (80 ms)
+# joint_states is read best-effort like every sensor stream, but with a history deep enough
+# (1 s of the bridge's 100 Hz) that a step running late loses no leg sample: a planned
+# burrow's replay follows every measured sample (Observation.leg_samples).
+JOINTS_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)
+LEG_SAMPLES_KEPT = 500   # at most this many between two steps (5 s at 100 Hz): a bound only
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
@@ -175,7 +180,7 @@ class BehaviorNode(Node):
         self.pub_events = self.create_publisher(String, '~/events', 50)
 
         sensor = qos_profile_sensor_data
-        self.create_subscription(JointState, 'joint_states', self.on_joints, sensor)
+        self.create_subscription(JointState, 'joint_states', self.on_joints, JOINTS_QOS)
         self.create_subscription(Imu, 'imu', self.on_imu, sensor)
         self.create_subscription(WrenchStamped, 'winch/tension', self.on_tension, sensor)
         self.create_subscription(Float64, 'energy', self.on_energy, 10)
@@ -282,6 +287,8 @@ class BehaviorNode(Node):
             # rejects legs that disagree, so no tolerance here (inf).
             axles = axle_angles(legs, math.inf)
             self.obs.legs, self.obs.t_legs = (axles.theta_l1, axles.theta_l2), t
+            if len(self.obs.leg_samples) < LEG_SAMPLES_KEPT:
+                self.obs.leg_samples.append((t, axles.theta_l1, axles.theta_l2))
         if WINCH_ROPE_JOINT in pos and math.isfinite(pos[WINCH_ROPE_JOINT]):
             self.obs.spool = pos[WINCH_ROPE_JOINT]
             self.obs.spool_velocity = vel.get(WINCH_ROPE_JOINT, 0.0)
@@ -350,9 +357,11 @@ class BehaviorNode(Node):
 
     def step(self) -> None:
         if self.finished:
+            self.obs.leg_samples = []
             return
         self.obs.t = self.now_s()
         cmd = self.machine.step(self.obs)
+        self.obs.leg_samples = []          # seen by this step
         for topic, value in cmd.oneshots:
             (self.pub_gait if topic == 'gait' else self.pub_burrow).publish(String(data=value))
         t = self.obs.t

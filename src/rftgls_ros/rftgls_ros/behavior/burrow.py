@@ -164,9 +164,8 @@ class Burrow:
         m, cfg = self.m, self.m.cfg
         self._drive_gait()
         o = m.obs
-        if m.planned_gait() is not None and o.legs is not None \
-                and (not self.record or o.t_legs > self.record[-1][0]):
-            self.record.append((o.t_legs, *o.legs))
+        if m.planned_gait() is not None and o.legs is not None:
+            self._record_legs(o.leg_samples + [(o.t_legs, *o.legs)])
         at = self.at_final_pose()
         if at and self.at_pose_since is None:
             self.at_pose_since = m.obs.t
@@ -188,6 +187,13 @@ class Burrow:
             self._submit_replay()
             m.go(State.CHECK, 'at the final pose' if done else
                  f'burrow timeout ({cfg.burrow_timeout_s:.0f} s): checking the pose reached')
+
+    def _record_legs(self, samples: list[tuple[float, float, float]]) -> None:
+        """Append the samples (t, L1, L2) taken after the last one recorded, in time order
+        (the newest sample comes twice: in leg_samples and as the latest legs)."""
+        for sample in samples:
+            if not self.record or sample[0] > self.record[-1][0]:
+                self.record.append(sample)
 
     # ------------------------------------------------------------------ the burrowed pose
     def _submit_replay(self) -> None:

@@ -22,7 +22,10 @@ class Observation:
     assumed_inputs the input names capacity_node reported as assumed (None = not received);
     capacity_h the height of p the estimate was computed at, m (NaN: not stated), and
     height_measured whether capacity_node measured that height itself (it then does not
-    come from this node); slip_twist (vx, vz, wy) unit direction in the anchor frame.
+    come from this node); slip_twist (vx, vz, wy) unit direction in the anchor frame;
+    leg_samples every leg sample (t_legs, thetaL1, thetaL2) that arrived since the last step,
+    oldest first (legs/t_legs is the newest): a step that runs late still sees each one, so a
+    planned burrow's record for its replay has no gap where the node was busy.
     """
 
     t: float
@@ -46,6 +49,7 @@ class Observation:
     capacity_h: float = math.nan
     height_measured: bool = False
     slip_twist: tuple[float, float, float] | None = None
+    leg_samples: list[tuple[float, float, float]] = field(default_factory=list)
 
 
 @dataclass
