@@ -30,9 +30,10 @@ setup: $(STAMP) $(BIN)/ros2 $(WS)/install/.built-stamp firmware
 
 # The MiniRQuad firmware's host build (g++ with AddressSanitizer + UBSan): its unit tests, the
 # fuzz test and fw_sitl, the compiled firmware `minirquad_sim --mcu firmware` runs on the pty.
+# Two compile jobs: 7 s instead of 14 s of a fresh setup on the 2-core machine.
 FIRMWARE := src/minirquad_driver/firmware
 firmware:
-	$(MAKE) -s -C $(FIRMWARE) host
+	$(MAKE) -s -j2 -C $(FIRMWARE) host
 
 # The firmware core cross-compiled for the robot's Cortex-M0+ (gcc-arm-none-eabi): flash and
 # RAM against the MKR WiFi 1010's 256 KB / 32 KB; fails if over or if heap use is linked in.
