@@ -327,6 +327,23 @@ def test_the_replayed_pose_and_the_pitch_check_decide_the_height_sent(predictor,
     assert state is not None and (state.h, m.anchor_height()[1]) == (h, band)
 
 
+def planned_machine_in_burrow(predictor):
+    """A planned-burrow machine (400 g) run with the plant until it enters BURROW: (machine,
+    the plant's last observation)."""
+    from rftgls_ros.behavior import Observation
+    plant = Plant(0.4, predictor, gait_poses=GaitPoses.for_sled(0.4))
+    cfg = fast_config(burrow_modes='planned', cycles=1).check()
+    m = BehaviorMachine(cfg, GaitChooser(predictor, sled_map('minirquad', 0.4), 1.0,
+                                         cfg.phis_rad, cfg.plan_confidence))
+    obs = Observation(t=0.0)
+    while m.state != State.BURROW and plant.t < 30.0:
+        plant.apply(m.step(obs))
+        for _ in range(5):
+            obs = plant.advance(0.002)
+    assert m.state == State.BURROW
+    return m, obs
+
+
 def test_a_planned_burrow_waits_at_standing_for_legs_that_lag(predictor):
     """The plan simulated its burrow from standing: the ramp holds the standing pose until the
     measured legs are there, and goes on without them only after STAND_WAIT_S."""
@@ -335,17 +352,7 @@ def test_a_planned_burrow_waits_at_standing_for_legs_that_lag(predictor):
     from rftgls_core.planning.gaits import STAND
     from rftgls_ros.behavior.burrow import STAND_WAIT_S
     from rftgls_ros.behavior.gait_motion import stand_time
-    plant = Plant(0.4, predictor, gait_poses=GaitPoses.for_sled(0.4))
-    cfg = fast_config(burrow_modes='planned', cycles=1).check()
-    m = BehaviorMachine(cfg, GaitChooser(predictor, sled_map('minirquad', 0.4), 1.0,
-                                         cfg.phis_rad, cfg.plan_confidence))
-    from rftgls_ros.behavior import Observation
-    obs = Observation(t=0.0)
-    while m.state != State.BURROW and plant.t < 30.0:
-        plant.apply(m.step(obs))
-        for _ in range(5):
-            obs = plant.advance(0.002)
-    assert m.state == State.BURROW
+    m, obs = planned_machine_in_burrow(predictor)
     g = m.planned_gait()
     walked = tuple(x - math.radians(20.0) for x in STAND)       # where a walk left the legs
     lag = tuple(x - math.radians(7.0) for x in STAND)           # 7 deg short of standing
@@ -381,17 +388,7 @@ def test_a_late_step_records_every_leg_sample_that_arrived_since_the_last(predic
     from dataclasses import replace
 
     from rftgls_core.planning.gaits import STAND
-    from rftgls_ros.behavior import Observation
-    plant = Plant(0.4, predictor, gait_poses=GaitPoses.for_sled(0.4))
-    cfg = fast_config(burrow_modes='planned', cycles=1).check()
-    m = BehaviorMachine(cfg, GaitChooser(predictor, sled_map('minirquad', 0.4), 1.0,
-                                         cfg.phis_rad, cfg.plan_confidence))
-    obs = Observation(t=0.0)
-    while m.state != State.BURROW and plant.t < 30.0:
-        plant.apply(m.step(obs))
-        for _ in range(5):
-            obs = plant.advance(0.002)
-    assert m.state == State.BURROW
+    m, obs = planned_machine_in_burrow(predictor)
     record = m.burrow.record
 
     def step(t, legs, samples=()):
