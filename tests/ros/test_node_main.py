@@ -99,10 +99,10 @@ def test_a_stop_that_cannot_finish_ends_with_every_stack_and_exit_1(tmp_path, sp
     assert 'never_returns' in text and 'Timeout' in text, text
 
 
-def run_until_up(spawn, script) -> subprocess.Popen:
+def run_until_up(spawn, script, env: dict | None = None) -> subprocess.Popen:
     """The program started as a node program is (stdout and stderr piped), once it says up."""
     proc = spawn([sys.executable, str(script)], stdout=subprocess.PIPE,
-                 stderr=subprocess.PIPE, text=True)
+                 stderr=subprocess.PIPE, text=True, env=env)
     assert proc.stdout is not None
     assert proc.stdout.readline().strip() == 'up'
     return proc
@@ -180,6 +180,7 @@ def make():
 
 def safe_stop(node):
     print('safe stop done', flush=True)
+    ctypes.CDLL(None).printf(b'in C stdio\\n')   # buffered: stdout is a pipe
 
 run_node(make, 'stuck_teardown_node', on_exit=safe_stop, args=None)
 '''
@@ -194,10 +195,12 @@ def test_a_teardown_stuck_in_native_code_ends_at_the_teardown_timer_with_exit_0(
     with exit 1. Without the timer this program runs into the watchdog."""
     script = tmp_path / 'stuck_teardown_node.py'
     script.write_text(STUCK_TEARDOWN_PROGRAM)
-    proc = run_until_up(spawn, script)
+    # C stdio buffered as a launched node's is (PYTHONUNBUFFERED would unbuffer it)
+    proc = run_until_up(spawn, script, env={'PYTHONUNBUFFERED': ''})
     out, err, took = interrupt(proc)
     assert proc.returncode == 0, err
     assert 'safe stop done' in out, (out, err)
+    assert 'in C stdio' in out, (out, err)             # flushed before the exit
     assert 'the ROS teardown did not end within 1 s' in err, err
     assert 'Timeout' not in err, err                    # the watchdog did not fire
     # not before the timer; the upper bound is the stop budget of the launch tests

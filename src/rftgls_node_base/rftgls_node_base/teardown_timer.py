@@ -80,7 +80,7 @@ def arm_teardown_timer(program: str, seconds: float = TEARDOWN_S) -> bool:
     if not sys.platform.startswith('linux'):
         return False
     try:
-        libc = ctypes.CDLL(None, use_errno=True)
+        libc = ctypes.CDLL(None)
         perror, flush, exit_now = libc.perror, libc.fflush, libc._exit
         timer_create, timer_settime = libc.timer_create, libc.timer_settime
     except (OSError, AttributeError):
