@@ -75,7 +75,10 @@ WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's dea
 # (1 s of the bridge's 100 Hz) that a step running late loses no leg sample: a planned
 # burrow's replay follows every measured sample (Observation.leg_samples).
 JOINTS_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)
-LEG_SAMPLES_KEPT = 500   # at most this many between two steps (5 s at 100 Hz): a bound only
+# At most this many between two steps (5 s at 100 Hz): the bound that also holds while the
+# node idles after a run (no step clears them; the next run's first step sees them outside
+# a burrow, where they are not recorded).
+LEG_SAMPLES_KEPT = 500
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
@@ -357,7 +360,6 @@ class BehaviorNode(Node):
 
     def step(self) -> None:
         if self.finished:
-            self.obs.leg_samples = []
             return
         self.obs.t = self.now_s()
         cmd = self.machine.step(self.obs)
