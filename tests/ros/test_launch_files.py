@@ -7,6 +7,7 @@ uses. The checker itself must catch each kind of mistake (a file with one of eac
 command lines must be launch_ros's."""
 from __future__ import annotations
 
+import os
 import textwrap
 from pathlib import Path
 
@@ -207,3 +208,28 @@ def test_the_tug_path_runs_behind_its_prefix(tmp_path):
     # The checker finds a prefix program that does not exist.
     problems = launch_check.check(path, {'tug_path_prefix': 'no_such_prefix_program -x'})
     assert len(problems) == 3 and all('no_such_prefix_program' in p for p in problems)
+
+
+def test_the_checker_builds_its_nodes_deaf_to_the_ros_graph(ros_context):
+    """The checker's private context discovers no one (range OFF), so the participant it
+    deletes after each check never has a discovery callback in flight (Fast DDS 2.14 can
+    spin for good in that deletion: docs/design/jazzy-robot.md, "The teardown timer"). A
+    node of a normal context in the same domain and process sees only itself, and the
+    checker's node sees only itself; the caller's environment is as before."""
+    import time
+
+    import rclpy
+    from rclpy.node import Node
+    before = dict(os.environ)
+    peer = Node('peer_of_the_checker', context=ros_context)
+    ctx = launch_check._init(['prog'])
+    assert dict(os.environ) == before
+    checked = Node('checked_node', context=ctx)
+    try:
+        time.sleep(1.5)   # discovery on loopback takes tens of ms; 1.5 s leaves no doubt
+        assert checked.get_node_names() == ['checked_node']
+        assert peer.get_node_names() == ['peer_of_the_checker']
+    finally:
+        checked.destroy_node()
+        peer.destroy_node()
+        rclpy.try_shutdown(context=ctx)

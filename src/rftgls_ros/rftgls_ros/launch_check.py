@@ -9,8 +9,9 @@ started) down to each program's command line, built by launch_ros's rules (`--ro
 - the executable exists where `ros2 run` looks: <prefix>/lib/<package>/<executable> for a
   prefix on AMENT_PREFIX_PATH that registers the package in the ament index;
 - its own argument parsing accepts that command line: rcl parses the ROS arguments (remaps,
-  parameter files) in a private rclpy context; a program that is not an rclpy node class
-  (the simulator, the bag replay) parses the rest with its module's `parse_args`;
+  parameter files) in a private rclpy context, with DDS discovery off (see `_init`); a
+  program that is not an rclpy node class (the simulator, the bag replay) parses the rest
+  with its module's `parse_args`;
 - a node (the rclpy Node subclass behind the executable's entry point) is built in that
   context, so it takes its name, namespace and parameters from the command line exactly as
   it would under `ros2 launch`: a value of the wrong type (an integer for a float parameter)
@@ -37,7 +38,7 @@ from typing import Any
 
 from rftgls_conventions import one_line
 from rftgls_conventions.safe_read import load_yaml
-from rftgls_node_base.dds_loopback import during_init
+from rftgls_node_base.dds_loopback import RANGE_VAR
 
 from .launch_model import Parsed, Process, executable_path, parse, program_argv, share_dir
 
@@ -141,11 +142,25 @@ def check_node(p: Process, tmpdir: str | Path | None = None) -> list[str]:
 
 def _init(cmd: list[str]):
     """A private rclpy context initialised with the command line (rcl parses its ROS
-    arguments); raises what rcl raises."""
+    arguments); raises what rcl raises.
+
+    Its DDS participant discovers no one (discovery range OFF, which rcl reads from the
+    environment inside rclpy.init, once): a check needs no peer, and a participant that has
+    never heard of another has no discovery callback in flight when the check destroys it.
+    One in flight can make Fast DDS 2.14 spin for good inside the participant's deletion
+    (docs/design/jazzy-robot.md, "The teardown timer"), and the checker, unlike a node
+    program, runs inside a caller (a test, a tool) that no teardown timer may end."""
     import rclpy
     ctx = rclpy.Context()
-    with during_init():
+    before = os.environ.get(RANGE_VAR)
+    os.environ[RANGE_VAR] = 'OFF'
+    try:
         rclpy.init(args=cmd, context=ctx, domain_id=int(os.environ.get('ROS_DOMAIN_ID', '0')))
+    finally:
+        if before is None:
+            os.environ.pop(RANGE_VAR, None)
+        else:
+            os.environ[RANGE_VAR] = before
     return ctx
 
 
