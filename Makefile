@@ -110,11 +110,14 @@ test-cpus: setup
 	$(ENV) && $(CPU_V2) python -m pytest $(NUMERIC_TESTS) $(PYTEST_ARGS) -m "not realtime" -q
 
 # `colcon test` as a ROS user runs it: each package alone (its test/ folder: its unit tests and
-# linters), then `colcon test-result`, which fails on any failed or erroring test.
+# linters), then `colcon test-result`, which fails on any failed or erroring test. A package
+# that fails prints its failures (`colcon test-result --verbose`: each failed test's message,
+# ending with what its inner run printed) before the run stops.
 colcon-test: setup
 	$(ENV) && cd $(WS) && for p in $(COLCON_PKGS); do \
 	    AMENT_PREFIX_PATH=$(CURDIR)/$(VENV):$$AMENT_PREFIX_PATH colcon test --packages-select $$p \
-	        --return-code-on-test-failure --event-handlers console_direct- || exit 1; done \
+	        --return-code-on-test-failure --event-handlers console_direct- \
+	        || { colcon test-result --verbose; exit 1; }; done \
 	    && colcon test-result --all
 
 # ruff (lint + import order) on every package and the tests; mypy on the core library.
