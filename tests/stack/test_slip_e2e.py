@@ -8,7 +8,8 @@ under the tug, a 0.4 s link gap is injected: the simulator's whole MCU loop stan
 field) or the pty is unplugged (``unplug``). The stack must detect the slip, record it in the
 cycle report's row with its reason code and answer it by the slip policy.
 
-Each case is one run (about 25 s); docs/design/tug-safety.md gives the 10-run figures.
+Each case is one run (about 25 s), all in `make test-campaign` (`make test` runs the gap-free slip
+in test_tug_safety_e2e.py); docs/design/tug-safety.md gives the 10-run figures.
 """
 from __future__ import annotations
 
@@ -47,8 +48,8 @@ def slip_run(tmp_path, spawn, stop, gap: str | None):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize('gap', [None, pytest.param('stall', marks=pytest.mark.campaign),
-                                 pytest.param('unplug', marks=pytest.mark.campaign)])
+@pytest.mark.campaign   # make test: the same slip without a gap, test_tug_safety_e2e.py
+@pytest.mark.parametrize('gap', [None, 'stall', 'unplug'])
 def test_e2e_slip_on_weak_sand_is_detected_and_recorded(tmp_path, spawn, stop, gap):
     log, rows, sim_out = slip_run(tmp_path, spawn, stop, gap)
     assert re.search(r'decision \(expected pose\): DH:', log), log

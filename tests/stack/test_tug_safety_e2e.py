@@ -80,3 +80,9 @@ def test_e2e_weaker_true_sand_slip_is_detected_and_stopped(tmp_path, spawn, stop
     during = float(marks[stops[-1]][1]) - float(marks[stops[-1] - 1][1])
     assert 0.0 < during <= 0.020, f'{1e3 * during:.1f} mm\n{sim_out}\n{log}'
     print(f'slip during the tug up to the winch stop: {1e3 * during:.1f} mm')
+    # The slip is never forgotten: the cycle's report row keeps it, as its reason too
+    # (test_slip_e2e.py runs the same sand with link gaps during the slip, in the campaign).
+    rows = list(csv.DictReader(open(tmp_path / 'report' / 'cycle_report.csv')))
+    slipped = [r for r in rows if r['slip'].startswith('slip_')]
+    assert slipped and slipped[0]['mode'].startswith('DH'), (rows, log)
+    assert slipped[0]['outcome'] == 'stopped' and slipped[0]['reason'] == slipped[0]['slip']
