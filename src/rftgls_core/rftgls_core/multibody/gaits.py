@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -76,12 +77,15 @@ class BurrowGait:
             raise GaitError(f'dwell must be >= 0 s, got {self.dwell}')
         if not (math.isfinite(self.duration) and self.duration > 0.0):
             raise GaitError(f'duration must be positive, got {self.duration}')
-        if self._moves()[4] > self.duration + 1e-12:
-            raise GaitError(f'the burrow needs {self._moves()[4]:.2f} s at '
+        if self._moves[4] > self.duration + 1e-12:
+            raise GaitError(f'the burrow needs {self._moves[4]:.2f} s at '
                             f'{math.degrees(self.speed):.1f} deg/s, more than the '
                             f'{self.duration:.2f} s window')
 
+    @cached_property
     def _moves(self):
+        """(stand, retract, final, end of the retract, end of the final stroke): the
+        simulation asks at every step, and a frozen gait's answer never changes."""
         a, b, c = (np.asarray(x, dtype=float) for x in (self.stand, self.retract, self.final))
         t1 = float(np.max(np.abs(b - a))) / self.speed
         t2 = t1 + self.dwell
@@ -89,19 +93,19 @@ class BurrowGait:
         return a, b, c, t1, t3
 
     def knots(self) -> list[float]:
-        a, b, c, t1, t3 = self._moves()
+        a, b, c, t1, t3 = self._moves
         t2 = t1 + self.dwell
         ends = [float(v) / self.speed for v in np.abs(b - a)]
         ends += [t2 + float(v) / self.speed for v in np.abs(c - b)]
         return sorted({0.0, t1, t2, t3, *ends})
 
     def phase(self, t: float) -> str:
-        _, _, _, t1, t3 = self._moves()
+        _, _, _, t1, t3 = self._moves
         return ('retract' if t < t1 else 'dwell' if t < t1 + self.dwell else
                 'final' if t < t3 else 'hold')
 
     def dof_reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        a, b, c, t1, t3 = self._moves()
+        a, b, c, t1, t3 = self._moves
         t2 = t1 + self.dwell
         if t < t2:
             frm, to, tau = a, b, t

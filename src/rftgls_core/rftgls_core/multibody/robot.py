@@ -32,6 +32,7 @@ from ..geometry.transforms import rot_y
 
 # A joint whose limits span a full turn (within this, rad) turns freely: walking legs do.
 FULL_TURN_TOL = 1e-6
+_EYE3 = np.eye(3)       # read only: Leg.rotation adds to it at every pose of every leg
 
 
 @dataclass(frozen=True)
@@ -75,7 +76,7 @@ class Leg:
     def rotation(self, q: float) -> np.ndarray:
         """Rotation of the leg in B at joint value q (rad)."""
         k, kk = self._cross
-        r = np.eye(3) + math.sin(q) * k + (1.0 - math.cos(q)) * kk
+        r = _EYE3 + math.sin(q) * k + (1.0 - math.cos(q)) * kk
         return self.frame @ r
 
 

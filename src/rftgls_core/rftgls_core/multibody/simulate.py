@@ -117,6 +117,8 @@ class Simulator:
         self.last: Balance | None = None
         self.sled = sled
         self.rope: Rope | None = None     # tied when the robot has settled (place)
+        self._knots_of = None             # the gait whose corners _gait_knots holds
+        self._gait_knots: list[float] = []
         # each leg's reach from its hip (m): its facets' farthest centroid
         self._reach = [float(np.linalg.norm(leg.facets.centroids, axis=1).max())
                        for leg in robot.legs]
@@ -171,7 +173,7 @@ class Simulator:
     def step(self, dt: float, gait) -> None:
         """Advance dt seconds (substepped for accuracy) along the gait's references."""
         end = self.t + dt
-        knots = [k for k in gait.knots() if self.t + 1e-12 < k < end - 1e-12]
+        knots = [k for k in self._knots(gait) if self.t + 1e-12 < k < end - 1e-12]
         for _ in range(self.options.max_substeps):
             if self.t >= end - 1e-12:
                 return
@@ -188,6 +190,12 @@ class Simulator:
                 f'within {self.options.body_step * 1e3:.3g} mm per step (t = {self.t:.3f} s); '
                 'use a smaller dt (or the robot falls or slips on without stopping: a tug beyond '
                 'its anchor)')
+
+    def _knots(self, gait) -> list[float]:
+        """The gait's corners, s (a gait is frozen: asked once, not at every step)."""
+        if self._knots_of is not gait:
+            self._knots_of, self._gait_knots = gait, list(gait.knots())
+        return self._gait_knots
 
     def _substep(self, dt_max: float, q_ref, ff, tension: float, phi: float, phase: str,
                  book: bool = True) -> Balance:
