@@ -364,7 +364,8 @@ def test_a_planned_burrow_waits_at_standing_for_legs_that_lag(predictor):
         return m.obs.t
 
     def targets(t, legs):
-        cmd = m.step(replace(obs, t=t, legs=legs, t_legs=t, t_tension=t))
+        cmd = m.step(replace(obs, t=t, legs=legs, t_legs=t, t_tension=t,
+                             tension=m.cfg.taut_tension_N))   # the rope taut: no take-up
         assert m.state == State.BURROW, m.reason
         return cmd.legs
     t0 = burrow_from_walked()
