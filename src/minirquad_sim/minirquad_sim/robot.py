@@ -444,10 +444,13 @@ class SimRobot:
             self.theta_b = b0 + (b1 - b0) * k
         elif self.mode == Mode.IDLE and self._leg_pose is not None:
             (h0, b0), (h1, b1) = self._body_from, self._leg_pose
-            k = self._leg_progress()
+            # the legs arrived: within leg_arrived of their targets (below a servo's
+            # resolution, 0.088 deg), however small the last command's span was
+            arrived = all(abs(s.target - s.angle) < self.leg_arrived for s in self.servos)
+            k = 1.0 if arrived else self._leg_progress()
             self.h = h0 + (h1 - h0) * k
             self.theta_b = b0 + (b1 - b0) * k
-            if k > 1.0 - 1e-6:     # the legs arrived (to well below a servo's resolution)
+            if k > 1.0 - 1e-6:
                 # Settled: from here on the body moves only as the ground makes it (a slip
                 # under the tug turns and lifts it), as after a Table II burrow.
                 self._leg_pose = None
