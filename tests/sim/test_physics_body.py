@@ -157,6 +157,47 @@ def test_a_leg_command_after_the_walk_stands_the_robot_up_before_the_physics_tak
     assert robot2.physics.sim.t == t_physics and not robot2.physics.failed
 
 
+def test_the_stand_up_follows_a_stream_of_leg_commands_down_to_standing():
+    """behavior_node's planned burrow streams leg targets every 20 ms: a ramp at the burrow
+    speed (1 rad/s) from where the walk left the legs down to standing, held there until the
+    legs are there, then on to the retracting pose. The script's stand-up (8 rad/s) follows
+    that stream instead of overtaking it, so once the physics has the body, at standing, the
+    legs only go on toward the retracting pose. Overtaken, the physics took the body at
+    standing and the next command, still on its way down, swung the legs forward through the
+    sand again: a stroke no plan simulated."""
+    from minirquad_driver.gaits import GAITS
+    from rftgls_conventions import wrap_angle
+    robot = SimRobot(physics=PhysicsBody(), physics_walk=False)
+    g = GAITS['walk']
+    robot.set_gait(int(g.kind), g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
+    for _ in range(round(2.5 / STEP)):
+        robot.step(STEP)
+    start = [wrap_angle(a) for a in robot.leg_angles()]
+    assert max(abs(a) for a in start) > math.radians(20.0)     # not standing
+    retract = [math.radians(-40.0)] * 2 + [math.radians(-20.0)] * 2     # PL, PR, DL, DR
+    speed, period = 1.0, 0.02
+    t, t_stroke, after = 0.0, None, []
+    while t < 6.0:
+        if t_stroke is None:
+            targets = [math.copysign(max(abs(a) - speed * t, 0.0), a) for a in start]
+            if all(x == 0.0 for x in targets) and all(
+                    abs(a) < math.radians(0.5) for a in robot.leg_angles()):
+                t_stroke = t
+        if t_stroke is not None:
+            targets = [max(r, -speed * (t - t_stroke)) for r in retract]
+        robot.set_legs(targets)
+        for _ in range(round(period / STEP)):
+            robot.step(STEP)
+            if robot.physics is not None and robot._physical:
+                after.append(robot.leg_angles())
+        t += period
+    assert t_stroke is not None and after and not robot.physics.failed
+    # from the moment the physics has the body: never forward of standing, then the stroke
+    assert max(max(a) for a in after) < math.radians(0.5), max(max(a) for a in after)
+    for a, r in zip(after[-1], retract):
+        assert a == pytest.approx(r, abs=math.radians(2.0))
+
+
 @pytest.mark.parametrize('body', ['physics', 'burrow-physics'])
 def test_the_command_line_builds_each_physics_body_and_refuses_it_on_the_firmware(body, capsys):
     from minirquad_sim.main import _make_mcu, _physics, parse_args, run

@@ -344,6 +344,54 @@ def planned_machine_in_burrow(predictor):
     return m, obs
 
 
+def test_a_planned_burrow_takes_up_the_slack_at_standing_before_its_stroke(predictor):
+    """The plans simulate a rope just taut when the stroke starts (planning/replay.py, the
+    Sled): with the legs at standing the winch reels in at take_up_speed_m_s until the
+    tension reaches taut_tension_N, the ramp holding standing meanwhile; then the winch brakes
+    and the stroke goes on. A rope that never goes taut stops the take-up after take_up_max_s,
+    with a warning. The take-up is no tug: it is not booked against the need."""
+    import math as _math
+    from dataclasses import replace
+
+    from rftgls_core.planning.gaits import STAND
+    m, obs = planned_machine_in_burrow(predictor)
+    cfg = m.cfg
+    walked = tuple(x - _math.radians(20.0) for x in STAND)
+
+    def enter():
+        m.obs = replace(obs, legs=walked, t_legs=obs.t, tension=0.0)
+        m.cycle.reel_lower_margin = _math.inf
+        m.go(State.BURROW, 'test: from where the walk left the legs')
+        return m.obs.t
+
+    def step(t, tension, legs=STAND):
+        cmd = m.step(replace(obs, t=t, legs=legs, t_legs=t, t_tension=t, tension=tension))
+        assert m.state == State.BURROW, m.reason
+        return cmd
+    t0 = enter()
+    assert m.step(replace(obs, t=t0 + 0.1, legs=walked, t_legs=t0 + 0.1, tension=0.0,
+                          t_tension=t0 + 0.1)).winch == 0.0     # legs not yet standing
+    t_at = t0 + 1.0                                    # past the ramp's stand time
+    cmd = step(t_at, 0.0)
+    assert cmd.winch == pytest.approx(cfg.take_up_speed_m_s) and m.burrow.taking_up
+    cmd = step(t_at + 0.5, 0.1)
+    assert cmd.winch == pytest.approx(cfg.take_up_speed_m_s)
+    assert cmd.legs == pytest.approx(STAND)            # the stroke waits
+    cmd = step(t_at + 0.6, cfg.taut_tension_N)
+    assert cmd.winch == 0.0 and not m.burrow.taking_up
+    assert any('tether taut' in e.get('text', '') for e in m.events)
+    assert step(t_at + 0.8, cfg.taut_tension_N).legs != pytest.approx(STAND)  # stroke on
+    assert m.cycle.reel_lower_margin == _math.inf      # the take-up was not booked
+    # a rope that stays slack: the stroke starts after take_up_max_s, and says so
+    t0 = enter()
+    t_at = t0 + 1.0
+    assert step(t_at, 0.0).winch > 0.0
+    assert step(t_at + 0.5 * cfg.take_up_max_s, 0.0).winch > 0.0
+    cmd = step(t_at + cfg.take_up_max_s + 0.01, 0.0)
+    assert cmd.winch == 0.0 and not m.burrow.taking_up
+    assert any('still slack' in e.get('text', '') for e in m.events)
+
+
 def test_a_planned_burrow_waits_at_standing_for_legs_that_lag(predictor):
     """The plan simulated its burrow from standing: the ramp holds the standing pose until the
     measured legs are there, and goes on without them only after STAND_WAIT_S."""
@@ -364,7 +412,8 @@ def test_a_planned_burrow_waits_at_standing_for_legs_that_lag(predictor):
         return m.obs.t
 
     def targets(t, legs):
-        cmd = m.step(replace(obs, t=t, legs=legs, t_legs=t, t_tension=t))
+        cmd = m.step(replace(obs, t=t, legs=legs, t_legs=t, t_tension=t,
+                             tension=m.cfg.taut_tension_N))   # the rope taut: no take-up
         assert m.state == State.BURROW, m.reason
         return cmd.legs
     t0 = burrow_from_walked()

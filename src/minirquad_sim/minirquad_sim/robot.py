@@ -73,6 +73,10 @@ class Geometry:
         return max(0.0, -z_tip)
 
 
+# s a stand-up waits at a command's targets short of standing for the next one (a stream of
+# leg commands sends one every 20 ms) before it goes on to standing
+FOLLOW_WAIT_S = 0.2
+
 @dataclass
 class SimRobot:
     """State and one ``step(dt)`` of the simulated robot. Commands arrive as method calls."""
@@ -123,6 +127,8 @@ class SimRobot:
         self._leg_pose: tuple[float, float] | None = None  # (h, theta_b) a SetLegs burrow ends in
         self._physical = False       # the physics body moves the robot (not the script)
         self._stand_then_put_down = False
+        self._stand_down = 0.0           # the leg angle a stand-up puts the body down at, rad
+        self._followed_at = 0.0          # s: the stand-up last took a command's targets
         self._after_stand: Callable[[], None] | None = None   # the command a stand-up defers
         self._put_down()
 
@@ -136,31 +142,56 @@ class SimRobot:
         self.x_p, self.h, self.theta_b = self.physics.pose
         self._physical = True
 
-    def _physics_has_body(self, then: Callable[[], None]) -> bool:
+    def _physics_has_body(self, then: Callable[[], None], legs=None, mask: int = 0x0F
+                          ) -> bool:
         """True when the physics has the body (putting it down now if the legs stand), or
         there is none. Else the script stands the robot up first and runs `then` once the
         physics has it: the scripted walk leaves the legs anywhere in their swing (one leg
         pair at -22 deg, the other at 148 deg), and put down on those the robot cannot
-        stand (the physics stops: no_rest)."""
+        stand (the physics stops: no_rest). legs, mask: the leg targets of the command that
+        waits (rad, servo order), which the stand-up follows where they lie short of
+        standing (`_stand`)."""
         if self.physics is None or self._physical:
             return True
         if all(abs(wrap_angle(s.angle)) < self.leg_arrived for s in self.servos):
             self._put_down()
             return True
-        self._stand(0.0)
+        self._stand(0.0, legs, mask)
         self._after_stand = then
         return False
 
-    def _stand(self, down: float) -> None:
+    def _stand(self, down: float, follow=None, mask: int = 0x0F) -> None:
         """Legs to `down` (rad) at walking speed; the physics takes the body once they are
-        there."""
+        there. follow, mask: leg targets (servo order) the stand-up goes to instead where
+        they lie between a leg and `down`: a stream of leg commands that brings the legs
+        down to standing slower than the stand-up (the behaviour node's planned burrow
+        ramps them at the burrow speed) is followed, not overtaken. Overtaken, the legs
+        stood first, the physics took the body, and the next command, still on its way
+        down, swung them forward through the sand again: a stroke the burrow's plan never
+        simulated (in `make demo` each burrow's pitch then missed its replay by 2-5 deg)."""
         self._stand_then_put_down = not self._physical
+        self._stand_down = down
         self._after_stand = None
         self.clocks = None
         self.mode = Mode.IDLE
-        for s in self.servos:
+        self._followed_at = self.time
+        for i, s in enumerate(self.servos):
             s.max_speed = self.geometry.walk_leg_speed
-            s.target = _nearest(s.angle, down)
+            s.target = stand = _nearest(s.angle, down)
+            if follow is not None and mask & (1 << i):
+                t = _nearest(s.angle, follow[i])
+                if min(s.angle, stand) <= t <= max(s.angle, stand):
+                    s.target = t
+
+    def _stand_on(self) -> None:
+        """A followed command that stopped short of standing (one SET_LEGS to a pose between
+        the legs and standing, not a stream down to it): after FOLLOW_WAIT_S at its targets
+        with nothing newer, the stand-up goes on to standing."""
+        if self.time - self._followed_at < FOLLOW_WAIT_S or any(
+                abs(s.target - s.angle) >= self.leg_arrived for s in self.servos):
+            return
+        for s in self.servos:
+            s.target = _nearest(s.angle, self._stand_down)
 
     def _lift(self) -> None:
         """Hand the body to the script for a walk (physics_walk False): the servos start from
@@ -174,7 +205,7 @@ class SimRobot:
 
     # ------------------------------------------------------------------ commands
     def set_legs(self, targets, mask: int = 0x0F) -> None:
-        if not self._physics_has_body(lambda: self.set_legs(targets, mask)):
+        if not self._physics_has_body(lambda: self.set_legs(targets, mask), targets, mask):
             return
         self.mode = Mode.IDLE
         self.clocks = None
@@ -311,8 +342,11 @@ class SimRobot:
         self._drive_legs()
         for s in self.servos:
             s.step(dt)
-        if self._stand_then_put_down and all(abs(s.target - s.angle) < self.leg_arrived
-                                             for s in self.servos):
+        if self._stand_then_put_down:
+            self._stand_on()
+        if self._stand_then_put_down and all(
+                abs(wrap_angle(s.angle - self._stand_down)) < self.leg_arrived
+                for s in self.servos):
             self._put_down()
             then, self._after_stand = self._after_stand, None
             if then is not None:
@@ -410,10 +444,13 @@ class SimRobot:
             self.theta_b = b0 + (b1 - b0) * k
         elif self.mode == Mode.IDLE and self._leg_pose is not None:
             (h0, b0), (h1, b1) = self._body_from, self._leg_pose
-            k = self._leg_progress()
+            # the legs arrived: within leg_arrived of their targets (below a servo's
+            # resolution, 0.088 deg), however small the last command's span was
+            arrived = all(abs(s.target - s.angle) < self.leg_arrived for s in self.servos)
+            k = 1.0 if arrived else self._leg_progress()
             self.h = h0 + (h1 - h0) * k
             self.theta_b = b0 + (b1 - b0) * k
-            if k > 1.0 - 1e-6:     # the legs arrived (to well below a servo's resolution)
+            if k > 1.0 - 1e-6:
                 # Settled: from here on the body moves only as the ground makes it (a slip
                 # under the tug turns and lifts it), as after a Table II burrow.
                 self._leg_pose = None

@@ -64,6 +64,18 @@ class Reburrow:
     reason: str
 
 
+@dataclass
+class TakeUp:
+    """A burrow's take-up of the slack (Burrow._rope_ready). t0: s (node clock) it started,
+    None before; e0: energy then, J; seconds, joules: its length and the energy it drew."""
+
+    done: bool = False
+    t0: float | None = None
+    e0: float | None = None
+    seconds: float = 0.0
+    joules: float = 0.0
+
+
 class Burrow:
     """CHOOSE, BURROW, CHECK, HOLD and SLACKEN."""
 
@@ -72,6 +84,8 @@ class Burrow:
         self.at_pose_since: float | None = None   # s: legs within tolerance of the final pose
         self.legs_from: tuple[float, float] | None = None   # planned gait: legs at its start
         self.stand_hold: float | None = None    # s the ramp waited at standing (None: waiting)
+        self.take_up = TakeUp()                 # this burrow's take-up of the slack
+        self.commanded = False                  # a Table II mode's burrow command went out
         self.check = AnchorCheck()
         self.passed: PassedCheck | None = None     # this anchor's last sufficient check
         self.choose_unanswered = False             # CHOOSE's questions unanswered (warned)
@@ -116,6 +130,8 @@ class Burrow:
     def _enter_burrow(self) -> None:
         m = self.m
         m.winch = 0.0
+        self.take_up = TakeUp(done=m.cfg.take_up_max_s <= 0.0)
+        self.commanded = False
         self.at_pose_since = None
         self.passed = None      # a new anchor is checked afresh
         m.slip.reset()          # a new anchor: its slip references start afresh
@@ -124,11 +140,55 @@ class Burrow:
         if m.replayer is not None:
             m.replayer.cancel()
         if m.planned_gait() is None:
-            m.command('burrow', m.mode)     # a Table II mode: the MCU runs its sequence
+            self._command_table_mode()
             return
         # A planned gait: this node streams its leg targets (gait_motion.py) from here.
         self.legs_from, self.stand_hold = m.obs.legs, None
         self._drive_gait()
+
+    def _command_table_mode(self) -> None:
+        """A Table II mode: the MCU runs its sequence, once the rope is taut."""
+        if not self.commanded and self._rope_ready():
+            self.m.command('burrow', self.m.mode)
+            self.commanded = True
+
+    def taut(self) -> bool:
+        """The measured tension has reached taut_tension_N."""
+        return (self.m.obs.tension or 0.0) >= self.m.cfg.taut_tension_N
+
+    @property
+    def taking_up(self) -> bool:
+        """In BURROW, reeling in the slack before the burrow's stroke."""
+        return (self.m.state == State.BURROW and self.take_up.t0 is not None
+                and not self.take_up.done)
+
+    def _rope_ready(self) -> bool:
+        """Take up the slack before the burrow's stroke: reel in at take_up_speed_m_s until
+        the tension reaches taut_tension_N (the rope the plans simulate: just taut), for at
+        most take_up_max_s, after which the stroke starts anyway and says so. True once
+        done; the winch is then braked."""
+        m, cfg, tu = self.m, self.m.cfg, self.take_up
+        if tu.done:
+            return True
+        o = m.obs
+        if tu.t0 is None:
+            tu.t0, tu.e0 = o.t, o.energy
+        waited = o.t - tu.t0
+        if not self.taut() and waited < cfg.take_up_max_s:
+            m.winch = cfg.take_up_speed_m_s
+            return False
+        m.winch = 0.0
+        tu.done, tu.seconds = True, waited
+        if o.energy is not None and tu.e0 is not None:
+            tu.joules = o.energy - tu.e0
+        if self.taut():
+            m.event('info', f'tether taut ({o.tension:.2f} N) after {waited:.1f} s of '
+                            f'take-up: burrowing {m.mode}')
+        else:
+            m.event('warn', f'tether still slack after {waited:.1f} s of take-up '
+                            f'({o.tension or 0.0:.2f} N): burrowing {m.mode} on a slack rope, '
+                            'which the plans do not simulate')
+        return True
 
     def _drive_gait(self) -> None:
         """This step's leg targets of the planned gait being burrowed. The ramp holds the
@@ -141,7 +201,8 @@ class Burrow:
             return
         t, t_stand = m.elapsed(), stand_time(self.legs_from, g.speed)
         if self.stand_hold is None:
-            if t < t_stand or not (self._legs_at(STAND) or t >= t_stand + STAND_WAIT_S):
+            if t < t_stand or not (self._legs_at(STAND) or t >= t_stand + STAND_WAIT_S) \
+                    or not self._rope_ready():
                 m.leg_targets = gait_targets(min(t, t_stand), self.legs_from, g.retract,
                                              g.final, g.speed)
                 return
@@ -162,6 +223,10 @@ class Burrow:
 
     def _do_burrow(self) -> None:
         m, cfg = self.m, self.m.cfg
+        if m.planned_gait() is None:
+            self._command_table_mode()
+            if not self.commanded:
+                return
         self._drive_gait()
         o = m.obs
         if m.planned_gait() is not None and o.legs is not None:
@@ -172,9 +237,11 @@ class Burrow:
         elif not at:
             self.at_pose_since = None
         done = at and m.obs.t - self.at_pose_since >= cfg.burrow_settle_s
-        timeout = m.elapsed() >= cfg.burrow_timeout_s
+        # the burrow's own time and energy: the take-up is the winch's, not the legs'
+        dt = m.elapsed() - self.take_up.seconds
+        timeout = dt >= cfg.burrow_timeout_s
         if done or timeout:
-            dt, de = m.elapsed(), m.energy_since_enter()
+            de = m.energy_since_enter() - self.take_up.joules
             m.cycle.burrow_j += de
             m.cycle.burrow_s += dt
             above_idle = de - m.idle_power * dt
