@@ -77,6 +77,7 @@ class Geometry:
 # leg commands sends one every 20 ms) before it goes on to standing
 FOLLOW_WAIT_S = 0.2
 
+
 @dataclass
 class SimRobot:
     """State and one ``step(dt)`` of the simulated robot. Commands arrive as method calls."""
