@@ -132,16 +132,35 @@ def prepare(environ: MutableMapping[str, str] | None = None) -> str:
 
 
 @contextmanager
-def during_init(environ: MutableMapping[str, str] | None = None) -> Iterator[str]:
-    """`with during_init(): rclpy.init(...)`: `prepare()` for the rclpy.init inside (rcl reads
-    the discovery range there, once), then the environment is as before, so processes this one
-    starts get the exported LOCALHOST, not the switch. Yields prepare()'s answer."""
-    env = os.environ if environ is None else environ
+def _range_restored(env: MutableMapping[str, str]) -> Iterator[None]:
+    """The discovery range as it was once the block ends (rcl reads it inside rclpy.init,
+    once), so processes this one starts get the exported value, not a switch made for one
+    init."""
     before = env.get(RANGE_VAR)
     try:
-        yield prepare(env)
+        yield
     finally:
         if before is None:
             env.pop(RANGE_VAR, None)
         else:
             env[RANGE_VAR] = before
+
+
+@contextmanager
+def during_init(environ: MutableMapping[str, str] | None = None) -> Iterator[str]:
+    """`with during_init(): rclpy.init(...)`: `prepare()` for the rclpy.init inside, then the
+    environment is as before. Yields prepare()'s answer."""
+    env = os.environ if environ is None else environ
+    with _range_restored(env):
+        yield prepare(env)
+
+
+@contextmanager
+def discovery_off(environ: MutableMapping[str, str] | None = None) -> Iterator[None]:
+    """`with discovery_off(): rclpy.init(...)`: the context inside discovers no one (range
+    OFF: rmw_fastrtps gives its participant no multicast locator and room for no remote
+    participant), for a context that needs no peer; then the environment is as before."""
+    env = os.environ if environ is None else environ
+    with _range_restored(env):
+        env[RANGE_VAR] = 'OFF'
+        yield

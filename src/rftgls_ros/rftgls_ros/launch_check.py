@@ -38,7 +38,7 @@ from typing import Any
 
 from rftgls_conventions import one_line
 from rftgls_conventions.safe_read import load_yaml
-from rftgls_node_base.dds_loopback import RANGE_VAR
+from rftgls_node_base.dds_loopback import discovery_off
 
 from .launch_model import Parsed, Process, executable_path, parse, program_argv, share_dir
 
@@ -152,15 +152,8 @@ def _init(cmd: list[str]):
     program, runs inside a caller (a test, a tool) that no teardown timer may end."""
     import rclpy
     ctx = rclpy.Context()
-    before = os.environ.get(RANGE_VAR)
-    os.environ[RANGE_VAR] = 'OFF'
-    try:
+    with discovery_off():
         rclpy.init(args=cmd, context=ctx, domain_id=int(os.environ.get('ROS_DOMAIN_ID', '0')))
-    finally:
-        if before is None:
-            os.environ.pop(RANGE_VAR, None)
-        else:
-            os.environ[RANGE_VAR] = before
     return ctx
 
 
