@@ -15,6 +15,18 @@ from minirquad_sim.robot import SimRobot
 STEP = 0.002    # s, the simulator loop's step
 
 
+def walked_burrow_physics_robot(seconds: float = 2.5) -> SimRobot:
+    """``--body burrow-physics`` after `seconds` of the driver's scripted walk: the legs are
+    left somewhere in their swing and the physics rests."""
+    from minirquad_driver.gaits import GAITS
+    robot = SimRobot(physics=PhysicsBody(), physics_walk=False)
+    g = GAITS['walk']
+    robot.set_gait(int(g.kind), g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
+    for _ in range(round(seconds / STEP)):
+        robot.step(STEP)
+    return robot
+
+
 def test_the_physics_body_burrows_and_reports_its_power():
     robot = SimRobot(physics=PhysicsBody())
     h_stand = robot.h
@@ -120,14 +132,9 @@ def test_a_leg_command_after_the_walk_stands_the_robot_up_before_the_physics_tak
     forward); put down on those the robot cannot stand and the physics stops (no_rest, its
     legs then frozen for the rest of the run). The script stands the robot up first, the
     physics takes it, and the command runs on the physics."""
-    from minirquad_driver.gaits import GAITS
-    robot = SimRobot(physics=PhysicsBody(), physics_walk=False)
+    robot = walked_burrow_physics_robot()
     body = robot.physics
     assert body is not None
-    g = GAITS['walk']
-    robot.set_gait(int(g.kind), g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
-    for _ in range(round(2.5 / STEP)):
-        robot.step(STEP)
     swing = robot.leg_angles()
     assert max(abs(a) for a in swing) > math.radians(90.0)     # mid-swing, not standing
     t_physics = body.sim.t
@@ -142,10 +149,7 @@ def test_a_leg_command_after_the_walk_stands_the_robot_up_before_the_physics_tak
         assert a == pytest.approx(final[0 if i < 2 else 1], abs=math.radians(1.0))
     assert (robot.x_p, robot.h, robot.theta_b) == body.pose
     # an e-stop while standing up cancels the deferred command: the legs hold, nothing runs
-    robot2 = SimRobot(physics=PhysicsBody(), physics_walk=False)
-    robot2.set_gait(int(g.kind), g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
-    for _ in range(round(2.5 / STEP)):
-        robot2.step(STEP)
+    robot2 = walked_burrow_physics_robot()
     assert robot2.physics is not None
     t_physics = robot2.physics.sim.t
     robot2.burrow(BurrowMode.SH)
@@ -165,13 +169,8 @@ def test_the_stand_up_follows_a_stream_of_leg_commands_down_to_standing():
     legs only go on toward the retracting pose. Overtaken, the physics took the body at
     standing and the next command, still on its way down, swung the legs forward through the
     sand again: a stroke no plan simulated."""
-    from minirquad_driver.gaits import GAITS
     from rftgls_conventions import wrap_angle
-    robot = SimRobot(physics=PhysicsBody(), physics_walk=False)
-    g = GAITS['walk']
-    robot.set_gait(int(g.kind), g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
-    for _ in range(round(2.5 / STEP)):
-        robot.step(STEP)
+    robot = walked_burrow_physics_robot()
     start = [wrap_angle(a) for a in robot.leg_angles()]
     assert max(abs(a) for a in start) > math.radians(20.0)     # not standing
     retract = [math.radians(-40.0)] * 2 + [math.radians(-20.0)] * 2     # PL, PR, DL, DR
