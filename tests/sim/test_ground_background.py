@@ -13,14 +13,20 @@ import time
 import pytest
 
 from minirquad_sim.burrow import TABLE_II
+from minirquad_sim.gait_pose import GaitPoses
 from minirquad_sim.ground import LiveGround
 from minirquad_sim.ground_worker import BackgroundGround
+from minirquad_sim.robot import SimRobot
+from minirquad_sim.winch import WinchSled
 from rftgls_core.types import AnchorState
 
 SH = TABLE_II['SH']
 SETTLED = AnchorState(SH.h, SH.theta_b, *SH.final)
 # The anchor after a slip: 3 mm higher and pitched 3 deg (other cells of the 1 mm / 1 deg grid).
 SLIPPED = AnchorState(SH.h + 0.003, SH.theta_b - math.radians(3.0), *SH.final)
+# Another anchor with SH's final legs: DH's (Table II: 13 mm deeper, 2.6 deg more pitch).
+DH = TABLE_II['DH']
+DEEPER = AnchorState(DH.h, DH.theta_b, *DH.final)
 
 
 @pytest.fixture(scope='module')
@@ -50,6 +56,81 @@ def test_a_new_pose_is_answered_at_once_and_solved_in_the_worker(grounds):
     assert answer == inline.predict(SLIPPED, 0.0)
     assert answer.capacity_N != settled.capacity_N
     assert background.ground.cached(SLIPPED, 0.0) is None
+
+
+def test_a_newly_loaded_anchor_gets_its_own_answer_not_a_stand_in(grounds):
+    """A stand-in is for a slip (the same anchor, loaded step after step); the caller says
+    when the rope starts to load an anchor, and that cell is solved here (the loop waits
+    once) even when it is another burrow with the same legs."""
+    inline, background = grounds
+    background.predict(SETTLED, 0.0)
+    stand_ins, solves = background.stand_ins, background.inline_solves
+    answer = background.predict(DEEPER, 0.0, stand_in=False)
+    assert answer == inline.predict(DEEPER, 0.0)
+    assert answer.capacity_N != inline.predict(SETTLED, 0.0).capacity_N
+    assert (background.stand_ins, background.inline_solves) == (stand_ins, solves + 1)
+
+
+def test_a_prefetched_pose_is_solved_in_the_worker(grounds):
+    inline, background = grounds
+    pose = AnchorState(SH.h - 0.004, SH.theta_b + math.radians(2.0), *SH.final)
+    background.prefetch(pose, 0.0)
+    assert background.ground.cached(pose, 0.0) is None     # not solved in this process
+    deadline = time.monotonic() + 60.0
+    while background.ground.answer_key(pose, 0.0) not in background._answers \
+            and time.monotonic() < deadline:
+        time.sleep(0.02)
+        background.prefetch(pose, 0.0)                     # collects the worker's answer
+    stand_ins, solves = background.stand_ins, background.inline_solves
+    assert background.predict(pose, 0.0) == inline.predict(pose, 0.0)
+    assert (background.stand_ins, background.inline_solves) == (stand_ins, solves)
+
+
+def test_a_settled_burrow_is_loaded_with_its_own_capacity():
+    """`make demo`'s scripted body under CI load: the rope, taken up just taut at standing,
+    loaded the poses a streamed burrow stroke passed (legs near -35/-17 deg at standing
+    height hold about 0.4 N), then went slack as the body settled; the tug then loaded the
+    settled anchor on the stand-in of such a pose, and the anchor "slipped" 1.2-1.7 deg at
+    0.3-0.4 N where its own capacity is about 3 N. The stroke and the tug run in real time
+    (the worker's solves come in during them). The 400 g sled slides at 1.96 N, which the
+    settled anchor holds."""
+    poses = GaitPoses.for_sled(0.4)
+    assert poses is not None
+    ground = BackgroundGround(LiveGround())
+    try:
+        # 5 cm of slack to take up (the default rope is taut at the start)
+        robot = SimRobot(ground=ground, winch=WinchSled(sled_mass=0.4, rope_length=0.55),
+                         gait_poses=poses)
+        dt = 0.01
+        robot.set_winch(0.02)                              # the take-up, at standing
+        while robot.winch.tension < 0.3:
+            robot.step(dt)
+            assert robot.time < 10.0 and not robot.slipping
+        robot.set_winch(0.0)
+        final = (math.radians(-40.0), math.radians(-20.0))
+        loaded = 0
+        for i in range(1, 51):                             # the stroke, streamed at 50 Hz
+            legs = (final[0] * i / 50, final[1] * i / 50)
+            robot.set_legs((legs[0], legs[0], legs[1], legs[1]))
+            for _ in range(2):
+                robot.step(dt)
+                loaded += robot.winch.tension > 0.0
+                time.sleep(dt)
+        for _ in range(100):
+            robot.step(dt)
+        pitch = robot.theta_b
+        assert pitch == pytest.approx(poses.pose(final, final)[1])   # settled as the map says
+        assert loaded and robot.winch.tension == 0.0       # the stroke loaded, then slack
+        robot.set_winch(0.05)                              # the tug
+        end = time.monotonic() + 1.5
+        while time.monotonic() < end:
+            robot.step(dt)
+            assert not robot.slipping, (robot.time, robot.winch.tension)
+            time.sleep(dt)
+        assert robot.winch.sled_moving and robot.winch.tension == pytest.approx(0.5 * 0.4 * 9.81)
+        assert robot.theta_b == pitch
+    finally:
+        ground.close()
 
 
 def test_an_invalid_state_is_refused_without_a_solve(grounds):

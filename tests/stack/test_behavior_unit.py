@@ -337,6 +337,23 @@ def test_machine_legs_moved_during_link_loss_reburrows(predictor):
     assert m.records[0].mode == 'DL+DL' and m.records[0].outcome == 'ok', m.records
 
 
+def test_after_the_last_cycle_the_robot_stays_anchored_under_the_sled(predictor):
+    """The arrived sled still pulls its sliding tension on the braked winch: legs swung out of
+    the sand under it (a stand) would let it drag the robot."""
+    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    plant = Plant(0.4, predictor)
+    run_loop(m, plant)
+    assert m.state == State.FINISHED and m.records[0].outcome == 'ok', m.records
+    r = plant.robot
+    legs, x_p, slip = r.leg_angles(), r.x_p, plant.slip
+    assert r.winch.tension > 0.9 * 0.5 * 0.4 * 9.81       # the sled's load is on the rope
+    for _ in range(500):                                  # 1 s more of the finished run
+        plant.apply(m.step(plant.advance(0.002)))
+    assert r.winch.command == 0.0 and r.leg_angles() == legs
+    assert r.x_p == x_p and plant.slip == slip
+
+
 def test_report_csv_and_png(tmp_path, predictor):
     cfg = fast_config(sled_mass_kg=0.4, cycles=1)
     m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))

@@ -14,7 +14,17 @@ slips every physics step reaches a new pose: asked inline, the MCU loop stood st
   waits; a newer cell replaces the waiting one, since a slipping anchor passes cells faster
   than they solve. A slipping anchor therefore meets the capacity it digs into one solve late:
   it slips further than with the solve inline, by at most what the winch reels in one solve;
-- with no answer at all for this pull yet, it is computed inline (only before the warm-up).
+- a stand-in is only for that slip, and only the caller knows one is under way: it passes
+  ``stand_in=False`` when the rope starts to load an anchor (the previous step loaded none),
+  and such a cell, like one asked before any answer for this pull, is solved inline. The loop
+  waits for that one solve rather than let a new anchor hold with another's capacity: the
+  newest answer is then whatever the rope loaded last (a pose the burrow stroke passed, the
+  previous burrow), however near in time. In `make demo` under CI load a settled burrow
+  "slipped" 1.2-1.7 deg in pitch at 0.3-0.4 N (its own capacity: about 3 N) on the stand-in
+  of a shallow pose its stroke passed, and the cycle stopped;
+- ``prefetch`` asks for a cell with no answer back: the simulated robot sends its settled pose
+  while the rope is slack, so the solve is done before a tug loads it and the inline solve
+  stays a fallback.
 
 A process, not a thread: the solver holds the GIL through its compiled calls (a thread left
 gaps of up to 0.8 s in the loop); worker_process.py starts and stops it.
@@ -43,7 +53,8 @@ def _serve(ground: LiveGround, conn) -> None:
 
 class BackgroundGround:
     """A ``LiveGround`` whose new answers are solved in a worker process (module doc).
-    ``stand_ins`` counts the answers given from an earlier cell while a solve ran."""
+    ``stand_ins`` counts the answers given from an earlier cell while a solve ran,
+    ``inline_solves`` the cells solved in this process (a new load, nothing to stand in)."""
 
     def __init__(self, ground: LiveGround, cache_size: int = 50_000):
         self.ground = ground
@@ -54,6 +65,7 @@ class BackgroundGround:
         self._in_flight: tuple | None = None
         self._waiting: tuple | None = None
         self.stand_ins = 0
+        self.inline_solves = 0
         self._conn, self._worker = worker_process.start(_serve, ground, 'minirquad_sim ground')
 
     def describe(self) -> str:
@@ -83,23 +95,43 @@ class BackgroundGround:
         self._conn.send(request)
         self._in_flight = request
 
-    def predict(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD
-                ) -> CapacityResult:
+    def _request(self, request: tuple) -> None:
+        """Solve `request` in the worker: now if it is free, else next (replacing a waiting
+        request for another cell)."""
+        if self._in_flight is None:
+            self._send(request)
+        elif self._in_flight[0] != request[0]:
+            self._waiting = request
+
+    def prefetch(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD
+                 ) -> None:
+        """Have the worker solve this pose's cell if it is not solved yet; nothing waits,
+        nothing is answered (the robot's settled pose, asked while the rope is slack)."""
+        if not (state.is_finite() and math.isfinite(phi)):
+            return
+        pull = Pull(pull).value
+        cell = self.ground.answer_key(state, phi, pull)
+        self._collect()
+        if cell not in self._answers and self.ground.cached(state, phi, pull) is None:
+            self._request((cell, state, phi, pull))
+
+    def predict(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD,
+                stand_in: bool = True) -> CapacityResult:
+        """The cell's answer; while it is solved, the newest answer this pull got if
+        stand_in (the same anchor, loaded since the previous step: a slip), else the cell
+        solved here (module doc)."""
         if not (state.is_finite() and math.isfinite(phi)):
             return self.ground.predict(state, phi, pull)       # invalid_input, no solve
         pull = Pull(pull).value
         cell = self.ground.answer_key(state, phi, pull)
         self._collect()
         hit = self._answers.get(cell) or self.ground.cached(state, phi, pull)
-        if hit is None and pull not in self._last:
-            hit = self.ground.predict(state, phi, pull)        # nothing to stand in yet
+        if hit is None and (not stand_in or pull not in self._last):
+            hit = self.ground.predict(state, phi, pull)
+            self.inline_solves += 1
         if hit is not None:
             self._last[pull] = hit
             return hit
-        request = (cell, state, phi, pull)
-        if self._in_flight is None:
-            self._send(request)
-        elif self._in_flight[0] != cell:
-            self._waiting = request
+        self._request((cell, state, phi, pull))
         self.stand_ins += 1
         return self._last[pull]

@@ -36,6 +36,7 @@ from .burrow import TABLE_II
 from .gait import BuehlerClock, wrap_angle
 from .gait_pose import GaitPoses
 from .ground import default_ground, slip_per_m
+from .ground_worker import BackgroundGround
 from .physics import PhysicsBody
 from .physics_worker import BackgroundPhysics
 from .power import PowerModel
@@ -46,6 +47,11 @@ PROXIMAL = (0, 1)
 # s: targets held this long are a gait's retracting pose (the host dwells BURROW_DWELL there)
 DWELL_SEEN = 0.8 * BURROW_DWELL
 DISTAL = (2, 3)
+# rad/s: a leg turning slower than this holds its pose (an anchor), it does not stroke through
+# the sand: it moves less than 0.03 deg in a 10 ms step, a thirtieth of the live ground's 1 deg
+# grid. Above a firmware servo's smallest velocity step (0.229 rpm, 1.37 deg/s), which a leg
+# creeps at for at most one encoder count (0.088 deg) as the firmware's hold settles it.
+LEG_STILL_RAD_S = math.radians(3.0)
 BODY_ORDER = (0, 2, 1, 3)   # servo index of each of the physics body's legs (physics.py)
 
 
@@ -122,6 +128,7 @@ class SimRobot:
         self._reached_at: float | None = None   # phase time the retract pose was reached
         self._unburrowing = False
         self._rope = (0.0, 0.0)      # tension (N) and angle (rad) the tether last pulled with
+        self._loaded = False         # the last step's rope loaded a settled anchor
         self._retract: tuple[float, float] | None = None   # most retracted leg targets (L1, L2)
         self._held: tuple[tuple[float, float], float] | None = None   # targets, since (s)
         self._dwelt: tuple[float, float] | None = None     # targets last held for a dwell
@@ -479,19 +486,29 @@ class SimRobot:
         demand = w.rope_k * max(0.0, dist - w.free_length())
         self.slipping = False
         w.sled_moving = False
+        settled = self._anchor_settled()
+        loading, self._loaded = self._loaded, False
+        background = isinstance(self.ground, BackgroundGround)
         if demand <= 0.0:
-            # A slack rope loads nothing: no need to ask the (live, costly) ground.
+            # A slack rope loads nothing: no need to ask the (live, costly) ground for an
+            # answer now, only to have one solved by the time a tug loads the settled anchor.
             w.tension = 0.0
+            if settled and background:
+                self.ground.prefetch(self.anchor_state(), phi, self.pull)
             return
         friction = 0.4 * self.mass * G
-        if self.mode in (Mode.WALKING, Mode.BURROW_RETRACT, Mode.BURROW_FINAL) \
-                or self._unburrowing:
-            # Legs in motion: no settled anchor, the body drags on its friction. (This also
-            # keeps the live ground's fits to settled poses, so the simulator stays real time.)
+        if not settled:
+            # Legs in motion (a gait, a burrow, an unburrow, a stream of leg commands): no
+            # settled anchor, the body drags on its friction. (This also keeps the live
+            # ground's fits to settled poses, so the simulator stays real time.)
             self.last_prediction = None
             cap, slip = friction, _drag_twist(phi)
         else:
-            pred = self.ground.predict(self.anchor_state(), phi, self.pull)
+            # Loaded since the previous step, the anchor may meet its slip's newest answer
+            # while the next is solved; newly loaded, its own (ground_worker.py).
+            pred = self.ground.predict(self.anchor_state(), phi, self.pull, stand_in=loading) \
+                if background else self.ground.predict(self.anchor_state(), phi, self.pull)
+            self._loaded = True
             self.last_prediction = pred
             cap = pred.capacity_N if (pred.status.has_value and pred.capacity_N is not None) \
                 else friction
@@ -516,6 +533,14 @@ class SimRobot:
             self.theta_b -= wy * s   # wy about +y tilts the axle end down
             w.tension = cap
             self.slipping = True
+
+    def _anchor_settled(self) -> bool:
+        """The legs hold their pose and the body has settled on them: an anchor the sand
+        holds (the ground answers for it), not legs dragging through the sand."""
+        if self.mode in (Mode.WALKING, Mode.BURROW_RETRACT, Mode.BURROW_FINAL) \
+                or self._unburrowing or self._leg_pose is not None:
+            return False
+        return all(abs(s.velocity) <= LEG_STILL_RAD_S for s in self.servos)
 
     def flags(self) -> int:
         f = 0

@@ -390,8 +390,11 @@ class BehaviorMachine:
         self.record()
         # Aborted attempts are retried as extra cycles: count the ones that ran their course.
         if sum(r.outcome != 'aborted' for r in self.records) >= self.cfg.cycles:
-            self.command('gait', 'stand')
-            self.go(State.FINISHED, f'{self.cfg.cycles} cycles done')
+            # The robot stays burrowed: the braked winch holds the sled's sliding tension,
+            # and legs swung out of the sand under it would let the sled drag the robot.
+            self.winch = 0.0
+            self.go(State.FINISHED, f'{self.cfg.cycles} cycles done; the anchor holds the '
+                                    'sled, winch braked')
             return
         self.new_cycle()
         self.go(State.WALK, f'cycle {self.cycle.index}/{self.cfg.cycles}: unburrow by '
