@@ -152,10 +152,6 @@ class Burrow:
             self.m.command('burrow', self.m.mode)
             self.commanded = True
 
-    def taut(self) -> bool:
-        """The measured tension has reached taut_tension_N."""
-        return (self.m.obs.tension or 0.0) >= self.m.cfg.taut_tension_N
-
     @property
     def taking_up(self) -> bool:
         """In BURROW, reeling in the slack before the burrow's stroke."""
@@ -174,14 +170,14 @@ class Burrow:
         if tu.t0 is None:
             tu.t0, tu.e0 = o.t, o.energy
         waited = o.t - tu.t0
-        if not self.taut() and waited < cfg.take_up_max_s:
+        if not self.m.taut() and waited < cfg.take_up_max_s:
             m.winch = cfg.take_up_speed_m_s
             return False
         m.winch = 0.0
         tu.done, tu.seconds = True, waited
         if o.energy is not None and tu.e0 is not None:
             tu.joules = o.energy - tu.e0
-        if self.taut():
+        if self.m.taut():
             m.event('info', f'tether taut ({o.tension:.2f} N) after {waited:.1f} s of '
                             f'take-up: burrowing {m.mode}')
         else:
@@ -463,8 +459,7 @@ class Burrow:
         (a heavy sled stretches the rope further than the minimum pays out, and a burrow under
         a taut tether drags the robot), at most slacken_max_s."""
         m, cfg = self.m, self.m.cfg
-        taut = (m.obs.tension or 0.0) > cfg.taut_tension_N
         if m.elapsed() >= cfg.slacken_max_s or (m.elapsed() >= cfg.slacken_time_s
-                                                and not taut):
+                                                and not self.m.taut()):
             m.winch = 0.0
             self.start(self.next.mode, self.next.reason)

@@ -307,13 +307,17 @@ class BehaviorMachine:
         self._oneshots, self._step_events, self.leg_targets = [], [], None
         return out
 
+    def taut(self) -> bool:
+        """The measured tension has reached taut_tension_N: the rope pulls."""
+        return (self.obs.tension or 0.0) >= self.cfg.taut_tension_N
+
     def _track_spool(self, obs: Observation) -> None:
         """Tether paid out / reeled in from the spool encoder; while a taut tug reels in, the
         sled's travel."""
         if obs.spool is None or obs.spool == self._last_spool:
             return
         if self._last_spool is not None and self.state == State.TUG and self.cycle \
-                and (obs.tension or 0.0) > self.cfg.taut_tension_N:
+                and self.taut():
             d = obs.spool - self._last_spool
             if 0.0 < d < 0.2:
                 self.cycle.sled_distance += d

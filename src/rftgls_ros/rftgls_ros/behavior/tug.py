@@ -212,7 +212,7 @@ class Tug:
         band = max(cfg.stop_ratio - cfg.slow_ratio, 1e-6)
         frac = min(1.0, max(cfg.min_speed_fraction, (cfg.stop_ratio - ratio) / band))
         m.winch = cfg.tug_speed_m_s * frac
-        if tension > cfg.taut_tension_N and o.spool_velocity > 0.5 * m.winch > 0:
+        if m.taut() and o.spool_velocity > 0.5 * m.winch > 0:
             a.tensions.append(tension)
         if o.t - a.last_live >= cfg.live_period_s:
             a.last_live = o.t
