@@ -87,13 +87,13 @@ def test_a_prefetched_pose_is_solved_in_the_worker(grounds):
 
 
 def test_a_settled_burrow_is_loaded_with_its_own_capacity():
-    """`make demo`'s scripted body under CI load: the rope, taken up just taut at standing,
-    loaded the poses a streamed burrow stroke passed (legs near -35/-17 deg at standing
-    height hold about 0.4 N), then went slack as the body settled; the tug then loaded the
-    settled anchor on the stand-in of such a pose, and the anchor "slipped" 1.2-1.7 deg at
-    0.3-0.4 N where its own capacity is about 3 N. The stroke and the tug run in real time
-    (the worker's solves come in during them). The 400 g sled slides at 1.96 N, which the
-    settled anchor holds."""
+    """The demo launcher test's scripted body under CI load: the rope, taken up just taut at
+    standing, loaded the poses a streamed burrow stroke passed (legs near -35/-17 deg at
+    standing height hold about 0.4 N), then went slack as the body settled; the tug then
+    loaded the settled anchor on the stand-in of such a pose, and the anchor "slipped"
+    1.2-1.7 deg at 0.3-0.4 N where its own capacity is about 3 N. The stroke and the tug run
+    in real time (the worker's solves come in during them). The 400 g sled slides at 1.96 N,
+    which the settled anchor holds."""
     poses = GaitPoses.for_sled(0.4)
     assert poses is not None
     ground = BackgroundGround(LiveGround())

@@ -19,9 +19,10 @@ slips every physics step reaches a new pose: asked inline, the MCU loop stood st
   and such a cell, like one asked before any answer for this pull, is solved inline. The loop
   waits for that one solve rather than let a new anchor hold with another's capacity: the
   newest answer is then whatever the rope loaded last (a pose the burrow stroke passed, the
-  previous burrow), however near in time. In `make demo` under CI load a settled burrow
-  "slipped" 1.2-1.7 deg in pitch at 0.3-0.4 N (its own capacity: about 3 N) on the stand-in
-  of a shallow pose its stroke passed, and the cycle stopped;
+  previous burrow), however near in time. In the demo launcher's one-cycle test (the
+  scripted body) under CI load a settled burrow "slipped" 1.2-1.7 deg in pitch at 0.3-0.4 N
+  (its own capacity: about 3 N) on the stand-in of a shallow pose its stroke passed, and the
+  cycle stopped;
 - ``prefetch`` asks for a cell with no answer back: the simulated robot sends its settled pose
   while the rope is slack, so the solve is done before a tug loads it and the inline solve
   stays a fallback.
