@@ -104,6 +104,13 @@ class BackgroundGround:
         elif self._in_flight[0] != request[0]:
             self._waiting = request
 
+    def _known(self, cell: tuple, state: AnchorState, phi: float, pull: str
+               ) -> CapacityResult | None:
+        """The cell's answer if the worker (its answers taken in first) or this process
+        solved it, else None."""
+        self._collect()
+        return self._answers.get(cell) or self.ground.cached(state, phi, pull)
+
     def prefetch(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD
                  ) -> None:
         """Have the worker solve this pose's cell if it is not solved yet; nothing waits,
@@ -112,8 +119,7 @@ class BackgroundGround:
             return
         pull = Pull(pull).value
         cell = self.ground.answer_key(state, phi, pull)
-        self._collect()
-        if cell not in self._answers and self.ground.cached(state, phi, pull) is None:
+        if self._known(cell, state, phi, pull) is None:
             self._request((cell, state, phi, pull))
 
     def predict(self, state: AnchorState, phi: float, pull: Pull | str = Pull.BACKWARD,
@@ -125,8 +131,7 @@ class BackgroundGround:
             return self.ground.predict(state, phi, pull)       # invalid_input, no solve
         pull = Pull(pull).value
         cell = self.ground.answer_key(state, phi, pull)
-        self._collect()
-        hit = self._answers.get(cell) or self.ground.cached(state, phi, pull)
+        hit = self._known(cell, state, phi, pull)
         if hit is None and (not stand_in or pull not in self._last):
             hit = self.ground.predict(state, phi, pull)
             self.inline_solves += 1

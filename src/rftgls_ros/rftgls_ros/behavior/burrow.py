@@ -170,14 +170,14 @@ class Burrow:
         if tu.t0 is None:
             tu.t0, tu.e0 = o.t, o.energy
         waited = o.t - tu.t0
-        if not self.m.taut() and waited < cfg.take_up_max_s:
+        if not m.taut() and waited < cfg.take_up_max_s:
             m.winch = cfg.take_up_speed_m_s
             return False
         m.winch = 0.0
         tu.done, tu.seconds = True, waited
         if o.energy is not None and tu.e0 is not None:
             tu.joules = o.energy - tu.e0
-        if self.m.taut():
+        if m.taut():
             m.event('info', f'tether taut ({o.tension:.2f} N) after {waited:.1f} s of '
                             f'take-up: burrowing {m.mode}')
         else:

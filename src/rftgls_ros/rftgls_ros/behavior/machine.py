@@ -330,7 +330,7 @@ class BehaviorMachine:
         the report shows whether a tug ever ran below its need."""
         c, o = self.cycle, self.obs
         if c is None or self.winch <= 0.0 or self.burrow.taking_up:
-            return      # (a burrow's take-up reels in the slack to 0.3 N: no load on it)
+            return      # a burrow's take-up reels in only to taut_tension_N: no load
         lower = o.capacity_lower
         basis = lower * self.chooser.scale if lower is not None and math.isfinite(lower) \
             else -math.inf
