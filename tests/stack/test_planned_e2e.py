@@ -12,8 +12,12 @@ from __future__ import annotations
 
 import csv
 import math
+import os
+import random
 import re
+import signal
 import sys
+import threading
 from pathlib import Path
 
 import pytest
@@ -38,6 +42,20 @@ def _plans(log):
                       r'[\d.]+ x ([\d.]+) N at 95%, holds with p ([\d.]+)', log)
 
 
+def _replays_went_as_planned(log):
+    """Every burrow's height is the burrow simulation over the legs the robot measured (its
+    worker process), from standing, within the plan's band of the plan's h; the measured
+    pitch agrees with it (no 'did not go as modelled')."""
+    replays = re.findall(r'replayed over (\d+) measured leg samples from \(([-\d.]+), '
+                         r'([-\d.]+)\) deg: h ([\d.]+) \+- ([\d.]+) mm, pitch [-\d.]+ \+- '
+                         r'[\d.]+ deg \(plan: h ([\d.]+) mm', log)
+    assert replays and len(replays) == log.count('BURROW -> CHECK'), log
+    for n, l1, l2, h, band, h_plan in replays:
+        assert int(n) >= 20 and abs(float(l1)) < 3.0 and abs(float(l2)) < 3.0, replays
+        assert abs(float(h) - float(h_plan)) <= float(band), replays
+    assert 'did not go as modelled' not in log, log
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize('sled', [0.4, pytest.param(0.6, marks=pytest.mark.campaign)])
 def test_planned_gait_holds_three_cycles(tmp_path, spawn, sled):
@@ -49,17 +67,7 @@ def test_planned_gait_holds_three_cycles(tmp_path, spawn, sled):
     assert float(lower) >= float(need) and float(energy) > 0 and float(p) > 0.95, plans
     # The gait ran leg by leg (no Table II burrow command) and the height is the prediction.
     assert 'check ' + gait + ' at the measured pose' in log, log
-    # Every burrow's height is the burrow simulation over the legs the robot measured (its
-    # worker process), from standing, within the plan's band of the plan's h; the measured
-    # pitch agrees with it (no 'did not go as modelled').
-    replays = re.findall(r'replayed over (\d+) measured leg samples from \(([-\d.]+), '
-                         r'([-\d.]+)\) deg: h ([\d.]+) \+- ([\d.]+) mm, pitch [-\d.]+ \+- '
-                         r'[\d.]+ deg \(plan: h ([\d.]+) mm', log)
-    assert len(replays) == log.count('BURROW -> CHECK'), log
-    for n, l1, l2, h, band, h_plan in replays:
-        assert int(n) >= 20 and abs(float(l1)) < 3.0 and abs(float(l2)) < 3.0, replays
-        assert abs(float(h) - float(h_plan)) <= float(band), replays
-    assert 'did not go as modelled' not in log, log
+    _replays_went_as_planned(log)
     assert 'measured leg samples' in log.split('at the measured pose', 1)[1], log
     rows = _rows(tmp_path)
     assert [r['outcome'] for r in rows] == ['ok'] * 3, (rows, log)
@@ -97,5 +105,68 @@ def test_planned_on_weaker_sand_replans_or_stops_within_20_mm(tmp_path, spawn, s
         assert len(plans) >= 2 or 'no planned gait suffices' in log, log
     # Never a reel-in on a lower bound below the need (however the cycle ended: under load
     # the link or the evidence may abort it, which is the tug-safety rule, not a failure).
+    assert all(float(r['reel_lower_margin_n']) >= 0.0 for r in rows
+               if r['reel_lower_margin_n'] not in ('', 'nan')), rows
+
+
+class Stalls(threading.Thread):
+    """Stops (SIGSTOP) one of the given processes at a time for 0.2-0.8 s, every 0.5-2 s
+    (seeded), as an overloaded or virtualised host stalls a process; `stop()` continues them
+    all and ends. `paused` counts the stalls."""
+
+    def __init__(self, procs, seed):
+        super().__init__(daemon=True)
+        self.procs, self.rng, self.paused = procs, random.Random(seed), 0
+        self._end = threading.Event()
+
+    def run(self):
+        while not self._end.wait(self.rng.uniform(0.5, 2.0)):
+            proc = self.rng.choice(self.procs) if self.procs else None
+            if proc is None or proc.poll() is not None:
+                continue
+            os.kill(proc.pid, signal.SIGSTOP)
+            try:
+                self._end.wait(self.rng.uniform(0.2, 0.8))
+            finally:
+                os.kill(proc.pid, signal.SIGCONT)
+            self.paused += 1
+
+    def stop(self):
+        self._end.set()
+        self.join(timeout=5.0)
+        for proc in self.procs:
+            if proc.poll() is None:
+                os.kill(proc.pid, signal.SIGCONT)
+
+
+@pytest.mark.slow
+@pytest.mark.campaign
+@pytest.mark.parametrize('seed', [1, 2, 3])
+def test_planned_burrows_go_as_planned_through_process_stalls(tmp_path, spawn, seed):
+    """A loaded host stalls processes for hundreds of ms. With the simulator, the serial
+    bridge and behavior_node stalled in turn (Stalls) through three planned cycles, every
+    burrow still goes as planned: the ramp waits for its legs and resumes where it stopped
+    (gait_motion.RampClock) and the burrow proper starts with the legs at rest at standing,
+    so the replayed height stays within the plan's band. Whatever the stalls do to the tugs
+    (a stop on stale evidence is the tug-safety rule), no reel-in is on a bound below the
+    need."""
+    stalled = []
+
+    def spawn_stalled(argv, **kwargs):
+        proc = spawn(argv, **kwargs)
+        if not any('capacity_node' in a for a in argv):
+            stalled.append(proc)
+        return proc
+    stalls = Stalls(stalled, seed)
+    stalls.start()
+    try:
+        log = run_stack(tmp_path, spawn_stalled, 0.4,
+                        params=['burrow_modes:=planned', 'cycles:=3'], timeout=200)
+    finally:
+        stalls.stop()
+    assert stalls.paused >= 10, stalls.paused
+    _replays_went_as_planned(log)
+    rows = _rows(tmp_path)
+    assert len(rows) == 3, (rows, log)
     assert all(float(r['reel_lower_margin_n']) >= 0.0 for r in rows
                if r['reel_lower_margin_n'] not in ('', 'nan')), rows

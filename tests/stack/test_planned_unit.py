@@ -344,87 +344,159 @@ def planned_machine_in_burrow(predictor):
     return m, obs
 
 
+STEP_S = 0.02     # behavior_node's step period (50 Hz)
+
+
+def drive(m, obs, t_from, t_to, legs=None, **fields):
+    """Step the machine in BURROW every STEP_S over (t_from, t_to] (s). The legs follow the
+    last targets a step late (a servo that keeps up), or are ``legs(last_target)``; other
+    Observation fields as given. Returns the last Commands."""
+    from dataclasses import replace
+    t, cmd, target = t_from, None, m.obs.legs
+    while t < t_to - 1e-9:
+        t = min(t + STEP_S, t_to)
+        cmd = m.step(replace(obs, t=t, legs=target if legs is None else legs(target),
+                             t_legs=t, t_tension=t, **fields))
+        assert m.state == State.BURROW, m.reason
+        target = cmd.legs if cmd.legs is not None else target
+    return cmd
+
+
+def burrow_from(m, obs, legs, tension=0.0):
+    """Enter BURROW with the legs at `legs` (rad) and the tension (N); returns the time, s."""
+    from dataclasses import replace
+    m.obs = replace(obs, legs=legs, t_legs=obs.t, tension=tension)
+    m.cycle.reel_lower_margin = math.inf
+    m.go(State.BURROW, 'test: from where the walk left the legs')
+    return m.obs.t
+
+
 def test_a_planned_burrow_takes_up_the_slack_at_standing_before_its_stroke(predictor):
     """The plans simulate a rope just taut when the stroke starts (planning/replay.py, the
     Sled): with the legs at standing the winch reels in at take_up_speed_m_s until the
     tension reaches taut_tension_N, the ramp holding standing meanwhile; then the winch brakes
     and the stroke goes on. A rope that never goes taut stops the take-up after take_up_max_s,
     with a warning. The take-up is no tug: it is not booked against the need."""
-    import math as _math
-    from dataclasses import replace
-
     from rftgls_core.planning.gaits import STAND
     m, obs = planned_machine_in_burrow(predictor)
     cfg = m.cfg
-    walked = tuple(x - _math.radians(20.0) for x in STAND)
-
-    def enter():
-        m.obs = replace(obs, legs=walked, t_legs=obs.t, tension=0.0)
-        m.cycle.reel_lower_margin = _math.inf
-        m.go(State.BURROW, 'test: from where the walk left the legs')
-        return m.obs.t
-
-    def step(t, tension, legs=STAND):
-        cmd = m.step(replace(obs, t=t, legs=legs, t_legs=t, t_tension=t, tension=tension))
-        assert m.state == State.BURROW, m.reason
-        return cmd
-    t0 = enter()
-    assert m.step(replace(obs, t=t0 + 0.1, legs=walked, t_legs=t0 + 0.1, tension=0.0,
-                          t_tension=t0 + 0.1)).winch == 0.0     # legs not yet standing
-    t_at = t0 + 1.0                                    # past the ramp's stand time
-    cmd = step(t_at, 0.0)
+    walked = tuple(x - math.radians(20.0) for x in STAND)
+    t0 = burrow_from(m, obs, walked)
+    assert drive(m, obs, t0, t0 + 0.1, legs=lambda q: walked, tension=0.0).winch == 0.0
+    t_at = t0 + 1.5                                    # past the ramp's stand time
+    cmd = drive(m, obs, t0 + 0.1, t_at, tension=0.0)
     assert cmd.winch == pytest.approx(cfg.take_up_speed_m_s) and m.burrow.taking_up
-    cmd = step(t_at + 0.5, 0.1)
+    cmd = drive(m, obs, t_at, t_at + 0.5, tension=0.1)
     assert cmd.winch == pytest.approx(cfg.take_up_speed_m_s)
     assert cmd.legs == pytest.approx(STAND)            # the stroke waits
-    cmd = step(t_at + 0.6, cfg.taut_tension_N)
+    cmd = drive(m, obs, t_at + 0.5, t_at + 0.52, tension=cfg.taut_tension_N)
     assert cmd.winch == 0.0 and not m.burrow.taking_up
     assert any('tether taut' in e.get('text', '') for e in m.events)
-    assert step(t_at + 0.8, cfg.taut_tension_N).legs != pytest.approx(STAND)  # stroke on
-    assert m.cycle.reel_lower_margin == _math.inf      # the take-up was not booked
+    cmd = drive(m, obs, t_at + 0.52, t_at + 0.7, tension=cfg.taut_tension_N)
+    assert cmd.legs != pytest.approx(STAND)            # the stroke goes on
+    assert m.cycle.reel_lower_margin == math.inf       # the take-up was not booked
     # a rope that stays slack: the stroke starts after take_up_max_s, and says so
-    t0 = enter()
-    t_at = t0 + 1.0
-    assert step(t_at, 0.0).winch > 0.0
-    assert step(t_at + 0.5 * cfg.take_up_max_s, 0.0).winch > 0.0
-    cmd = step(t_at + cfg.take_up_max_s + 0.01, 0.0)
+    t0 = burrow_from(m, obs, walked)
+    assert drive(m, obs, t0, t0 + 1.5, tension=0.0).winch > 0.0
+    t_up = m.burrow.take_up.t0
+    assert drive(m, obs, t0 + 1.5, t_up + 0.5 * cfg.take_up_max_s, tension=0.0).winch > 0.0
+    cmd = drive(m, obs, t_up + 0.5 * cfg.take_up_max_s, t_up + cfg.take_up_max_s + 0.02,
+                tension=0.0)
     assert cmd.winch == 0.0 and not m.burrow.taking_up
     assert any('still slack' in e.get('text', '') for e in m.events)
 
 
-def test_a_planned_burrow_waits_at_standing_for_legs_that_lag(predictor):
-    """The plan simulated its burrow from standing: the ramp holds the standing pose until the
-    measured legs are there, and goes on without them only after STAND_WAIT_S."""
-    from dataclasses import replace
-
+def test_a_planned_burrow_waits_at_standing_for_legs_to_rest_there(predictor):
+    """The plan simulated its burrow from standing at rest: the ramp holds the standing pose
+    until the measured legs rest there (within burrow_tolerance_rad for STAND_SETTLE_S),
+    and goes on without them only LEG_WAIT_S after it got there. Legs swinging through
+    standing (a walk the MCU has not stopped yet) do not start the burrow, and the replay's
+    record starts where the legs rested."""
     from rftgls_core.planning.gaits import STAND
-    from rftgls_ros.behavior.burrow import STAND_WAIT_S
+    from rftgls_ros.behavior.burrow import LEG_WAIT_S, STAND_SETTLE_S
     from rftgls_ros.behavior.gait_motion import stand_time
     m, obs = planned_machine_in_burrow(predictor)
-    g = m.planned_gait()
+    g, taut = m.planned_gait(), m.cfg.taut_tension_N    # the rope taut: no take-up
     walked = tuple(x - math.radians(20.0) for x in STAND)       # where a walk left the legs
-    lag = tuple(x - math.radians(7.0) for x in STAND)           # 7 deg short of standing
+    short = tuple(x - math.radians(7.0) for x in STAND)         # 7 deg short of standing
     t_stand = stand_time(walked, g.speed)
 
-    def burrow_from_walked():
-        m.obs = replace(obs, legs=walked, t_legs=obs.t)
-        m.go(State.BURROW, 'test: from where the walk left the legs')
-        return m.obs.t
+    def held(q):                                  # legs the sand holds short of standing
+        return tuple(min(a, b) for a, b in zip(q, short))
+    # legs that arrive late: held until 0.5 s past the stand time, then they rest there
+    t0 = burrow_from(m, obs, walked, taut)
+    t1 = t0 + t_stand + 0.5
+    assert drive(m, obs, t0, t1, legs=held, tension=taut).legs == pytest.approx(STAND)
+    cmd = drive(m, obs, t1, t1 + STAND_SETTLE_S, tension=taut)
+    assert cmd.legs == pytest.approx(STAND)       # arrived, not yet at rest for long enough
+    cmd = drive(m, obs, t1 + STAND_SETTLE_S, t1 + STAND_SETTLE_S + 0.1, tension=taut)
+    assert cmd.legs != pytest.approx(STAND)       # the ramp goes on
+    # legs that never arrive hold the ramp LEG_WAIT_S at most after it got to standing
+    t0 = burrow_from(m, obs, walked, taut)
+    t1 = t0 + t_stand + LEG_WAIT_S - STEP_S     # the ramp got to standing at t0 + t_stand
+    assert drive(m, obs, t0, t1, legs=held, tension=taut).legs == pytest.approx(STAND)
+    assert drive(m, obs, t1, t1 + 0.3, legs=held, tension=taut).legs != pytest.approx(STAND)
+    # legs swinging through standing at 300 deg/s, then resting 60 deg behind it: the ramp
+    # holds standing for them; they come back and rest there, and the burrow proper (the
+    # record the replay follows) starts there, not at the swing
+    swing = math.radians(300.0)
+    t0 = burrow_from(m, obs, tuple(x + math.radians(60.0) for x in STAND), taut)
+    t_swing = t0 + 1.5
 
-    def targets(t, legs):
-        cmd = m.step(replace(obs, t=t, legs=legs, t_legs=t, t_tension=t,
-                             tension=m.cfg.taut_tension_N))   # the rope taut: no take-up
-        assert m.state == State.BURROW, m.reason
-        return cmd.legs
-    t0 = burrow_from_walked()
-    assert targets(t0 + t_stand + 0.5, lag) == pytest.approx(STAND)   # held for the legs
-    assert targets(t0 + t_stand + 0.6, STAND) == pytest.approx(STAND)  # they arrive
-    assert targets(t0 + t_stand + 0.7, STAND) != pytest.approx(STAND)  # the ramp goes on
-    # legs that never arrive hold the ramp STAND_WAIT_S at most
-    t0 = burrow_from_walked()
-    assert targets(t0 + t_stand + 0.5 * STAND_WAIT_S, lag) == pytest.approx(STAND)
-    assert targets(t0 + t_stand + STAND_WAIT_S + 0.1, lag) == pytest.approx(STAND)  # released
-    assert targets(t0 + t_stand + STAND_WAIT_S + 0.3, lag) != pytest.approx(STAND)
+    def walking(t):
+        def legs(q):
+            return tuple(x + max(math.radians(-60.0), math.radians(60.0) - swing * (t() - t0))
+                         for x in STAND)
+        return legs
+    clock = {'t': t0}
+
+    def now():
+        clock['t'] += STEP_S
+        return clock['t']
+    cmd = drive(m, obs, t0, t_swing, legs=walking(now), tension=taut)
+    assert cmd.legs == pytest.approx(STAND) and m.burrow.record_from is None
+    cmd = drive(m, obs, t_swing, t_swing + 1.0, tension=taut)      # they follow the ramp
+    assert cmd.legs != pytest.approx(STAND)
+    start = m.burrow.record_from
+    assert start is not None and start > t_swing
+    first = next(s for s in m.burrow.record if s[0] >= start)
+    assert max(abs(first[1] - STAND[0]), abs(first[2] - STAND[1])) \
+        <= m.cfg.burrow_tolerance_rad
+
+
+def test_a_planned_burrows_ramp_does_not_run_ahead_of_its_legs(predictor):
+    """The ramp runs on its own clock (gait_motion.RampClock): after a step that came late
+    (the node stalled) it goes on from where it stopped, not from where the wall clock got
+    to; legs that stop following (a stalled link, MCU or servo) hold it within RAMP_LEAD_S
+    of ramp (plus one step) of them, for LEG_WAIT_S at most. Either way the legs move along
+    the plan's path at no more than the gait's speed."""
+    from rftgls_core.planning.gaits import STAND
+    from rftgls_ros.behavior.burrow import LEG_WAIT_S
+    from rftgls_ros.behavior.gait_motion import RAMP_LEAD_S, RAMP_STEP_MAX_S
+    m, obs = planned_machine_in_burrow(predictor)
+    g, taut = m.planned_gait(), m.cfg.taut_tension_N
+    tol = g.speed * RAMP_LEAD_S
+    t0 = burrow_from(m, obs, STAND, taut)
+    t1 = t0 + 0.4
+    before = drive(m, obs, t0, t1, tension=taut).legs
+    assert m.burrow.record_from is not None and before != pytest.approx(STAND)   # stroking
+
+    def span(a, b):
+        return max(abs(x - y) for x, y in zip(a, b))
+    # a step 0.5 s late moves the targets by one capped step of the ramp
+    after = drive(m, obs, t1 + 0.48, t1 + 0.5, legs=lambda q: before, tension=taut).legs
+    assert 0.0 < span(before, after) <= g.speed * RAMP_STEP_MAX_S + 1e-12
+    # legs that stop: the targets stay within the lead and one step of them
+    stopped = after
+    t2 = t1 + 0.5
+    for k in range(1, int(0.9 * LEG_WAIT_S / STEP_S)):
+        cmd = drive(m, obs, t2 + (k - 1) * STEP_S, t2 + k * STEP_S, legs=lambda q: stopped,
+                    tension=taut)
+        assert span(cmd.legs, stopped) <= tol + g.speed * STEP_S + 1e-12, k
+    # ... for LEG_WAIT_S at most: then the ramp goes on without them
+    t3 = t2 + LEG_WAIT_S + 0.3
+    cmd = drive(m, obs, t2 + (k * STEP_S), t3, legs=lambda q: stopped, tension=taut)
+    assert span(cmd.legs, stopped) > tol + g.speed * STEP_S
 
 
 def test_a_late_step_records_every_leg_sample_that_arrived_since_the_last(predictor):

@@ -20,13 +20,17 @@ from rftgls_core.planning.replay import BurrowRecord
 from rftgls_core.types import AnchorState, Status
 
 from . import evidence
-from .gait_motion import gait_targets, stand_time
+from .gait_motion import RAMP_LEAD_S, RampClock, gait_targets, stand_time
 from .states import REBURROW_WHY, HoldCause, State
 
-# Longest wait at the standing pose for the measured legs before a planned burrow's ramp goes
-# on (s): servos at a few degrees of lag arrive in tens of ms; legs held by the sand, or a
+# Longest a planned burrow's ramp waits for the measured legs, at standing or anywhere along
+# it (s): servos at a few degrees of lag arrive in tens of ms; legs held by the sand, or a
 # stalled servo, must not stall the burrow (its timeout and the replay's check still apply).
-STAND_WAIT_S = 1.0
+LEG_WAIT_S = 1.0
+# s the legs stay within burrow_tolerance_rad of standing before the burrow proper starts:
+# legs at rest there, not passing through (a walk the MCU has not stopped yet turns them at
+# ~300 deg/s, within 3 deg of standing for ~20 ms).
+STAND_SETTLE_S = 0.1
 
 if TYPE_CHECKING:
     from .machine import BehaviorMachine
@@ -83,7 +87,11 @@ class Burrow:
         self.m = machine
         self.at_pose_since: float | None = None   # s: legs within tolerance of the final pose
         self.legs_from: tuple[float, float] | None = None   # planned gait: legs at its start
-        self.stand_hold: float | None = None    # s the ramp waited at standing (None: waiting)
+        self.ramp = RampClock(0.0, LEG_WAIT_S)  # planned gait: time along its ramp
+        self.target: tuple[float, float] | None = None   # the ramp's last leg targets, rad
+        self.stand_reached: float | None = None  # s: the ramp reached standing (node clock)
+        self.at_stand_since: float | None = None   # s: legs within tolerance of standing
+        self.record_from: float | None = None   # s: the burrow proper started (None: not yet)
         self.take_up = TakeUp()                 # this burrow's take-up of the slack
         self.commanded = False                  # a Table II mode's burrow command went out
         self.check = AnchorCheck()
@@ -139,11 +147,14 @@ class Burrow:
         m.replayed, m.pose_disagrees = None, False
         if m.replayer is not None:
             m.replayer.cancel()
-        if m.planned_gait() is None:
+        g = m.planned_gait()
+        if g is None:
             self._command_table_mode()
             return
         # A planned gait: this node streams its leg targets (gait_motion.py) from here.
-        self.legs_from, self.stand_hold = m.obs.legs, None
+        self.legs_from, self.target = m.obs.legs, None
+        self.ramp = RampClock(g.speed * RAMP_LEAD_S, LEG_WAIT_S)
+        self.stand_reached = self.at_stand_since = self.record_from = None
         self._drive_gait()
 
     def _command_table_mode(self) -> None:
@@ -187,24 +198,42 @@ class Burrow:
         return True
 
     def _drive_gait(self) -> None:
-        """This step's leg targets of the planned gait being burrowed. The ramp holds the
-        standing pose until the measured legs are there (within burrow_tolerance_rad, at most
-        STAND_WAIT_S): the plan simulated its burrow from standing, and legs that lag the ramp
-        (the walk left them behind their hips) would otherwise turn toward the retracting
-        pose short of it, into a burrow the plan did not simulate."""
+        """This step's leg targets of the planned gait being burrowed, along the ramp's own
+        clock (RampClock). The ramp holds the standing pose until the legs rest there (within
+        burrow_tolerance_rad for STAND_SETTLE_S, at most LEG_WAIT_S after the ramp got there)
+        and the rope is taut: the plan simulated its burrow from standing at rest, and legs
+        that lag the ramp (the walk left them behind their hips) would otherwise turn toward
+        the retracting pose short of it, into a burrow the plan did not simulate. The burrow
+        proper, which the replay follows, starts there; from there on the ramp runs at most
+        RAMP_LEAD_S of itself ahead of the measured legs (for at most LEG_WAIT_S at once)."""
         m, g = self.m, self.m.planned_gait()
         if g is None or self.legs_from is None:
             return
-        t, t_stand = m.elapsed(), stand_time(self.legs_from, g.speed)
-        if self.stand_hold is None:
-            if t < t_stand or not (self._legs_at(STAND) or t >= t_stand + STAND_WAIT_S) \
-                    or not self._rope_ready():
-                m.leg_targets = gait_targets(min(t, t_stand), self.legs_from, g.retract,
-                                             g.final, g.speed)
-                return
-            self.stand_hold = t - t_stand
-        m.leg_targets = gait_targets(t - self.stand_hold, self.legs_from, g.retract, g.final,
-                                     g.speed)
+        now, t_stand = m.obs.t, stand_time(self.legs_from, g.speed)
+        proper = self.record_from is not None
+        t = self.ramp.advance(now, m.obs.legs, self.target if proper else None)
+        if not proper and t >= t_stand:
+            self.ramp.t = t = t_stand
+            if self.stand_reached is None:
+                self.stand_reached = now
+            settled = self.at_stand_since is not None \
+                and now - self.at_stand_since >= STAND_SETTLE_S
+            if (settled or now - self.stand_reached >= LEG_WAIT_S) and self._rope_ready():
+                self.record_from = self.at_stand_since if settled else now
+                if not settled:     # the ramp has waited for these legs since standing
+                    self.ramp.lagging_since = self.stand_reached
+        self.target = gait_targets(t, self.legs_from, g.retract, g.final, g.speed)
+        m.leg_targets = self.target
+
+    def _track_stand(self, samples: list[tuple[float, float, float]]) -> None:
+        """Since when (s) every measured sample (t, L1, L2) was within burrow_tolerance_rad of
+        standing; None after one that was not."""
+        tol = self.m.cfg.burrow_tolerance_rad
+        for t, a, b in samples:
+            if max(abs(a - STAND[0]), abs(b - STAND[1])) > tol:
+                self.at_stand_since = None
+            elif self.at_stand_since is None:
+                self.at_stand_since = t
 
     def _legs_at(self, pose: tuple[float, float]) -> bool:
         """The measured legs are within burrow_tolerance_rad of pose (rad, per axle)."""
@@ -223,10 +252,13 @@ class Burrow:
             self._command_table_mode()
             if not self.commanded:
                 return
-        self._drive_gait()
         o = m.obs
         if m.planned_gait() is not None and o.legs is not None:
-            self._record_legs(o.leg_samples + [(o.t_legs, *o.legs)])
+            samples = o.leg_samples + [(o.t_legs, *o.legs)]
+            self._record_legs(samples)
+            if self.record_from is None:
+                self._track_stand(samples)
+        self._drive_gait()
         at = self.at_final_pose()
         if at and self.at_pose_since is None:
             self.at_pose_since = m.obs.t
@@ -264,9 +296,10 @@ class Burrow:
         m, g = self.m, self.m.planned_gait()
         if m.replayer is None or g is None:
             return
-        # The planned burrow proper starts where the measured legs came nearest the standing
-        # pose (gait_motion.py): replayed from there on, as the plan simulated it.
-        record = BurrowRecord.from_standing(self.record)
+        # The planned burrow proper starts where the measured legs rested at the standing
+        # pose (_drive_gait), nearest it: replayed from there on, as the plan simulated it.
+        start = -math.inf if self.record_from is None else self.record_from
+        record = BurrowRecord.from_standing([s for s in self.record if s[0] >= start])
         m.replayer.submit(record, g.pose)
         self.replayed_from = record.dofs[0] if record.dofs else (math.nan, math.nan)
         self.replay_since = m.obs.t
