@@ -59,6 +59,10 @@ class Walk:
     def _do_walk(self) -> None:
         m = self.m
         if m.cycle.walk_s + m.elapsed() >= m.cfg.walk_time_s:
+            # Stand: the MCU walks until told otherwise, and CHOOSE (a capacity query) can
+            # take seconds; walking on with the winch braked would pull the rope, and a
+            # planned burrow would start from legs still turning.
+            m.command('gait', 'stand')
             m.winch = 0.0
             self.pause()
             m.go(State.CHOOSE, 'walk done')
