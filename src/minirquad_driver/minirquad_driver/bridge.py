@@ -40,7 +40,8 @@ class BridgeConfig:
     stale. ack_timeout: s before a command is resent; max_retries: resends before giving
     up.
     energy_max_gap: s; never integrate across a longer hole. clock_drift: s/s the
-    MCU-to-host offset may move (crystal drift allowance); sync_window: s a clock bound is
+    MCU-to-host offset may move (the crystals and the host wall clock's slew: time daemons
+    slew it, docs/design/serial-time.md); sync_window: s a clock bound is
     kept. diag_window: s over which delay and loss are graded. delay_warn/delay_error: s,
     the oldest sample age at hand-out in the window that makes the time status WARN/ERROR.
     loss_warn/loss_error: fraction of MCU frames lost in the window (sequence gaps) that
@@ -53,7 +54,7 @@ class BridgeConfig:
     ack_timeout: float = 0.15
     max_retries: int = 3
     energy_max_gap: float = 0.5
-    clock_drift: float = 2e-4
+    clock_drift: float = 5e-3
     sync_window: float = 10.0
     diag_window: float = 5.0
     delay_warn: float = 0.1

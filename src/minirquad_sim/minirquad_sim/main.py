@@ -119,6 +119,15 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def wall_time(mono: float) -> float:
+    """The host wall time (time.time, the clock ROS stamps with) of the time.monotonic
+    instant `mono`, s. Read afresh each time: the wall clock may be slewed against the
+    monotonic one while the simulator runs (chrony slews up to 83 ms/s; this CI machine was
+    seen at 5 ms/s), and an offset taken at start would drift from every other process's
+    stamps by that much per second."""
+    return time.time() - (time.monotonic() - mono)
+
+
 class _Recorder:
     """JSON lines of what each telemetry frame carried, in wire integers, plus its fate."""
 
@@ -149,15 +158,14 @@ class _Recorder:
 class _CommandLog:
     """JSON lines of the host commands the MCU handled: host wall time, type, fields, ack."""
 
-    def __init__(self, path: str | None, wall_minus_mono: float):
+    def __init__(self, path: str | None):
         self.file = open_fresh(path, 'a', buffering=1) if path else None
-        self.offset = wall_minus_mono
 
     def command(self, now: float, msg, result: int) -> None:
         if not self.file:
             return
         fields = {k: v for k, v in vars(msg).items() if not k.startswith('_')}
-        self.file.write(json.dumps({'host_s': now + self.offset, 'command': msg.TYPE.name,
+        self.file.write(json.dumps({'host_s': wall_time(now), 'command': msg.TYPE.name,
                                     'result': result, **fields}) + '\n')
 
     def close(self) -> None:
@@ -185,11 +193,10 @@ def run(args: argparse.Namespace) -> int:
     print(link.open(), flush=True)
 
     start = time.monotonic()
-    wall_minus_mono = time.time() - start    # the simulator owns both clocks: exact truth
     config = McuConfig(telemetry_hz=args.telemetry_hz, power_hz=args.power_hz,
                        watchdog_s=args.watchdog, winch_deadman_s=args.winch_deadman,
                        clock_start_ms=args.clock_start_ms)
-    commands = _CommandLog(args.command_log, wall_minus_mono)
+    commands = _CommandLog(args.command_log)
     try:
         mcu = _make_mcu(args, ground, config, start,
                         on_telemetry=lambda s, t, tel: pending_tel.append((s, t, tel)),
@@ -242,7 +249,7 @@ def run(args: argparse.Namespace) -> int:
                 if live is not None:
                     faults.config = live
                     spec = {k: v for k, v in vars(live).items() if k in LIVE_FIELDS and v}
-                    print(f'FAULTS {json.dumps(spec)} AT {now + wall_minus_mono:.6f}',
+                    print(f'FAULTS {json.dumps(spec)} AT {wall_time(now):.6f}',
                           flush=True)
             if args.reset_at is not None and not reset_done and t >= args.reset_at:
                 reset_done = True
@@ -265,7 +272,7 @@ def run(args: argparse.Namespace) -> int:
                 if kind == 'telemetry':
                     for s, tm, tel in pending_tel:
                         recorder.telemetry(s, tm, tel, fault if link.master is not None
-                                           else 'disconnected', now + wall_minus_mono)
+                                           else 'disconnected', wall_time(now))
                     pending_tel.clear()
             # Release due bytes, paced like a UART if asked.
             while queue and queue[0][0] <= now and now >= line_free_at:

@@ -1,6 +1,6 @@
 """Standing and walking: the idle power measured once at start (IDLE_MEASURE), then the walk of
 each cycle with the tether paid out so the robot does not drag the sled (WALK; walking also
-unburrows the last anchor).
+unburrows the last anchor). The walk ends standing, winch braked.
 
 Units: s, J, W, m/s. The walk's time so far in a cycle is the cycle tally's walk_s, so a walk
 interrupted by a link loss (link_wait.py) goes on for what is left of walk_time_s.
