@@ -218,22 +218,6 @@ def test_behavior_config_check_refuses(bad):
     assert BehaviorConfig().check() == BehaviorConfig()
 
 
-def test_the_robot_stops_walking_when_the_walk_is_done(predictor):
-    """WALK -> CHOOSE stands the robot (gait 'stand'): the MCU walks until told otherwise,
-    and the step that ends the walk is the last that would tell it before the burrow."""
-    from minirquad_driver.protocol.messages import Mode
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
-    plant = Plant(0.4, predictor)
-    seen = []
-    run_loop(m, plant, t_max=cfg.idle_measure_time_s + cfg.walk_time_s + 2.0,
-             on_step=lambda p, mm: seen.append((mm.state, p.robot.mode)))
-    walked = [i for i, (s, _) in enumerate(seen) if s == State.WALK]
-    assert walked and walked[-1] + 1 < len(seen), seen
-    assert seen[walked[-1]][1] == Mode.WALKING
-    assert all(mode != Mode.WALKING for _, mode in seen[walked[-1] + 1:]), seen
-
-
 def test_machine_600g_never_sh(predictor):
     cfg = fast_config(sled_mass_kg=0.6, cycles=1)
     m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))

@@ -73,8 +73,8 @@ def gait_duration(start: tuple[float, float], retract: tuple[float, float],
 RAMP_STEP_MAX_S = 0.05
 # s of ramp the measured legs may lag before the ramp waits for them. A target takes ~40-50
 # ms to come back as a measured leg (node step, DDS, bridge, MCU loop, 100 Hz telemetry):
-# 2-3 deg at the default gait speed in the physics demo, which the plans simulate as the
-# servo's own tracking. Twice that is no stall; a catch-up after one stays within it.
+# 1.6-2.9 deg at the default 1 rad/s in the physics demo (4 deg at most, 600 g). Twice that
+# is no stall; the catch-up after one is at most this much ramp at servo speed.
 RAMP_LEAD_S = 0.1
 
 

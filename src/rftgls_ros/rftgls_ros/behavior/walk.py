@@ -1,6 +1,6 @@
 """Standing and walking: the idle power measured once at start (IDLE_MEASURE), then the walk of
 each cycle with the tether paid out so the robot does not drag the sled (WALK; walking also
-unburrows the last anchor). The walk ends standing, winch braked.
+unburrows the last anchor).
 
 Units: s, J, W, m/s. The walk's time so far in a cycle is the cycle tally's walk_s, so a walk
 interrupted by a link loss (link_wait.py) goes on for what is left of walk_time_s.
@@ -59,10 +59,6 @@ class Walk:
     def _do_walk(self) -> None:
         m = self.m
         if m.cycle.walk_s + m.elapsed() >= m.cfg.walk_time_s:
-            # Stand: the MCU walks until told otherwise, and CHOOSE (a capacity query) can
-            # take seconds; walking on with the winch braked would pull the rope, and a
-            # planned burrow would start from legs still turning.
-            m.command('gait', 'stand')
             m.winch = 0.0
             self.pause()
             m.go(State.CHOOSE, 'walk done')
