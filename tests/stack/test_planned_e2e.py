@@ -151,7 +151,7 @@ class Stalls(threading.Thread):
 @pytest.mark.slow
 @pytest.mark.campaign
 @pytest.mark.parametrize('seed', [1, 2, 3])
-def test_planned_burrows_go_as_planned_through_process_stalls(tmp_path, spawn, seed):
+def test_planned_burrows_keep_their_height_through_process_stalls(tmp_path, spawn, seed):
     """A loaded host stalls processes for hundreds of ms. With the simulator, the serial
     bridge and behavior_node stalled in turn (Stalls) through three planned cycles, every
     replayed height stays within the plan's band: the ramp waits for its legs and resumes
@@ -170,6 +170,7 @@ def test_planned_burrows_go_as_planned_through_process_stalls(tmp_path, spawn, s
         return proc
     stalls = Stalls(stalled, seed)
     stalls.start()
+
     def checked(log):
         return len(_replays(log)) + log.count("the plan's predicted pose stands")
     try:

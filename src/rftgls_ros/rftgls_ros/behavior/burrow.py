@@ -20,7 +20,7 @@ from rftgls_core.planning.replay import BurrowRecord
 from rftgls_core.types import AnchorState, Status
 
 from . import evidence
-from .gait_motion import RAMP_LEAD_S, RampClock, gait_targets, stand_time
+from .gait_motion import RAMP_LEAD_S, RampClock, gait_targets, leg_span, stand_time
 from .states import REBURROW_WHY, HoldCause, State
 
 # Longest a planned burrow's ramp waits for the measured legs, at standing or anywhere along
@@ -230,7 +230,7 @@ class Burrow:
         standing; None after one that was not."""
         tol = self.m.cfg.burrow_tolerance_rad
         for t, a, b in samples:
-            if max(abs(a - STAND[0]), abs(b - STAND[1])) > tol:
+            if leg_span((a, b), STAND) > tol:
                 self.at_stand_since = None
             elif self.at_stand_since is None:
                 self.at_stand_since = t
@@ -238,8 +238,7 @@ class Burrow:
     def _legs_at(self, pose: tuple[float, float]) -> bool:
         """The measured legs are within burrow_tolerance_rad of pose (rad, per axle)."""
         legs = self.m.obs.legs
-        return legs is not None and max(abs(legs[0] - pose[0]), abs(legs[1] - pose[1])) \
-            <= self.m.cfg.burrow_tolerance_rad
+        return legs is not None and leg_span(legs, pose) <= self.m.cfg.burrow_tolerance_rad
 
     def at_final_pose(self) -> bool:
         """The measured legs are within burrow_tolerance_rad of the mode's final pose."""

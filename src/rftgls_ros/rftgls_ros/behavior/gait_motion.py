@@ -30,7 +30,8 @@ def _toward(a: tuple[float, float], b: tuple[float, float], step: float) -> tupl
     return tuple(x + max(-step, min(step, y - x)) for x, y in zip(a, b))  # type: ignore
 
 
-def _span(a: tuple[float, float], b: tuple[float, float]) -> float:
+def leg_span(a: tuple[float, float], b: tuple[float, float]) -> float:
+    """The larger of the two axles' angle differences between leg poses a and b, rad."""
     return max(abs(y - x) for x, y in zip(a, b))
 
 
@@ -38,7 +39,7 @@ def stand_time(start: tuple[float, float], speed: float,
                stand: tuple[float, float] = STAND) -> float:
     """Time the ramp takes from `start` to the standing pose, s: where the planned burrow
     proper begins."""
-    return _span(start, stand) / speed
+    return leg_span(start, stand) / speed
 
 
 def gait_targets(t: float, start: tuple[float, float], retract: tuple[float, float],
@@ -52,7 +53,7 @@ def gait_targets(t: float, start: tuple[float, float], retract: tuple[float, flo
     if t <= t_stand:
         return _toward(start, stand, speed * t)
     t -= t_stand
-    t_retract = _span(stand, retract) / speed
+    t_retract = leg_span(stand, retract) / speed
     if t <= t_retract:
         return _toward(stand, retract, speed * t)
     t_final = t_retract + dwell
@@ -65,7 +66,8 @@ def gait_duration(start: tuple[float, float], retract: tuple[float, float],
                   final: tuple[float, float], speed: float, dwell: float = BURROW_DWELL,
                   stand: tuple[float, float] = STAND) -> float:
     """Time the ramp takes to reach the final pose, s."""
-    return (_span(start, stand) + _span(stand, retract) + _span(retract, final)) / speed + dwell
+    return (leg_span(start, stand) + leg_span(stand, retract)
+            + leg_span(retract, final)) / speed + dwell
 
 
 # s: the most one step advances the ramp. behavior_node steps at 50 Hz (20 ms); a step up to
@@ -100,7 +102,8 @@ class RampClock:
         dt = 0.0 if self.last_now is None else min(max(now - self.last_now, 0.0),
                                                    self.max_step_s)
         self.last_now = now
-        lagging = target is not None and (legs is None or _span(legs, target) > self.lead_rad)
+        lagging = target is not None and (legs is None
+                                          or leg_span(legs, target) > self.lead_rad)
         if not lagging:
             self.lagging_since = None
         elif self.lagging_since is None:
