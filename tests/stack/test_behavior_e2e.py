@@ -175,6 +175,7 @@ def _heavier_sim(argv):
     import argparse
     import atexit
 
+    from minirquad_driver.protocol.messages import Mode
     from minirquad_sim import main as sim_main
     from minirquad_sim.robot import SimRobot
     from minirquad_sim.winch import WinchSled
@@ -191,7 +192,7 @@ def _heavier_sim(argv):
                          'a stalled ground solver); unplug: the pty closes --disconnect-for s')
     ap.add_argument('--gap-for', type=float, default=0.4, help='s (stall)')
     own, rest = ap.parse_known_args(argv)
-    slip = {'m': 0.0}
+    slip = {'m': 0.0, 'walk': 0.0}
     holder = {}
     run = sim_main.run
 
@@ -224,7 +225,11 @@ def _heavier_sim(argv):
         def _resolve_rope(self, dt):
             x0 = self.x_p
             super()._resolve_rope(dt)
-            if self.slipping:
+            if self.slipping and self.mode == Mode.WALKING:
+                # Feet slipping on the sand as a gait walks against the rope (the payout
+                # stopped: a stalled host let the winch deadman brake it): no anchor yet.
+                slip['walk'] += abs(self.x_p - x0)
+            elif self.slipping:
                 if not slip['m']:
                     print(f'SLIP_START at {self.time:.3f} s', flush=True)
                 slip['m'] += abs(self.x_p - x0)
@@ -240,7 +245,8 @@ def _heavier_sim(argv):
 
     sim_main.WinchSled = HeavierSled
     sim_main.SimRobot = SlipRecorder
-    atexit.register(lambda: print(f'SLIP_TOTAL {slip["m"]:.6f}', flush=True))
+    atexit.register(lambda: print(f'SLIP_TOTAL {slip["m"]:.6f}\nWALK_DRAG {slip["walk"]:.6f}',
+                                  flush=True))
     return sim_main.main(rest)
 
 

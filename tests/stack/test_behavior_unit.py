@@ -283,6 +283,35 @@ def test_machine_link_loss_mid_tug_waits_then_resumes(predictor):
     assert 'link stale during TUG' in texts and 're-checking' in texts
 
 
+def test_a_link_loss_mid_walk_stands_the_robot_with_its_payout(predictor):
+    # The host loses its inputs mid-walk while the MCU still hears it (a stalled host process,
+    # not an unplugged cable): the MCU walks its gait on its own, so with the payout stopped a
+    # walk that went on would take up the slack and drag against the tether.
+    cfg = fast_config(sled_mass_kg=0.6, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    plant = Plant(0.6, predictor)
+    seen = {}
+
+    def cut(p, mach):
+        if mach.state == State.WALK and 'cut' not in seen and mach.elapsed() > 0.5:
+            seen['cut'], seen['x'] = p.t, p.robot.x_p
+            p.link_ok = False
+        if 'cut' in seen and not p.link_ok:
+            seen['pulled'] = max(seen.get('pulled', 0.0), p.robot.winch.tension)
+        if 'cut' in seen and not p.link_ok and p.t - seen['cut'] > 1.5:
+            seen['moved'] = p.robot.x_p - seen['x']
+            p.link_ok = True
+        if mach.state == State.CHOOSE and 'chose' not in seen:
+            seen['chose'] = p.robot.x_p
+    run_loop(m, plant, on_step=cut, t_max=30.0)
+    texts = ' '.join(e['text'] for e in m.events)
+    assert 'link stale during WALK' in texts and 'walking on' in texts, texts
+    # It stood through the 1.5 s outage (the gait covers 45 mm at 0.03 m/s) and never pulled
+    # on the tether (walking on, it took up the slack and dragged at its 1.16 N friction).
+    assert abs(seen['moved']) < 2e-3 and seen['pulled'] < 0.1, seen
+    assert seen['chose'] > 0.0, seen
+
+
 def test_a_recheck_at_an_unchanged_pose_asks_no_question(predictor):
     # The re-check after a link gap keeps the anchor's sufficient check while the measured pose
     # stays within the slip thresholds of it: no capacity question (each one blocks the

@@ -1,12 +1,12 @@
 """Link wait (WAIT_LINK): the robot's link went stale or untrusted (the bridge counts at least
 10 % of the MCU's frames lost), or its joint states / tension aged past ``input_timeout_s``, in
 an active state. A tug so stopped leaves its reason code (link_stale, link_untrusted) in the
-cycle's row. The winch stops in that step and the machine waits;
-once the inputs have been fresh for ``link_settle_s`` it resumes where it was: a tug, hold,
-check or finished cycle first measures the anchor against its slip references (a slip during
-the outage is recorded and answered by the slip policy, never forgotten), then re-checks it
-(or burrows again if the legs left the burrowed pose during the outage), a walk walks on for
-what is left, a burrow burrows again. Units: s.
+cycle's row. The winch stops in that step (a walk also stands: its payout stopped with the
+winch) and the machine waits; once the inputs have been fresh for ``link_settle_s`` it resumes
+where it was: a tug, hold, check or finished cycle first measures the anchor against its slip
+references (a slip during the outage is recorded and answered by the slip policy, never
+forgotten), then re-checks it (or burrows again if the legs left the burrowed pose during the
+outage), a walk walks on for what is left, a burrow burrows again. Units: s.
 """
 from __future__ import annotations
 
@@ -33,7 +33,10 @@ class LinkWait:
         """Inputs lost in an active state: book a walk so far, stop the winch, wait."""
         m = self.m
         if m.state == State.WALK:
+            # The MCU runs the gait on its own: with the payout stopped a walk that went on
+            # would drag the tether (and the sled, or the robot back over the sand).
             m.walk.pause()
+            m.command('gait', 'stand')
         self.resume = m.state
         m.winch = 0.0
         reason = self.reason()
