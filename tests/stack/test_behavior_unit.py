@@ -107,6 +107,25 @@ def test_chooser_safety_factor_on_the_lower_bound(predictor):
     assert d.mode == 'DH', d.table()
 
 
+def test_a_lower_bound_within_the_guards_share_of_the_need_does_not_suffice(predictor):
+    # The margin guard stops the winch at stop_ratio (0.97) x the lower bound and the sled
+    # moves only at its sliding tension, the need. A sled whose need lies between 0.97 x DL's
+    # lower bound and the bound itself: DL would pass a check on "lower bound >= need" and
+    # then every tug on it would stop at the guard before the sled moved. The machine's
+    # chooser takes DH, and the cycle tugs the sled home on its first burrow.
+    dl = min(band_lower(predictor, 'DL', p) for p in PHIS)
+    mass = 0.985 * dl / (0.5 * G)                 # need = 0.985 x DL's lower bound
+    cfg = fast_config(sled_mass_kg=mass, cycles=1)
+    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    d = m.chooser.choose(m.need.value, m.energy)
+    assert d.mode == 'DH' and d.candidate('DL').weakest >= m.need.value, d.table()
+    assert d.required_n == pytest.approx(m.need.value / cfg.stop_ratio), d.table()
+    run_loop(m, Plant(mass, predictor))
+    texts = ' '.join(e['text'] for e in m.events)
+    assert [(r.mode, r.outcome) for r in m.records] == [('DH', 'ok')], texts
+    assert 'margin guard' not in texts, texts
+
+
 def test_chooser_refuses_1kg_although_dh_point_estimate_covers_it(predictor):
     # 1 kg needs 4.90 N. DH's point estimate (5.24 N at 34 mm) covers it, its lower bound over
     # 34 +- 2 mm (4.73 N at 36 mm) does not: no tug, and the reason names the shortfall.
@@ -116,7 +135,7 @@ def test_chooser_refuses_1kg_although_dh_point_estimate_covers_it(predictor):
     assert d.mode is None, d.table()
     assert dh.point >= need > dh.weakest
     assert dh.weakest == pytest.approx(min(band_lower(predictor, 'DH', p) for p in PHIS))
-    assert d.reason == (f'no mode suffices: need {need:.2f} N x 1.00, strongest DH has a '
+    assert d.reason == (f'no mode suffices: need {need:.2f} N x 1.00 / 1.00, strongest DH has a '
                         f'lower bound of {dh.weakest:.2f} N')
 
 

@@ -101,7 +101,7 @@ def test_demo_refuses_a_sled_no_lower_bound_covers(tmp_path):
     proc = demo(out, 1.0, 'burrow_modes:=table_ii')   # no gait map for a 1 kg sled
     text = proc.stdout + proc.stderr
     assert proc.returncode == 4, text
-    assert re.search(r'1000 g REFUSED, no tug: no mode suffices: need 4\.9\d N x 1\.00, '
+    assert re.search(r'1000 g REFUSED, no tug: no mode suffices: need 4\.9\d N x 1\.00 / 0\.97, '
                      r'strongest DH has a lower bound of 4\.7\d N', proc.stderr), text
     assert '1000 g sled -> REFUSED' in proc.stdout, text
     (row,) = read_csv(out / 'cycle_report.csv')

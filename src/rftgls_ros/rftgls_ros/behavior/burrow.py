@@ -371,7 +371,7 @@ class Burrow:
             return
         cap = m.decision_capacity()
         m.chooser.observe(m.mode, m.obs.capacity_lower)
-        required = m.cfg.safety_factor * m.need.value
+        required = m.required()
         if cap < required:
             m.event('decision', f'capacity_node: {m.mode} holds {cap:.2f} N (lower bound) < '
                                 f'{required:.2f} N required', mode=m.mode)

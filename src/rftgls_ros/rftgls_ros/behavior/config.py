@@ -60,8 +60,8 @@ class BehaviorConfig:
     burrow_modes: where the candidate burrows come from (BURROW_MODES): 'table_ii' (the paper's
     DH, DL, SH at their Table II poses) or 'planned' (the burrow planner's gaits from the
     gait map of the configured sled; planned.py). The choice is always the cheapest burrow
-    whose lower bound covers safety_factor x need; plan_confidence: the one-sided confidence
-    of a planned gait's lower bound.
+    whose lower bound covers safety_factor x need / stop_ratio (ModeChooser says why);
+    plan_confidence: the one-sided confidence of a planned gait's lower bound.
 
     Slip (slip.py): slip_detect on/off, slip_pitch_rad, slip_leg_rad (change under load),
     slip_tension_drop (fraction below the tug's peak while reeling at least slip_min_reel_m).

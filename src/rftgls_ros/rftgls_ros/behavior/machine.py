@@ -114,6 +114,8 @@ class BehaviorMachine:
                  replayer: InlineReplayer | None = None):
         self.cfg = config
         self.chooser = chooser
+        # Decisions are judged against the guard this machine tugs with (ModeChooser).
+        chooser.stop_ratio = config.stop_ratio
         # Replays a planned burrow over its measured legs (replay.py); None: the plan's pose.
         self.replayer = replayer
         self.replayed: BurrowedPose | None = None   # the pose the replay gave this burrow
@@ -180,6 +182,11 @@ class BehaviorMachine:
         enter = self._on_enter.get(new)
         if enter is not None:
             enter()
+
+    def required(self) -> float:
+        """The lower bound a tug needs now, N: the chooser's rule (safety factor and margin
+        guard) on the current required force."""
+        return self.chooser.required(self.need.value)
 
     def elapsed(self) -> float:
         """Time in the current state, s."""
@@ -326,7 +333,8 @@ class BehaviorMachine:
 
     def _track_reel_basis(self) -> None:
         """Book what the winch reels in on this step: capacity_node's lower bound (x the
-        learned scale) against the required force. Kept apart from the tug's own checks, so
+        learned scale) against safety_factor x need (without the guard's share: the margin a
+        reel-in really had). Kept apart from the tug's own checks, so
         the report shows whether a tug ever ran below its need."""
         c, o = self.cycle, self.obs
         if c is None or self.winch <= 0.0 or self.burrow.taking_up:

@@ -182,8 +182,8 @@ class Candidate:
 
 @dataclass(frozen=True)
 class Decision:
-    """The chooser's answer: ``mode`` (None = do not tug), the required force and the safety
-    factor used, every candidate, and a one-line human reason."""
+    """The chooser's answer: ``mode`` (None = do not tug), the required force, the safety
+    factor and the guard's stop ratio used, every candidate, and a one-line human reason."""
 
     mode: str | None
     need_n: float
@@ -192,6 +192,12 @@ class Decision:
     candidates: tuple[Candidate, ...]
     reason: str
     pose: str = 'expected'
+    stop_ratio: float = 1.0
+
+    @property
+    def required_n(self) -> float:
+        """The lower bound a mode needs, N (ModeChooser.required)."""
+        return self.safety_factor * self.need_n / self.stop_ratio
 
     def candidate(self, mode: str) -> Candidate | None:
         """The candidate of ``mode`` (None if it was not assessed)."""
@@ -199,9 +205,9 @@ class Decision:
 
     def table(self) -> str:
         phis = '/'.join(f'{math.degrees(p):.0f}' for p in self.phis)
-        lines = [f'  need {self.need_n:.2f} N x SF {self.safety_factor:.2f} = '
-                 f'{self.need_n * self.safety_factor:.2f} N; lower bound over the height band '
-                 f'at phi {phis} deg ({self.pose} pose):']
+        lines = [f'  need {self.need_n:.2f} N x SF {self.safety_factor:.2f} / guard '
+                 f'{self.stop_ratio:.2f} = {self.required_n:.2f} N; lower bound over the '
+                 f'height band at phi {phis} deg ({self.pose} pose):']
         for c in self.candidates:
             caps = '/'.join(f'{x:.2f}' if x is not None else s
                             for x, s in zip(c.capacities, c.statuses))
@@ -214,7 +220,13 @@ class Decision:
 class ModeChooser:
     """Cheapest sufficient mode: a mode is sufficient when every pull angle in ``phis`` has a
     valid prediction whose lower end over the mode's height band (``lower_capacity``) is
-    >= safety_factor * need (N). Ties go to the stronger.
+    >= ``required(need)`` (N): safety_factor x need / stop_ratio. Ties go to the stronger.
+
+    ``stop_ratio`` is the margin guard's (BehaviorConfig.stop_ratio, set by the machine that
+    tugs on the decision; 1.0 for a chooser alone): the guard stops the winch when the tension
+    reaches stop_ratio x the lower bound, and the sled moves only at its sliding tension, the
+    need. A lower bound between need and need / stop_ratio is a tug the guard stops before
+    the sled moves, so it does not suffice.
 
     ``predictor``: any rftgls_core ``Predictor`` (the map capacity_node loads, or the live
     model), asked for ``pull`` (MiniRQuad's winch is on its back: 'backward').
@@ -231,6 +243,12 @@ class ModeChooser:
         self.modes = modes or ANCHOR_MODES
         self.pull = Pull(pull)
         self.scale = 1.0
+        self.stop_ratio = 1.0
+
+    def required(self, need: float) -> float:
+        """The lower bound (N) that lets a tug move a sled needing ``need`` (N) under the
+        margin guard, with the safety factor."""
+        return self.safety_factor * need / self.stop_ratio
 
     def observe(self, mode: str, lower: float) -> None:
         """A lower bound (N, unscaled) for `mode` at its measured pose, seen at CHECK (the
@@ -291,7 +309,7 @@ class ModeChooser:
             if scan.gap:
                 gaps.append(scan.gap)
         weakest_point = None if any(p is None for p in points) else min(points)
-        required = self.safety_factor * need
+        required = self.required(need)
         if any(c is None for c in caps):
             bad = [s for c, s in zip(caps, stats) if c is None]
             return Candidate(mode, tuple(caps), tuple(stats), None, energy, False,
@@ -325,16 +343,17 @@ class ModeChooser:
         if not ok:
             best = max((c for c in cands if c.weakest is not None),
                        key=lambda c: c.weakest, default=None)
-            reason = (f'no mode suffices: need {need:.2f} N x {self.safety_factor:.2f}'
+            reason = (f'no mode suffices: need {need:.2f} N x {self.safety_factor:.2f} / '
+                      f'{self.stop_ratio:.2f}'
                       + (f', strongest {best.mode} has a lower bound of {best.weakest:.2f} N'
                          if best else ', no valid prediction'))
             return Decision(None, need, self.safety_factor, self.phis, tuple(cands), reason,
-                            pose)
+                            pose, self.stop_ratio)
         pick = min(ok, key=lambda c: (c.energy_j, -(c.weakest or 0.0)))
         others = [c.mode for c in ok if c is not pick]
         reason = (f'{pick.mode}: cheapest sufficient mode ({pick.energy_j:.2f} J, '
                   f'{energy.source(pick.mode)}); lower bound {pick.weakest:.2f} N >= '
-                  f'{self.safety_factor:.2f} x {need:.2f} N'
+                  f'{self.safety_factor:.2f} x {need:.2f} N / {self.stop_ratio:.2f}'
                   + (f'; also sufficient: {", ".join(others)}' if others else ''))
         return Decision(pick.mode, need, self.safety_factor, self.phis, tuple(cands), reason,
-                        pose)
+                        pose, self.stop_ratio)

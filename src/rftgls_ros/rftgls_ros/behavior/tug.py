@@ -173,9 +173,10 @@ class Tug:
         return capacity * m.chooser.scale, source
 
     def _short(self, capacity: float, source: str) -> bool:
-        """Capacity below the required force: stop and hold (SHORT)."""
+        """Capacity below what the tug needs (the guard would stop it before the sled moves):
+        stop and hold (SHORT)."""
         m = self.m
-        required = m.cfg.safety_factor * m.need.value
+        required = m.required()
         if capacity >= required:
             return False
         m.winch = 0.0
