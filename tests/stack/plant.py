@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 
 from rftgls_core.types import AnchorState
-from rftgls_ros.behavior import BehaviorConfig, Observation
+from rftgls_ros.behavior import BehaviorConfig, BehaviorMachine, ModeChooser, Observation
 from rftgls_ros.capacity.range_bound import range_minimum
 
 
@@ -109,6 +109,12 @@ def run_loop(machine, plant, t_max=120.0, dt=0.01, on_step=None):
         if on_step:
             on_step(plant, machine)
     return machine
+
+
+def table_ii_machine(predictor, **kw) -> BehaviorMachine:
+    """A machine on ``fast_config(**kw)`` choosing among the Table II modes of ``predictor``."""
+    cfg = fast_config(**kw)
+    return BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
 
 
 def fast_config(**kw) -> BehaviorConfig:

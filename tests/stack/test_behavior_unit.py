@@ -115,11 +115,10 @@ def test_a_lower_bound_within_the_guards_share_of_the_need_does_not_suffice(pred
     # chooser takes DH, and the cycle tugs the sled home on its first burrow.
     dl = min(band_lower(predictor, 'DL', p) for p in PHIS)
     mass = 0.985 * dl / (0.5 * G)                 # need = 0.985 x DL's lower bound
-    cfg = fast_config(sled_mass_kg=mass, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=mass, cycles=1)
     d = m.chooser.choose(m.need.value, m.energy)
     assert d.mode == 'DH' and d.candidate('DL').weakest >= m.need.value, d.table()
-    assert d.required_n == pytest.approx(m.need.value / cfg.stop_ratio), d.table()
+    assert d.required_n == pytest.approx(m.need.value / m.cfg.stop_ratio), d.table()
     run_loop(m, Plant(mass, predictor))
     texts = ' '.join(e['text'] for e in m.events)
     assert [(r.mode, r.outcome) for r in m.records] == [('DH', 'ok')], texts
@@ -171,19 +170,18 @@ def test_tether_length_and_phi():
 
 
 # ------------------------------------------------------------------ closed loop, no ROS
-from plant import Plant, fast_config, run_loop  # noqa: E402  (tests/stack/plant.py)
+from plant import Plant, fast_config, run_loop, table_ii_machine  # noqa: E402  (tests/stack/plant.py)
 
 
 def test_machine_400g_chooses_dl_on_the_lower_bound_and_completes_cycles(predictor):
     # DL, not the paper's SH: SH's height band reaches an unsupported height (chooser tests).
-    cfg = fast_config(sled_mass_kg=0.4)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4)
     plant = Plant(0.4, predictor)
     run_loop(m, plant)
     assert m.state == State.FINISHED, m.reason
     assert [r.mode for r in m.records] == ['DL', 'DL']
     for r in m.records:      # the decision basis is in the row, and no reel ran below the need
-        assert r.point_n > r.lower_n >= cfg.safety_factor * 0.5 * 0.4 * G
+        assert r.point_n > r.lower_n >= m.cfg.safety_factor * 0.5 * 0.4 * G
         assert r.reel_lower_margin_n >= 0.0 and 'DL: cheapest' in r.decision
     assert all(r.outcome == 'ok' for r in m.records)
     assert plant.tug_slip < 1e-3
@@ -194,8 +192,7 @@ def test_machine_400g_chooses_dl_on_the_lower_bound_and_completes_cycles(predict
 
 def test_step_returns_its_events_once(predictor):
     """The node publishes what step returns: every event exactly once, in order."""
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
     plant = Plant(0.4, predictor)
     returned = []
     obs = Observation(t=0.0)
@@ -211,8 +208,7 @@ def test_step_returns_its_events_once(predictor):
 def test_the_burrowed_height_is_sent_as_table_ii_with_its_band(predictor):
     """MiniRQuad does not measure h: after a burrow the machine sends the mode's Table II mean
     with a band of two of its standard deviations (DL: 36 +- 2 mm SD -> +- 4 mm), and says so."""
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
     plant = Plant(0.4, predictor)
     obs, sent = Observation(t=0.0), {}
     while plant.t < 60.0 and not m.done and 'TUG' not in sent:
@@ -222,7 +218,7 @@ def test_the_burrowed_height_is_sent_as_table_ii_with_its_band(predictor):
         for _ in range(5):
             obs = plant.advance(0.002)
     walk, tug = sent['WALK'], sent['TUG']
-    assert (walk.height, walk.height_source) == (cfg.h_walk_m, 'h_walk_m parameter (walking), '
+    assert (walk.height, walk.height_source) == (m.cfg.h_walk_m, 'h_walk_m parameter (walking), '
                                                  'not measured')
     assert math.isnan(walk.height_band)
     assert (tug.height, tug.height_band) == (pytest.approx(0.036), pytest.approx(0.004))
@@ -238,8 +234,7 @@ def test_behavior_config_check_refuses(bad):
 
 
 def test_machine_600g_never_sh(predictor):
-    cfg = fast_config(sled_mass_kg=0.6, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.6, cycles=1)
     plant = Plant(0.6, predictor)
     run_loop(m, plant)
     assert m.state == State.FINISHED, m.reason
@@ -248,8 +243,7 @@ def test_machine_600g_never_sh(predictor):
 
 
 def test_machine_refuses_too_heavy_sled(predictor):
-    cfg = fast_config(sled_mass_kg=1.5, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=1.5, cycles=1)
     run_loop(m, Plant(1.5, predictor), t_max=20)
     assert m.state == State.REFUSED
     assert 'no mode suffices' in m.reason
@@ -257,8 +251,7 @@ def test_machine_refuses_too_heavy_sled(predictor):
 
 
 def test_machine_heavier_mid_tug_stops_then_reburrows(predictor):
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
     # 400 g burrows DL; at 0.8 kg (3.92 N) the tension reaches the margin guard on DL's lower
     # bound (about 3.6 N), and only DH's lower bound (4.73 N) is stronger.
     plant = Plant(0.4, predictor, heavier_at=0.05, heavier_mass=0.8)
@@ -271,8 +264,7 @@ def test_machine_heavier_mid_tug_stops_then_reburrows(predictor):
 
 
 def test_machine_heavier_without_stronger_mode_holds(predictor):
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
     plant = Plant(0.4, predictor, heavier_at=0.05, heavier_mass=2.0)
     run_loop(m, plant)
     assert plant.tug_slip < 2e-3
@@ -281,8 +273,7 @@ def test_machine_heavier_without_stronger_mode_holds(predictor):
 
 
 def test_machine_link_loss_mid_tug_waits_then_resumes(predictor):
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
     plant = Plant(0.4, predictor)
     seen = {}
 
@@ -306,8 +297,7 @@ def test_a_link_loss_mid_walk_stands_the_robot_with_its_payout(predictor):
     # The host loses its inputs mid-walk while the MCU still hears it (a stalled host process,
     # not an unplugged cable): the MCU walks its gait on its own, so with the payout stopped a
     # walk that went on would take up the slack and drag against the tether.
-    cfg = fast_config(sled_mass_kg=0.6, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.6, cycles=1)
     plant = Plant(0.6, predictor)
     seen = {}
 
@@ -366,8 +356,7 @@ def test_a_recheck_at_an_unchanged_pose_asks_no_question(predictor):
 def test_machine_legs_moved_during_link_loss_reburrows(predictor):
     # During the outage the robot stands up (as after an MCU reset): the checked anchor is
     # gone, so the machine burrows again instead of re-checking at the assumed height.
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
     plant = Plant(0.4, predictor)
     seen = {}
 
@@ -388,8 +377,7 @@ def test_machine_legs_moved_during_link_loss_reburrows(predictor):
 def test_after_the_last_cycle_the_robot_stays_anchored_under_the_sled(predictor):
     """The arrived sled still pulls its sliding tension on the braked winch: legs swung out of
     the sand under it (a stand) would let it drag the robot."""
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
     plant = Plant(0.4, predictor)
     run_loop(m, plant)
     assert m.state == State.FINISHED and m.records[0].outcome == 'ok', m.records
@@ -403,8 +391,7 @@ def test_after_the_last_cycle_the_robot_stays_anchored_under_the_sled(predictor)
 
 
 def test_report_csv_and_png(tmp_path, predictor):
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
     run_loop(m, Plant(0.4, predictor))
     csv_path, png_path = write_report(m.records, tmp_path)
     rows = read_csv(csv_path)
@@ -425,8 +412,7 @@ def test_a_report_cut_short_while_plotting_keeps_both_tables(tmp_path, predictor
     from rftgls_ros import behavior_node
     from rftgls_ros.behavior import report
     from rftgls_ros.behavior.tug_series import TugSeries
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
     run_loop(m, Plant(0.4, predictor))
     series = TugSeries()
     for k in range(5):
@@ -440,7 +426,7 @@ def test_a_report_cut_short_while_plotting_keeps_both_tables(tmp_path, predictor
     monkeypatch.setattr(report, 'plot_report', cut)
     monkeypatch.setattr(report, 'plot_tug_series', cut)
     node = types.SimpleNamespace(report_dir=str(tmp_path), machine=m, tug_series=series,
-                                 report_stem='r', cfg=cfg, get_logger=None)
+                                 report_stem='r', cfg=m.cfg, get_logger=None)
     with pytest.raises(Cut):
         behavior_node.BehaviorNode.write_report(node)
     assert read_csv(tmp_path / 'r.csv')[0].mode == m.records[0].mode

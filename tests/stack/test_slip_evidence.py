@@ -16,10 +16,10 @@ import dataclasses
 import math
 
 import pytest
-from plant import Plant, fast_config, run_loop
+from plant import Plant, run_loop, table_ii_machine
 
 from minirquad_sim.ground import LiveGround
-from rftgls_ros.behavior import BehaviorMachine, ModeChooser, State
+from rftgls_ros.behavior import State
 from rftgls_ros.behavior.slip import SLIP_PITCH, SlipDetector
 from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
 
@@ -43,8 +43,7 @@ def _weak_sand_with_gap(predictor, onset_m, mcu):
     """SLED_KG, true sand x 0.5, one cycle; a GAP_S link gap once the tug slip reaches
     ``onset_m`` (None: no gap). mcu 'reels' keeps the last winch command through the gap,
     'deadman' stops the winch DEADMAN_S after the last command reached it."""
-    cfg = fast_config(sled_mass_kg=SLED_KG, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=SLED_KG, cycles=1)
     plant = Plant(SLED_KG, predictor, ground=LiveGround(medium_scale=0.5))
     seen: dict = {}
     advance, apply = plant.advance, plant.apply

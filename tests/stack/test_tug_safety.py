@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from plant import Plant, fast_config, run_loop
+from plant import Plant, fast_config, run_loop, table_ii_machine
 
 from minirquad_sim.ground import LiveGround
 from rftgls_ros.behavior import BehaviorMachine, ModeChooser, State, evidence
@@ -82,8 +82,7 @@ def test_judge_needs_the_estimate_at_the_height_sent():
 # ------------------------------------------------------------------ faults mid-tug
 def _fault_mid_tug(predictor, fault=None, dead=False, t_max=40.0, **cfg_kw):
     """400 g, one cycle; 1 s into the reeling tug the fault starts. Returns what happened."""
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1, evidence_wait_s=1.0, **cfg_kw)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1, evidence_wait_s=1.0, **cfg_kw)
     plant = Plant(0.4, predictor)
     seen = {}
 
@@ -228,8 +227,7 @@ def test_aborted_tug_is_retried_when_evidence_returns(predictor):
         if p.t - flaky.t0 < 1.0:
             return (NAN, 'unsupported', None)
         return None
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
     plant = Plant(0.4, predictor)
 
     def inject(p, mach):
@@ -247,8 +245,7 @@ def test_aborted_tug_is_retried_when_evidence_returns(predictor):
 def test_no_tug_starts_without_evidence(predictor):
     # capacity_node never gives a value: CHECK waits capacity_wait, records the abort, and the
     # winch never reels in.
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1, evidence_wait_s=0.5)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1, evidence_wait_s=0.5)
     plant = Plant(0.4, predictor)
     plant.capacity_fault = lambda p: (NAN, 'unsupported', None)
     run_loop(m, plant, t_max=30)
@@ -261,8 +258,7 @@ def test_no_tug_starts_on_an_estimate_at_another_height(predictor):
     # capacity_node answers for a height 0.3 mm off the one behavior_node sends (a replay's
     # correction it never took up): its numbers answer another question. CHECK waits, then
     # records the abort.
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1, evidence_wait_s=0.5)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1, evidence_wait_s=0.5)
     plant = Plant(0.4, predictor)
     plant.estimate_height = lambda p: p.h + 3e-4
     run_loop(m, plant, t_max=30)
@@ -277,8 +273,7 @@ def test_a_tug_starts_only_once_the_estimate_caught_up_with_the_height(predictor
     # replay) and capacity_node needs a cold lower bound at the new one. Here its estimates
     # stay 0.3 mm off for CHECK's first 0.3 s. The tug starts on an estimate at the height
     # sent, and never reels on one at another.
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
     plant = Plant(0.4, predictor)
     plant.estimate_height = lambda p: p.h + 3e-4 if (
         m.state == State.CHECK and m.elapsed() < 0.3) else p.h
@@ -322,8 +317,7 @@ def test_slip_detector_rules():
 # ------------------------------------------------------------------ weaker true sand
 def _weak_sand(predictor, sled, scale):
     """One cycle with the simulator's true medium scaled by ``scale``; slip (m) at detection."""
-    cfg = fast_config(sled_mass_kg=sled, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=sled, cycles=1)
     plant = Plant(sled, predictor, ground=LiveGround(medium_scale=scale))
     seen = {}
 
@@ -399,8 +393,7 @@ def _link_lost_mid_tug(predictor, **cfg_kw):
     """400 g; 1 s into the reeling tug the robot link goes for good (the bridge killed: the
     host hears nothing more). Returns the machine and the plant."""
     import dataclasses
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1, **cfg_kw)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1, **cfg_kw)
     plant = Plant(0.4, predictor)
     advance = plant.advance
     seen: dict = {}
@@ -442,8 +435,7 @@ def test_an_untrusted_link_stops_the_tug_and_the_row_says_why(predictor):
     and the cycle's row (resumed and finished after the link is trusted again) keeps the
     reason."""
     import dataclasses
-    cfg = fast_config(sled_mass_kg=0.4, cycles=1)
-    m = BehaviorMachine(cfg, ModeChooser(predictor, cfg.safety_factor, cfg.phis_rad))
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
     plant = Plant(0.4, predictor)
     advance = plant.advance
     seen: dict = {}
