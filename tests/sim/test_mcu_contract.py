@@ -218,6 +218,29 @@ def test_winch_deadman_is_not_fed_by_heartbeats(bench):
     assert not b.last_telemetry().flags & m.Flag.WATCHDOG_TRIPPED
 
 
+def test_a_winch_command_runs_no_longer_than_its_hold(bench):
+    # A command whose evidence had 30 ms left when it was sent: the MCU brakes the winch in the
+    # first control cycle more than 30 ms after it (10 ms period), whatever the host does
+    # after it, and not 80 ms later at the deadman; a hold longer than the deadman is cut to it.
+    b = bench()
+    b.run(0.05)
+    b.send(m.Winch(-0.02, hold=0.03))
+    sent = b.t
+    b.run(0.1)
+    errors = [(t, f.message) for t, f in b.of(m.Error)]
+    assert [e.code for _, e in errors] == [m.ErrorCode.WINCH_DEADMAN]
+    assert 0.03 <= errors[0][0] - sent <= 0.041
+    assert 30 <= errors[0][1].detail <= 41
+    assert b.mcu.robot.winch.spool_velocity == 0.0
+    b.send(m.Winch(-0.02, hold=5.0))
+    sent = b.t
+    b.run(0.2)
+    errors = [(t, f.message) for t, f in b.of(m.Error)][1:]
+    assert [e.code for _, e in errors] == [m.ErrorCode.WINCH_DEADMAN]
+    assert 0.08 <= errors[0][0] - sent <= 0.091
+    assert 80 <= errors[0][1].detail <= 91
+
+
 def test_the_clock_crosses_the_uint32_wrap(bench):
     b = bench(clock_start_ms=2**32 - 500)
     b.send(WALK)

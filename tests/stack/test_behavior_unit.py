@@ -374,6 +374,27 @@ def test_machine_legs_moved_during_link_loss_reburrows(predictor):
     assert m.records[0].mode == 'DL+DL' and m.records[0].outcome == 'ok', m.records
 
 
+def test_a_reel_in_carries_when_its_estimate_ages_out(predictor):
+    # Every tug reel-in is sent with its evidence deadline, the estimate's sample time plus
+    # estimate_timeout_s, for the MCU to brake at whatever the host does then; nothing else
+    # the winch does (take-up, pay-out, stops) carries one.
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
+    plant = Plant(0.4, predictor)
+    obs, sent = Observation(t=0.0), []
+    while plant.t < 60.0 and not m.done:
+        cmd = m.step(obs)
+        sent.append((m.state, cmd.winch, cmd.winch_valid_until, obs.t_capacity))
+        plant.apply(cmd)
+        for _ in range(5):
+            obs = plant.advance(0.002)
+    assert m.records[0].outcome == 'ok', m.records
+    reels = [(v, tc) for s, w, v, tc in sent if s == State.TUG and w > 0.0]
+    assert len(reels) > 100
+    assert all(v == tc + m.cfg.estimate_timeout_s for v, tc in reels)
+    assert all(v == 0.0 for s, w, v, _ in sent if not (s == State.TUG and w > 0.0))
+    assert any(w > 0.0 for s, w, _, _ in sent if s != State.TUG)     # the take-up reels too
+
+
 def test_after_the_last_cycle_the_robot_stays_anchored_under_the_sled(predictor):
     """The arrived sled still pulls its sliding tension on the braked winch: legs swung out of
     the sand under it (a stand) would let it drag the robot."""

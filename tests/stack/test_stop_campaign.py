@@ -230,9 +230,9 @@ class Probe:
             ReliabilityPolicy,
             qos_profile_sensor_data,
         )
-        from std_msgs.msg import Float64, String
+        from std_msgs.msg import String
 
-        from rftgls_interfaces.msg import AnchorEstimate, LinkState
+        from rftgls_interfaces.msg import AnchorEstimate, LinkState, WinchCommand
         self.node = rclpy.create_node('stop_campaign_probe', context=ctx)
         latched = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -248,7 +248,7 @@ class Probe:
         sub = self.node.create_subscription
         sub(String, '/behavior_node/state', self._on_state, latched)
         sub(String, '/behavior_node/events', self._on_event, 100)
-        sub(Float64, '/winch/speed', self._on_winch, 10)
+        sub(WinchCommand, '/winch/command', self._on_winch, 10)
         sub(AnchorEstimate, '/capacity_node/estimate', self._on_estimate, 100)
         sub(LinkState, '/minirquad/link', self._on_link, latched)
         sub(WrenchStamped, '/winch/tension', self._on_tension, qos_profile_sensor_data)
@@ -284,9 +284,9 @@ class Probe:
 
     def _on_winch(self, msg):
         with self.lock:
-            if (msg.data > 0.04) != (self.winch > 0.04):
+            if (msg.speed_mps > 0.04) != (self.winch > 0.04):
                 self.winch_since = time.monotonic()
-            self.winch = msg.data
+            self.winch = msg.speed_mps
 
     def _on_estimate(self, msg):
         # An estimate is as old as the tension sample it is built on (a heartbeat estimate

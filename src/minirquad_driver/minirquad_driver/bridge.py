@@ -94,6 +94,21 @@ class CommandResult:
     result: int | None
 
 
+def winch_command(speed: float, valid_until: float, now: float) -> m.Winch:
+    """The WINCH frame for a commanded speed (m/s) whose evidence runs out at ``valid_until``
+    (host wall time, s; 0: no limit of its own) when sent at ``now``: the time left as its
+    hold, whole milliseconds rounded down (never longer than the evidence), at most the wire's
+    65.535 s. A moving speed whose evidence has already run out is sent as a brake."""
+    if valid_until <= 0.0:
+        return m.Winch(speed)
+    left = valid_until - now
+    if left < 1e-3:
+        return m.Winch(0.0)
+    # Wall times near 1.7e9 s carry 2.4e-7 s steps, so `left` may lie up to ~5e-7 s below the
+    # whole millisecond it stands for: 1 us of slack keeps 30 ms from becoming 29.
+    return m.Winch(speed, min(math.floor(left * 1e3 + 1e-3), 0xFFFF) / 1e3)
+
+
 @dataclass
 class _Pending:
     frame: bytes
@@ -101,6 +116,7 @@ class _Pending:
     sent_at: float
     sent_wall: float       # host wall time of the FIRST send: any ack answers a later copy
     tries: int = 1
+    resend: bool = True    # False: a copy sent later would not mean the same (a winch hold)
 
 
 @dataclass
@@ -358,7 +374,12 @@ class BridgeCore:
             msg.pack()   # raises ValueError before a sequence number is spent
             seq = self._next_seq()
             frame = encode_frame(msg, seq, self._host_ms())
-            self._pending[seq] = _Pending(frame, int(msg.TYPE), self.mono(), self.wall())
+            # A hold counts from the MCU's receipt: resent 0.15 s later it would run the winch
+            # that much past its evidence. The commander refreshes it instead.
+            resend = int(msg.TYPE) in m.IDEMPOTENT_COMMANDS \
+                and not (isinstance(msg, m.Winch) and msg.hold > 0)
+            self._pending[seq] = _Pending(frame, int(msg.TYPE), self.mono(), self.wall(),
+                                          resend=resend)
             self.counters.commands_sent += 1
             return frame
 
@@ -376,7 +397,7 @@ class BridgeCore:
             for seq, p in list(self._pending.items()):
                 if now - p.sent_at < self.config.ack_timeout:
                     continue
-                if p.tries > self.config.max_retries or p.type not in m.IDEMPOTENT_COMMANDS:
+                if p.tries > self.config.max_retries or not p.resend:
                     del self._pending[seq]
                     self.counters.command_timeouts += 1
                     failed.append(CommandResult(seq, p.type, None))

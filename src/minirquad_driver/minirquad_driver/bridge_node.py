@@ -49,7 +49,14 @@ from rftgls_interfaces.msg import BurrowCommand, GaitCommand, LinkState, WinchCo
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import declare
 
-from .bridge import BridgeConfig, BridgeCore, CommandResult, PowerSample, TelemetrySample
+from .bridge import (
+    BridgeConfig,
+    BridgeCore,
+    CommandResult,
+    PowerSample,
+    TelemetrySample,
+    winch_command,
+)
 from .gaits import GAITS
 from .protocol import messages as m
 from .transport import SerialTransport
@@ -130,7 +137,7 @@ class BridgeNode(LifecycleNode):
         self.pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)  # global
 
         sub = self.create_subscription
-        sub(WinchCommand, 'winch/command', lambda msg: self._motion(m.Winch(msg.speed_mps)), 10)
+        sub(WinchCommand, 'winch/command', self._on_winch_command, 10)
         sub(GaitCommand, 'gait/command', self._on_gait_command, 10)
         sub(BurrowCommand, 'burrow/command', self._on_burrow_command, 10)
         sub(JointState, 'leg_targets', self._on_leg_targets, 10)
@@ -347,6 +354,11 @@ class BridgeNode(LifecycleNode):
                                       'active', throttle_duration_sec=5.0)
             return
         self._send(msg)
+
+    def _on_winch_command(self, msg: WinchCommand) -> None:
+        until = msg.valid_until.sec + msg.valid_until.nanosec * 1e-9
+        now = self.get_clock().now().nanoseconds * 1e-9
+        self._motion(winch_command(msg.speed_mps, until, now))
 
     def _on_leg_targets(self, msg: JointState) -> None:
         targets = [0.0] * 4

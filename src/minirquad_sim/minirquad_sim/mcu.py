@@ -13,9 +13,10 @@ Firmware behaviour it models:
 - the watchdog: no valid host frame for ``watchdog_s`` stops legs and winch, sends an ERROR
   once; a later heartbeat clears the flag but does not restart motion;
 - the winch deadman: a non-zero winch speed not refreshed by a WINCH command for
-  ``winch_deadman_s`` is set to zero (ERROR WINCH_DEADMAN once). The bridge's heartbeats keep
-  the link watchdog fed even when the node that commands the winch stalls or dies, so the
-  winch itself must not outlive its commands (docs/design/tug-safety.md);
+  ``winch_deadman_s``, or for the shorter hold the command set (the age its evidence had
+  left), is set to zero (ERROR WINCH_DEADMAN once). The bridge's heartbeats keep the link
+  watchdog fed even when the node that commands the winch stalls or dies, so the winch itself
+  must not outlive its commands or their evidence (docs/design/tug-safety.md);
 - after a reset it sends a RESET_NOTICE before anything else.
 """
 from __future__ import annotations
@@ -74,6 +75,7 @@ class SimMcu:
         self._next_pow = now
         self._last_cmd: tuple[tuple[int, int], int] | None = None   # (seq, type), result
         self._winch_cmd_t = now
+        self._winch_hold = self.config.winch_deadman_s   # s the last WINCH may run
         self._watchdog_reported = False
         self.rx_crc_errors = 0
 
@@ -140,6 +142,9 @@ class SimMcu:
         elif isinstance(msg, m.Winch):
             robot.set_winch(msg.speed)
             self._winch_cmd_t = now
+            deadman = self.config.winch_deadman_s
+            self._winch_hold = min(msg.hold, deadman) if msg.hold > 0 and deadman > 0 \
+                else (msg.hold or deadman)
         if (result == m.AckResult.OK and robot.watchdog
                 and not isinstance(msg, (m.EStop, m.GetInfo))):
             robot.set_watchdog(False)
@@ -170,9 +175,8 @@ class SimMcu:
         self._last_step = now
         if now - self._last_host_frame > self.config.watchdog_s and not self.robot.watchdog:
             self.robot.set_watchdog(True)
-        deadman = self.config.winch_deadman_s
-        if (deadman > 0 and self.robot.winch.command != 0.0
-                and now - self._winch_cmd_t > deadman):
+        if (self._winch_hold > 0 and self.robot.winch.command != 0.0
+                and now - self._winch_cmd_t > self._winch_hold):
             stale_ms = int(1e3 * (now - self._winch_cmd_t))
             self.robot.set_winch(0.0)
             out.append(('error', self._frame(m.Error(m.ErrorCode.WINCH_DEADMAN,

@@ -16,8 +16,9 @@ def test_messages_and_constants():
     from rftgls_interfaces.srv import QueryCapacity
     assert {'capacity_n', 'capacity_lower_n', 'status', 'slip_twist'} <= set(
         AnchorEstimate.get_fields_and_field_types())
-    assert WinchCommand.get_fields_and_field_types() == {'header': 'std_msgs/Header',
-                                                         'speed_mps': 'double'}
+    assert WinchCommand.get_fields_and_field_types() == {
+        'header': 'std_msgs/Header', 'speed_mps': 'double',
+        'valid_until': 'builtin_interfaces/Time'}
     # The serial protocol's BURROW mode byte (src/minirquad_driver/PROTOCOL.md: 0 UNBURROW,
     # 1 DH, 2 DL, 3 SH) and the named gaits.
     assert (BurrowCommand.UNBURROW, BurrowCommand.DH, BurrowCommand.DL,

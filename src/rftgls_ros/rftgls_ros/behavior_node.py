@@ -16,8 +16,9 @@ Subscribed: /joint_states (sensor_msgs/JointState: legs rad, ``winch_rope`` m / 
   (docs/design/tug-safety.md, "Freshness by sample age").
 Published: /gait, /burrow (std_msgs/String: a Table II mode's name), /leg_targets
   (sensor_msgs/JointState, rad: a planned gait's leg targets, streamed at the step rate so the
-  legs slew at the gait's speed), /winch/speed (std_msgs/Float64, m/s reel-in
-  positive), /winch/height_estimate (rftgls_interfaces/InputValue: h of p in m; MiniRQuad does
+  legs slew at the gait's speed), /winch/command (rftgls_interfaces/WinchCommand: m/s reel-in
+  positive; a reel-in carries when its capacity estimate ages out, which the MCU enforces),
+  /winch/height_estimate (rftgls_interfaces/InputValue: h of p in m; MiniRQuad does
   not measure it: in a planned gait the burrow simulation's predicted h, MODELLED, with a band
   of two of its standard deviations; in a Table II mode its Table II mean, ASSUMED, band two of
   the paper's standard deviations), /winch/phi (Float64, rad: tether angle from the tether
@@ -38,6 +39,7 @@ from dataclasses import fields, replace
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.time import Time
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, Header, String
 
@@ -50,7 +52,7 @@ from rftgls_conventions import (
     quat_xyzw_to_pitch,
 )
 from rftgls_core.planning.replay import inputs_for_map
-from rftgls_interfaces.msg import AnchorEstimate, InputValue, LinkState
+from rftgls_interfaces.msg import AnchorEstimate, InputValue, LinkState, WinchCommand
 from rftgls_node_base.node_main import run_node, stop_requested, usage, wants_help
 from rftgls_node_base.parameters import declare
 
@@ -171,7 +173,8 @@ class BehaviorNode(Node):
         self.pub_gait = self.create_publisher(String, 'gait', 10)
         self.pub_burrow = self.create_publisher(String, 'burrow', 10)
         self.pub_legs = self.create_publisher(JointState, 'leg_targets', 10)
-        self.pub_winch = self.create_publisher(Float64, 'winch/speed', 10)
+        self.pub_winch = self.create_publisher(WinchCommand, 'winch/command', 10)
+        self._last_valid_until = 0.0
         # h and phi are a 50 Hz stream of the latest value, read best-effort by capacity_node
         # and state_publisher: best-effort here too (a reliable writer kept nothing better,
         # and after capacity_node was frozen for seconds its samples stopped reaching it for
@@ -369,10 +372,13 @@ class BehaviorNode(Node):
         t = self.obs.t
         # A moving winch is refreshed every WINCH_REFRESH_S: the MCU's winch deadman stops it
         # when commands stop coming (a stalled or dead node must not keep it reeling).
+        # A reel-in also goes out whenever newer evidence moves its deadline (the MCU brakes
+        # at the deadline it last received).
         refresh = WINCH_REFRESH_S if cmd.winch != 0.0 else 0.5
         if (self._last_winch is None or abs(cmd.winch - self._last_winch) > 5e-4
-                or t - self._last_winch_t > refresh):
-            self.pub_winch.publish(Float64(data=float(cmd.winch)))
+                or t - self._last_winch_t > refresh
+                or cmd.winch_valid_until > self._last_valid_until):
+            self.publish_winch(cmd.winch, cmd.winch_valid_until)
             self._last_winch, self._last_winch_t = cmd.winch, t
         header = Header(stamp=self.get_clock().now().to_msg())
         if cmd.legs is not None:      # a planned burrow: both legs of each axle alike
@@ -397,11 +403,23 @@ class BehaviorNode(Node):
         if self.machine.done:
             self.finish()
 
+    def publish_winch(self, speed: float, valid_until: float = 0.0) -> None:
+        """The winch set-point (m/s) on winch/command, with the time its evidence runs out
+        (s on this node's monotonic clock, sent in ROS time; 0: no limit of its own)."""
+        self._last_valid_until = valid_until
+        now = self.get_clock().now()
+        msg = WinchCommand(speed_mps=float(speed))
+        msg.header.stamp = now.to_msg()
+        if valid_until > 0.0:
+            left_ns = round((valid_until - self.now_s()) * 1e9)
+            msg.valid_until = Time(nanoseconds=now.nanoseconds + left_ns).to_msg()
+        self.pub_winch.publish(msg)
+
     def finish(self) -> None:
         if self.finished:
             return
         self.finished = True
-        self.pub_winch.publish(Float64(data=0.0))
+        self.publish_winch(0.0)
         self.write_report()
 
     def write_report(self) -> None:
@@ -430,7 +448,7 @@ def main(args=None) -> int:
 
     def safe_stop(node: BehaviorNode) -> None:
         if not node.finished:
-            node.pub_winch.publish(Float64(data=0.0))
+            node.publish_winch(0.0)
             # The cycle in progress (waiting for a link that never came back, say) gets its
             # row with the reason: every cycle leaves one.
             node.machine.close(node.machine.open_reason())

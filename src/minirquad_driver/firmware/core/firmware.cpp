@@ -169,7 +169,7 @@ uint8_t Firmware::execute(const Message& msg, uint32_t now) {
       return ACK_OK;
     }
     case MSG_WINCH:
-      return winch_.command(msg.winch.speed, now) ? ACK_OK : ACK_BUSY;
+      return winch_.command(msg.winch.speed, msg.winch.hold_ms, now) ? ACK_OK : ACK_BUSY;
     default:
       return ACK_UNSUPPORTED;
   }

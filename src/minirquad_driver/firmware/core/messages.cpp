@@ -53,7 +53,7 @@ int payload_size(uint8_t type) {
     case MSG_SET_LEGS: return 17;
     case MSG_SET_GAIT: return 22;
     case MSG_BURROW: return 1;
-    case MSG_WINCH: return 4;
+    case MSG_WINCH: return 6;
     case MSG_ESTOP: return 1;
     default: return -2;
   }
@@ -169,6 +169,7 @@ PayloadStatus unpack_payload(uint8_t type, const uint8_t* payload, size_t n, Mes
       return out->burrow.mode <= BURROW_SH ? PAYLOAD_OK : PAYLOAD_BAD;
     case MSG_WINCH:
       out->winch.speed = r.i32();
+      out->winch.hold_ms = r.u16();
       return (out->winch.speed >= -1000000 && out->winch.speed <= 1000000) ? PAYLOAD_OK
                                                                            : PAYLOAD_BAD;
     case MSG_ESTOP:
@@ -250,7 +251,7 @@ int pack_payload(const Message& msg, uint8_t* out, size_t cap) {
       break;
     }
     case MSG_BURROW: w.u8(msg.burrow.mode); break;
-    case MSG_WINCH: w.i32(msg.winch.speed); break;
+    case MSG_WINCH: w.i32(msg.winch.speed); w.u16(msg.winch.hold_ms); break;
     case MSG_ESTOP: w.u8(msg.estop.engage); break;
     default: return -1;
   }

@@ -103,7 +103,10 @@ struct SetGait {              // '<BHHii4Hb'
   int8_t direction;           // +1 / -1
 };
 struct Burrow { uint8_t mode; };        // BurrowMode
-struct Winch { int32_t speed; };        // um/s reel-in, |v| <= 1 m/s; 0 brakes
+struct Winch {                          // um/s reel-in, |v| <= 1 m/s; 0 brakes; hold_ms:
+  int32_t speed;                        // how long the speed may run after receipt (its
+  uint16_t hold_ms;                     // evidence's remaining age), 0 = the deadman alone
+};
 struct EStop { uint8_t engage; };       // 0 / 1
 
 struct Message {

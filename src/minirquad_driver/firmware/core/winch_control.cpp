@@ -9,6 +9,7 @@ WinchControl::WinchControl(const Config& config) : config_(config) { begin(0, 0)
 void WinchControl::begin(uint32_t now, int32_t encoder) {
   speed_ = 0;
   command_at_ = now;
+  hold_ms_ = config_.winch_deadman_ms;
   integral_ = 0.0f;
   duty_ = 0;
   encoder0_ = encoder;
@@ -43,8 +44,10 @@ bool WinchControl::pop_event(WinchEvent* event) {
   return true;
 }
 
-bool WinchControl::command(int32_t speed, uint32_t now) {
+bool WinchControl::command(int32_t speed, uint16_t hold_ms, uint32_t now) {
   command_at_ = now;
+  hold_ms_ = config_.winch_deadman_ms;
+  if (hold_ms && (hold_ms_ == 0 || hold_ms < hold_ms_)) hold_ms_ = hold_ms;
   if (speed <= 0) latch_ = 0;   // the host has stopped or pays out: it saw the error
   if (speed > 0 && (latch_ != 0 || !tension_valid_)) {
     brake();
@@ -94,8 +97,9 @@ void WinchControl::update(uint32_t now, int32_t encoder, bool fresh, int32_t loa
     }
   }
 
-  // Deadman: the speed must be refreshed by its commander, not by the link alone.
-  if (config_.winch_deadman_ms && speed_ != 0 && now - command_at_ > config_.winch_deadman_ms) {
+  // Deadman: the speed must be refreshed by its commander, not by the link alone, and runs no
+  // longer than the command allowed (the evidence it rests on ages on the MCU's clock too).
+  if (hold_ms_ && speed_ != 0 && now - command_at_ > hold_ms_) {
     raise(ERR_WINCH_DEADMAN, now - command_at_);
     brake();
   }

@@ -1,6 +1,7 @@
 // Winch speed control and the winch's safety rules, checked every control cycle before
 // the output is computed:
-//   deadman       a non-zero speed needs a WINCH command every winch_deadman_ms;
+//   deadman       a non-zero speed needs a WINCH command every winch_deadman_ms, or sooner
+//                 when the command set a shorter hold (the age its evidence had left);
 //   over-tension  overtension_samples readings above overtension_mn brake and latch;
 //   stall         full drive but slower than stall_speed for stall_ms brakes and latches;
 //   sensor loss   no load-cell reading for load_cell_timeout_ms: tension unknown, no reel-in.
@@ -25,9 +26,10 @@ class WinchControl {
  public:
   explicit WinchControl(const Config& config);
   void begin(uint32_t now, int32_t encoder);
-  // A WINCH command (um/s). Returns false if refused: reel-in while latched or the tension
-  // is unknown (the speed is then left at zero).
-  bool command(int32_t speed, uint32_t now);
+  // A WINCH command (um/s; hold_ms: how long it may run after now, 0 = the deadman alone).
+  // Returns false if refused: reel-in while latched or the tension is unknown (the speed is
+  // then left at zero).
+  bool command(int32_t speed, uint16_t hold_ms, uint32_t now);
   void brake();                                         // speed to zero, now
   // One control cycle; errors it raises are queued for pop_event.
   void update(uint32_t now, int32_t encoder, bool fresh, int32_t load_raw);
@@ -52,6 +54,7 @@ class WinchControl {
   const Config& config_;
   int32_t speed_;
   uint32_t command_at_;
+  uint32_t hold_ms_;       // the last command's own limit, never above the deadman
   float integral_;
   int16_t duty_;
   int32_t encoder0_;

@@ -116,7 +116,10 @@ mrq::Message random_message(Rng& r, uint8_t type) {
       break;
     }
     case mrq::MSG_BURROW: m.burrow.mode = uint8_t(r.below(4)); break;
-    case mrq::MSG_WINCH: m.winch.speed = r.range(-1000000, 1000000); break;
+    case mrq::MSG_WINCH:
+      m.winch.speed = r.range(-1000000, 1000000);
+      m.winch.hold_ms = uint16_t(r.range(0, 65535));
+      break;
     case mrq::MSG_ESTOP: m.estop.engage = uint8_t(r.below(2)); break;
     default: break;
   }

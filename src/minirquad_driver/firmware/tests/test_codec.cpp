@@ -92,7 +92,10 @@ Message fill(uint8_t type, const Fields& f) {
       break;
     }
     case mrq::MSG_BURROW: m.burrow.mode = uint8_t(f[0]); break;
-    case mrq::MSG_WINCH: m.winch.speed = int32_t(f[0]); break;
+    case mrq::MSG_WINCH:
+      m.winch.speed = int32_t(f[0]);
+      m.winch.hold_ms = uint16_t(f[1]);
+      break;
     case mrq::MSG_ESTOP: m.estop.engage = uint8_t(f[0]); break;
     default: break;
   }
@@ -154,7 +157,10 @@ Fields fields_of(const Message& m) {
       break;
     }
     case mrq::MSG_BURROW: f.push_back(m.burrow.mode); break;
-    case mrq::MSG_WINCH: f.push_back(m.winch.speed); break;
+    case mrq::MSG_WINCH:
+      f.push_back(m.winch.speed);
+      f.push_back(m.winch.hold_ms);
+      break;
     case mrq::MSG_ESTOP: f.push_back(m.estop.engage); break;
     default: break;
   }

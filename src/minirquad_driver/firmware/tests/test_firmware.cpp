@@ -77,10 +77,11 @@ struct Rig {
   }
 };
 
-Message winch(int32_t speed) {
+Message winch(int32_t speed, uint16_t hold_ms = 0) {
   Message m;
   m.type = mrq::MSG_WINCH;
   m.winch.speed = speed;
+  m.winch.hold_ms = hold_ms;
   return m;
 }
 Message estop(bool on) {
@@ -233,6 +234,32 @@ TEST(winch_deadman_is_not_fed_by_heartbeats) {
   const Frame* e = r.last(mrq::MSG_ERROR);
   CHECK(e && e->message.error.detail > 80 && e->message.error.detail <= 91);
   CHECK(!r.fw.watchdog_tripped());
+}
+
+TEST(a_winch_command_runs_no_longer_than_its_hold) {
+  // A command whose evidence has 30 ms left: the winch stands after 30 ms (one 10 ms control
+  // cycle later at most), not after the 80 ms deadman; a refresh starts a new hold, and a hold
+  // above the deadman is cut to the deadman.
+  Rig r;
+  r.send_now(winch(20000, 30));
+  r.run(20);
+  CHECK(r.board.winch.duty > 0);
+  r.run(30);
+  CHECK_EQ(r.board.winch.duty, 0);
+  const Frame* e = r.last(mrq::MSG_ERROR);
+  CHECK(e && e->message.error.code == mrq::ERR_WINCH_DEADMAN);
+  CHECK(e && e->message.error.detail > 30 && e->message.error.detail <= 41);
+  r.send_now(winch(0));
+  r.send_now(winch(20000, 30));
+  r.run(20);
+  r.send_now(winch(20000, 30));
+  r.run(20);
+  CHECK(r.board.winch.duty > 0);      // 40 ms after the first command, 20 after the refresh
+  r.send_now(winch(20000, 5000));
+  r.run(120);
+  CHECK_EQ(r.board.winch.duty, 0);
+  e = r.last(mrq::MSG_ERROR);
+  CHECK(e && e->message.error.detail > 80 && e->message.error.detail <= 91);
 }
 
 TEST(overtension_brakes_and_latches_until_the_host_stops) {

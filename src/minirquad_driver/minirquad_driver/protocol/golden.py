@@ -39,7 +39,7 @@ LAYOUTS: dict[int, str] = {
     m.MsgType.TELEMETRY: '<4i4hihiiiBH', m.MsgType.POWER: '<HhhHH', m.MsgType.ACK: '<BBB',
     m.MsgType.RESET_NOTICE: '<BHBHH', m.MsgType.INFO: '<BHBHH', m.MsgType.ERROR: '<BH',
     m.MsgType.HEARTBEAT: '<', m.MsgType.GET_INFO: '<', m.MsgType.SET_LEGS: '<B4i',
-    m.MsgType.SET_GAIT: '<BHHii4Hb', m.MsgType.BURROW: '<B', m.MsgType.WINCH: '<i',
+    m.MsgType.SET_GAIT: '<BHHii4Hb', m.MsgType.BURROW: '<B', m.MsgType.WINCH: '<iH',
     m.MsgType.ESTOP: '<B',
 }
 COUNTERS = ('frames', 'cobs_errors', 'crc_errors', 'short_frames', 'version_errors',
@@ -217,11 +217,14 @@ def frame_cases() -> Iterator[FrameCase]:
     yield _bad('burrow.empty', 'payload', T.BURROW, payload=b'')
 
     for v in (0, 1, -1, 20000, -50000, 1000000, -1000000):
-        yield _ok(f'winch.{v}', T.WINCH, [v])
-    yield _bad('winch.above_1ms', 'payload', T.WINCH, [1000001])
-    yield _bad('winch.below_1ms', 'payload', T.WINCH, [-1000001])
-    yield _bad('winch.int_min', 'payload', T.WINCH, [I32_MIN])
+        yield _ok(f'winch.{v}', T.WINCH, [v, 0])
+    for hold in (1, 60, 65535):
+        yield _ok(f'winch.50000_hold_{hold}ms', T.WINCH, [50000, hold])
+    yield _bad('winch.above_1ms', 'payload', T.WINCH, [1000001, 0])
+    yield _bad('winch.below_1ms', 'payload', T.WINCH, [-1000001, 0])
+    yield _bad('winch.int_min', 'payload', T.WINCH, [I32_MIN, 0])
     yield _bad('winch.short', 'payload', T.WINCH, payload=b'\x01\x00\x00')
+    yield _bad('winch.without_hold', 'payload', T.WINCH, payload=b'\x50\xc3\x00\x00')
 
     yield _ok('estop.engage', T.ESTOP, [1])
     yield _ok('estop.release', T.ESTOP, [0])

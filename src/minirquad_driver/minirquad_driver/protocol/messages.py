@@ -496,22 +496,28 @@ class Burrow:
 
 @dataclass(frozen=True)
 class Winch:
-    """Winch reel-in speed, m/s (1 um/s); negative pays out, 0 brakes."""
+    """Winch reel-in speed, m/s (1 um/s); negative pays out, 0 brakes. ``hold``: s (1 ms) this
+    speed may run after the MCU received it unless a newer WINCH replaces it, at most 65.535 s;
+    0 sets no limit of its own (the MCU's winch deadman still applies). A commander sets it from
+    the age of the evidence the speed rests on, so the MCU stops a winch whose evidence ran out
+    whatever happens on the host."""
 
     TYPE: ClassVar[MsgType] = MsgType.WINCH
-    _FMT: ClassVar[struct.Struct] = struct.Struct('<i')
+    _FMT: ClassVar[struct.Struct] = struct.Struct('<iH')
 
     speed: float
+    hold: float = 0.0
 
     def pack(self) -> bytes:
-        return self._FMT.pack(_fixed(self.speed, MICROMETRE_S, -1_000_000, 1_000_000, 'speed'))
+        return self._FMT.pack(_fixed(self.speed, MICROMETRE_S, -1_000_000, 1_000_000, 'speed'),
+                              _fixed(self.hold, 1e3, 0, 0xFFFF, 'hold'))
 
     @classmethod
     def unpack(cls, payload: bytes) -> 'Winch':
-        (v,) = cls._FMT.unpack(payload)
+        v, hold_ms = cls._FMT.unpack(payload)
         if abs(v) > 1_000_000:
             raise ValueError('winch speed above 1 m/s')
-        return cls(v / MICROMETRE_S)
+        return cls(v / MICROMETRE_S, hold_ms / 1e3)
 
 
 @dataclass(frozen=True)

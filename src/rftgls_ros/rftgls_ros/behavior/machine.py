@@ -134,6 +134,7 @@ class BehaviorMachine:
         self.cycle: CycleTally | None = None
         self.mode: str | None = None          # the mode burrowed (or being burrowed)
         self.winch = 0.0                      # reel-in set-point, m/s; held until changed
+        self.winch_valid_until = 0.0          # s: when a tug's reel-in evidence runs out
         self.leg_targets: tuple[float, float] | None = None   # this step's (L1, L2), rad
         self.idle_power = 0.0                 # W, measured standing at start
         self.weakest: float | None = None     # N: the anchor's weakest capacity, or what it held
@@ -309,8 +310,9 @@ class BehaviorMachine:
         self.tug.report_stop()
         self._track_reel_basis()
         h, band, source, provenance = self.height_input()
+        valid = self.winch_valid_until if self.state == State.TUG and self.winch > 0.0 else 0.0
         out = Commands(self._oneshots, self.winch, h, self.tether.phi(h), self._step_events,
-                       band, source, provenance, self.leg_targets)
+                       band, source, provenance, self.leg_targets, valid)
         self._oneshots, self._step_events, self.leg_targets = [], [], None
         return out
 

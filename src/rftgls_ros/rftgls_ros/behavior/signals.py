@@ -60,7 +60,10 @@ class Commands:
     for it): assumed (Table II, walking) or modelled (a planned gait's prediction),
     height_provenance; height_band is the half-width of its range (m, NaN = not stated) and
     height_source says where the number comes from. legs: the leg targets of a planned burrow
-    this step (published on leg_targets), None otherwise."""
+    this step (published on leg_targets), None otherwise. winch_valid_until: when the evidence
+    a reel-in rests on runs out (s on the observation's clock: the estimate's sample time plus
+    estimate_timeout_s; 0: no limit of its own), sent with the set-point so the MCU brakes then
+    whatever the host does."""
 
     oneshots: list[tuple[str, str]]
     winch: float
@@ -71,3 +74,4 @@ class Commands:
     height_source: str = ''
     height_provenance: Provenance = Provenance.ASSUMED
     legs: tuple[float, float] | None = None   # leg targets (theta_L1, theta_L2), rad, or None
+    winch_valid_until: float = 0.0

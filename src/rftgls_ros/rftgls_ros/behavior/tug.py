@@ -213,6 +213,10 @@ class Tug:
         band = max(cfg.stop_ratio - cfg.slow_ratio, 1e-6)
         frac = min(1.0, max(cfg.min_speed_fraction, (cfg.stop_ratio - ratio) / band))
         m.winch = cfg.tug_speed_m_s * frac
+        # The reel-in may run until its estimate ages out (the MCU enforces it); the own-map
+        # fallback has no estimate to age: the MCU's deadman alone.
+        m.winch_valid_until = 0.0 if source == 'own map' \
+            else o.t_capacity + cfg.estimate_timeout_s
         if m.taut() and o.spool_velocity > 0.5 * m.winch > 0:
             a.tensions.append(tension)
         if o.t - a.last_live >= cfg.live_period_s:
