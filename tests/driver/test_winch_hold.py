@@ -1,7 +1,8 @@
 """A reel-in's evidence deadline on its way to the MCU: the bridge turns a WinchCommand's
 ``valid_until`` into the WINCH frame's hold (the time left when it is sent) and never resends a
-held WINCH, whose hold would count again from a late copy's receipt (PROTOCOL.md, "Winch
-deadman"). The MCUs' side: tests/sim/test_mcu_contract.py and the firmware's own tests."""
+held WINCH, whose hold would count again from a late copy's receipt
+(src/minirquad_driver/PROTOCOL.md, "Winch deadman"). The MCUs' side:
+tests/sim/test_mcu_contract.py and the firmware's own tests."""
 from __future__ import annotations
 
 import pytest
