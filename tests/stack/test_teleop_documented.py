@@ -45,7 +45,9 @@ from rclpy.qos import qos_profile_sensor_data  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 
 from rftgls_conventions import WINCH_ROPE_JOINT  # noqa: E402
+from rftgls_interfaces.msg import WinchCommand  # noqa: E402
 from rftgls_ros.behavior.model import ANCHOR_MODES  # noqa: E402
+from rftgls_ros.stamps import stamp_ns  # noqa: E402
 
 # realtime: a loaded machine makes the simulator's telemetry late (stale estimates, the winch
 # stops) and the live ground solver slow.
@@ -138,6 +140,10 @@ class Robot:
         self.legs: dict[str, float] = {}      # degrees
         self.node.create_subscription(JointState, 'joint_states', self._on_joints,
                                       qos_profile_sensor_data)
+        # Every winch set-point the bridge is sent: (speed m/s, stamp s, valid_until s).
+        self.winch: list[tuple[float, float, float]] = []
+        self.node.create_subscription(WinchCommand, 'winch/command', lambda m: self.winch.append(
+            (m.speed_mps, stamp_ns(m.header.stamp) * 1e-9, stamp_ns(m.valid_until) * 1e-9)), 10)
         self.diagnostics: list[str] = []
         self.node.create_subscription(DiagnosticArray, '/diagnostics', lambda m: [
             self.diagnostics.append(st.message) for st in m.status
@@ -287,6 +293,11 @@ def test_documented_teleop_path_tugs_guards_and_stops(tmp_path, ros_context):
         print(f"SH reeled {1e3 * (robot.spool - start):.1f} mm, load {n['load']:.0f} %")
         assert n['load'] < 80 and 'press ! then i' not in ''.join(term.screens()), \
             term.screen()
+        # Every reel-in set-point carried its estimate's deadline (teleop's stale_after,
+        # 0.5 s, after the estimate's sample): the MCU brakes then, whatever teleop does.
+        reels = [(s, st, vu) for s, st, vu in robot.winch if s > 0.0]
+        assert reels and all(st - 1.0 < vu <= st + 0.5 for _, st, vu in reels), reels[:5]
+        assert all(vu == 0.0 for s, _, vu in robot.winch if s <= 0.0)
 
         # DH: the simulator's pitch is not the modelled one: flagged, not evidence.
         term.press('1')

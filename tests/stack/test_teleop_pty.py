@@ -38,6 +38,20 @@ def test_model_reels_in_below_limit():
     assert m.update(0.1) == []
 
 
+def test_a_reel_in_carries_the_time_its_estimate_goes_stale():
+    """The node sends reel_in_valid_until() with the set-point as the MCU's hold: the winch
+    brakes when the estimate it rests on is stale_after old, even if teleop stalls."""
+    m = TeleopModel()
+    _valid(m, 1.0, 2.5, t=10.0)
+    assert m.reel_in_valid_until() == 0.0                 # not reeling in: no deadline
+    m.key('i', 10.1)
+    assert m.reel_in_valid_until() == 10.0 + m.cfg.stale_after
+    _valid(m, 1.0, 2.5, t=10.3)                          # a newer estimate moves it on
+    assert m.reel_in_valid_until() == 10.3 + m.cfg.stale_after
+    m.key('o', 10.4), m.key('o', 10.4)                    # paying out: no deadline
+    assert m.winch < 0.0 and m.reel_in_valid_until() == 0.0
+
+
 def test_model_refuses_reel_in_on_an_estimate_at_the_height_before_the_burrow():
     """After a burrow key the model sends the burrow's height; the estimate capacity_node
     computed at the standing height answers another question until a new one arrives."""

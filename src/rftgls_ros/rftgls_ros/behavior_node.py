@@ -69,6 +69,7 @@ from .behavior.tug_series import TugSample, TugSeries
 from .capacity.node_predictor import DEFAULT_MAP, node_predictor
 from .capacity_msgs import input_value, status_word
 from .capacity_query import CAPACITY_SOURCES, ServicePredictor
+from .stamps import deadline_stamp, sample_time
 from .tug_action import TugActionServer
 
 EXPIRY_CHECK_S = 0.005  # s: how often a reeling winch's evidence is checked between steps
@@ -249,13 +250,9 @@ class BehaviorNode(Node):
     def sample_time(self, stamp) -> float:
         """When a stamped sample was taken, on this node's monotonic clock (s): now minus its
         age by the header stamp (the ROS clock, into which the bridge maps the MCU's sample
-        time). A sample that sat in a slow link or a stalled process is as old as its stamp
-        says, however recently it arrived. An unset stamp counts as taken now; a stamp ahead
-        of this clock as age 0."""
-        if stamp.sec == 0 and stamp.nanosec == 0:
-            return self.now_s()
-        age_ns = self.get_clock().now().nanoseconds - (stamp.sec * 10**9 + stamp.nanosec)
-        return self.now_s() - max(0.0, age_ns * 1e-9)
+        time; stamps.py). A sample that sat in a slow link or a stalled process is as old as
+        its stamp says, however recently it arrived."""
+        return sample_time(stamp, self.get_clock().now().nanoseconds, self.now_s())
 
     # ------------------------------------------------------------------ runs (tug_action.py)
     @property
@@ -407,12 +404,10 @@ class BehaviorNode(Node):
         """The winch set-point (m/s) on winch/command, with the time its evidence runs out
         (s on this node's monotonic clock, sent in ROS time; 0: no limit of its own)."""
         self._last_valid_until = valid_until
-        now = self.get_clock().now()
-        msg = WinchCommand(speed_mps=float(speed))
-        msg.header.stamp = now.to_msg()
-        if valid_until > 0.0:
-            left_ns = round((valid_until - self.now_s()) * 1e9)
-            msg.valid_until = Time(nanoseconds=now.nanoseconds + left_ns).to_msg()
+        now_ns = self.get_clock().now().nanoseconds
+        msg = WinchCommand(speed_mps=float(speed),
+                           valid_until=deadline_stamp(valid_until, self.now_s(), now_ns))
+        msg.header.stamp = Time(nanoseconds=now_ns).to_msg()
         self.pub_winch.publish(msg)
 
     def finish(self) -> None:

@@ -3,7 +3,9 @@
 Subscribes /winch/tension, /joint_states (winch_rope) and /capacity_node/estimate (status,
 capacity, its lower bound, slip twist and the assumed inputs in one message, so they never mix
 two estimates; the guard decides on the lower bound);
-publishes /winch/speed, /burrow, /gait, /estop, and for capacity_node /winch/height_estimate
+publishes /winch/command (rftgls_interfaces/WinchCommand: a reel-in carries the time its
+estimate goes stale, so the MCU brakes then even if teleop stalls), /burrow, /gait, /estop, and
+for capacity_node /winch/height_estimate
 (rftgls_interfaces/InputValue: after a burrow the burrow simulation's h for that mode and the
 sled it is tied to (sled_mass_kg), MODELLED with its band; standing h_stand_m, ASSUMED;
 teleop/anchor.py) and /winch/phi (from the tether paid out and the attachment height:
@@ -35,12 +37,13 @@ from std_msgs.msg import Bool, Float64, Header, String
 
 from rftgls_conventions import LEG_JOINT_NAMES, LEG_KEYS, WINCH_ROPE_JOINT, axle_angles
 from rftgls_core.planning.burrowed import mode_pose
-from rftgls_interfaces.msg import AnchorEstimate, InputValue
+from rftgls_interfaces.msg import AnchorEstimate, InputValue, WinchCommand
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import declare
 
 from ..behavior.tug_series import write_tug_series
 from ..capacity_msgs import input_value, record_tug
+from ..stamps import deadline_stamp, sample_time
 from .anchor import LEG_TOLERANCE_RAD
 from .model import TeleopConfig, TeleopModel
 
@@ -94,7 +97,7 @@ class TeleopNode(Node):
                 f'{math.degrees(pose.theta_b_rad):.1f} +- '
                 f'{math.degrees(pose.theta_b_band_rad):.1f} deg ({pose.source})'))
         self.pubs = {
-            'winch': self.create_publisher(Float64, 'winch/speed', 10),
+            'winch': self.create_publisher(WinchCommand, 'winch/command', 10),
             'burrow': self.create_publisher(String, 'burrow', 10),
             'gait': self.create_publisher(String, 'gait', 10),
             'estop': self.create_publisher(Bool, 'estop', 10),
@@ -120,12 +123,21 @@ class TeleopNode(Node):
                                    '(is bridge_node running?)')
             self.model.alert = True
         for topic, value in cmds:
-            if topic in ('winch',):
-                self.pubs[topic].publish(Float64(data=float(value)))
+            if topic == 'winch':
+                self.publish_winch(float(value))
             elif topic == 'estop':
                 self.pubs[topic].publish(Bool(data=bool(value)))
             else:
                 self.pubs[topic].publish(String(data=str(value)))
+
+    def publish_winch(self, speed: float) -> None:
+        """The set-point (m/s) with its evidence deadline (a reel-in only; stamps.py)."""
+        now_ns = self.get_clock().now().nanoseconds
+        valid_until = self.model.reel_in_valid_until() if speed > 0.0 else 0.0
+        msg = WinchCommand(speed_mps=speed, valid_until=deadline_stamp(
+            valid_until, time.monotonic(), now_ns))
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self.pubs['winch'].publish(msg)
 
     def on_tension(self, msg) -> None:
         self.model.tension = msg.wrench.force.x
@@ -158,7 +170,9 @@ class TeleopNode(Node):
         # when the tension exceeds the capacity (predicted motion is zero otherwise).
         m.slip_twist = ((tw.linear.x, tw.linear.z, tw.angular.y) if msg.slipping
                         else (0.0, 0.0, 0.0) if msg.has_value else (math.nan,) * 3)
-        m.t_capacity = time.monotonic()
+        # As old as its stamp says: an estimate that sat in a stalled process is not fresh.
+        m.t_capacity = sample_time(msg.header.stamp, self.get_clock().now().nanoseconds,
+                                   time.monotonic())
         self.send(m.update(time.monotonic()))
 
     def on_timer(self) -> None:
@@ -166,7 +180,7 @@ class TeleopNode(Node):
         m.unheard = tuple(t for t, p in self.pubs.items() if p.get_subscription_count() == 0)
         self.send(m.update(time.monotonic()))
         if m.winch != 0.0:   # refresh: the MCU's winch deadman stops a winch left unrefreshed
-            self.pubs['winch'].publish(Float64(data=float(m.winch)))
+            self.publish_winch(m.winch)
         header = Header(stamp=self.get_clock().now().to_msg())
         h = m.height()
         self.pub_h.publish(input_value(h.value, h.band, h.provenance, h.source, header))

@@ -107,6 +107,12 @@ class TeleopModel:
             return math.inf
         return self.tension / self.capacity_lower
 
+    def reel_in_valid_until(self) -> float:
+        """When the evidence under the running reel-in runs out (s, this model's clock): the
+        estimate's sample time plus ``stale_after``, sent with the set-point so the MCU brakes
+        then even if this process stalls; 0 (no limit of its own) when not reeling in."""
+        return self.t_capacity + self.cfg.stale_after if self.winch > 0.0 else 0.0
+
     def overridden(self) -> bool:
         return self.t < self.override_until
 
