@@ -15,11 +15,19 @@ from plant import Plant, fast_config, run_loop
 
 from minirquad_sim.gait_pose import GaitPoses
 from rftgls_core.planning.planner import plan_from_map
-from rftgls_core.types import Provenance
+from rftgls_core.surfaces.base import CapacityResult
+from rftgls_core.types import AnchorState, Provenance, Status
 from rftgls_ros.behavior import BehaviorConfig, BehaviorMachine, EnergyModel, State
 from rftgls_ros.behavior.gait_motion import gait_duration, gait_targets
-from rftgls_ros.behavior.planned import GaitChooser, PlanUnavailable, p_hold, sled_map
+from rftgls_ros.behavior.planned import (
+    GaitChooser,
+    PlanUnavailable,
+    gait_name,
+    p_hold,
+    sled_map,
+)
 from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
+from rftgls_ros.capacity.range_bound import scan_points
 
 PHIS = (0.0, math.radians(-20.0))
 G = 9.81
@@ -32,22 +40,89 @@ def predictor():
     return node_predictor(DEFAULT_MAP, robot=None, medium=None, edge_live_method='direct-warm')
 
 
+def check_lower(predictor, answer, phis=PHIS) -> float:
+    """The lower bound CHECK computes for a gait burrowed at its predicted pose: the smallest
+    capacity of the predictor over h +- 2 sigma (the band scan's points) at every tether
+    angle, 0 where the predictor has no value (written out here, not the chooser's code)."""
+    h, tb = answer.pose[0], answer.pose[1]
+    lows = []
+    for phi in phis:
+        for hh in scan_points(h, 2 * answer.pose_sigma[0], 0.0, math.inf):
+            r = predictor.predict(AnchorState(hh, tb, *answer.gait.final), phi, 'backward')
+            ok = r.status == Status.OK and r.capacity_N is not None
+            lows.append(r.capacity_N if ok and math.isfinite(r.capacity_N) else 0.0)
+    return min(lows)
+
+
 @pytest.mark.parametrize('sled', [0.4, 0.6])
-def test_chooses_the_planners_cheapest_covering_gait(predictor, sled):
+def test_chooses_the_cheapest_gait_the_planner_and_the_check_both_cover(predictor, sled):
     gmap = sled_map('minirquad', sled)
     ch = GaitChooser(predictor, gmap, 1.0, PHIS, 0.95)
     need = 0.5 * sled * G
     d = ch.choose(need, ch.energy_model(EnergyModel()))
     plan = plan_from_map(gmap, PHIS, need, 0.95)
-    assert plan.chosen is not None and d.mode is not None
+    # Reference: the planner's candidates by energy, the first whose planner lower bound and
+    # CHECK's lower bound at its predicted pose both cover the need.
+    covering = sorted((a for a in plan.answers if a.candidate and a.lower_bound_N >= need),
+                      key=lambda a: a.energy_elec_J)
+    want = next(a for a in covering if check_lower(predictor, a) >= need)
+    assert d.mode is not None
     g = ch.gaits[d.mode]
-    assert g.answer.gait.same_motion(plan.chosen.gait)
-    assert g.answer.lower_bound_N >= need
+    assert g.answer.gait.same_motion(want.gait), d.reason
+    # A cheaper covering gait the check would find short is shown with why it was passed.
+    for a in covering[:covering.index(want)]:
+        c = d.candidate(gait_name(a))
+        assert c is not None and not c.sufficient and 'capacity_node at the predicted pose' \
+            in c.why, (c, d.reason)
     # The burrow as the machine sees it: the predicted pose and a 2-sigma band of its h.
     mode = ch.modes[d.mode]
-    assert mode.h == pytest.approx(plan.chosen.pose[0]) and mode.final == g.final
-    assert mode.h_band == pytest.approx(2 * plan.chosen.pose_sigma[0])
+    assert mode.h == pytest.approx(want.pose[0]) and mode.final == g.final
+    assert mode.h_band == pytest.approx(2 * want.pose_sigma[0])
     assert 0.5 < g.p_hold <= 1.0
+
+
+class MapEndsAt:
+    """A predictor with no value above h_max (m), as a map whose grid ends there answers."""
+
+    def __init__(self, inner, h_max: float):
+        self.inner, self.h_max, self.asked = inner, h_max, 0
+
+    def predict(self, state, phi, pull):
+        self.asked += 1
+        if state.h > self.h_max:
+            return CapacityResult(phi, Status.OUT_OF_RANGE, 'test', reason='out_of_grid')
+        return self.inner.predict(state, phi, pull)
+
+
+def test_a_gait_whose_band_leaves_the_checks_map_is_not_chosen(predictor):
+    """The planner's cheapest gait for 400 g, its height band cut by a map ending inside it:
+    CHECK would find no value there and re-burrow, so the choice passes it over and says why;
+    asked again, the chooser counts on what it found without asking again."""
+    gmap = sled_map('minirquad', 0.4)
+    plan = plan_from_map(gmap, PHIS, 1.96, 0.95)
+    first = plan.chosen
+    cut = MapEndsAt(predictor, first.pose[0] + 0.5 * first.pose_sigma[0])
+    ch = GaitChooser(cut, gmap, 1.0, PHIS, 0.95)
+    energy = ch.energy_model(EnergyModel())
+    d = ch.choose(1.96, energy)
+    assert d.mode not in (None, gait_name(first)), d.reason
+    c = d.candidate(gait_name(first))
+    assert not c.sufficient and c.weakest == 0.0 and 'out_of_range at h' in c.why, c
+    asked = cut.asked
+    assert ch.choose(1.96, energy).mode == d.mode and cut.asked == asked
+
+
+def test_an_unanswered_confirmation_waits_for_evidence(predictor):
+    """capacity_node's query service silent at CHOOSE: no gait, every status `stale` (CHOOSE
+    waits, burrow.py), and nothing kept against the gait."""
+    class Silent:
+        def predict(self, state, phi, pull):
+            return CapacityResult(phi, Status.STALE, 'capacity_query', reason='no answer')
+    ch = GaitChooser(Silent(), sled_map('minirquad', 0.4), 1.0, PHIS, 0.95)
+    d = ch.choose(1.96, ch.energy_model(EnergyModel()))
+    assert d.mode is None and d.candidates
+    assert all(s == 'stale' for c in d.candidates for s in c.statuses)
+    assert not ch.observed and not ch.confirmed
 
 
 def test_p_hold_is_the_normal_tail_at_the_weakest_angle(predictor):
@@ -174,7 +249,9 @@ def test_a_live_lower_bound_below_the_need_is_kept_for_later_plans(predictor):
     ch.observe(first.mode, 2.83)            # capacity_node at the measured pose: short
     again = ch.choose(2.94, energy)
     assert again.mode not in (None, first.mode)
-    assert ch.choose(2.5, energy).mode == first.mode    # still good for a need it covers
+    # Still good for a need it covers (the gaits cheaper than it left out).
+    cheaper = [k for k in energy.ratios if energy.estimate(k) < energy.estimate(first.mode)]
+    assert ch.choose(2.5, energy, exclude=cheaper).mode == first.mode
     assert 'DL' not in ch.modes and len(ch.modes) == 2  # its own table, not Table II's
 
 

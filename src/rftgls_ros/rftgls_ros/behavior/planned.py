@@ -10,6 +10,14 @@ burrowed h and pitch, and a band of H_BAND_SDS of the predicted h's standard dev
 gait map is per sled (the sled is tied to p while the robot burrows); with no map for the sled
 the planner refuses at start-up.
 
+The planner's lower bound and CHECK's come from different models of the same anchor: the
+planner's from the burrow simulation's spread and the live solver, CHECK's from the predictor
+capacity_node answers with (its map) over the height band of the burrowed pose. A gait CHECK
+cannot confirm (its band leaves the map: ``out_of_range``, or reaches heights that hold less)
+would be burrowed and then found short. So the cheapest sufficient gait is judged once more
+as CHECK will judge it, at its predicted pose, before it is chosen (``confirm``); what that
+finds is kept per gait (``observe``), so a later plan counts on it without asking again.
+
 The probability that a gait holds is read from the same normal model as its lower bound: per
 tether angle the capacity is N(C0, sigma) (bound.py), and P(C >= required) = Phi((C0 -
 required) / sigma); over the angles the smallest (a tug passes through all of them).
@@ -20,7 +28,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from statistics import NormalDist
 
@@ -29,6 +37,7 @@ from rftgls_core.planning.burrowed import BurrowedPose, burrowed_pose
 from rftgls_core.planning.gait_map import GaitMap, for_sled, shipped_paths
 from rftgls_core.planning.planner import plan_from_map
 from rftgls_core.predictor import Predictor
+from rftgls_core.types import AnchorState
 
 from .gait_energy import GaitEnergyModel
 from .model import H_BAND_SDS, AnchorMode, Candidate, Decision, EnergyModel, ModeChooser
@@ -115,8 +124,10 @@ class GaitChooser(ModeChooser):
         self.gait_map = gait_map
         self.confidence = confidence
         self.gaits: dict[str, PlannedGait] = {}
-        # The smallest live lower bound (N, unscaled) capacity_node gave each gait burrowed.
+        # The smallest lower bound (N, unscaled) capacity_node's predictor gave each gait, at
+        # its predicted pose (confirm) or burrowed (CHECK).
         self.observed: dict[str, float] = {}
+        self.confirmed: set[str] = set()    # gaits judged at their predicted pose already
         missing = [p for p in self.phis if not any(abs(p - q) < 1e-9 for q in gait_map.phis)]
         if missing:
             raise PlanUnavailable(
@@ -138,6 +149,36 @@ class GaitChooser(ModeChooser):
         planner's, so a gait found short is not chosen again for a need it does not cover."""
         if math.isfinite(lower):
             self.observed[mode] = min(lower, self.observed.get(mode, math.inf))
+
+    def confirm(self, c: Candidate, answer: GaitAnswer, need: float,
+                stronger_than: float | None = None) -> Candidate:
+        """The candidate judged as CHECK will judge it (module doc): the lower bound of the
+        chooser's predictor over the predicted pose's height band (``evaluate``), folded into
+        the planner's (the smaller counts) and kept for later plans. A candidate whose
+        questions went unanswered comes back insufficient with its `stale` statuses (missing
+        evidence, not a weak gait: nothing kept)."""
+        pose = burrowed_pose(answer, f'burrow simulation of gait {c.mode} (planner)')
+        if pose is None:
+            return replace(c, sufficient=False, why='the plan has no predicted pose')
+        state = AnchorState(pose.h_m, pose.theta_b_rad, *answer.gait.final)
+        e = self.evaluate(c.mode, state, need, c.energy_j, pose.h_band_m)
+        if e.weakest is None:
+            return replace(c, statuses=e.statuses, sufficient=False, why=e.why)
+        self.confirmed.add(c.mode)
+        if self.scale > 0.0:
+            self.observe(c.mode, e.weakest / self.scale)
+        caps = tuple(min(a, b) for a, b in zip(c.capacities, e.capacities))
+        lower = min(caps)
+        required = self.required(need)
+        ok = lower >= required and (stronger_than is None or lower > stronger_than)
+        why = (f'lower bound {lower:.2f} N {">=" if lower >= required else "<"} '
+               f'{required:.2f} N (planner {c.weakest:.2f} N, capacity_node at the predicted '
+               f'pose {e.weakest:.2f} N)')
+        if lower < required and 'no value' in e.why:
+            why += e.why[e.why.index(':'):]
+        elif lower >= required and not ok:
+            why = f'not stronger than {stronger_than:.2f} N: ' + why
+        return replace(c, capacities=caps, weakest=lower, sufficient=ok, why=why)
 
     def _answers(self) -> list[GaitAnswer]:
         return plan_from_map(self.gait_map, self.phis, 0.0, self.confidence).answers
@@ -170,11 +211,26 @@ class GaitChooser(ModeChooser):
                 ok, why = False, f'not stronger than {stronger_than:.2f} N'
             cands.append((Candidate(name, caps, tuple('ok' for _ in caps), lower, e, ok, why,
                                     (a.capacity_N or 0.0) * self.scale), a))
-        ok = [(c, a) for c, a in cands if c.sufficient]
-        # Shown in the decision: the Pareto front (and the pick, when the front's was excluded).
+        # The cheapest sufficient gait, confirmed as CHECK will judge it; one that is not
+        # stays in the table with the reason, and the next cheapest is tried.
+        confirmed: set[int] = set()
+        while True:
+            ok = [(i, c, a) for i, (c, a) in enumerate(cands) if c.sufficient]
+            best = min(ok, key=lambda ica: (ica[1].energy_j, -(ica[1].weakest or 0.0)),
+                       default=None)
+            if best is None or best[1].mode in self.confirmed:
+                break
+            i, c, a = best
+            cands[i] = (self.confirm(c, a, need, stronger_than), a)
+            confirmed.add(id(a))
+            if cands[i][0].weakest is None:          # unanswered: wait for the evidence
+                return Decision(None, need, self.safety_factor, self.phis, (cands[i][0],),
+                                f'{c.mode}: {cands[i][0].why}', 'planned', self.stop_ratio)
+        pick = (best[1], best[2]) if best is not None else None
+        # Shown in the decision: the Pareto front, the gaits confirmed now and the pick.
         front = {id(a) for a in plan.front}
-        pick = min(ok, key=lambda ca: (ca[0].energy_j, -(ca[0].weakest or 0.0)), default=None)
-        shown = tuple(c for c, a in cands if id(a) in front or (pick and c is pick[0]))
+        shown = tuple(c for c, a in cands if id(a) in front or id(a) in confirmed
+                      or (pick and c is pick[0]))
         phis_txt = '/'.join(f'{math.degrees(p):.0f}' for p in self.phis)
         if pick is None:
             best = max((c for c, _ in cands), key=lambda c: c.weakest or 0.0, default=None)
