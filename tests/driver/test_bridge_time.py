@@ -216,22 +216,39 @@ def test_undefined_protocol_fields_are_rejected_counted_and_shown():
         _tel(flags=0x8000),                                  # reserved flag bit
         m.Ack(0, m.MsgType.HEARTBEAT, 9),                    # no such result code
         m.Ack(0, m.MsgType.TELEMETRY, 0),                    # acks a type the host never sends
-        m.Info(2, 1, 0, 100, 50),                            # protocol version 2 inside
-        m.ResetNotice(1, 1, 77, 100, 50),                    # no such reset cause
+        m.Info(m.PROTOCOL_VERSION + 1, 1, 0, 100, 50),       # another protocol version inside
+        m.ResetNotice(m.PROTOCOL_VERSION, 1, 77, 100, 50),  # no such reset cause
         m.Error(99, 0),                                      # no such error code
     ]
     for msg in bad:
         link.t += 0.01
         assert link.deliver(link.frame(msg, link.t), link.t) == []
     link.t += 0.01
-    assert link.deliver(encode_frame(_tel(), link.seq, link.mcu_ms(link.t), version=2),
-                        link.t) == []
+    assert link.deliver(encode_frame(_tel(), link.seq, link.mcu_ms(link.t),
+                                     version=m.PROTOCOL_VERSION + 1), link.t) == []
     d = link.core.decoder.stats
     assert d.range_errors == len(bad) and d.version_errors == 1
     assert link.core.about is None and link.core.last_error is None
     st_link = link.status('link')
     assert st_link.level >= WARN and 'protocol_rejects' in st_link.values['alarms']
     assert st_link.values['protocol_rejects'] == len(bad) + 1
+
+
+def test_an_mcu_of_another_protocol_version_is_named_not_just_stale():
+    """Firmware built for protocol version 1 (WINCH without its hold) on a version-2 host:
+    every intact frame is dropped, nothing is published, and the link status says which
+    version the MCU speaks rather than only 'stale'."""
+    link = Link()
+    old = m.PROTOCOL_VERSION - 1
+    for i in range(50):                       # 0.5 s of telemetry and heartbeat acks
+        link.t += 0.01
+        assert link.deliver(encode_frame(_tel(i), i, link.mcu_ms(link.t), version=old),
+                            link.t) == []
+    assert link.core.decoder.stats.version_errors == 50 and link.core.is_stale()
+    st = link.status('link')
+    assert st.level >= ERROR and 'protocol_version' in st.values['alarms'], st
+    assert f'speaks protocol version {old}, this bridge {m.PROTOCOL_VERSION}' in st.message
+    assert st.values['other_protocol_version'] == old
 
 
 def test_reset_restarts_the_clock_mapping():
@@ -242,8 +259,8 @@ def test_reset_restarts_the_clock_mapping():
     # The MCU reboots: its clock restarts near zero; old bounds must not be used.
     link.theta = link.t - 0.5
     link.seq = 0
-    link.deliver(link.frame(m.ResetNotice(1, 1, m.ResetCause.WATCHDOG, 100, 50), link.t),
-                 link.t)
+    notice = m.ResetNotice(m.PROTOCOL_VERSION, 1, m.ResetCause.WATCHDOG, 100, 50)
+    link.deliver(link.frame(notice, link.t), link.t)
     link.t += 0.01
     assert link.sample()[1] == []                     # withheld until a new round trip
     link.heartbeat()

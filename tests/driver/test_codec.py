@@ -139,8 +139,10 @@ def test_decoder_counts_each_kind_of_damage():
 
 def test_decoder_rejects_unknown_version_and_type():
     dec = FrameDecoder()
-    assert dec.feed(encode_frame(m.Heartbeat(), 0, 0, version=2)) == []
+    assert dec.stats.other_version is None
+    assert dec.feed(encode_frame(m.Heartbeat(), 0, 0, version=m.PROTOCOL_VERSION + 1)) == []
     assert dec.stats.version_errors == 1
+    assert dec.stats.other_version == m.PROTOCOL_VERSION + 1     # what the other end speaks
     from minirquad_driver.protocol import cobs
     from minirquad_driver.protocol.crc import crc16_ccitt_false
     body = bytes([m.PROTOCOL_VERSION, 0x7F, 0, 0, 0, 0, 0])

@@ -36,7 +36,7 @@ def _bad_field_message(kind: int):
         m.Telemetry(**{**tel.__dict__, 'flags': 0x80 << (kind % 9)}),
         m.Ack(0, 0x17 + kind % 200, 0),
         m.Ack(0, m.MsgType.HEARTBEAT, 5 + kind % 200),
-        m.Info(2 + kind % 200, 1, 0, 100, 50),
+        m.Info(m.PROTOCOL_VERSION + 1 + kind % 200, 1, 0, 100, 50),
         m.Error(9 + kind % 200, 0),
     ][kind % 6]
 

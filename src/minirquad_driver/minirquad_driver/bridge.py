@@ -472,7 +472,8 @@ class BridgeCore:
             rtt = list(c.rtt)
             cfg = self.config
             win = self._windowed({'frames': d.frames, 'dropped': c.dropped_frames,
-                                  'protocol_rejects': d.protocol_rejects})
+                                  'protocol_rejects': d.protocol_rejects,
+                                  'version_errors': d.version_errors})
             expected = win['frames'] + win['dropped']
             loss = win['dropped'] / expected if expected else 0.0
             link_values = {
@@ -483,6 +484,7 @@ class BridgeCore:
                 'crc_errors': d.crc_errors, 'cobs_errors': d.cobs_errors,
                 'other_rejected': d.rejected - d.crc_errors - d.cobs_errors,
                 'version_errors': d.version_errors, 'unknown_types': d.unknown_types,
+                'other_protocol_version': d.other_version,
                 'range_errors': d.range_errors, 'payload_errors': d.payload_errors,
                 'protocol_rejects': d.protocol_rejects,
                 'protocol_rejects_window': win['protocol_rejects'],
@@ -520,6 +522,12 @@ class BridgeCore:
                 if level == 0:
                     msg = 'frames with fields this protocol does not define'
                 level = max(level, 1)
+            if win['version_errors'] and d.other_version is not None:
+                # The cause of a link that stays stale however good the wire: name it.
+                alarms.append('protocol_version')
+                msg = (f'the MCU speaks protocol version {d.other_version}, this bridge '
+                       f'{m.PROTOCOL_VERSION}: flash the firmware that goes with this host')
+                level = max(level, 2)
             link_values['alarms'] = ','.join(alarms)
             link = DiagStatus('minirquad_driver: link', level, msg, link_values)
             cmd = DiagStatus('minirquad_driver: commands',

@@ -9,7 +9,7 @@
 
 namespace mrq {
 
-const uint8_t PROTOCOL_VERSION = 1;
+const uint8_t PROTOCOL_VERSION = 2;
 const int LEG_COUNT = 4;               // proximal-left, proximal-right, distal-left, distal-right
 const int32_t PI_URAD = 3141593;       // angles on the wire: 1 urad, within (-pi, pi]
 const int32_t TWO_PI_URAD = 6283185;

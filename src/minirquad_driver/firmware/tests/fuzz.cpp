@@ -86,7 +86,7 @@ mrq::Message random_message(Rng& r, uint8_t type) {
       break;
     case mrq::MSG_RESET_NOTICE:
     case mrq::MSG_INFO:
-      m.about.protocol_version = 1;
+      m.about.protocol_version = mrq::PROTOCOL_VERSION;
       m.about.firmware_version = uint16_t(r.next());
       m.about.reset_cause = r.below(5) == 4 ? 255 : uint8_t(r.below(4));
       m.about.telemetry_hz = uint16_t(r.next());
@@ -156,7 +156,7 @@ Bytes bad_field_frame(Rng& r) {
     case 0: p[42] = uint8_t(7 + r.below(249)); return raw_frame(0x01, p, 45);  // mode
     case 1: mrq::put_u16(p + 43, uint16_t(0x80 << r.below(9))); return raw_frame(0x01, p, 45);
     case 2: p[1] = uint8_t(0x17 + r.below(200)); return raw_frame(0x03, p, 3);   // acked type
-    case 3: p[0] = 2; return raw_frame(0x07, p, 8);                             // version
+    case 3: p[0] = mrq::PROTOCOL_VERSION + 1; return raw_frame(0x07, p, 8);      // version
     default: p[0] = uint8_t(9 + r.below(200)); return raw_frame(0x05, p, 3);    // error code
   }
 }

@@ -59,6 +59,9 @@ class DecoderStats:
     payload_errors: int = 0      # right CRC, but the payload does not decode (size, value)
     range_errors: int = 0        # right size, but an enum/flag field the protocol lacks
     overflows: int = 0           # no delimiter within MAX_ENCODED bytes
+    # The version byte of the last intact frame (right CRC) of another protocol version: what
+    # the other end speaks when none of its frames gets through (None: none seen).
+    other_version: int | None = None
 
     @property
     def rejected(self) -> int:
@@ -131,6 +134,7 @@ class FrameDecoder:
         version, mtype, seq, t_ms = HEADER.unpack_from(body)
         if version != PROTOCOL_VERSION:
             self.stats.version_errors += 1
+            self.stats.other_version = version
             return None
         cls = MESSAGE_CLASSES.get(mtype)
         if cls is None:

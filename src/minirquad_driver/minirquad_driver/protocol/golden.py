@@ -67,7 +67,8 @@ class StreamCase:
     counters: tuple[int, ...]      # in COUNTERS order
 
 
-def raw_frame(mtype: int, seq: int, t_ms: int, payload: bytes, version: int = 1) -> bytes:
+def raw_frame(mtype: int, seq: int, t_ms: int, payload: bytes,
+              version: int = m.PROTOCOL_VERSION) -> bytes:
     """Wire bytes of a frame built from raw payload bytes (no field validation)."""
     body = HEADER.pack(version, mtype, seq, t_ms) + payload
     body += CRC.pack(crc16_ccitt_false(body))
@@ -152,16 +153,17 @@ def frame_cases() -> Iterator[FrameCase]:
     yield _bad('ack.short', 'payload', T.ACK, payload=b'\x01\x10')
     yield _bad('ack.long', 'payload', T.ACK, payload=b'\x01\x10\x00\x00')
 
+    v = m.PROTOCOL_VERSION
     for t, name in ((T.RESET_NOTICE, 'reset_notice'), (T.INFO, 'info')):
         for c in m.ResetCause:
-            yield _ok(f'{name}.cause_{c.name.lower()}', t, [1, 100, int(c), 100, 50])
-        yield _ok(f'{name}.max', t, [1, 0xFFFF, 255, 0xFFFF, 0xFFFF])
-        yield _ok(f'{name}.zero_rates', t, [1, 0, 0, 0, 0])
-        for v in (0, 2, 255):
-            yield _bad(f'{name}.protocol_{v}', 'range', t, [v, 100, 0, 100, 50])
+            yield _ok(f'{name}.cause_{c.name.lower()}', t, [v, 100, int(c), 100, 50])
+        yield _ok(f'{name}.max', t, [v, 0xFFFF, 255, 0xFFFF, 0xFFFF])
+        yield _ok(f'{name}.zero_rates', t, [v, 0, 0, 0, 0])
+        for other in (0, v - 1, v + 1, 255):
+            yield _bad(f'{name}.protocol_{other}', 'range', t, [other, 100, 0, 100, 50])
         for c in (4, 254):
-            yield _bad(f'{name}.cause_{c}', 'range', t, [1, 100, c, 100, 50])
-        yield _bad(f'{name}.short', 'payload', t, payload=bytes([1, 0, 0, 0, 0, 0, 0]))
+            yield _bad(f'{name}.cause_{c}', 'range', t, [v, 100, c, 100, 50])
+        yield _bad(f'{name}.short', 'payload', t, payload=bytes([v, 0, 0, 0, 0, 0, 0]))
 
     for code in m.ErrorCode:
         yield _ok(f'error.{code.name.lower()}', T.ERROR, [int(code), 0xFFFF if code == 6 else 7])
@@ -258,7 +260,8 @@ def stream_cases() -> Iterator[StreamCase]:
         'crc_byte_swapped': stuffed(body + struct.pack('>H', crc)),
         'crc_missing': stuffed(body + b'\x00\x00'),
         'version_0': raw_frame(m.MsgType.HEARTBEAT, 0, 0, b'', version=0),
-        'version_2': raw_frame(m.MsgType.HEARTBEAT, 0, 0, b'', version=2),
+        'version_1': raw_frame(m.MsgType.HEARTBEAT, 0, 0, b'', version=1),   # before WINCH's hold
+        'version_3': raw_frame(m.MsgType.HEARTBEAT, 0, 0, b'', version=3),
         'unknown_type_0x00': raw_frame(0x00, 0, 0, b''),
         'unknown_type_0x08': raw_frame(0x08, 0, 0, b''),
         'unknown_type_0x17': raw_frame(0x17, 0, 0, b''),

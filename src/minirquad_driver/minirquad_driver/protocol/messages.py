@@ -18,7 +18,7 @@ import struct
 from dataclasses import dataclass
 from typing import ClassVar
 
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSION = 2
 LEG_COUNT = 4
 LEG_NAMES = ('proximal_left', 'proximal_right', 'distal_left', 'distal_right')
 
