@@ -21,13 +21,19 @@ def test_series_written_as_csv_and_png(tmp_path):
         t = 100.0 + 0.1 * i
         status = 'stale' if i == 10 else 'ok'
         cap = math.nan if status == 'stale' else 6.0
-        s.add(t, 0.3 * i, cap, 5.5, status, 'TUG' if i >= 3 else 'CHECK')
+        pose = (-0.1 - 0.001 * i, 0.045, 0.17, -0.70, -0.35) if i else (math.nan,) * 5
+        s.add(t, 0.3 * i, cap, 5.5, status, 'TUG' if i >= 3 else 'CHECK', pose)
     csv_path, png = write_tug_series(s, tmp_path, 'cycle_report', 0.9, 0.97)
     rows = list(csv.DictReader(csv_path.open()))
     assert len(rows) == 21
     assert float(rows[0]['t_s']) == 0.0 and float(rows[-1]['t_s']) == pytest.approx(2.0)
     assert rows[10]['status'] == 'stale' and rows[10]['capacity_n'] == 'nan'
     assert rows[3]['state'] == 'TUG' and float(rows[20]['tension_n']) == pytest.approx(6.0)
+    # The pose each estimate was computed at, SI, NaN where it had none.
+    assert float(rows[5]['phi_rad']) == pytest.approx(-0.105)
+    assert [float(rows[5][k]) for k in ('h_m', 'theta_b_rad', 'theta_l1_rad',
+                                        'theta_l2_rad')] == [0.045, 0.17, -0.70, -0.35]
+    assert rows[0]['h_m'] == 'nan'
     assert png.name == 'cycle_report_tug.png'
     assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and png.stat().st_size > 10_000
 

@@ -67,7 +67,7 @@ from .behavior.replay import ProcessReplayer
 from .behavior.report import write_run_report
 from .behavior.tug_series import TugSample, TugSeries
 from .capacity.node_predictor import DEFAULT_MAP, node_predictor
-from .capacity_msgs import input_value, status_word
+from .capacity_msgs import estimate_pose, input_value, status_word
 from .capacity_query import CAPACITY_SOURCES, ServicePredictor
 from .stamps import deadline_stamp, sample_time
 from .tug_action import TugActionServer
@@ -347,7 +347,7 @@ class BehaviorNode(Node):
         o.slip_twist = twist if msg.slipping or not all(map(math.isfinite, twist)) \
             else (0.0, 0.0, 0.0)
         self.tug_series.add(t, msg.tension_n, msg.capacity_n, msg.capacity_lower_n,
-                            o.capacity_status, str(self.machine.state))
+                            o.capacity_status, str(self.machine.state), estimate_pose(msg))
         self.step()
 
     # ------------------------------------------------------------------ step

@@ -100,6 +100,11 @@ def read_input_value(msg: InputValue) -> tuple[float, Provenance, float] | str:
     return why if why is not None else (float(msg.value), provenance, band)
 
 
+def estimate_pose(msg: AnchorEstimate) -> tuple[float, float, float, float, float]:
+    """(phi rad, h m, theta_B rad, theta_L1 rad, theta_L2 rad) an estimate was computed at."""
+    return (msg.phi_rad, msg.h_m, msg.theta_b_rad, msg.theta_l1_rad, msg.theta_l2_rad)
+
+
 def record_tug(node, cap_ns: str, now, state) -> TugSeries:
     """Record every capacity_node estimate (``{cap_ns}/estimate``) for the tug time series
     (behavior/tug_series.py). now() -> s and state() -> str: the recording node's clock and
@@ -108,7 +113,7 @@ def record_tug(node, cap_ns: str, now, state) -> TugSeries:
 
     def on_estimate(msg: AnchorEstimate) -> None:
         series.add(now(), msg.tension_n, msg.capacity_n, msg.capacity_lower_n,
-                   status_word(msg), state())
+                   status_word(msg), state(), estimate_pose(msg))
 
     node.create_subscription(AnchorEstimate, f'{cap_ns}/estimate', on_estimate, 10)
     return series

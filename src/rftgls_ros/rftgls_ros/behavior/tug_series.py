@@ -1,8 +1,11 @@
 """The tug as a time series (ROS-free): what behavior_node saw of capacity_node while it ran.
 
 One sample per capacity estimate: time (s since the first sample, behavior_node's clock),
-tension, capacity and its lower bound (N, NaN without a value), capacity_node's status and the
-behaviour state at that moment. ``plot_tug_series`` draws them with the margin guard lines the
+tension, capacity and its lower bound (N, NaN without a value), capacity_node's status, the
+behaviour state at that moment, and the anchor state the estimate was computed at (tether
+angle phi, height of p, body pitch, proximal and distal leg angles; rad and m, NaN when the
+estimate had none), so a lower bound that differs from the one a decision expected can be
+traced to the pose it was taken at. ``plot_tug_series`` draws them with the margin guard lines the
 machine acts on (``slow_ratio`` and ``stop_ratio`` times the lower bound: a decision uses the
 lower bound, not the point estimate), shades the time spent
 in TUG and marks every estimate without a usable status; ``write_tug_series`` also writes the
@@ -31,6 +34,14 @@ class TugSample:
     capacity_lower_n: float
     status: str
     state: str
+    phi_rad: float = math.nan
+    h_m: float = math.nan
+    theta_b_rad: float = math.nan
+    theta_l1_rad: float = math.nan
+    theta_l2_rad: float = math.nan
+
+
+NO_POSE = (math.nan,) * 5
 
 
 class TugSeries:
@@ -41,11 +52,13 @@ class TugSeries:
         self._t0: float | None = None
 
     def add(self, t: float, tension: float, capacity: float, lower: float, status: str,
-            state: str) -> None:
+            state: str, pose: tuple[float, ...] = NO_POSE) -> None:
+        """pose: (phi rad, h m, theta_B rad, theta_L1 rad, theta_L2 rad) of the estimate."""
         if self._t0 is None:
             self._t0 = t
         self.samples.append(TugSample(t - self._t0, float(tension), float(capacity),
-                                      float(lower), status, state))
+                                      float(lower), status, state,
+                                      *(float(x) for x in pose)))
 
 
 def _spans(ts: list[float], flags: list[bool]) -> list[tuple[float, float]]:
