@@ -31,10 +31,22 @@ def test_another_gait_or_a_gait_after_the_mcu_left_it_is_sent():
     assert g.command('walk', 0.0, NOW) == 'walk'                  # no limit
     assert g.due(NOW + 1e6) is None
     assert g.command('reverse', NOW + 0.25, NOW) == 'reverse'
-    g.left()                                                      # a burrow, legs, e-stop
+    g.left(NOW + 0.05)                                            # a burrow, legs, e-stop
     assert g.command('reverse', NOW + 0.35, NOW + 0.1) == 'reverse'
     assert g.command('stand', 0.0, NOW + 0.2) == 'stand'
     assert g.command('stand', 0.0, NOW + 0.3) == 'stand'          # a stand is always sent
+
+
+def test_a_walk_sent_before_a_burrow_but_received_after_it_is_dropped():
+    """DDS orders per topic: the walk refresh published just before a burrow can arrive after
+    the burrow (another topic). Judged by its stamp against the burrow's receipt."""
+    g = GaitHold()
+    assert g.command('walk', NOW + 0.25, NOW, sent_at=NOW) == 'walk'
+    g.left(NOW + 0.012)                                     # the burrow, received
+    assert g.command('walk', NOW + 0.26, NOW + 0.013, sent_at=NOW + 0.010) is None
+    assert g.running is None and g.due(NOW + 1.0) is None   # nothing to stand: it burrows
+    # A walk commanded after the burrow (the next cycle) is sent.
+    assert g.command('walk', NOW + 5.25, NOW + 5.0, sent_at=NOW + 5.0) == 'walk'
 
 
 def test_a_walk_already_past_its_deadline_never_starts_and_stands_a_walking_robot():

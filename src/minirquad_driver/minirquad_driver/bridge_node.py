@@ -212,7 +212,7 @@ class BridgeNode(LifecycleNode):
         wait that long for the MCU to acknowledge the winch stop; True when it did (or no wait
         was asked)."""
         self._send(m.Winch(0.0))
-        self.gait_hold.left()
+        self.gait_hold.left(self.ros_now())
         tel = self.core.last_telemetry
         if tel is not None:
             self._send(m.SetLegs(tuple(wrap_angle(a) for a in tel.leg_angles)))
@@ -363,7 +363,8 @@ class BridgeNode(LifecycleNode):
                                       'active', throttle_duration_sec=5.0)
             return
         if not isinstance(msg, (m.SetGait, m.Winch)):
-            self.gait_hold.left()          # legs, burrow, e-stop: the MCU leaves the gait
+            # legs, burrow, e-stop: the MCU leaves the gait
+            self.gait_hold.left(self.ros_now())
         self._send(msg)
 
     def ros_now(self) -> float:
@@ -392,11 +393,13 @@ class BridgeNode(LifecycleNode):
         if name is None:
             self.get_logger().error(f'invalid_input: unknown GaitCommand.gait {msg.gait}')
             return
-        self._held_gait(name, msg.valid_until.sec + msg.valid_until.nanosec * 1e-9)
+        self._held_gait(name, msg.valid_until.sec + msg.valid_until.nanosec * 1e-9,
+                        msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
 
-    def _held_gait(self, name: str, valid_until: float) -> None:
-        """A gait command valid until ``valid_until`` (ROS time, s; 0: no limit): sent unless
-        it refreshes the gait that runs (gaits.GaitHold)."""
+    def _held_gait(self, name: str, valid_until: float, sent_at: float = 0.0) -> None:
+        """A gait command valid until ``valid_until`` and sent at ``sent_at`` (ROS time, s; 0:
+        no limit, unknown): sent unless it refreshes the gait that runs or was sent before the
+        MCU was last commanded out of its gait (gaits.GaitHold)."""
         if name not in GAITS:
             self.get_logger().error(f'invalid_input: unknown gait {name!r} '
                                     f'(known: {", ".join(sorted(GAITS))})')
@@ -404,7 +407,7 @@ class BridgeNode(LifecycleNode):
         if not self.active:
             self._motion(GAITS[name])          # ignored, with the warning
             return
-        send = self.gait_hold.command(name, valid_until, self.ros_now())
+        send = self.gait_hold.command(name, valid_until, self.ros_now(), sent_at)
         if send is not None:
             self._gait(send)
 
@@ -427,7 +430,7 @@ class BridgeNode(LifecycleNode):
     def _on_estop(self, msg: Bool) -> None:
         # Engaging only stops motion: honoured in every configured state.
         if msg.data and self.configured:
-            self.gait_hold.left()
+            self.gait_hold.left(self.ros_now())
             self._send(m.EStop(True))
         else:
             self._motion(m.EStop(bool(msg.data)))

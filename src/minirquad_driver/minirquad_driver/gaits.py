@@ -37,20 +37,28 @@ class GaitHold:
     does not walk on into a braked tether. The MCU's own 500 ms watchdog covers a bridge that
     stops. A refresh of the gait that runs sends nothing (a new SET_GAIT would restart the
     clock's phase); a different gait, or any gait after the MCU left it (legs, burrow, e-stop,
-    stop: ``left``), is sent.
+    stop: ``left``), is sent. A gait command sent before the bridge received the command that
+    made the MCU leave the gait is dropped: DDS orders messages per topic, not across topics,
+    so a walk refresh published just before a burrow can arrive after it, and must not walk
+    the robot out of its burrow.
     """
 
     running: str | None = None
     until: float = math.inf
+    left_at: float = -math.inf   # s, ROS time: when a command last made the MCU leave the gait
 
     @property
     def moving(self) -> bool:
         return self.running not in (None, 'stand')
 
-    def command(self, name: str, valid_until: float, now: float) -> str | None:
+    def command(self, name: str, valid_until: float, now: float,
+                sent_at: float = 0.0) -> str | None:
         """The gait to send for a command of ``name`` valid until ``valid_until`` (s, 0: no
-        limit) received at ``now``; None when there is nothing to send. A moving gait already
-        past its deadline never starts one (and stands a moving robot)."""
+        limit) received at ``now`` and sent at ``sent_at`` (its header stamp; 0: unknown);
+        None when there is nothing to send. A moving gait already past its deadline never
+        starts one (and stands a moving robot); one sent before the last ``left`` is dropped."""
+        if 0.0 < sent_at < self.left_at:
+            return None
         until = math.inf if valid_until <= 0.0 else valid_until
         if name != 'stand' and until <= now:
             return self._stand() if self.moving else None
@@ -64,10 +72,11 @@ class GaitHold:
         """'stand' once a moving gait's deadline has passed (it is then standing), else None."""
         return self._stand() if self.moving and now >= self.until else None
 
-    def left(self) -> None:
-        """The MCU left the gait (leg targets, a burrow, an e-stop, a stop): the next gait
-        command is sent whatever it is."""
-        self.running, self.until = None, math.inf
+    def left(self, now: float) -> None:
+        """A command received at ``now`` (s, ROS time) makes the MCU leave the gait (leg
+        targets, a burrow, an e-stop, a stop): the next gait command sent after it is sent
+        whatever it is."""
+        self.running, self.until, self.left_at = None, math.inf, now
 
     def _stand(self) -> str:
         self.running, self.until = 'stand', math.inf
