@@ -25,7 +25,8 @@ Published (SystemDefaults QoS, depth 10; "latched": reliable + transient local, 
 Every header.stamp is the host-clock time of the MCU sample (see bridge.py and
 docs/design/serial-time.md), never the time it was received.
 Subscribed (forwarded only while active): winch/command (rftgls_interfaces/WinchCommand),
-  gait/command (GaitCommand), burrow/command (BurrowCommand), leg_targets (JointState),
+  gait/command (GaitCommand; a moving gait with valid_until stands the robot when it passes
+  unrefreshed, gaits.GaitHold), burrow/command (BurrowCommand), leg_targets (JointState),
   estop (std_msgs/Bool; an engage is forwarded in every configured state).
   Deprecated, one release: winch/speed (std_msgs/Float64, m/s), gait and burrow
   (std_msgs/String names).
@@ -57,7 +58,7 @@ from .bridge import (
     TelemetrySample,
     winch_command,
 )
-from .gaits import GAITS
+from .gaits import GAITS, GaitHold
 from .protocol import messages as m
 from .transport import SerialTransport
 
@@ -110,6 +111,7 @@ class BridgeNode(LifecycleNode):
                            trust_window=p('trust_window_s', 1.0, 'window of the loss that '
                                           'makes the link untrusted', 0.05, 60.0))
         self.core = BridgeCore(cfg)
+        self.gait_hold = GaitHold()   # the gait the MCU runs and its deadline (gaits.py)
         self.baud = baud
         self.transport = SerialTransport(
             self.port, baud, self._on_bytes, self._on_connection,
@@ -144,7 +146,7 @@ class BridgeNode(LifecycleNode):
         sub(Bool, 'estop', self._on_estop, 10)
         if self.legacy:
             sub(Float64, 'winch/speed', lambda msg: self._motion(m.Winch(msg.data)), 10)
-            sub(String, 'gait', lambda msg: self._gait(msg.data.strip().lower()), 10)
+            sub(String, 'gait', lambda msg: self._held_gait(msg.data.strip().lower(), 0.0), 10)
             sub(String, 'burrow', self._on_burrow_name, 10)
 
         self._state: int | None = None
@@ -210,6 +212,7 @@ class BridgeNode(LifecycleNode):
         wait that long for the MCU to acknowledge the winch stop; True when it did (or no wait
         was asked)."""
         self._send(m.Winch(0.0))
+        self.gait_hold.left(self.ros_now())
         tel = self.core.last_telemetry
         if tel is not None:
             self._send(m.SetLegs(tuple(wrap_angle(a) for a in tel.leg_angles)))
@@ -309,6 +312,12 @@ class BridgeNode(LifecycleNode):
             self.transport.write(frame)
         for f in failed:
             self.get_logger().warning(f'command {m.MsgType(f.type).name} seq {f.seq}: no ack')
+        if self.active:
+            running = self.gait_hold.running
+            if self.gait_hold.due(self.ros_now()) is not None:
+                self.get_logger().warning(f'gait {running} not refreshed by its commander '
+                                          'before its valid_until: standing')
+                self._gait('stand')
         self._publish_state()
 
     def _publish_state(self) -> None:
@@ -353,12 +362,17 @@ class BridgeNode(LifecycleNode):
             self.get_logger().warning(f'{type(msg).__name__} ignored: bridge_node is not '
                                       'active', throttle_duration_sec=5.0)
             return
+        if not isinstance(msg, (m.SetGait, m.Winch)):
+            # legs, burrow, e-stop: the MCU leaves the gait
+            self.gait_hold.left(self.ros_now())
         self._send(msg)
+
+    def ros_now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
 
     def _on_winch_command(self, msg: WinchCommand) -> None:
         until = msg.valid_until.sec + msg.valid_until.nanosec * 1e-9
-        now = self.get_clock().now().nanoseconds * 1e-9
-        self._motion(winch_command(msg.speed_mps, until, now))
+        self._motion(winch_command(msg.speed_mps, until, self.ros_now()))
 
     def _on_leg_targets(self, msg: JointState) -> None:
         targets = [0.0] * 4
@@ -379,15 +393,26 @@ class BridgeNode(LifecycleNode):
         if name is None:
             self.get_logger().error(f'invalid_input: unknown GaitCommand.gait {msg.gait}')
             return
-        self._gait(name)
+        self._held_gait(name, msg.valid_until.sec + msg.valid_until.nanosec * 1e-9,
+                        msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
 
-    def _gait(self, name: str) -> None:
-        gait = GAITS.get(name)
-        if gait is None:
+    def _held_gait(self, name: str, valid_until: float, sent_at: float = 0.0) -> None:
+        """A gait command valid until ``valid_until`` and sent at ``sent_at`` (ROS time, s; 0:
+        no limit, unknown): sent unless it refreshes the gait that runs or was sent before the
+        MCU was last commanded out of its gait (gaits.GaitHold)."""
+        if name not in GAITS:
             self.get_logger().error(f'invalid_input: unknown gait {name!r} '
                                     f'(known: {", ".join(sorted(GAITS))})')
             return
-        self._motion(gait)
+        if not self.active:
+            self._motion(GAITS[name])          # ignored, with the warning
+            return
+        send = self.gait_hold.command(name, valid_until, self.ros_now(), sent_at)
+        if send is not None:
+            self._gait(send)
+
+    def _gait(self, name: str) -> None:
+        self._motion(GAITS[name])
 
     def _on_burrow_command(self, msg: BurrowCommand) -> None:
         if msg.mode not in tuple(m.BurrowMode):
@@ -405,6 +430,7 @@ class BridgeNode(LifecycleNode):
     def _on_estop(self, msg: Bool) -> None:
         # Engaging only stops motion: honoured in every configured state.
         if msg.data and self.configured:
+            self.gait_hold.left(self.ros_now())
             self._send(m.EStop(True))
         else:
             self._motion(m.EStop(bool(msg.data)))

@@ -14,7 +14,9 @@ Subscribed: /joint_states (sensor_msgs/JointState: legs rad, ``winch_rope`` m / 
   tether, lower bound, status code, assumed inputs, slip twist, in one message). Freshness is
   the age of the underlying sample by its header stamp, not the receipt time
   (docs/design/tug-safety.md, "Freshness by sample age").
-Published: /gait, /burrow (std_msgs/String: a Table II mode's name), /leg_targets
+Published: /gait/command (rftgls_interfaces/GaitCommand: stand, or walk valid for GAIT_HOLD_S
+  and refreshed every step while walking, so the bridge stands the robot when this node
+  stops), /burrow (std_msgs/String: a Table II mode's name), /leg_targets
   (sensor_msgs/JointState, rad: a planned gait's leg targets, streamed at the step rate so the
   legs slew at the gait's speed), /winch/command (rftgls_interfaces/WinchCommand: m/s reel-in
   positive; a reel-in carries when its capacity estimate ages out, which the MCU enforces),
@@ -39,7 +41,6 @@ from dataclasses import fields, replace
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
-from rclpy.time import Time
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, Header, String
 
@@ -52,7 +53,13 @@ from rftgls_conventions import (
     quat_xyzw_to_pitch,
 )
 from rftgls_core.planning.replay import inputs_for_map
-from rftgls_interfaces.msg import AnchorEstimate, InputValue, LinkState, WinchCommand
+from rftgls_interfaces.msg import (
+    AnchorEstimate,
+    GaitCommand,
+    InputValue,
+    LinkState,
+    WinchCommand,
+)
 from rftgls_node_base.node_main import run_node, stop_requested, usage, wants_help
 from rftgls_node_base.parameters import declare
 
@@ -69,11 +76,18 @@ from .behavior.tug_series import TugSample, TugSeries
 from .capacity.node_predictor import DEFAULT_MAP, node_predictor
 from .capacity_msgs import estimate_pose, input_value, status_word
 from .capacity_query import CAPACITY_SOURCES, ServicePredictor
-from .stamps import deadline_stamp, sample_time
+from .robot_commands import gait_command, winch_command
+from .stamps import sample_time
 from .tug_action import TugActionServer
 
 EXPIRY_CHECK_S = 0.005  # s: how often a reeling winch's evidence is checked between steps
 WINCH_REFRESH_S = 0.02  # s: every 50 Hz control step, well inside the MCU's deadman (80 ms)
+# s a walk command stays valid (GaitCommand.valid_until), refreshed at every step: a node that
+# stops stepping has the bridge stand the robot this long after its last step. The MCU stops
+# the payout that goes with the walk after 80 ms (winch deadman), so a stall longer than that
+# walks the robot against a braked tether for up to GAIT_HOLD_S - 0.08 s (~5 mm at the walk's
+# 3 cm/s); shorter holds would stand the robot on ordinary step jitter and restart its gait.
+GAIT_HOLD_S = 0.25
 # joint_states is read best-effort like every sensor stream, but with a history deep enough
 # (1 s of the bridge's 100 Hz) that a step running late loses no leg sample: a planned
 # burrow's replay follows every measured sample (Observation.leg_samples).
@@ -171,7 +185,7 @@ class BehaviorNode(Node):
         self._last_winch_t = -math.inf
         self._state_sent: str | None = None
 
-        self.pub_gait = self.create_publisher(String, 'gait', 10)
+        self.pub_gait = self.create_publisher(GaitCommand, 'gait/command', 10)
         self.pub_burrow = self.create_publisher(String, 'burrow', 10)
         self.pub_legs = self.create_publisher(JointState, 'leg_targets', 10)
         self.pub_winch = self.create_publisher(WinchCommand, 'winch/command', 10)
@@ -364,8 +378,14 @@ class BehaviorNode(Node):
         self.obs.t = self.now_s()
         cmd = self.machine.step(self.obs)
         self.obs.leg_samples = []          # seen by this step
+        gaits = [value for topic, value in cmd.oneshots if topic == 'gait']
         for topic, value in cmd.oneshots:
-            (self.pub_gait if topic == 'gait' else self.pub_burrow).publish(String(data=value))
+            if topic == 'gait':
+                self.publish_gait(value)
+            else:
+                self.pub_burrow.publish(String(data=value))
+        if cmd.walking and not gaits:
+            self.publish_gait('walk')       # the refresh (GAIT_HOLD_S)
         t = self.obs.t
         # A moving winch is refreshed every WINCH_REFRESH_S: the MCU's winch deadman stops it
         # when commands stop coming (a stalled or dead node must not keep it reeling).
@@ -400,15 +420,17 @@ class BehaviorNode(Node):
         if self.machine.done:
             self.finish()
 
+    def publish_gait(self, name: str) -> None:
+        """A named gait on gait/command; a moving one valid for GAIT_HOLD_S from now."""
+        self.pub_gait.publish(gait_command(name, self.get_clock().now().nanoseconds,
+                                           GAIT_HOLD_S))
+
     def publish_winch(self, speed: float, valid_until: float = 0.0) -> None:
         """The winch set-point (m/s) on winch/command, with the time its evidence runs out
         (s on this node's monotonic clock, sent in ROS time; 0: no limit of its own)."""
         self._last_valid_until = valid_until
-        now_ns = self.get_clock().now().nanoseconds
-        msg = WinchCommand(speed_mps=float(speed),
-                           valid_until=deadline_stamp(valid_until, self.now_s(), now_ns))
-        msg.header.stamp = Time(nanoseconds=now_ns).to_msg()
-        self.pub_winch.publish(msg)
+        self.pub_winch.publish(winch_command(speed, valid_until, self.now_s(),
+                                             self.get_clock().now().nanoseconds))
 
     def finish(self) -> None:
         if self.finished:

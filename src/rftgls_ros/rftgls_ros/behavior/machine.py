@@ -312,7 +312,8 @@ class BehaviorMachine:
         h, band, source, provenance = self.height_input()
         valid = self.winch_valid_until if self.state == State.TUG and self.winch > 0.0 else 0.0
         out = Commands(self._oneshots, self.winch, h, self.tether.phi(h), self._step_events,
-                       band, source, provenance, self.leg_targets, valid)
+                       band, source, provenance, self.leg_targets, valid,
+                       self.state == State.WALK)
         self._oneshots, self._step_events, self.leg_targets = [], [], None
         return out
 

@@ -63,7 +63,8 @@ class Commands:
     this step (published on leg_targets), None otherwise. winch_valid_until: when the evidence
     a reel-in rests on runs out (s on the observation's clock: the estimate's sample time plus
     estimate_timeout_s; 0: no limit of its own), sent with the set-point so the MCU brakes then
-    whatever the host does."""
+    whatever the host does. walking: the machine wants the walk gait running this step (the
+    node refreshes it, so the robot stands when the node stops)."""
 
     oneshots: list[tuple[str, str]]
     winch: float
@@ -75,3 +76,4 @@ class Commands:
     height_provenance: Provenance = Provenance.ASSUMED
     legs: tuple[float, float] | None = None   # leg targets (theta_L1, theta_L2), rad, or None
     winch_valid_until: float = 0.0
+    walking: bool = False

@@ -4,7 +4,9 @@ Subscribes /winch/tension, /joint_states (winch_rope) and /capacity_node/estimat
 capacity, its lower bound, slip twist and the assumed inputs in one message, so they never mix
 two estimates; the guard decides on the lower bound);
 publishes /winch/command (rftgls_interfaces/WinchCommand: a reel-in carries the time its
-estimate goes stale, so the MCU brakes then even if teleop stalls), /burrow, /gait, /estop, and
+estimate goes stale, so the MCU brakes then even if teleop stalls), /gait/command
+(GaitCommand: a walk refreshed at 20 Hz with valid_until 0.5 s ahead, so the robot stands if
+teleop dies), /burrow, /estop, and
 for capacity_node /winch/height_estimate
 (rftgls_interfaces/InputValue: after a burrow the burrow simulation's h for that mode and the
 sled it is tied to (sled_mass_kg), MODELLED with its band; standing h_stand_m, ASSUMED;
@@ -37,13 +39,14 @@ from std_msgs.msg import Bool, Float64, Header, String
 
 from rftgls_conventions import LEG_JOINT_NAMES, LEG_KEYS, WINCH_ROPE_JOINT, axle_angles
 from rftgls_core.planning.burrowed import mode_pose
-from rftgls_interfaces.msg import AnchorEstimate, InputValue, WinchCommand
+from rftgls_interfaces.msg import AnchorEstimate, GaitCommand, InputValue, WinchCommand
 from rftgls_node_base.node_main import run_node, usage, wants_help
 from rftgls_node_base.parameters import declare
 
 from ..behavior.tug_series import write_tug_series
 from ..capacity_msgs import input_value, record_tug
-from ..stamps import deadline_stamp, sample_time
+from ..robot_commands import gait_command, winch_command
+from ..stamps import sample_time
 from .anchor import LEG_TOLERANCE_RAD
 from .model import TeleopConfig, TeleopModel
 
@@ -62,6 +65,9 @@ PARAMETERS = {
                      'modelled burrowed pose)', 0.0, 50.0),
 }
 MODES = ('DH', 'DL', 'SH')
+# s a walk stays valid without a refresh (on_timer refreshes it at 20 Hz): teleop gone, the
+# bridge stands the robot within this.
+GAIT_HOLD_S = 0.5
 
 
 def modelled_poses(sled_kg: float) -> dict:
@@ -96,10 +102,11 @@ class TeleopNode(Node):
                 f'h {1e3 * pose.h_m:.1f} +- {1e3 * pose.h_band_m:.1f} mm, pitch '
                 f'{math.degrees(pose.theta_b_rad):.1f} +- '
                 f'{math.degrees(pose.theta_b_band_rad):.1f} deg ({pose.source})'))
+        self.walking = False   # the last gait sent was walk (refreshed while so)
         self.pubs = {
             'winch': self.create_publisher(WinchCommand, 'winch/command', 10),
             'burrow': self.create_publisher(String, 'burrow', 10),
-            'gait': self.create_publisher(String, 'gait', 10),
+            'gait': self.create_publisher(GaitCommand, 'gait/command', 10),
             'estop': self.create_publisher(Bool, 'estop', 10),
         }
         self.pub_h = self.create_publisher(InputValue, 'winch/height_estimate', 10)
@@ -123,21 +130,29 @@ class TeleopNode(Node):
                                    '(is bridge_node running?)')
             self.model.alert = True
         for topic, value in cmds:
+            if topic in ('burrow', 'estop') and value:
+                self.walking = False       # the MCU leaves the gait: nothing to refresh
             if topic == 'winch':
                 self.publish_winch(float(value))
+            elif topic == 'gait':
+                self.publish_gait(str(value))
             elif topic == 'estop':
                 self.pubs[topic].publish(Bool(data=bool(value)))
             else:
                 self.pubs[topic].publish(String(data=str(value)))
 
     def publish_winch(self, speed: float) -> None:
-        """The set-point (m/s) with its evidence deadline (a reel-in only; stamps.py)."""
-        now_ns = self.get_clock().now().nanoseconds
+        """The set-point (m/s) with its evidence deadline (a reel-in only)."""
         valid_until = self.model.reel_in_valid_until() if speed > 0.0 else 0.0
-        msg = WinchCommand(speed_mps=speed, valid_until=deadline_stamp(
-            valid_until, time.monotonic(), now_ns))
-        msg.header.stamp = self.get_clock().now().to_msg()
-        self.pubs['winch'].publish(msg)
+        self.pubs['winch'].publish(winch_command(speed, valid_until, time.monotonic(),
+                                                 self.get_clock().now().nanoseconds))
+
+    def publish_gait(self, name: str) -> None:
+        """A gait; walking is valid for GAIT_HOLD_S and refreshed by on_timer while the
+        operator's last motion key was `w`, so the robot stands if teleop dies."""
+        self.walking = name == 'walk'
+        self.pubs['gait'].publish(gait_command(name, self.get_clock().now().nanoseconds,
+                                               GAIT_HOLD_S))
 
     def on_tension(self, msg) -> None:
         self.model.tension = msg.wrench.force.x
@@ -181,6 +196,8 @@ class TeleopNode(Node):
         self.send(m.update(time.monotonic()))
         if m.winch != 0.0:   # refresh: the MCU's winch deadman stops a winch left unrefreshed
             self.publish_winch(m.winch)
+        if self.walking:     # refresh: the bridge stands a walk left unrefreshed
+            self.publish_gait('walk')
         header = Header(stamp=self.get_clock().now().to_msg())
         h = m.height()
         self.pub_h.publish(input_value(h.value, h.band, h.provenance, h.source, header))
