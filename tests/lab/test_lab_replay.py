@@ -35,6 +35,11 @@ def test_replay_into_capacity_node(ros_context, synthetic_bags):
         Parameter('publish_rate_hz', value=1.0),
         # recorded stamps are old; the bag's force is a world vector T d(phi)
         Parameter('freshness_source', value='receipt_time'),
+        # Lock-step replay judged by receipt time: a worker descheduled for 0.25 s between the
+        # last pitch and the last tension (another test on the 2 cores) made the last estimate
+        # stale (NaN). Freshness is not what this test checks.
+        *(Parameter(f'{name}_timeout_s', value=10.0)
+          for name in ('joint_states', 'pitch', 'tension', 'height', 'phi')),
         Parameter('tension_component', value='tether'),
         Parameter('tension_frame_id', value='lab_world'),
         # the synthetic states reach just past the map's grid: the live solver answers there
