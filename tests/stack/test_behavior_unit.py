@@ -321,6 +321,26 @@ def test_a_link_loss_mid_walk_stands_the_robot_with_its_payout(predictor):
     assert seen['chose'] > 0.0, seen
 
 
+def test_a_walk_is_renewed_every_step_and_ends_on_a_stand(predictor):
+    # The node renews a walk while Commands.walking (GaitCommand.valid_until, 0.25 s) and the
+    # bridge stands a walk left unrenewed; the end of a walk is a command, not that timeout.
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
+    plant = Plant(0.4, predictor)
+    steps = []
+    apply = plant.apply
+
+    def recording(cmd):
+        steps.append((m.state, cmd.oneshots, cmd.walking))
+        apply(cmd)
+    plant.apply = recording
+    run_loop(m, plant, t_max=4.0)
+    walking = [i for i, (state, _, w) in enumerate(steps) if w]
+    assert walking and all(steps[i][0] == State.WALK for i in walking)
+    end = walking[-1] + 1                       # the step that left WALK
+    assert steps[end][0] != State.WALK and ('gait', 'stand') in steps[end][1], steps[end]
+    assert not any(w for _, _, w in steps[end:])
+
+
 def test_a_recheck_at_an_unchanged_pose_asks_no_question(predictor):
     # The re-check after a link gap keeps the anchor's sufficient check while the measured pose
     # stays within the slip thresholds of it: no capacity question (each one blocks the

@@ -59,6 +59,9 @@ class Walk:
     def _do_walk(self) -> None:
         m = self.m
         if m.cycle.walk_s + m.elapsed() >= m.cfg.walk_time_s:
+            # The walk ends on a command, not on its deadline running out at the bridge
+            # (GaitCommand.valid_until, which warns: a silent commander).
+            m.command('gait', 'stand')
             m.winch = 0.0
             self.pause()
             m.go(State.CHOOSE, 'walk done')
