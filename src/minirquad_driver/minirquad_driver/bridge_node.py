@@ -371,8 +371,7 @@ class BridgeNode(LifecycleNode):
         return self.get_clock().now().nanoseconds * 1e-9
 
     def _on_winch_command(self, msg: WinchCommand) -> None:
-        until = msg.valid_until.sec + msg.valid_until.nanosec * 1e-9
-        self._motion(winch_command(msg.speed_mps, until, self.ros_now()))
+        self._motion(winch_command(msg.speed_mps, seconds(msg.valid_until), self.ros_now()))
 
     def _on_leg_targets(self, msg: JointState) -> None:
         targets = [0.0] * 4
@@ -393,8 +392,7 @@ class BridgeNode(LifecycleNode):
         if name is None:
             self.get_logger().error(f'invalid_input: unknown GaitCommand.gait {msg.gait}')
             return
-        self._held_gait(name, msg.valid_until.sec + msg.valid_until.nanosec * 1e-9,
-                        msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
+        self._held_gait(name, seconds(msg.valid_until), seconds(msg.header.stamp))
 
     def _held_gait(self, name: str, valid_until: float, sent_at: float = 0.0) -> None:
         """A gait command valid until ``valid_until`` and sent at ``sent_at`` (ROS time, s; 0:
@@ -434,6 +432,11 @@ class BridgeNode(LifecycleNode):
             self._send(m.EStop(True))
         else:
             self._motion(m.EStop(bool(msg.data)))
+
+
+def seconds(stamp) -> float:
+    """A builtin_interfaces/Time as float seconds (0.0: the unset stamp)."""
+    return stamp.sec + stamp.nanosec * 1e-9
 
 
 def main(args=None) -> int:

@@ -378,13 +378,12 @@ class BehaviorNode(Node):
         self.obs.t = self.now_s()
         cmd = self.machine.step(self.obs)
         self.obs.leg_samples = []          # seen by this step
-        gaits = [value for topic, value in cmd.oneshots if topic == 'gait']
         for topic, value in cmd.oneshots:
             if topic == 'gait':
                 self.publish_gait(value)
             else:
                 self.pub_burrow.publish(String(data=value))
-        if cmd.walking and not gaits:
+        if cmd.walking and not any(topic == 'gait' for topic, _ in cmd.oneshots):
             self.publish_gait('walk')       # the refresh (GAIT_HOLD_S)
         t = self.obs.t
         # A moving winch is refreshed every WINCH_REFRESH_S: the MCU's winch deadman stops it

@@ -10,27 +10,21 @@ Deadlines are taken on the monotonic clock and sent in ROS time (stamps.py).
 """
 from __future__ import annotations
 
-from builtin_interfaces.msg import Time
-
 from rftgls_interfaces.msg import GaitCommand, WinchCommand
 
-from .stamps import deadline_stamp
+from .stamps import deadline_stamp, ns_stamp
 
 GAIT_CODES = {'stand': GaitCommand.STAND, 'walk': GaitCommand.WALK,
               'reverse': GaitCommand.REVERSE, 'bound': GaitCommand.BOUND}
-
-
-def _stamp(ns: int) -> Time:
-    return Time(sec=ns // 10**9, nanosec=ns % 10**9)
 
 
 def gait_command(name: str, ros_now_ns: int, hold_s: float) -> GaitCommand:
     """``name`` (a GAIT_CODES key) stamped now; any gait but stand valid for ``hold_s``
     (s; 0: no limit, until another gait is commanded)."""
     msg = GaitCommand(gait=GAIT_CODES[name])
-    msg.header.stamp = _stamp(ros_now_ns)
+    msg.header.stamp = ns_stamp(ros_now_ns)
     if name != 'stand' and hold_s > 0.0:
-        msg.valid_until = _stamp(ros_now_ns + round(hold_s * 1e9))
+        msg.valid_until = ns_stamp(ros_now_ns + round(hold_s * 1e9))
     return msg
 
 
@@ -40,5 +34,5 @@ def winch_command(speed_mps: float, valid_until_s: float, mono_now_s: float,
     (s; 0: no limit of its own) as ROS time, stamped now."""
     msg = WinchCommand(speed_mps=float(speed_mps),
                        valid_until=deadline_stamp(valid_until_s, mono_now_s, ros_now_ns))
-    msg.header.stamp = _stamp(ros_now_ns)
+    msg.header.stamp = ns_stamp(ros_now_ns)
     return msg

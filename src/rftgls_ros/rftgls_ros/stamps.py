@@ -16,6 +16,11 @@ def stamp_ns(stamp: Time) -> int:
     return stamp.sec * 10**9 + stamp.nanosec
 
 
+def ns_stamp(ns: int) -> Time:
+    """Integer nanoseconds as a ROS time message."""
+    return Time(sec=ns // 10**9, nanosec=ns % 10**9)
+
+
 def sample_time(stamp: Time, ros_now_ns: int, mono_now_s: float) -> float:
     """When a stamped sample was taken, on the monotonic clock (s): now minus its age by the
     stamp. An unset stamp (0) counts as taken now; a stamp ahead of ROS now as age 0."""
@@ -31,5 +36,4 @@ def deadline_stamp(deadline_s: float, mono_now_s: float, ros_now_ns: int) -> Tim
     if deadline_s <= 0.0:
         return Time()
     ns = ros_now_ns + round((deadline_s - mono_now_s) * 1e9)
-    ns = max(1, ns)   # a past deadline stays a deadline, never the "no limit" zero
-    return Time(sec=ns // 10**9, nanosec=ns % 10**9)
+    return ns_stamp(max(1, ns))   # a past deadline stays a deadline, never the "no limit" 0
