@@ -349,6 +349,18 @@ def _cpu_hogs(spawn, n=2):
     return [spawn([sys.executable, '-c', 'while True: pass']) for _ in range(n)]
 
 
+# A fault starts once the tug has reeled for 0.25 s, wherever the sled is: now and then the
+# sled arrives (arrive_length_m) in the same few milliseconds and the cycle ends `ok` with no
+# reason before any fault reached the tug (seen once in 42 runs: the spool already standing at
+# t0, the row (23, 'ok', '')). Such a run says nothing about the fault; the class runs again.
+ARRIVAL_RETRIES = 2
+
+
+def _arrived_first(result: dict) -> bool:
+    """The run's cycle ended by the sled's arrival, no fault recorded: the fault missed."""
+    return result['row'][1:] == ('ok', '')
+
+
 def _one_run(cls: str, stack: Stack, probe: Probe, record: Record, spawn) -> dict:
     """Start fault `cls` mid-tug; return t0, the stop (s, m) and the recorded reason."""
     try:
@@ -463,14 +475,22 @@ def _campaign(tmp_path, spawn, stop, ros_context, classes: list[str], runs: int)
     stack = Stack(tmp_path, spawn)
     probe = Probe(ros_context)
     record = Record(stack.record)
-    results = []
+    results: list[dict] = []
+    missed: list[dict] = []      # runs whose tug ended by the sled's arrival (_arrived_first)
     try:
         _wait(lambda: probe.reeling_for() >= 0.25, 120, 'the first tug')
         hogs = _cpu_hogs(spawn)
         t_start = time.monotonic()
         for _run in range(runs):
             for cls in classes:
-                results.append(_one_run(cls, stack, probe, record, spawn))
+                for _try in range(1 + ARRIVAL_RETRIES):
+                    got = _one_run(cls, stack, probe, record, spawn)
+                    if not _arrived_first(got):
+                        break
+                    print(f'[stop campaign] {cls}: the sled arrived before the fault reached '
+                          'the tug; the class runs again', flush=True)
+                    missed.append(got)
+                results.append(got)
         wall = time.monotonic() - t_start
         for h in hogs:
             stop(h)
@@ -488,8 +508,8 @@ def _campaign(tmp_path, spawn, stop, ros_context, classes: list[str], runs: int)
                      f'reasons {sorted({r["row"][2] for r in got})}'
                      + (f'  detected {max(r["detected_after_s"] for r in got):.2f} s after'
                         if cls == 'loss_40pct' else ''))
-    print(f'\n[stop campaign] {runs} run(s) per class, {wall:.0f} s under two CPU hogs\n'
-          + '\n'.join(lines))
+    print(f'\n[stop campaign] {runs} run(s) per class, {wall:.0f} s under two CPU hogs, '
+          f'{len(missed)} run(s) again after the sled arrived first\n' + '\n'.join(lines))
     for r in results:
         assert r['stop'][0] <= MAX_STOP_S and r['stop'][1] <= MAX_REEL_M, (r, lines)
         assert r['row'][2] in REASONS[r['class']], (r, lines)
@@ -499,5 +519,5 @@ def _campaign(tmp_path, spawn, stop, ros_context, classes: list[str], runs: int)
             assert r['detected_after_s'] <= 0.6 and r['loss'] >= 0.10, r
     rows = list(csv.DictReader(open(tmp_path / 'report' / 'cycle_report.csv')))
     by_cycle = {int(r['cycle']): (r['outcome'], r['reason']) for r in rows}
-    for r in results:                     # the CSV holds the same row, reason and all
+    for r in results + missed:            # the CSV holds the same row, reason and all
         assert by_cycle.get(r['row'][0]) == r['row'][1:], (r, rows)
