@@ -129,9 +129,16 @@ def test_a_burst_of_joint_states_is_answered_in_full_up_to_the_queue_depth(ros_c
 def test_a_node_behind_its_triggers_answers_the_newest_and_loses_no_input(ros_context):
     """The same burst with the default trigger_max_queue_s (10 ms), the node kept from
     spinning for 100 ms after it (ten times that): every message is older than the limit when
-    its callback runs, so each is applied (the estimator ends on the last angle sent) but
-    only the last gets an answer, with its own stamp, from the catch-up after the burst;
-    /diagnostics counts the 40 skipped."""
+    its callback runs, so each is applied (the estimator ends on the last angle sent) but none
+    is answered on its own; the catch-up timer (every 10 ms) answers the newest applied, so
+    the last gets an answer with its own stamp; /diagnostics counts the 40 skipped.
+
+    Usually the catch-up runs once, after the whole burst. Under load the executor may run it
+    between two of the burst's callbacks (its 10 ms period ran out while they were applied,
+    or the last messages reached the reader late; seen once with two test workers: answers
+    for the 39th and 40th), and then it answers the newest applied so far. So the answers are
+    the burst's newest at up to a few instants: in order, ending on the last, and far fewer
+    than the messages (one per 10 ms of callbacks that only apply inputs)."""
     import time
 
     from geometry_msgs.msg import WrenchStamped
@@ -147,8 +154,9 @@ def test_a_node_behind_its_triggers_answers_the_newest_and_loses_no_input(ros_co
         time.sleep(0.1)
         assert probe.spin_until(lambda: any(m.header.stamp == sent[-1] for m in answers), 5.0)
         probe.spin_until(lambda: False, 0.3)   # and nothing more of the burst arrives
-        mine = [m.header.stamp for m in answers if m.header.stamp in sent]
-        assert mine == [sent[-1]]
+        mine = [sent.index(m.header.stamp) for m in answers if m.header.stamp in sent]
+        assert mine[-1] == len(sent) - 1 and mine == sorted(set(mine)), mine
+        assert len(mine) <= len(sent) // 4, mine
         assert node.estimator._joints[JOINTS[0]].value == pytest.approx(angles[-1], abs=1e-12)
         assert node.fresh.skipped == len(sent)
         assert probe.spin_until(lambda: probe.last_diag() is not None and {
