@@ -74,7 +74,7 @@ from .behavior.replay import ProcessReplayer
 from .behavior.report import write_run_report
 from .behavior.tug_series import TugSample, TugSeries
 from .capacity.node_predictor import DEFAULT_MAP, node_predictor
-from .capacity_msgs import estimate_pose, input_value, status_word
+from .capacity_msgs import add_estimate, input_value, status_word
 from .capacity_query import CAPACITY_SOURCES, ServicePredictor
 from .robot_commands import gait_command, winch_command
 from .stamps import sample_time
@@ -360,8 +360,7 @@ class BehaviorNode(Node):
         # The predicted motion is zero while the anchor holds (capacity_node's slip_twist).
         o.slip_twist = twist if msg.slipping or not all(map(math.isfinite, twist)) \
             else (0.0, 0.0, 0.0)
-        self.tug_series.add(t, msg.tension_n, msg.capacity_n, msg.capacity_lower_n,
-                            o.capacity_status, str(self.machine.state), estimate_pose(msg))
+        add_estimate(self.tug_series, t, msg, str(self.machine.state))
         self.step()
 
     # ------------------------------------------------------------------ step

@@ -6,7 +6,8 @@
 - InputValue (in): a height or tether angle with its uncertainty band and its provenance
   (measured, modelled, assumed), so an estimate built on a value that is not a measurement
   says so (docs/design/capacity-inputs.md, "Provenance").
-- ``record_tug``: a consumer that records every estimate into a TugSeries (teleop's tug plot).
+- ``add_estimate``: one estimate as a TugSeries sample (behavior_node's and teleop's tug plot);
+  ``record_tug``: a consumer that records every estimate that way (teleop).
 
 Field meanings and units: src/rftgls_interfaces/msg/*.msg.
 """
@@ -105,6 +106,13 @@ def estimate_pose(msg: AnchorEstimate) -> tuple[float, float, float, float, floa
     return (msg.phi_rad, msg.h_m, msg.theta_b_rad, msg.theta_l1_rad, msg.theta_l2_rad)
 
 
+def add_estimate(series: TugSeries, t: float, msg: AnchorEstimate, state: str) -> None:
+    """One estimate into the tug time series, received at t (s, the recorder's clock) in
+    behaviour state `state`: its tension, capacity and lower bound (N), status and pose."""
+    series.add(t, msg.tension_n, msg.capacity_n, msg.capacity_lower_n, status_word(msg), state,
+               estimate_pose(msg))
+
+
 def record_tug(node, cap_ns: str, now, state) -> TugSeries:
     """Record every capacity_node estimate (``{cap_ns}/estimate``) for the tug time series
     (behavior/tug_series.py). now() -> s and state() -> str: the recording node's clock and
@@ -112,8 +120,7 @@ def record_tug(node, cap_ns: str, now, state) -> TugSeries:
     series = TugSeries()
 
     def on_estimate(msg: AnchorEstimate) -> None:
-        series.add(now(), msg.tension_n, msg.capacity_n, msg.capacity_lower_n,
-                   status_word(msg), state(), estimate_pose(msg))
+        add_estimate(series, now(), msg, state())
 
     node.create_subscription(AnchorEstimate, f'{cap_ns}/estimate', on_estimate, 10)
     return series
