@@ -98,8 +98,8 @@ def cli_contract(prog: str):
     """Decorator giving a program's `main(argv) -> int` the CLI contract of this module: a
     ValueError or OSError (bad input: the project's own errors, unreadable files) is one
     line `PROG: error: ...` and exit 2; anything else one line `internal error` and exit 3
-    (the traceback with RFTGLS_DEBUG=1); Ctrl-C exit 130. For the lab tools and
-    behavior_demo, whose parsers are RftglsParser (one-line usage errors)."""
+    (the traceback with RFTGLS_DEBUG=1); Ctrl-C exit 130. For `rftgls` itself, the lab
+    tools and behavior_demo, whose parsers are RftglsParser (one-line usage errors)."""
     import functools
 
     def wrap(main):
@@ -153,31 +153,17 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(without_ros_args(sys.argv[1:] if argv is None else argv))
     except SystemExit as exc:       # --help (0) and argparse errors (2, one line)
         return int(exc.code or 0) if not isinstance(exc.code, str) else EXIT_USAGE
-    prefix = f'rftgls {args.command}'
-    debug = bool(os.environ.get('RFTGLS_DEBUG'))
-    # Warnings (repaired mesh, unverified map, ...) are printed one line each after a run that
-    # succeeds; when the run fails, the error line is the only line.
+    return cli_contract(f'rftgls {args.command}')(_run)(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    """The sub-command. Its warnings (repaired mesh, unverified map, ...) are printed one line
+    each after a run that succeeds; when the run fails, the error line is the only line."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter('default')
-        try:
-            code = int(args.run(args) or 0)
-            _print_warnings(prefix, caught)
-            return code
-        except KeyboardInterrupt:
-            print(f'{prefix}: interrupted', file=sys.stderr)
-            return 130
-        except (ValueError, OSError) as exc:
-            # The project's own errors (all ValueError subclasses) and unreadable files.
-            if debug:
-                raise
-            print(f'{prefix}: error: {one_line(exc)}', file=sys.stderr)
-            return EXIT_USAGE
-        except Exception as exc:  # noqa: BLE001 -- a bug, still no traceback by default
-            if debug:
-                raise
-            print(f'{prefix}: internal error ({type(exc).__name__}): {one_line(exc)}; '
-                  'RFTGLS_DEBUG=1 shows the traceback', file=sys.stderr)
-            return EXIT_INTERNAL
+        code = int(args.run(args) or 0)
+    _print_warnings(f'rftgls {args.command}', caught)
+    return code
 
 
 if __name__ == '__main__':
