@@ -156,14 +156,15 @@ class GaitChooser(ModeChooser):
         chooser's predictor over the predicted pose's height band (``evaluate``), folded into
         the planner's (the smaller counts) and kept for later plans. A candidate whose
         questions went unanswered comes back insufficient with its `stale` statuses (missing
-        evidence, not a weak gait: nothing kept)."""
+        evidence, not a weak gait: nothing kept) and without a lower bound, which is how
+        ``choose`` tells it from a gait found short."""
         pose = burrowed_pose(answer, f'burrow simulation of gait {c.mode} (planner)')
         if pose is None:
             return replace(c, sufficient=False, why='the plan has no predicted pose')
         state = AnchorState(pose.h_m, pose.theta_b_rad, *answer.gait.final)
         e = self.evaluate(c.mode, state, need, c.energy_j, pose.h_band_m)
-        if e.weakest is None:
-            return replace(c, statuses=e.statuses, sufficient=False, why=e.why)
+        if e.weakest is None:       # no bound at all: the planner's number is not kept either
+            return replace(c, statuses=e.statuses, weakest=None, sufficient=False, why=e.why)
         self.confirmed.add(c.mode)
         if self.scale > 0.0:
             self.observe(c.mode, e.weakest / self.scale)
