@@ -586,6 +586,35 @@ def test_a_planned_burrows_ramp_does_not_run_ahead_of_its_legs(predictor):
     assert span(cmd.legs, stopped) > tol + g.speed * STEP_S
 
 
+def test_a_planned_burrow_is_at_its_final_pose_only_once_it_ran_there(predictor):
+    """The final pose counts once the ramp has run to it, for burrow_settle_s of the robot's
+    own leg samples. A walk's stance sweeps the legs through -20 deg, the final pose of
+    several gaits: legs left at the chosen gait's final pose, their stream late under load,
+    once ended a burrow 0.6 s after it began, at the standing pose (`make test` on a fresh
+    clone: one leg sample recorded, CHECK at legs -0.4 deg, the tug's slip detector stopped
+    it). Here neither legs frozen there nor legs that stay there end the burrow early."""
+    from dataclasses import replace
+
+    from rftgls_ros.behavior.gait_motion import gait_duration
+    m, obs = planned_machine_in_burrow(predictor)
+    g, taut = m.planned_gait(), m.cfg.taut_tension_N
+    # the leg stream stalls with the legs at the final pose, no new sample for longer than
+    # burrow_settle_s (and shorter than input_timeout_s, after which the link wait takes over)
+    stalled = int(m.cfg.input_timeout_s / STEP_S) - 1
+    assert stalled * STEP_S > m.cfg.burrow_settle_s + STEP_S
+    t0 = burrow_from(m, obs, g.final, taut)
+    for k in range(1, stalled + 1):
+        m.step(replace(obs, t=t0 + k * STEP_S, legs=g.final, t_legs=t0,
+                       t_tension=t0 + k * STEP_S, tension=taut))
+        assert m.state == State.BURROW, (k, m.reason)
+    # fresh samples, the legs staying at the final pose (held there): BURROW until the ramp
+    # has run its whole course
+    t0 = burrow_from(m, obs, g.final, taut)
+    course = gait_duration(g.final, g.retract, g.final, g.speed)
+    drive(m, obs, t0, t0 + min(course, 1.0), legs=lambda q: g.final, tension=taut)
+    assert m.burrow.record_from is None or m.burrow.ramp.t < course
+
+
 def test_a_late_step_records_every_leg_sample_that_arrived_since_the_last(predictor):
     """behavior_node hands the machine every leg sample since its last step
     (Observation.leg_samples; 100 Hz from the bridge, a deep joint_states history): a planned

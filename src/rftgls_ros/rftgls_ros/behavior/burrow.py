@@ -20,7 +20,7 @@ from rftgls_core.planning.replay import BurrowRecord
 from rftgls_core.types import AnchorState, Status
 
 from . import evidence
-from .gait_motion import RAMP_LEAD_S, RampClock, gait_targets, leg_span, stand_time
+from .gait_motion import RAMP_LEAD_S, RampClock, gait_duration, gait_targets, leg_span, stand_time
 from .states import REBURROW_WHY, HoldCause, State
 
 # Longest a planned burrow's ramp waits for the measured legs, at standing or anywhere along
@@ -85,7 +85,7 @@ class Burrow:
 
     def __init__(self, machine: BehaviorMachine):
         self.m = machine
-        self.at_pose_since: float | None = None   # s: legs within tolerance of the final pose
+        self.at_pose_since: float | None = None   # s (leg sample time): legs at the final pose
         self.legs_from: tuple[float, float] | None = None   # planned gait: legs at its start
         self.ramp = RampClock(0.0, LEG_WAIT_S)  # planned gait: time along its ramp
         self.target: tuple[float, float] | None = None   # the ramp's last leg targets, rad
@@ -245,6 +245,15 @@ class Burrow:
         mode = self.m.burrow_mode()
         return mode is not None and self._legs_at(mode.final)
 
+    def _ramp_done(self) -> bool:
+        """A planned gait's ramp has run to its final pose (the burrow proper started and
+        ran its course); a Table II mode's sequence is the MCU's own: True."""
+        g = self.m.planned_gait()
+        if g is None:
+            return True
+        return self.record_from is not None and self.legs_from is not None and \
+            self.ramp.t >= gait_duration(self.legs_from, g.retract, g.final, g.speed)
+
     def _do_burrow(self) -> None:
         m, cfg = self.m, self.m.cfg
         if m.planned_gait() is None:
@@ -258,12 +267,16 @@ class Burrow:
             if self.record_from is None:
                 self._track_stand(samples)
         self._drive_gait()
-        at = self.at_final_pose()
+        # At the final pose once the burrow has run to it, for burrow_settle_s of the robot's
+        # own samples: legs whose stream stalls settle nowhere. (A walk's stance sweeps the
+        # legs through -20 deg, the final pose of several gaits: legs left there, their stream
+        # late under load, once ended a burrow before it began, at the standing pose.)
+        at = self.at_final_pose() and self._ramp_done()
         if at and self.at_pose_since is None:
-            self.at_pose_since = m.obs.t
+            self.at_pose_since = o.t_legs
         elif not at:
             self.at_pose_since = None
-        done = at and m.obs.t - self.at_pose_since >= cfg.burrow_settle_s
+        done = at and o.t_legs - self.at_pose_since >= cfg.burrow_settle_s
         # the burrow's own time and energy: the take-up is the winch's, not the legs'
         dt = m.elapsed() - self.take_up.seconds
         timeout = dt >= cfg.burrow_timeout_s
