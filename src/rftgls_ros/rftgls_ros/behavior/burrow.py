@@ -269,8 +269,8 @@ class Burrow:
         self._drive_gait()
         # At the final pose once the burrow has run to it, for burrow_settle_s of the robot's
         # own samples: legs whose stream stalls settle nowhere. (A walk's stance sweeps the
-        # legs through -20 deg, the final pose of several gaits: legs left there, their stream
-        # late under load, once ended a burrow before it began, at the standing pose.)
+        # legs through -20 deg, the final pose of several gaits: legs a walk left there, their
+        # stream late under load, would otherwise end a burrow before it began.)
         at = self.at_final_pose() and self._ramp_done()
         if at and self.at_pose_since is None:
             self.at_pose_since = o.t_legs
