@@ -82,7 +82,10 @@ def test_tf_from_the_shipped_urdf_follows_the_driver(tmp_path, spawn, ros_contex
         # the first phase of `make test` on a fresh clone: none of the last 150 joint states
         # paired), so wait for them, stopping the count at the walk's last joint state.
         walked = len(joints)
-        spin(30, lambda: len(_paired(joints[walking_from:walked], imu, tf)) >= 20)
+        for _ in range(150):        # 30 s; pairing every 0.2 s, not after every message
+            if len(_paired(joints[walking_from:walked], imu, tf)) >= 20:
+                break
+            spin(0.2)
     finally:
         ex.remove_node(probe)
         probe.destroy_node()
