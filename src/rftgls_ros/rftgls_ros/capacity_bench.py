@@ -58,6 +58,7 @@ from rftgls_node_base.node_main import program_args
 
 from .capacity.node_predictor import DEFAULT_MAP
 from .capacity_node import CapacityNode
+from .stamps import ns_stamp, stamp_ns
 
 # The DH anchor of the paper's Table II; the bench wiggles theta_L1 around it.
 DH = (0.034, math.radians(5.0), math.radians(-40.0), math.radians(30.0))
@@ -139,7 +140,7 @@ class Rig:
         # the scalar capacity: the published vector C d(phi) along d(phi) = (-cos phi, sin phi)
         f = msg.wrench.force
         self.capacity_last = -f.x * math.cos(PHI) + f.z * math.sin(PHI)
-        key = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+        key = stamp_ns(msg.header.stamp)
         if key in self.sent:
             self.latency[key] = t - self.sent[key]
 
@@ -175,7 +176,7 @@ class Rig:
         ages inputs by their stamps; theta_L1 wiggled by k)."""
         ns = max(time.time_ns(), self.last_ns + 1000)
         self.last_ns = ns
-        self.msg.header.stamp.sec, self.msg.header.stamp.nanosec = divmod(ns, 10**9)
+        self.msg.header.stamp = ns_stamp(ns)
         if self.stream is not None:
             # back and forth through the stream, so it never ends and never jumps
             n = len(self.stream)

@@ -44,6 +44,7 @@ from .capacity.params import PARAMETERS, RUNTIME, configs
 from .capacity_msgs import estimate_msg, read_input_value
 from .capacity_query import answer_query
 from .marker_publisher import CapacityMarkers
+from .stamps import stamp_ns, stamp_s
 
 
 class CapacityNode(Node):
@@ -177,9 +178,8 @@ class CapacityNode(Node):
         """When a message's sample was taken, s on this node's clock: its header stamp
         (freshness_source header_stamp), else (no or zero stamp, or receipt_time) now."""
         if self.use_stamps and header is not None:
-            st = header.stamp
-            if st.sec != 0 or st.nanosec != 0:
-                return st.sec + st.nanosec * 1e-9
+            if stamp_ns(header.stamp) != 0:
+                return stamp_s(header.stamp)
         return self.now_s()
 
     # -- inputs ---------------------------------------------------------------------------------
@@ -302,7 +302,7 @@ class CapacityNode(Node):
         t0 = time.perf_counter()
         est = self.estimator.estimate(self.now_s())
         out = self.estimator.outputs(est)
-        if stamp is None or (stamp.sec == 0 and stamp.nanosec == 0):
+        if stamp is None or stamp_ns(stamp) == 0:
             stamp = self.get_clock().now().to_msg()
         cap, margin, lower = WrenchStamped(), WrenchStamped(), WrenchStamped()
         cap.header.stamp = stamp

@@ -16,6 +16,12 @@ def stamp_ns(stamp: Time) -> int:
     return stamp.sec * 10**9 + stamp.nanosec
 
 
+def stamp_s(stamp: Time) -> float:
+    """A ROS time message as float seconds (whole seconds plus the fraction, so the fraction
+    keeps its digits)."""
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
 def ns_stamp(ns: int) -> Time:
     """Integer nanoseconds as a ROS time message."""
     return Time(sec=ns // 10**9, nanosec=ns % 10**9)
