@@ -37,6 +37,7 @@ from std_msgs.msg import String
 
 from rftgls_conventions.safe_write import open_fresh
 from rftgls_interfaces.msg import AnchorEstimate
+from rftgls_ros.stamps import stamp_s
 
 PCTS = (50, 90, 99, 99.9, 100)
 
@@ -57,12 +58,8 @@ class Probe(Node):
     def now_s(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
-    @staticmethod
-    def stamp_s(stamp) -> float:
-        return stamp.sec + stamp.nanosec * 1e-9
-
     def on_tension(self, msg: WrenchStamped) -> None:
-        t = self.stamp_s(msg.header.stamp)
+        t = stamp_s(msg.header.stamp)
         self.t_tension = max(self.t_tension, t)
         self.tension_rows.append((self.now_s(), t, self.state))
 
@@ -70,7 +67,7 @@ class Probe(Node):
         self.state = msg.data
 
     def on_estimate(self, msg: AnchorEstimate, info) -> None:
-        sample = min(self.stamp_s(msg.header.stamp), self.t_tension)
+        sample = min(stamp_s(msg.header.stamp), self.t_tension)
         now = self.now_s()
         self.rows.append((now, sample, self.state))
         if self.state == 'TUG':
