@@ -26,9 +26,13 @@ PYTEST_ARGS ?= -n 2 --dist worksteal
 
 .PHONY: setup build demo teleop-sim test test-campaign test-cpus colcon-test lint bench lock clean firmware firmware-size
 
+# Two jobs for the steps that can share the 2-core machine, unless `make -jN` already shares
+# its jobs with this make (a sub-make's own -j would leave the caller's job count).
+JOBS2 = $(if $(findstring jobserver,$(MAKEFLAGS)),,-j2)
+
 # The firmware (g++ only) compiles while pip installs; the workspace builds after pip.
 setup:
-	$(MAKE) -j2 $(STAMP) firmware
+	$(MAKE) $(JOBS2) $(STAMP) firmware
 	$(MAKE) $(BIN)/ros2 $(WS)/install/.built-stamp
 
 # The MiniRQuad firmware's host build (g++ with AddressSanitizer + UBSan): its unit tests, the
@@ -37,7 +41,7 @@ setup:
 # setup` it shares the two jobs with pip).
 FIRMWARE := src/minirquad_driver/firmware
 firmware:
-	$(MAKE) -s $(if $(findstring jobserver,$(MAKEFLAGS)),,-j2) -C $(FIRMWARE) host
+	$(MAKE) -s $(JOBS2) -C $(FIRMWARE) host
 
 # The firmware core cross-compiled for the robot's Cortex-M0+ (gcc-arm-none-eabi): flash and
 # RAM against the MKR WiFi 1010's 256 KB / 32 KB; fails if over or if heap use is linked in.
