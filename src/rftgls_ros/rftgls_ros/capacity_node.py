@@ -44,7 +44,7 @@ from .capacity.params import PARAMETERS, RUNTIME, configs
 from .capacity_msgs import estimate_msg, read_input_value
 from .capacity_query import answer_query
 from .marker_publisher import CapacityMarkers
-from .stamps import stamp_ns, stamp_s
+from .stamps import is_unset, stamp_s
 
 
 class CapacityNode(Node):
@@ -177,9 +177,8 @@ class CapacityNode(Node):
     def sample_time(self, header) -> float:
         """When a message's sample was taken, s on this node's clock: its header stamp
         (freshness_source header_stamp), else (no or zero stamp, or receipt_time) now."""
-        if self.use_stamps and header is not None:
-            if stamp_ns(header.stamp) != 0:
-                return stamp_s(header.stamp)
+        if self.use_stamps and header is not None and not is_unset(header.stamp):
+            return stamp_s(header.stamp)
         return self.now_s()
 
     # -- inputs ---------------------------------------------------------------------------------
@@ -302,7 +301,7 @@ class CapacityNode(Node):
         t0 = time.perf_counter()
         est = self.estimator.estimate(self.now_s())
         out = self.estimator.outputs(est)
-        if stamp is None or stamp_ns(stamp) == 0:
+        if stamp is None or is_unset(stamp):
             stamp = self.get_clock().now().to_msg()
         cap, margin, lower = WrenchStamped(), WrenchStamped(), WrenchStamped()
         cap.header.stamp = stamp

@@ -16,6 +16,11 @@ def stamp_ns(stamp: Time) -> int:
     return stamp.sec * 10**9 + stamp.nanosec
 
 
+def is_unset(stamp: Time) -> bool:
+    """The zero stamp: a sender that did not stamp its sample (read as "taken now")."""
+    return stamp.sec == 0 and stamp.nanosec == 0
+
+
 def stamp_s(stamp: Time) -> float:
     """A ROS time message as float seconds (whole seconds plus the fraction, so the fraction
     keeps its digits)."""
@@ -30,10 +35,9 @@ def ns_stamp(ns: int) -> Time:
 def sample_time(stamp: Time, ros_now_ns: int, mono_now_s: float) -> float:
     """When a stamped sample was taken, on the monotonic clock (s): now minus its age by the
     stamp. An unset stamp (0) counts as taken now; a stamp ahead of ROS now as age 0."""
-    ns = stamp_ns(stamp)
-    if ns == 0:
+    if is_unset(stamp):
         return mono_now_s
-    return mono_now_s - max(0.0, (ros_now_ns - ns) * 1e-9)
+    return mono_now_s - max(0.0, (ros_now_ns - stamp_ns(stamp)) * 1e-9)
 
 
 def deadline_stamp(deadline_s: float, mono_now_s: float, ros_now_ns: int) -> Time:

@@ -44,7 +44,7 @@ from .capacity.inputs import (
     frame_problem,
     imu_problem,
 )
-from .stamps import stamp_ns
+from .stamps import is_unset
 from .tf_tree import (
     Transform,
     UrdfError,
@@ -175,7 +175,7 @@ class StatePublisher(Node):
         ts = moving_transforms(self.joints, names, positions, self.prefix)
         if ts:
             stamp = msg.header.stamp
-            if stamp_ns(stamp) == 0:
+            if is_unset(stamp):
                 stamp = self.now()
             self.pub_tf.publish(self.stamped(ts, stamp))
 
@@ -210,7 +210,7 @@ class StatePublisher(Node):
         # (a level body drawn from nothing would look like a measurement).
         if self.pitch_rad is None:
             return
-        if stamp is None or stamp_ns(stamp) == 0:
+        if stamp is None or is_unset(stamp):
             stamp = self.now()
         ts = [odom_to_base(self.height_m, self.pitch_rad, self.odom, self.base)]
         if self.anchor:
