@@ -131,6 +131,21 @@ def test_every_command_is_acked_and_a_retry_is_not_executed_again(bench):
     assert b.last_telemetry().mode == m.Mode.BURROW_RETRACT
 
 
+def test_an_older_command_resent_after_a_newer_one_is_executed_again(bench):
+    # The MCU remembers only the last (seq, type) it executed: a copy of any earlier frame is
+    # a new command to it. A stand lost on the wire and resent after the burrow that followed
+    # would stand the robot out of its burrow, so the host never resends a command a newer
+    # one of its channel replaced (tests/driver/test_command_retries.py, PROTOCOL.md).
+    b = bench()
+    stand = b.send(m.SetGait(m.GaitKind.STAND, down=0.0))
+    b.send(m.Burrow(m.BurrowMode.DH))
+    b.run(0.3)
+    assert b.last_telemetry().mode == m.Mode.BURROW_RETRACT
+    b.send(m.SetGait(m.GaitKind.STAND, down=0.0), seq=stand)
+    b.run(0.05)
+    assert b.last_telemetry().mode == m.Mode.IDLE
+
+
 def test_burrow_reaches_the_table_ii_pose_and_body(bench):
     b = bench()
     b.send(m.Burrow(m.BurrowMode.DH))

@@ -117,6 +117,7 @@ class _Pending:
     sent_wall: float       # host wall time of the FIRST send: any ack answers a later copy
     tries: int = 1
     resend: bool = True    # False: a copy sent later would not mean the same (a winch hold)
+    superseded: bool = False   # a newer command of its channel went out: never resent
 
 
 @dataclass
@@ -135,6 +136,7 @@ class LinkCounters:
     commands_rejected: int = 0
     command_retries: int = 0
     command_timeouts: int = 0
+    commands_superseded: int = 0  # unacked, and replaced by a newer one before a resend
     heartbeats: int = 0
     unmatched_acks: int = 0
     rtt: deque = field(default_factory=lambda: deque(maxlen=200))
@@ -378,16 +380,26 @@ class BridgeCore:
             # that much past its evidence. The commander refreshes it instead.
             resend = int(msg.TYPE) in m.IDEMPOTENT_COMMANDS \
                 and not (isinstance(msg, m.Winch) and msg.hold > 0)
+            # The MCU executes a resent frame again unless it is the last one it received,
+            # so a copy of an older command resent after this one would undo it (a stand
+            # lost on the wire, resent after the burrow that followed it, stands the robot
+            # out of its burrow). Older commands of this channel are never resent; their
+            # acks are still matched.
+            channel = m.COMMAND_CHANNEL.get(msg.TYPE)
+            for p in self._pending.values():
+                if m.COMMAND_CHANNEL.get(m.MsgType(p.type)) == channel:
+                    p.superseded = True
             self._pending[seq] = _Pending(frame, int(msg.TYPE), self.mono(), self.wall(),
                                           resend=resend)
             self.counters.commands_sent += 1
             return frame
 
     def awaiting_ack(self, msg_type: int) -> bool:
-        """True while a command of this type (m.MsgType) is sent and not yet acknowledged
-        (nor given up on)."""
+        """True while the newest command of this type (m.MsgType) is sent and not yet
+        acknowledged (nor given up on)."""
         with self._lock:
-            return any(p.type == int(msg_type) for p in self._pending.values())
+            return any(p.type == int(msg_type) and not p.superseded
+                       for p in self._pending.values())
 
     def due_retries(self) -> tuple[list[bytes], list[CommandResult]]:
         """Frames to resend now, and commands given up on (result None)."""
@@ -396,6 +408,10 @@ class BridgeCore:
             now = self.mono()
             for seq, p in list(self._pending.items()):
                 if now - p.sent_at < self.config.ack_timeout:
+                    continue
+                if p.superseded:            # the newer command is what counts now
+                    del self._pending[seq]
+                    self.counters.commands_superseded += 1
                     continue
                 if p.tries > self.config.max_retries or not p.resend:
                     del self._pending[seq]
@@ -537,6 +553,7 @@ class BridgeCore:
                                  'rejected': c.commands_rejected,
                                  'retries': c.command_retries,
                                  'timeouts': c.command_timeouts,
+                                 'superseded': c.commands_superseded,
                                  'heartbeats': c.heartbeats,
                                  'unmatched_acks': c.unmatched_acks})
             e = self.energy

@@ -550,3 +550,10 @@ MESSAGE_CLASSES: dict[int, type] = {
 #: Commands the host may resend after an ack timeout because repeating them is harmless.
 IDEMPOTENT_COMMANDS = frozenset({MsgType.SET_LEGS, MsgType.SET_GAIT, MsgType.BURROW,
                                  MsgType.WINCH, MsgType.ESTOP, MsgType.GET_INFO})
+
+#: What each host command sets on the MCU: a newer command of the same channel replaces what
+#: an older one set. The legs follow one of leg targets, a gait or a burrow, whichever came
+#: last; the winch runs at its last speed; the e-stop is engaged or released.
+COMMAND_CHANNEL: dict[MsgType, str] = {
+    MsgType.SET_LEGS: 'legs', MsgType.SET_GAIT: 'legs', MsgType.BURROW: 'legs',
+    MsgType.WINCH: 'winch', MsgType.ESTOP: 'estop', MsgType.GET_INFO: 'info'}
