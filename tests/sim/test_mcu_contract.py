@@ -6,6 +6,8 @@ whether the motors really stopped.
 """
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from minirquad_driver.protocol import messages as m
@@ -144,6 +146,27 @@ def test_an_older_command_resent_after_a_newer_one_is_executed_again(bench):
     b.send(m.SetGait(m.GaitKind.STAND, down=0.0), seq=stand)
     b.run(0.05)
     assert b.last_telemetry().mode == m.Mode.IDLE
+
+
+def test_a_burrow_sent_while_the_legs_stand_up_stays_at_its_final_pose(bench):
+    # A walk ends on a stand and the burrow follows as soon as the tether is taut: the legs
+    # may still be on their way to standing. The burrow replaces the stand-up; it must not
+    # resume once the legs rest (seen: the legs went back to standing at the burrow's end,
+    # the MCU still reporting ANCHORED with the mode's pitch).
+    b = bench()
+    b.send(WALK)
+    b.run(0.8)
+    b.send(m.SetGait(m.GaitKind.STAND, down=0.0))
+    b.run(0.05)
+    assert max(abs(a) for a in b.last_telemetry().leg_angles) > math.radians(3.0)
+    b.send(m.Burrow(m.BurrowMode.DL))
+    b.run(10.0, until=lambda: b.last_telemetry().mode == m.Mode.ANCHORED)
+    b.run(1.0)                                      # rested at the final pose
+    tel, seq = b.last_telemetry(), TABLE_II['DL']
+    assert tel.mode == m.Mode.ANCHORED
+    # 0.5 deg: the arrival tolerance of both MCUs (as below).
+    for leg, want in enumerate((seq.final[0], seq.final[0], seq.final[1], seq.final[1])):
+        assert tel.leg_angles[leg] == pytest.approx(want, abs=0.0088), tel.leg_angles
 
 
 def test_burrow_reaches_the_table_ii_pose_and_body(bench):

@@ -394,6 +394,56 @@ def test_machine_legs_moved_during_link_loss_reburrows(predictor):
     assert m.records[0].mode == 'DL+DL' and m.records[0].outcome == 'ok', m.records
 
 
+class _LosesBurrows(Plant):
+    """The plant drops the first ``lost`` burrow commands (a command lost on its way, or a
+    burrow undone at once): the legs stay where they were."""
+
+    def __init__(self, *a, lost: int, **kw):
+        super().__init__(*a, **kw)
+        self.lost = lost
+
+    def apply(self, cmd) -> None:
+        kept = []
+        for topic, value in cmd.oneshots:
+            if topic == 'burrow' and self.lost > 0:
+                self.lost -= 1
+                continue
+            kept.append((topic, value))
+        cmd.oneshots = kept
+        super().apply(cmd)
+
+
+def test_a_table_ii_burrow_that_missed_its_pose_is_burrowed_again(predictor):
+    # The burrow times out with the legs still standing. Table II's height is the height of
+    # the mode's final pose: checked with it at the standing legs, the anchor would be judged
+    # (and tugged on) as a burrow that never happened.
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
+    plant = _LosesBurrows(0.4, predictor, lost=1)
+    run_loop(m, plant)
+    texts = [e['text'] for e in m.events]
+    missed = [t for t in texts if 'from its final pose' in t]
+    assert len(missed) == 1 and 'the anchor here is unknown' in missed[0], '\n'.join(texts)
+    checks = [t for t in texts if t.startswith('check DL at the measured pose')]
+    assert len(checks) == 1 and 'thetaL1 -40.0' in checks[0], checks   # only the real burrow
+    assert m.state == State.FINISHED and m.records[0].mode == 'DL+DL', m.records
+    assert m.records[0].outcome == 'ok'
+    # The missed burrow taught the energy model nothing; the real one did.
+    learnt = [t for t in texts if t.startswith('burrow DL: ')]
+    assert 'not counted' in learnt[0] and 'energy estimates now' in learnt[1], learnt
+
+
+def test_burrows_that_never_reach_their_pose_stop_the_cycle_untugged(predictor):
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1, burrow_timeout_s=2.0)
+    plant = _LosesBurrows(0.4, predictor, lost=99)       # (2 s: the legs never move)
+    reeled = []
+    run_loop(m, plant, on_step=lambda p, mach: reeled.append(
+        mach.state == State.TUG and mach.winch > 0.0))
+    assert not any(reeled)
+    assert m.records[0].outcome == 'stopped', m.records
+    assert 'DL did not reach its final pose' in m.reason and 'giving up' in m.reason, m.reason
+    assert m.records[0].mode == '+'.join(['DL'] * m.cfg.max_burrows_per_cycle)
+
+
 def test_a_reel_in_carries_when_its_estimate_ages_out(predictor):
     # Every tug reel-in is sent with its evidence deadline, the estimate's sample time plus
     # estimate_timeout_s, for the MCU to brake at whatever the host does then; nothing else

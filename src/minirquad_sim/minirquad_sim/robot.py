@@ -160,6 +160,9 @@ class SimRobot:
         waits (rad, servo order), which the stand-up follows where they lie short of
         standing (`_stand`)."""
         if self.physics is None or self._physical:
+            # This command takes the legs: a stand-up under way (a walk's closing stand) ends
+            # here, or it would send them back to standing once they rest at its targets.
+            self._stand_then_put_down = False
             return True
         if all(abs(wrap_angle(s.angle)) < self.leg_arrived for s in self.servos):
             self._put_down()
@@ -255,6 +258,7 @@ class SimRobot:
             self._stand(down)
             return
         self._after_stand = None
+        self._stand_then_put_down = False     # a moving gait replaces a stand-up under way
         self._lift()
         self.clocks = [BuehlerClock(period, duty, sweep, down, ph, direction) for ph in phases]
         self._gait_t0 = self.time

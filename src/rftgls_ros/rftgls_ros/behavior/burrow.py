@@ -4,7 +4,8 @@ a stop re-burrow into a stronger mode (CHOOSE, BURROW, CHECK, HOLD, SLACKEN).
 The choice and the checks ask the ModeChooser (the lower bound over a mode's height band at its
 pose for every tether angle of ``phis_rad``, the cheapest sufficient mode in energy). The pose
 check uses the measured leg angles and pitch, and h from Table II (MiniRQuad does not measure
-it); the tug then starts only on capacity_node's live evidence (``machine.evidence``), its
+it) only while the legs are at the mode's final pose (else the mode is burrowed again); the tug
+then starts only on capacity_node's live evidence (``machine.evidence``), its
 lower bound against the need. A re-check at a pose within the slip thresholds of the anchor's
 last sufficient check keeps that check (``_still_passed``). At most ``max_burrows_per_cycle``
 burrows per cycle. Units: m, rad, N, J, s.
@@ -285,11 +286,17 @@ class Burrow:
             m.cycle.burrow_j += de
             m.cycle.burrow_s += dt
             above_idle = de - m.idle_power * dt
-            m.energy.update(m.mode, above_idle)
             shown = [m.mode] if m.planned_gait() is not None else list(m.energy.ratios)
+            if m.planned_gait() is None and not self.at_final_pose():
+                # A Table II mode's energy is that of its whole sequence: a burrow short of
+                # its final pose is no sample of it (CHECK burrows it again).
+                learnt = 'not counted: the legs are not at its final pose'
+            else:
+                m.energy.update(m.mode, above_idle)
+                learnt = 'energy estimates now ' + ', '.join(
+                    f'{k} {m.energy.estimate(k):.2f} J' for k in shown)
             m.event('info', f'burrow {m.mode}: {de:.2f} J in {dt:.1f} s '
-                            f'({above_idle:.2f} J above idle); energy estimates now '
-                    + ', '.join(f'{k} {m.energy.estimate(k):.2f} J' for k in shown),
+                            f'({above_idle:.2f} J above idle); {learnt}',
                     mode=m.mode, energy_j=above_idle)
             self._submit_replay()
             m.go(State.CHECK, 'at the final pose' if done else
@@ -426,6 +433,9 @@ class Burrow:
         state = m.measured_state()
         if state is None:
             return
+        if m.planned_gait() is None and not self.at_final_pose():
+            self._table_pose_missed(state)
+            return
         c = m.chooser.evaluate(m.mode, state, m.need.value, m.energy.estimate(m.mode),
                                m.anchor_height()[1])
         m.weakest = c.weakest
@@ -448,6 +458,30 @@ class Burrow:
         if c.weakest is not None and m.chooser.scale > 0.0:   # kept for later plans
             m.chooser.observe(m.mode, c.weakest / m.chooser.scale)
         self.reselect(f'{m.mode} insufficient at the measured pose', c.weakest)
+
+    def _table_pose_missed(self, state: AnchorState) -> None:
+        """A Table II mode whose legs are not at its final pose (its burrow timed out short of
+        it, or something moved them): Table II's height is the height of that pose, so the
+        anchor the legs are in is unknown, and no check at the assumed height is evidence.
+        Slacken and burrow the mode again while the cycle has burrows left (a planned gait
+        needs none of this: its replay gives the pose the measured legs reached)."""
+        m, mode = self.m, self.m.burrow_mode()
+        assert mode is not None
+        off = leg_span((state.theta_l1, state.theta_l2), mode.final)
+        why = f'{m.mode} did not reach its final pose'
+        m.event('warn', f'check {m.mode}: legs measured at '
+                        f'{math.degrees(state.theta_l1):.1f}, '
+                        f'{math.degrees(state.theta_l2):.1f} deg, {math.degrees(off):.1f} deg '
+                        f'from its final pose ({math.degrees(mode.final[0]):.1f}, '
+                        f'{math.degrees(mode.final[1]):.1f} deg; tolerance '
+                        f'{math.degrees(m.cfg.burrow_tolerance_rad):.1f} deg): Table II\'s '
+                        'height belongs to that pose, the anchor here is unknown',
+                mode=m.mode)
+        if m.burrows >= m.cfg.max_burrows_per_cycle:
+            m.stop_cycle(f'{why}; {m.burrows} burrows this cycle, giving up')
+            return
+        self.next = Reburrow(m.mode, f'{why}; burrowing it again')
+        m.go(State.SLACKEN, f'{why}: slacken the tether, then burrow {m.mode} again')
 
     def _check_missing_evidence(self) -> None:
         """The pose check's questions came back `stale` (capacity_node's query service
