@@ -137,7 +137,8 @@ def test_an_older_command_resent_after_a_newer_one_is_executed_again(bench):
     # The MCU remembers only the last (seq, type) it executed: a copy of any earlier frame is
     # a new command to it. A stand lost on the wire and resent after the burrow that followed
     # would stand the robot out of its burrow, so the host never resends a command a newer
-    # one of its channel replaced (tests/driver/test_command_retries.py, PROTOCOL.md).
+    # one of its channel replaced (tests/driver/test_command_retries.py,
+    # src/minirquad_driver/PROTOCOL.md).
     b = bench()
     stand = b.send(m.SetGait(m.GaitKind.STAND, down=0.0))
     b.send(m.Burrow(m.BurrowMode.DH))
