@@ -1,4 +1,5 @@
-"""The shipped MiniRQuad capacity map covers every leg pose the burrow planner can end in.
+"""The shipped MiniRQuad capacity map covers every leg pose the burrow planner can end in, and
+every body pitch its simulations predict, by capacity_node's pitch band.
 
 A tug is checked against the capacity map at the burrowed pose. A planned gait whose final
 leg pose sits on the map's edge is checked against nothing: legs that stop one servo count
@@ -12,9 +13,11 @@ its simulations predict.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from rftgls_core.maps import CapacityMap, shipped_map_path
 from rftgls_core.maps.grid import default_grid
@@ -25,6 +28,7 @@ from rftgls_core.planning.gaits import SHIPPED_GRID, with_modes
 # servo's hold error (counts of 0.088 deg) and a stalled leg's shortfall is toward the
 # retracting pose, which the check below covers through the predicted poses.
 MARGIN_RAD = math.radians(10.0)
+REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope='module')
@@ -60,6 +64,35 @@ def test_every_predicted_leg_pose_is_on_the_map(leg_axes):
         off = [np.degrees(q).round(2).tolist() for q in legs
                if not (_inside(q[0], l1, 0.0) and _inside(q[1], l2, 0.0))]
         assert not off, (p.name, off)
+
+
+def _node_pitch_sigma() -> float:
+    """capacity_node's one-sigma pitch band (rad): its lower bound takes the pitch that far
+    each side of the estimate, and a state off the map counts as 0 N."""
+    params = yaml.safe_load((REPO / 'ros2_ws/params/capacity_node.yaml').read_text())
+    return float(params['/**/capacity_node']['ros__parameters']['theta_b_sigma_rad'])
+
+
+def _top_predicted_pitch() -> float:
+    """The highest body pitch (rad) any shipped gait map predicts, over every gait and run."""
+    tops = []
+    for p in shipped_paths('minirquad'):
+        pitch = load(p).arrays['pose'][..., 1]
+        tops.append(float(np.nanmax(pitch)))
+    return max(tops)
+
+
+def test_the_pitch_axis_reaches_past_every_predicted_pitch_by_the_nodes_band():
+    # A planned gait predicted at 15.0 deg was confirmed on a map whose pitch axis ended at
+    # 15 deg; capacity_node's bound, taking the pitch 1 deg each side, found 0 N there and the
+    # tug was refused (docs/design/burrow-planner.md). Nose-down runs (negative pitches, the
+    # body tipped onto its legs at h 60-130 mm) are off the height axis as well: out_of_range
+    # is the honest answer for a burrow that went that wrong.
+    cmap = CapacityMap.load(shipped_map_path('minirquad'))
+    top, sigma = _top_predicted_pitch(), _node_pitch_sigma()
+    assert 0.0 < sigma < math.radians(5.0)
+    assert top + sigma <= cmap.grid.axes[1][-1], (math.degrees(top), math.degrees(sigma))
+    assert top + sigma > math.radians(15.0)      # the old axis (-5:5:15 deg) fell short
 
 
 def test_the_check_fails_on_the_old_edge():

@@ -32,7 +32,9 @@ from rftgls_conventions.safe_write import write_text
 from .geometry.mesh import TriMesh
 from .geometry.stl import write_stl
 
-# Default map ranges (start, stop, count; m and deg), those of maps/grid.py's default grids.
+# Map ranges the written descriptions carry (start, stop, count; m and deg), for a map built
+# from the description. The preset robots' own maps (maps/grid.py) reach further in thetaL2
+# and, for MiniRQuad, thetaB: the planner's final poses and predicted pitches.
 MAP_RANGES = {
     'prototype': {'h': (0.005, 0.030, 6), 'theta_b': (-20, 20, 5), 'theta_l1': (-40, 40, 5),
                   'theta_l2': (-40, 40, 5)},

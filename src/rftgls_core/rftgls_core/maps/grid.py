@@ -180,18 +180,21 @@ def prototype_grid(phi_deg=DEFAULT_PHI_DEG) -> MapGrid:
 
 def minirquad_grid(phi_deg=DEFAULT_PHI_DEG) -> MapGrid:
     """A grid around the paper's Table II anchors and the planner's gaits (final poses),
-    7 x 5 x 4 x 8 = 1,120 states.
+    7 x 7 x 4 x 8 = 1,568 states.
 
     Table II: DH (thetaL1, thetaL2) = (-40, 30) deg, thetaB 5.0 deg, h 34 mm;
     DL (-40, 0), 8.9 deg, 36 mm; SH (-40, 30), 2.4 deg, 47 mm. The grid puts both leg poses
     on nodes (thetaL1 -60:20:0, thetaL2 -30:10:40 deg) and brackets the measured body angle
-    and depth spreads (thetaB -5:5:15 deg, h 25:5:55 mm) by at least one cell. Every final leg
+    and depth spreads (h 25:5:55 mm) by at least one cell. The pitch axis, -5:5:25 deg, reaches
+    past the pitches the burrow simulation predicts for the planner's gaits (up to about 16
+    deg) by more than capacity_node's pitch band (one sigma, 1 deg): a pose predicted or
+    measured at the old edge, 15 deg, had no lower bound there. Every final leg
     pose the burrow planner can command (planning.gaits.SHIPPED_GRID and the paper's modes)
     lies at least one leg step (10 deg) inside the leg axes: legs that stop a servo count past
     a commanded pose must still be on the map, else the tug check answers out_of_range for
     the whole anchor (tests/core/test_maps_cover_gaits.py).
     """
-    return MapGrid.from_degrees(25.0 + 5.0 * np.arange(7), -5.0 + 5.0 * np.arange(5),
+    return MapGrid.from_degrees(25.0 + 5.0 * np.arange(7), -5.0 + 5.0 * np.arange(7),
                                 -60.0 + 20.0 * np.arange(4), -30.0 + 10.0 * np.arange(8),
                                 phi_deg)
 

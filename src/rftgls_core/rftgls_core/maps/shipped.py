@@ -29,7 +29,7 @@ SHIPPED_SHA256 = {
     'prototype_glass_beads.h5':
         'b76298ccf4b382c2bed7ba84a9133ea4bcf5bcc2ca594de822f349380e6c67a2',
     'minirquad_m90_sand.h5':
-        '52fa80f1202a3e56fe5292793ee696ed18902e26d40b7a0e0779f9ab16ef1adf',
+        '39751a97df8c8d65a1ed5ae81e8ddf4bc1826062f5e53a7aea44dd376e6bd684',
 }
 
 
