@@ -244,6 +244,25 @@ def test_a_burrowed_height_is_modelled_with_its_band_until_the_pitch_disagrees()
     assert m.height().provenance is Provenance.MODELLED and m.anchor.flag is None
 
 
+def test_the_modelled_height_holds_only_at_the_final_pose():
+    # The burrow simulation's height is the height of the mode's final pose: mid-burrow, or
+    # with the legs stopped short of it (or moved off it later), it says nothing of the anchor.
+    m = TeleopModel(poses=POSES)
+    m.key('3', 0.0)
+    h = m.height()
+    assert (h.value, h.provenance) == (0.040, Provenance.ASSUMED)
+    assert h.source.endswith('(legs not at its final pose)'), h.source
+    retract = ANCHOR_MODES['SH'].retract
+    m.anchor.legs(*retract, 0.5)                              # under way
+    assert m.height().provenance is Provenance.ASSUMED
+    final = ANCHOR_MODES['SH'].final
+    m.anchor.legs(final[0] + 1.5 * DEG, final[1], 1.0)        # within 2 deg: there
+    assert m.height().provenance is Provenance.MODELLED
+    assert m.height().source == SH_POSE.source
+    m.anchor.legs(0.0, 0.0, 2.0)                              # stood up (an MCU reset)
+    assert m.height().provenance is Provenance.ASSUMED
+
+
 @pytest.mark.parametrize('mode', ['DH', 'DL'])
 def test_a_mode_without_a_modelled_pose_sends_its_table_ii_height_assumed(mode):
     m = TeleopModel(poses=POSES)

@@ -3,8 +3,10 @@ band, provenance) and whether the measured pitch agrees with the modelled burrow
 
 - Burrowed (keys 1/2/3): h is the burrow simulation's prediction for that mode and the sled
   the robot burrows tied to (rftgls_core.planning.burrowed.mode_pose, computed once at start),
-  sent MODELLED with its band: capacity_node's estimate is then `ok` with provenance
-  `height:modelled`, its lower bound covering the band.
+  sent MODELLED with its band while the legs are at the mode's final pose: capacity_node's
+  estimate is then `ok` with provenance `height:modelled`, its lower bound covering the band.
+  The prediction is the height of that pose: while the burrow is under way, or when it ends
+  short of the pose (a stalled servo, a burrow undone), h is sent ASSUMED.
 - Once the legs have held the mode's final pose for `settle_s`, the pitch capacity_node used
   (measured by the IMU) is held against the modelled pitch's band. Outside it the burrow did
   not go as modelled: the disagreement is flagged (screen and log) and, until the next burrow,
@@ -110,9 +112,11 @@ class AnchorTracker:
             why = self.poses.get(self.mode) or 'no modelled pose'
             return HeightInput(table.h, table.h_band, Provenance.ASSUMED,
                                f'Table II mean of {self.mode} (teleop; {why})')
-        provenance = Provenance.ASSUMED if self.flag else Provenance.MODELLED
+        at_final = self._at_final_since is not None
+        provenance = Provenance.MODELLED if at_final and not self.flag else Provenance.ASSUMED
         return HeightInput(pose.h_m, pose.h_band_m, provenance,
-                           pose.source + (' (pitch disagrees)' if self.flag else ''))
+                           pose.source + (' (pitch disagrees)' if self.flag else '')
+                           + ('' if at_final else ' (legs not at its final pose)'))
 
     def line(self) -> str:
         """The anchor's screen line (no number that is not one)."""
