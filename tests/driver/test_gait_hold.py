@@ -57,6 +57,21 @@ def test_a_walk_already_past_its_deadline_never_starts_and_stands_a_walking_robo
 
 
 
+def test_the_commands_bridge_node_logs_are_named():
+    # bridge_node logs each gait, burrow and e-stop it sends ("to the MCU: ..."): the record
+    # of what the robot was told (the stack tests read it, test_tug_safety_e2e.py).
+    from minirquad_driver.bridge_node import command_text
+    from minirquad_driver.gaits import GAITS
+    assert command_text(GAITS['walk']) == 'gait walk'
+    assert command_text(GAITS['stand']) == 'gait stand'
+    custom = m.SetGait(m.GaitKind.CLOCK, period=1.0, duty=0.5, sweep=1.0, down=0.0,
+                       phases=(0.0, 0.5, 0.5, 0.0))
+    assert command_text(custom) == 'gait clock (custom)'
+    assert command_text(m.Burrow(m.BurrowMode.DL)) == 'burrow DL'
+    assert command_text(m.EStop(True)) == 'e-stop engaged'
+    assert command_text(m.EStop(False)) == 'e-stop released'
+
+
 def _valid_until(node, seconds: float) -> Time:
     ns = node.get_clock().now().nanoseconds + round(seconds * 1e9)
     return Time(sec=ns // 10**9, nanosec=ns % 10**9)

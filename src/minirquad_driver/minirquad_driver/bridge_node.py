@@ -355,6 +355,11 @@ class BridgeNode(LifecycleNode):
             return
         if not self.transport.write(frame):
             self.get_logger().warning(f'{type(msg).__name__} not sent: link down')
+        elif isinstance(msg, (m.SetGait, m.Burrow, m.EStop)):
+            # What changes what the robot does, once per command (leg targets and winch
+            # speeds stream, and are not): the record of what the MCU was told, beside the
+            # commander's own log of why.
+            self.get_logger().info(f'to the MCU: {command_text(msg)}')
 
     def _motion(self, msg) -> None:
         """A motion command: forwarded only while active."""
@@ -432,6 +437,16 @@ class BridgeNode(LifecycleNode):
             self._send(m.EStop(True))
         else:
             self._motion(m.EStop(bool(msg.data)))
+
+
+def command_text(msg) -> str:
+    """A gait, burrow or e-stop command in a few words (a known gait by its name)."""
+    if isinstance(msg, m.SetGait):
+        name = next((n for n, g in GAITS.items() if g == msg), None)
+        return f'gait {name}' if name else f'gait {m.GaitKind(msg.kind).name.lower()} (custom)'
+    if isinstance(msg, m.Burrow):
+        return f'burrow {m.BurrowMode(msg.mode).name}'
+    return 'e-stop ' + ('engaged' if msg.engage else 'released')
 
 
 def seconds(stamp) -> float:
