@@ -70,9 +70,11 @@ def test_e2e_weaker_true_sand_slip_is_detected_and_stopped(tmp_path, spawn, stop
     assert re.search(r'decision \(expected pose\): DH:', log), log
     assert 'anchor slip detected (slip_' in log, log
     assert re.search(r'cycle 1 \(800 g sled\): DH stopped \(slip_\w+\)', log), log
-    # What the MCU was told, from bridge_node's log: the walk, then the burrow, once.
+    # What the MCU was told, from bridge_node's log: the walk, then DH's burrow (again after
+    # a link gap mid-burrow, as behavior_node does: seen under CI load), and no other.
     told = re.findall(r'to the MCU: (.+)', (tmp_path / 'bridge.log').read_text())
-    assert 'gait walk' in told and told.count('burrow DH') == 1, told
+    burrows = {t for t in told if t.startswith('burrow')}
+    assert burrows == {'burrow DH'} and 'gait walk' in told, told
     assert told.index('gait walk') < told.index('burrow DH'), told
     stop(run_stack.procs['sim'])   # SIGINT: the simulator prints its slip report
     sim_out = (tmp_path / 'sim.log').read_text()
