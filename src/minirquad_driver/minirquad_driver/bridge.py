@@ -117,6 +117,7 @@ class _Pending:
     sent_wall: float       # host wall time of the FIRST send: any ack answers a later copy
     tries: int = 1
     resend: bool = True    # False: a copy sent later would not mean the same (a winch hold)
+    channel: str = ''      # messages.COMMAND_CHANNEL: what it sets on the MCU
     superseded: bool = False   # a newer command of its channel went out: never resent
 
 
@@ -385,12 +386,12 @@ class BridgeCore:
             # lost on the wire, resent after the burrow that followed it, stands the robot
             # out of its burrow). Older commands of this channel are never resent; their
             # acks are still matched.
-            channel = m.COMMAND_CHANNEL.get(msg.TYPE)
+            channel = m.COMMAND_CHANNEL[msg.TYPE]
             for p in self._pending.values():
-                if m.COMMAND_CHANNEL.get(m.MsgType(p.type)) == channel:
+                if p.channel == channel:
                     p.superseded = True
             self._pending[seq] = _Pending(frame, int(msg.TYPE), self.mono(), self.wall(),
-                                          resend=resend)
+                                          resend=resend, channel=channel)
             self.counters.commands_sent += 1
             return frame
 

@@ -287,7 +287,7 @@ class Burrow:
             m.cycle.burrow_s += dt
             above_idle = de - m.idle_power * dt
             shown = [m.mode] if m.planned_gait() is not None else list(m.energy.ratios)
-            if m.planned_gait() is None and not self.at_final_pose():
+            if self._table_pose_missed():
                 # A Table II mode's energy is that of its whole sequence: a burrow short of
                 # its final pose is no sample of it (CHECK burrows it again).
                 learnt = 'not counted: the legs are not at its final pose'
@@ -433,8 +433,8 @@ class Burrow:
         state = m.measured_state()
         if state is None:
             return
-        if m.planned_gait() is None and not self.at_final_pose():
-            self._table_pose_missed(state)
+        if self._table_pose_missed():
+            self._burrow_missed_table_pose(state)
             return
         c = m.chooser.evaluate(m.mode, state, m.need.value, m.energy.estimate(m.mode),
                                m.anchor_height()[1])
@@ -459,7 +459,12 @@ class Burrow:
             m.chooser.observe(m.mode, c.weakest / m.chooser.scale)
         self.reselect(f'{m.mode} insufficient at the measured pose', c.weakest)
 
-    def _table_pose_missed(self, state: AnchorState) -> None:
+    def _table_pose_missed(self) -> bool:
+        """A Table II mode whose measured legs are not at its final pose: Table II's height
+        (and its energy) belong to that pose only."""
+        return self.m.planned_gait() is None and not self.at_final_pose()
+
+    def _burrow_missed_table_pose(self, state: AnchorState) -> None:
         """A Table II mode whose legs are not at its final pose (its burrow timed out short of
         it, or something moved them): Table II's height is the height of that pose, so the
         anchor the legs are in is unknown, and no check at the assumed height is evidence.
