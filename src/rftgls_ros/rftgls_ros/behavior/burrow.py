@@ -546,4 +546,9 @@ class Burrow:
         if m.elapsed() >= cfg.slacken_max_s or (m.elapsed() >= cfg.slacken_time_s
                                                 and not self.m.taut()):
             m.winch = 0.0
-            self.start(self.next.mode, self.next.reason)
+            m.walk.step_off(f'slackened: re-burrow {self.next.mode}')
+
+    def start_next(self) -> None:
+        """Burrow the re-burrow chosen before the slacken (`next`)."""
+        assert self.next is not None
+        self.start(self.next.mode, self.next.reason)

@@ -33,10 +33,13 @@ class BehaviorConfig:
     (link_stale) and the run ends, winch braked; reburrow: on a guard stop or a slip,
     re-burrow into a stronger mode if one suffices (first paying out at slacken_speed_m_s for
     at least slacken_time_s and until the tension is below taut_tension_N, at most
-    slacken_max_s); take_up_speed_m_s, take_up_max_s: before every burrow the winch reels in
-    the slack at this speed until the tension reaches taut_tension_N, for at most this long
-    (0: no take-up): the burrow plans simulate a rope just taut when the burrow starts, and a
-    slack one lets the retracting stroke roll the robot forward unheld
+    slacken_max_s), then walking step_off_m (at walk_speed_m_s) off the sand the last burrow
+    dug, so the re-burrow starts standing on level sand as every predicted burrow does (0:
+    re-burrow in place; walk.py says why); take_up_speed_m_s, take_up_max_s: before every
+    burrow the winch reels in the slack at this speed until the tension reaches
+    taut_tension_N, for at most this long (0: no take-up): the burrow plans simulate a rope
+    just taut when the burrow starts, and a slack one lets the retracting stroke roll the
+    robot forward unheld
     (docs/design/burrow-planner.md, "The rope at the burrow's start"); tug_energy_window_s:
     the paper counts only the last 8 s of each tug.
 
@@ -106,6 +109,7 @@ class BehaviorConfig:
     slacken_speed_m_s: float = 0.03
     slacken_time_s: float = 0.3
     slacken_max_s: float = 2.0
+    step_off_m: float = 0.18
     take_up_speed_m_s: float = 0.02
     take_up_max_s: float = 3.0
     rope_length_m: float = 0.50
@@ -142,11 +146,12 @@ class BehaviorConfig:
                 and math.isfinite(self.pitch_check_tolerance_rad)):
             raise ValueError(f'pitch_check_tolerance_rad must be >= 0, got '
                              f'{self.pitch_check_tolerance_rad}')
-        if not (math.isfinite(self.take_up_max_s) and self.take_up_max_s >= 0.0):
-            raise ValueError(f'take_up_max_s must be >= 0, got {self.take_up_max_s!r}')
+        for name in ('take_up_max_s', 'step_off_m'):
+            if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0.0):
+                raise ValueError(f'{name} must be >= 0, got {getattr(self, name)!r}')
         for name in ('replay_timeout_s', 'walk_time_s', 'burrow_timeout_s', 'tug_timeout_s',
                      'tug_speed_m_s', 'input_timeout_s', 'estimate_timeout_s', 'sled_mass_kg',
-                     'take_up_speed_m_s'):
+                     'take_up_speed_m_s', 'walk_speed_m_s'):
             if not getattr(self, name) > 0:
                 raise ValueError(f'{name} must be > 0, got {getattr(self, name)!r}')
         return self

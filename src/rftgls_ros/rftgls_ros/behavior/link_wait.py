@@ -6,14 +6,14 @@ winch) and the machine waits; once the inputs have been fresh for ``link_settle_
 where it was: a tug, hold, check or finished cycle first measures the anchor against its slip
 references (a slip during the outage is recorded and answered by the slip policy, never
 forgotten), then re-checks it (or burrows again if the legs left the burrowed pose during the
-outage), a walk walks on for what is left, a burrow burrows again. Units: s.
+outage), a walk or a step off walks on for what is left, a burrow burrows again. Units: s.
 """
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
 from . import evidence
-from .states import State
+from .states import WALKING, State
 
 if TYPE_CHECKING:
     from .machine import BehaviorMachine
@@ -32,7 +32,7 @@ class LinkWait:
     def interrupt(self) -> None:
         """Inputs lost in an active state: book a walk so far, stop the winch, wait."""
         m = self.m
-        if m.state == State.WALK:
+        if m.state in WALKING:
             # The MCU runs the gait on its own: with the payout stopped a walk that went on
             # would drag the tether (and the sled, or the robot back over the sand).
             m.walk.pause()
@@ -90,8 +90,8 @@ class LinkWait:
                 return
             m.go(State.CHECK, f'{back}: re-checking the {m.mode} anchor before resuming the '
                               f'tug')
-        elif resume == State.WALK:
-            m.go(State.WALK, f'{back}: walking on')
+        elif resume in WALKING:
+            m.go(resume, f'{back}: walking on')
         elif resume == State.BURROW:
             m.cycle.modes.pop()                  # this burrow starts over
             m.burrow.start(m.mode, f'{back}: burrow again')

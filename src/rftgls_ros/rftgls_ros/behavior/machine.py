@@ -2,9 +2,12 @@
 
     WAIT_INPUTS -> IDLE_MEASURE -> [ WALK -> CHOOSE -> BURROW -> CHECK -> TUG -> CYCLE_DONE ] x N
                                                  |          ^        |     |
-                                                 v          +-SLACKEN<-HOLD (margin guard,
-                                              REFUSED                     |  slip, short)
-                                                                     FINISHED (no stronger mode)
+                                                 v          |        |     v
+                                              REFUSED   STEP_OFF     |    HOLD (margin guard,
+                                                 (walk step_off_m)   |     |   slip, short)
+                                                            ^        v     |
+                                                            +----- SLACKEN <-+--> FINISHED
+                                                                          (no stronger mode)
     CHECK, TUG --evidence lost--> WAIT_EVIDENCE --evidence back--> CHECK (next cycle)
                                        +--no evidence in time / too many aborts--> FINISHED
     any active state --link lost / inputs stale--> WAIT_LINK --back--> resume
@@ -21,7 +24,8 @@ history for inspection.
 The run is split by phase; each phase owns its state (small dataclasses) and the entry actions
 and steps of its states, which the machine collects into its state table:
 
-    walk.py       IDLE_MEASURE, WALK: the idle power at start, walking with the tether paid out
+    walk.py       IDLE_MEASURE, WALK, STEP_OFF: the idle power at start, walking with the
+                  tether paid out, stepping off the dug sand before a re-burrow
     burrow.py     CHOOSE, BURROW, CHECK, HOLD, SLACKEN: choose a mode, burrow, check the anchor
                   at the measured pose, re-burrow into a stronger mode after a stop
     tug.py        TUG: reel in on live evidence, the margin guard, the slip, the stop report
@@ -63,7 +67,7 @@ from .report import CycleRecord
 from .retry import EvidenceRetry
 from .signals import Commands, Observation
 from .slip import SlipDetector
-from .states import ACTIVE, TERMINAL, HoldCause, State
+from .states import ACTIVE, TERMINAL, WALKING, HoldCause, State
 from .tug import Tug
 from .walk import Walk
 
@@ -313,7 +317,7 @@ class BehaviorMachine:
         valid = self.winch_valid_until if self.state == State.TUG and self.winch > 0.0 else 0.0
         out = Commands(self._oneshots, self.winch, h, self.tether.phi(h), self._step_events,
                        band, source, provenance, self.leg_targets, valid,
-                       self.state == State.WALK)
+                       self.state in WALKING)
         self._oneshots, self._step_events, self.leg_targets = [], [], None
         return out
 
@@ -469,14 +473,13 @@ class BehaviorMachine:
         c = self.cycle
         if self.state == State.TUG:
             self.tug.finish('cancelled')
-        elif c is not None and self.state == State.WALK:     # the walk so far counts
-            c.walk_j += self.energy_since_enter()
-            c.walk_s += self.elapsed()
+        elif c is not None and self.state in WALKING:     # the walk so far counts
+            self.walk.pause()
         elif c is not None and self.state == State.BURROW:   # the burrow so far counts
             c.burrow_j += self.energy_since_enter()
             c.burrow_s += self.elapsed()
-        if self.state == State.WALK or (self.state == State.WAIT_LINK
-                                        and self.link.resume == State.WALK):
+        if self.state in WALKING or (self.state == State.WAIT_LINK
+                                     and self.link.resume in WALKING):
             self.command('gait', 'stand')
         self.winch = 0.0
         if c is not None and not (self.records and self.records[-1].cycle == c.index):

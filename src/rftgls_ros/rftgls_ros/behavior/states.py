@@ -14,6 +14,7 @@ class State(str, enum.Enum):
     TUG = 'TUG'
     HOLD = 'HOLD'
     SLACKEN = 'SLACKEN'
+    STEP_OFF = 'STEP_OFF'
     CYCLE_DONE = 'CYCLE_DONE'
     WAIT_LINK = 'WAIT_LINK'
     WAIT_EVIDENCE = 'WAIT_EVIDENCE'
@@ -40,6 +41,9 @@ class HoldCause(enum.Enum):
 REBURROW_WHY = {HoldCause.GUARD: 'margin guard stop', HoldCause.SLIP: 'anchor slip',
                 HoldCause.SHORT: 'capacity below need'}
 
+# The states in which the robot walks (the MCU runs the walk gait, the tether is paid out).
+WALKING = {State.WALK, State.STEP_OFF}
+
 ACTIVE = {State.IDLE_MEASURE, State.WALK, State.CHOOSE, State.BURROW, State.CHECK, State.TUG,
-          State.HOLD, State.SLACKEN, State.CYCLE_DONE, State.WAIT_EVIDENCE}
+          State.HOLD, State.SLACKEN, State.STEP_OFF, State.CYCLE_DONE, State.WAIT_EVIDENCE}
 TERMINAL = {State.REFUSED, State.FINISHED}
