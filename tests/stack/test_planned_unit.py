@@ -493,6 +493,18 @@ def test_a_planned_burrow_takes_up_the_slack_at_standing_before_its_stroke(predi
     assert any('still slack' in e.get('text', '') for e in m.events)
 
 
+def test_a_planned_burrow_has_dug_once_its_stroke_started(predictor):
+    """`dug` (an outage then re-burrows off the dug sand, link_wait.py): not while the legs
+    stand and the slack is taken up, from the stroke's start on."""
+    from rftgls_core.planning.gaits import STAND
+    m, obs = planned_machine_in_burrow(predictor)
+    t0 = burrow_from(m, obs, STAND)
+    drive(m, obs, t0, t0 + 0.3, tension=0.0)
+    assert m.burrow.taking_up and not m.burrow.dug
+    drive(m, obs, t0 + 0.3, t0 + 0.5, tension=m.cfg.taut_tension_N)
+    assert not m.burrow.taking_up and m.burrow.dug
+
+
 def test_a_planned_burrow_waits_at_standing_for_legs_to_rest_there(predictor):
     """The plan simulated its burrow from standing at rest: the ramp holds the standing pose
     until the measured legs rest there (within burrow_tolerance_rad for STAND_SETTLE_S),

@@ -133,3 +133,66 @@ def test_a_step_off_that_is_not_a_distance_is_refused(bad):
         BehaviorConfig(step_off_m=bad).check()
     with pytest.raises(ValueError, match='walk_speed_m_s'):
         BehaviorConfig(walk_speed_m_s=0.0).check()
+
+
+def outage_run(predictor, when, plant_cls=Plant, seconds: float = 1.0):
+    """One 400 g Table II cycle with the link cut for `seconds` once `when(plant, machine)`;
+    the states in order and the machine."""
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
+    plant = plant_cls(0.4, predictor)
+    seen: dict = {}
+    order: list[State] = []
+
+    def cut(p, mach):
+        if not order or order[-1] != mach.state:
+            order.append(mach.state)
+        if 'cut' not in seen and when(p, mach):
+            seen['cut'] = p.t
+            p.link_ok = False
+        if 'cut' in seen and not p.link_ok and p.t - seen['cut'] > seconds:
+            p.link_ok = True
+    run_loop(m, plant, on_step=cut)
+    assert 'cut' in seen
+    return m, order
+
+
+def after_outage(order: list[State]) -> list[State]:
+    k = order.index(State.WAIT_LINK)
+    return order[k:k + 4]
+
+
+def test_legs_that_left_the_anchor_during_an_outage_are_burrowed_again_off_the_dug_sand(
+        predictor):
+    """The robot stood up during the outage (an MCU reset): the anchor is gone and the tether
+    taut from the tug; the mode is burrowed again as any re-burrow (slacken, step off)."""
+    def stand_mid_tug(p, mach):
+        if mach.state == State.TUG and mach.elapsed() > 1.0:
+            g = p.gaits['stand']
+            p.robot.set_gait(g.kind, g.period, g.duty, g.sweep, g.down, g.phases, g.direction)
+            return True
+        return False
+    m, order = outage_run(predictor, stand_mid_tug)
+    assert after_outage(order) == [State.WAIT_LINK, State.SLACKEN, State.STEP_OFF,
+                                   State.BURROW], order
+    assert any('left the DL pose during the outage' in e['text'] for e in m.events)
+    assert m.records[0].mode == 'DL+DL' and m.records[0].outcome == 'ok', m.records
+
+
+def test_a_burrow_cut_by_an_outage_starts_over_off_the_sand_its_legs_dug(predictor):
+    # DL's sequence under way on the MCU: its legs have dug
+    def mid_burrow(p, mach):
+        return mach.state == State.BURROW and mach.burrow.commanded and mach.elapsed() > 1.5
+    m, order = outage_run(predictor, mid_burrow)
+    assert after_outage(order) == [State.WAIT_LINK, State.SLACKEN, State.STEP_OFF,
+                                   State.BURROW], order
+    assert m.records[0].mode == 'DL' and m.records[0].outcome == 'ok', m.records
+
+
+def test_a_burrow_cut_before_its_legs_moved_starts_over_in_place(predictor):
+    # still taking up the slack, no burrow command sent: nothing dug, no step off
+    def taking_up(p, mach):
+        return mach.state == State.BURROW and mach.burrow.taking_up
+    m, order = outage_run(predictor, taking_up, seconds=0.8)
+    assert after_outage(order)[:2] == [State.WAIT_LINK, State.BURROW], order
+    assert State.STEP_OFF not in order
+    assert m.records[0].mode == 'DL' and m.records[0].outcome == 'ok', m.records

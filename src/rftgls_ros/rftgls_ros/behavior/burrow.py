@@ -485,8 +485,22 @@ class Burrow:
         if m.burrows >= m.cfg.max_burrows_per_cycle:
             m.stop_cycle(f'{why}; {m.burrows} burrows this cycle, giving up')
             return
+        self.again(why)
+
+    def again(self, why: str) -> None:
+        """Burrow this mode again, as every re-burrow: slacken, step off the sand its legs
+        dug (walk.py), burrow."""
+        m = self.m
         self.next = Reburrow(m.mode, f'{why}; burrowing it again')
         m.go(State.SLACKEN, f'{why}: slacken the tether, then burrow {m.mode} again')
+
+    @property
+    def dug(self) -> bool:
+        """The burrow under way has moved its legs into the sand: a planned gait's burrow
+        proper started, or a Table II mode's command went to the MCU."""
+        if self.m.planned_gait() is None:
+            return self.commanded
+        return self.record_from is not None
 
     def _check_missing_evidence(self) -> None:
         """The pose check's questions came back `stale` (capacity_node's query service

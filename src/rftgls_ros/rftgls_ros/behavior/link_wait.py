@@ -6,7 +6,8 @@ winch) and the machine waits; once the inputs have been fresh for ``link_settle_
 where it was: a tug, hold, check or finished cycle first measures the anchor against its slip
 references (a slip during the outage is recorded and answered by the slip policy, never
 forgotten), then re-checks it (or burrows again if the legs left the burrowed pose during the
-outage), a walk or a step off walks on for what is left, a burrow burrows again. Units: s.
+outage), a walk or a step off walks on for what is left, a burrow burrows again (after a
+slacken and a step off, as any re-burrow, once its legs had dug). Units: s.
 """
 from __future__ import annotations
 
@@ -85,8 +86,8 @@ class LinkWait:
             if not at_pose:
                 # The legs moved during the outage (an MCU reset, a stand): the anchor that
                 # was checked is gone, and the assumed Table II height no longer applies.
-                m.burrow.start(m.mode, f'{back}: the legs left the {m.mode} pose during the '
-                                       f'outage')
+                # Burrowed again as any re-burrow: off the dug sand, the tether slack.
+                m.burrow.again(f'{back}: the legs left the {m.mode} pose during the outage')
                 return
             m.go(State.CHECK, f'{back}: re-checking the {m.mode} anchor before resuming the '
                               f'tug')
@@ -94,7 +95,10 @@ class LinkWait:
             m.go(resume, f'{back}: walking on')
         elif resume == State.BURROW:
             m.cycle.modes.pop()                  # this burrow starts over
-            m.burrow.start(m.mode, f'{back}: burrow again')
+            if m.burrow.dug:                     # where its legs dug: as any re-burrow
+                m.burrow.again(f'{back}: the burrow was under way')
+            else:
+                m.burrow.start(m.mode, f'{back}: burrow again')
         elif resume == State.SLACKEN:
             m.go(State.SLACKEN, 'link back: slacken again')
         else:
