@@ -30,8 +30,16 @@ DEEPER = AnchorState(DH.h, DH.theta_b, *DH.final)
 
 
 @pytest.fixture(scope='module')
-def grounds():
-    inline = LiveGround(medium_scale=0.5)
+def inline():
+    """The reference: the same ground solved in this process (its cache changes no answer)."""
+    return LiveGround(medium_scale=0.5)
+
+
+@pytest.fixture
+def grounds(inline):
+    """(inline, a fresh BackgroundGround). Fresh per test: a background ground answers a new
+    pose with the last answer it gave, so a ground shared between tests made each depend on
+    the poses the tests before it asked (pytest-xdist's worksteal may run them in any order)."""
     background = BackgroundGround(LiveGround(medium_scale=0.5))
     yield inline, background
     background.close()
