@@ -62,6 +62,7 @@ from rftgls_interfaces.msg import (
 )
 from rftgls_node_base.node_main import run_node, stop_requested, usage, wants_help
 from rftgls_node_base.parameters import declare
+from rftgls_node_base.take_waiting import take_waiting
 
 from .behavior import (
     BehaviorConfig,
@@ -208,7 +209,9 @@ class BehaviorNode(Node):
         self.create_subscription(LinkState, 'minirquad/link', self.on_link, LATCHED)
         # capacity_node: its whole estimate, nothing else (status, value and the names of the
         # assumed inputs arrive together, so they always belong to one estimate).
-        self.create_subscription(AnchorEstimate, f'{cap_ns}/estimate', self.on_estimate, 10)
+        self.estimates = self.create_subscription(AnchorEstimate, f'{cap_ns}/estimate',
+                                                  self.on_estimate, 10)
+        self.expiry_rescued = 0    # expiry checks that found a newer estimate waiting
         # The report's <stem>_tug.png time series (behavior/tug_series.py).
         self.tug_series = TugSeries()
         self.create_timer(1.0 / rate, self.step)
@@ -345,6 +348,11 @@ class BehaviorNode(Node):
         tension sample's, or capacity_node's clock for a heartbeat), and never newer than the
         newest tension sample this node has seen, which every estimate is built on: a
         heartbeat over a dead or late link ages with the link's data."""
+        self.take_estimate(msg)
+        self.step()
+
+    def take_estimate(self, msg: AnchorEstimate) -> None:
+        """Put capacity_node's estimate into the observation (on_estimate's doc)."""
         o, t = self.obs, self.now_s()
         sample = self.sample_time(msg.header.stamp)
         if math.isfinite(o.t_tension):
@@ -361,14 +369,21 @@ class BehaviorNode(Node):
         o.slip_twist = twist if msg.slipping or not all(map(math.isfinite, twist)) \
             else (0.0, 0.0, 0.0)
         add_estimate(self.tug_series, t, msg, str(self.machine.state))
-        self.step()
 
     # ------------------------------------------------------------------ step
     def _on_expiry_check(self) -> None:
-        """Step now if the winch reels on an estimate that has just aged past the timeout."""
+        """Step now if the winch reels on an estimate that has just aged past the timeout.
+        Estimates already waiting in the queue are taken first: the executor hands this
+        timer out before the subscription when both are ready (rftgls_node_base.take_waiting),
+        and the newest estimate, not the one before it, is the evidence."""
         if self.finished or not self._last_winch or self._last_winch <= 0.0:
             return
         if self.now_s() - self.obs.t_capacity > self.cfg.estimate_timeout_s:
+            waiting = take_waiting(self.estimates)
+            for msg in waiting:
+                self.take_estimate(msg)
+            if waiting and self.now_s() - self.obs.t_capacity <= self.cfg.estimate_timeout_s:
+                self.expiry_rescued += 1
             self.step()
 
     def step(self) -> None:
@@ -435,6 +450,10 @@ class BehaviorNode(Node):
             return
         self.finished = True
         self.publish_winch(0.0)
+        if self.expiry_rescued:
+            self.get_logger().info(
+                f'{self.expiry_rescued} evidence checks found a newer estimate waiting in the '
+                'queue, taken before judging (rftgls_node_base.take_waiting)')
         self.write_report()
 
     def write_report(self) -> None:
