@@ -547,3 +547,35 @@ def test_evidence_needs_a_lower_bound(status, lower, usable, reason):
     v = evidence.judge(1.0, 2.5, status, 1.0, 0.05, frozenset({'height'}), frozenset(),
                        lower)
     assert (v.usable, v.reason) == (usable, reason), v
+
+
+def test_a_tug_that_crawls_in_the_slow_band_until_its_timeout_reburrows_stronger(predictor):
+    """capacity_node's bound for DL just covers the need: the sled's sliding tension (1.96 N)
+    sits at 96 % of 2.04 N, inside the slow band, and the reel crawls (6 mm/s). At the tug
+    timeout the robot re-burrows into a stronger mode (DH), whose tug runs at speed; a run
+    without a stronger mode, or a timeout at full speed, stops the cycle as before."""
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1, tug_timeout_s=25.0)
+    plant = Plant(0.4, predictor)
+    plant.capacity_fault = lambda p: (2.04, 'ok', None) if m.mode == 'DL' else None
+    reels = []
+    run_loop(m, plant, on_step=lambda p, mach: reels.append((mach.mode, mach.winch))
+             if mach.state == State.TUG else None)
+    texts = ' '.join(e['text'] for e in m.events)
+    assert 'tug timeout (25 s) with the tension at 96 % of the capacity' in texts, texts
+    assert m.records[0].mode == 'DL+DH' and m.records[0].outcome == 'ok', m.records
+    dl = [w for mode, w in reels if mode == 'DL' and w > 0.0]
+    dh = [w for mode, w in reels if mode == 'DH' and w > 0.0]
+    assert max(dl[len(dl) // 2:]) < 0.2 * m.cfg.tug_speed_m_s      # crawling
+    assert max(dh) == m.cfg.tug_speed_m_s                          # at speed
+    # no stronger mode than DH: the cycle stops at the timeout, winch braked
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1, tug_timeout_s=25.0)
+    plant = Plant(0.4, predictor)
+    plant.capacity_fault = lambda p: (2.04, 'ok', None)
+    run_loop(m, plant)
+    assert m.records[0].outcome == 'stopped' and m.records[0].reason == 'tug_slow', m.records
+    assert m.records[0].mode == 'DL+DH'
+    # a timeout at full speed is no thin margin: stopped, no re-burrow
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1, tug_timeout_s=2.0)
+    run_loop(m, Plant(0.4, predictor))
+    assert m.records[0].mode == 'DL' and m.records[0].outcome == 'stopped', m.records
+    assert 'tug timeout (2 s)' in m.reason

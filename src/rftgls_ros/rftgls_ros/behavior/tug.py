@@ -45,8 +45,9 @@ class PendingStop:
 class TugAttempt:
     """One tug, from entering TUG to leaving it: when it started (s), the energy readings
     (t s, J) for the paper's last-8-s window, the sliding tensions (N), when the last live
-    event went out, the evidence gap in progress and the last usable evidence, and whether the
-    own-map fallback was announced."""
+    event went out, the evidence gap in progress and the last usable evidence, whether the
+    own-map fallback was announced, and the tension/capacity ratio of the last reel-in (NaN
+    before one)."""
 
     started_t: float
     good: SpoolAt
@@ -56,6 +57,7 @@ class TugAttempt:
     gap: SpoolAt | None = None
     gap_reason: str = ''
     fallback_warned: bool = False
+    ratio: float = math.nan
 
 
 class Tug:
@@ -103,7 +105,18 @@ class Tug:
         if m.elapsed() > cfg.tug_timeout_s:
             m.winch = 0.0
             self.finish('timeout')
-            m.stop_cycle(f'tug timeout ({cfg.tug_timeout_s:.0f} s)')
+            ratio = self.attempt.ratio
+            if ratio >= cfg.slow_ratio:
+                # The sled's own sliding tension kept the reel inside the slow band: the
+                # anchor holds, but too thinly to bring the sled in within the timeout. A
+                # stronger burrow tugs at speed; only without one does the cycle stop.
+                m.burrow.hold(HoldCause.SLOW, f'tug timeout ({cfg.tug_timeout_s:.0f} s) with '
+                                              f'the tension at {100 * ratio:.0f} % of the '
+                                              f'capacity, inside the slow band from '
+                                              f'{100 * cfg.slow_ratio:.0f} %: winch stopped',
+                              'tug_slow')
+            else:
+                m.stop_cycle(f'tug timeout ({cfg.tug_timeout_s:.0f} s)')
             return True
         return False
 
@@ -213,6 +226,7 @@ class Tug:
         band = max(cfg.stop_ratio - cfg.slow_ratio, 1e-6)
         frac = min(1.0, max(cfg.min_speed_fraction, (cfg.stop_ratio - ratio) / band))
         m.winch = cfg.tug_speed_m_s * frac
+        a.ratio = ratio
         # The reel-in may run until its estimate ages out (the MCU enforces it); the own-map
         # fallback has no estimate to age: the MCU's deadman alone.
         m.winch_valid_until = 0.0 if source == 'own map' \
