@@ -4,8 +4,8 @@
                                                  |          ^        |     |
                                                  v          |        |     v
                                               REFUSED   STEP_OFF     |    HOLD (margin guard,
-                                                 (walk step_off_m)   |     |   slip, short)
-                                                            ^        v     |
+                                                 (walk step_off_m)   |     |   slip, short,
+                                                            ^        v     |   slow tug)
                                                             +----- SLACKEN <-+--> FINISHED
                                                                           (no stronger mode)
     CHECK, TUG --evidence lost--> WAIT_EVIDENCE --evidence back--> CHECK (next cycle)
