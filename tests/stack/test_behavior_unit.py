@@ -22,15 +22,9 @@ from rftgls_ros.behavior import (
     write_report,
 )
 from rftgls_ros.behavior.report import read_csv
-from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
 from rftgls_ros.tether import TetherTracker
 
 G = 9.81
-
-
-@pytest.fixture(scope='module')
-def predictor():
-    return node_predictor(DEFAULT_MAP, robot=None, medium=None)
 
 
 def test_force_need_nominal_and_update():

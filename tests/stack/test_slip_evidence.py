@@ -21,7 +21,6 @@ from plant import Plant, run_loop, table_ii_machine
 from minirquad_sim.ground import LiveGround
 from rftgls_ros.behavior import State
 from rftgls_ros.behavior.slip import SLIP_PITCH, SlipDetector
-from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
 
 SLED_KG = 0.8             # DH; lighter sleds get DL, which in this sand digs itself in
 
@@ -32,11 +31,6 @@ DEADMAN_S = 0.08          # the MCU's winch deadman (minirquad_sim --winch-deadm
 # before detection.
 NO_GAP_DETECT_M = 0.0045
 ONSETS_M = (0.1e-3, 0.3e-3, 0.5e-3, 0.7e-3, 0.9e-3)
-
-
-@pytest.fixture(scope='module')
-def predictor():
-    return node_predictor(DEFAULT_MAP, robot=None, medium=None)
 
 
 def _weak_sand_with_gap(predictor, onset_m, mcu):

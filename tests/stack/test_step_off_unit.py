@@ -10,12 +10,6 @@ import pytest
 from plant import Plant, run_loop, table_ii_machine  # tests/stack/plant.py
 
 from rftgls_ros.behavior import BehaviorConfig, State
-from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
-
-
-@pytest.fixture(scope='module')
-def predictor():
-    return node_predictor(DEFAULT_MAP, robot=None, medium=None)
 
 
 def reburrow_run(predictor, on_step=None, **kw):

@@ -11,13 +11,7 @@ from plant import Plant, fast_config, run_loop
 from rftgls_interfaces.msg import CycleOutcome
 from rftgls_ros.behavior import BehaviorMachine, ModeChooser, State
 from rftgls_ros.behavior.tug_series import TugSample
-from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
 from rftgls_ros.tug_action import OUTCOMES, cycle_outcome, feedback, run_succeeded
-
-
-@pytest.fixture(scope='module')
-def predictor():
-    return node_predictor(DEFAULT_MAP, robot=None, medium=None)
 
 
 def machine(predictor, **kw) -> BehaviorMachine:

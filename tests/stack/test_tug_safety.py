@@ -17,16 +17,10 @@ from plant import Plant, fast_config, run_loop, table_ii_machine
 from minirquad_sim.ground import LiveGround
 from rftgls_ros.behavior import BehaviorMachine, ModeChooser, State, evidence
 from rftgls_ros.behavior.slip import SLIP_LEGS, SLIP_PITCH, SLIP_TENSION_DROP, SlipDetector
-from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
 
 NAN = float('nan')
 MAX_REEL_M = 0.005      # <= 5 mm of reel after the evidence is gone
 MAX_STOP_S = 0.1        # within 0.1 s of tug time
-
-
-@pytest.fixture(scope='module')
-def predictor():
-    return node_predictor(DEFAULT_MAP, robot=None, medium=None)
 
 
 # ------------------------------------------------------------------ the evidence rule

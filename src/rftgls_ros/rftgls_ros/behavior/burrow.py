@@ -560,7 +560,10 @@ class Burrow:
         if m.elapsed() >= cfg.slacken_max_s or (m.elapsed() >= cfg.slacken_time_s
                                                 and not self.m.taut()):
             m.winch = 0.0
-            m.walk.step_off(f'slackened: re-burrow {self.next.mode}')
+            if cfg.step_off_m > 0.0:
+                m.walk.step_off(f'slackened: re-burrow {self.next.mode}')
+            else:
+                self.start_next()
 
     def start_next(self) -> None:
         """Burrow the re-burrow chosen before the slacken (`next`)."""

@@ -74,20 +74,12 @@ class Walk:
     def _do_walk(self) -> None:
         m = self.m
         if m.cycle.walk_s + m.elapsed() >= m.cfg.walk_time_s:
-            # The walk ends on a command, not on its deadline running out at the bridge
-            # (GaitCommand.valid_until, which warns: a silent commander).
-            m.command('gait', 'stand')
-            m.winch = 0.0
-            self.pause()
+            self._stand()
             m.go(State.CHOOSE, 'walk done')
 
     def step_off(self, reason: str) -> None:
-        """Walk step_off_m before the re-burrow burrow.next (module doc); a step_off_m of 0
-        re-burrows in place."""
+        """Walk step_off_m (> 0) before the re-burrow burrow.next (module doc)."""
         m = self.m
-        if m.cfg.step_off_m <= 0.0:
-            m.burrow.start_next()
-            return
         self.stepped_s = 0.0
         m.go(State.STEP_OFF, f'{reason}: step {1e3 * m.cfg.step_off_m:.0f} mm off the dug '
                              'sand first')
@@ -105,10 +97,16 @@ class Walk:
     def _do_step_off(self) -> None:
         m = self.m
         if self.stepped_s + m.elapsed() >= m.cfg.step_off_m / m.cfg.walk_speed_m_s:
-            m.command('gait', 'stand')
-            m.winch = 0.0
-            self.pause()
+            self._stand()
             m.burrow.start_next()
+
+    def _stand(self) -> None:
+        """End a walk or a step off: stand, winch braked, booked. On a command, not on the
+        walk's deadline running out at the bridge (GaitCommand.valid_until, which warns: a
+        silent commander)."""
+        self.m.command('gait', 'stand')
+        self.m.winch = 0.0
+        self.pause()
 
     def pause(self) -> None:
         """Book the walk so far (energy, time) to the cycle: the walk or the step off ends or
