@@ -39,15 +39,25 @@ class Bench:
         self.seq = 0
         self.dec = FrameDecoder()
         self.frames: list[tuple[float, object]] = []
+        self.sent: dict[int, bytes] = {}    # the last frame sent with each seq
         self._take(self.mcu.notice(0.0))
 
     def _take(self, data: bytes) -> None:
         self.frames += [(self.t, f) for f in self.dec.feed(data)]
 
     def send(self, msg, seq: int | None = None) -> int:
+        """A new frame, stamped with the simulated time in ms as the bridge stamps its own."""
         if seq is None:
             seq, self.seq = self.seq, (self.seq + 1) & 0xFF
-        self._take(self.mcu.receive(encode_frame(msg, seq, 0), self.t))
+        self.sent[seq] = encode_frame(msg, seq, round(self.t * 1000))
+        return self._deliver(self.sent[seq], seq)
+
+    def resend(self, seq: int) -> int:
+        """The host's retry: the same bytes as the frame first sent with this seq."""
+        return self._deliver(self.sent[seq], seq)
+
+    def _deliver(self, frame: bytes, seq: int) -> int:
+        self._take(self.mcu.receive(frame, self.t))
         for _, data, _ in self.mcu.tick(self.t):
             self._take(data)
         return seq
@@ -124,7 +134,7 @@ def test_every_command_is_acked_and_a_retry_is_not_executed_again(bench):
     assert b.acks()[-1] == m.Ack(s, m.MsgType.BURROW, m.AckResult.OK)
     b.run(8.0, until=lambda: b.last_telemetry().mode == m.Mode.ANCHORED)
     assert b.last_telemetry().mode == m.Mode.ANCHORED
-    b.send(m.Burrow(m.BurrowMode.SH), seq=s)        # the host's retry: same seq and type
+    b.resend(s)                                     # the host's retry: the same frame
     assert b.acks()[-1] == m.Ack(s, m.MsgType.BURROW, m.AckResult.OK)
     b.run(0.1)
     assert b.last_telemetry().mode == m.Mode.ANCHORED   # the sequence did not restart
@@ -134,19 +144,44 @@ def test_every_command_is_acked_and_a_retry_is_not_executed_again(bench):
 
 
 def test_an_older_command_resent_after_a_newer_one_is_executed_again(bench):
-    # The MCU remembers only the last (seq, type) it executed: a copy of any earlier frame is
-    # a new command to it. A stand lost on the wire and resent after the burrow that followed
-    # would stand the robot out of its burrow, so the host never resends a command a newer
-    # one of its channel replaced (tests/driver/test_command_retries.py,
+    # The MCU remembers the last command of each channel: a copy of an earlier frame of the
+    # same channel is a new command to it. A stand lost on the wire and resent after the
+    # burrow that followed would stand the robot out of its burrow, so the host never resends
+    # a command a newer one of its channel replaced (tests/driver/test_command_retries.py,
     # src/minirquad_driver/PROTOCOL.md).
     b = bench()
     stand = b.send(m.SetGait(m.GaitKind.STAND, down=0.0))
     b.send(m.Burrow(m.BurrowMode.DH))
     b.run(0.3)
     assert b.last_telemetry().mode == m.Mode.BURROW_RETRACT
-    b.send(m.SetGait(m.GaitKind.STAND, down=0.0), seq=stand)
+    b.resend(stand)
     b.run(0.05)
     assert b.last_telemetry().mode == m.Mode.IDLE
+
+
+def test_a_retry_after_a_command_of_another_channel_is_not_executed_again(bench):
+    # The burrow's ack was lost and the winch was commanded before the host's retry went out:
+    # the MCU must still know the copy (the legs' channel still has it last), or the burrow
+    # starts over from its retracting pose under an anchored robot.
+    b = bench()
+    s = b.send(m.Burrow(m.BurrowMode.SH))
+    b.run(8.0, until=lambda: b.last_telemetry().mode == m.Mode.ANCHORED)
+    b.send(m.Winch(0.0))
+    b.resend(s)
+    assert b.acks()[-1] == m.Ack(s, m.MsgType.BURROW, m.AckResult.OK)
+    b.run(0.1)
+    assert b.last_telemetry().mode == m.Mode.ANCHORED
+
+
+def test_a_new_command_with_the_seq_of_its_channels_last_is_executed(bench):
+    # After 256 host frames the seq comes round: the same seq and type, but a new command
+    # (a later stamp), so it runs. Sent here with that seq directly.
+    b = bench()
+    s = b.send(m.Burrow(m.BurrowMode.SH))
+    b.run(8.0, until=lambda: b.last_telemetry().mode == m.Mode.ANCHORED)
+    b.send(m.Burrow(m.BurrowMode.SH), seq=s)
+    b.run(0.05)
+    assert b.last_telemetry().mode == m.Mode.BURROW_RETRACT
 
 
 def test_a_burrow_sent_while_the_legs_stand_up_stays_at_its_final_pose(bench):
@@ -324,14 +359,14 @@ def test_a_retry_gets_the_first_answer_even_a_refusal(bench):
     b.send(m.EStop(True))
     s = b.send(m.Burrow(m.BurrowMode.SH))
     assert b.acks()[-1] == m.Ack(s, m.MsgType.BURROW, m.AckResult.ESTOPPED)
-    b.send(m.Burrow(m.BurrowMode.SH), seq=s)
+    b.resend(s)
     assert b.acks()[-1] == m.Ack(s, m.MsgType.BURROW, m.AckResult.ESTOPPED)
 
 
 def test_get_info_is_answered_with_ack_then_info_also_on_a_retry(bench):
     b = bench()
     s = b.send(m.GetInfo())
-    b.send(m.GetInfo(), seq=s)
+    b.resend(s)
     kinds = [type(f.message).__name__ for _, f in b.frames
              if isinstance(f.message, (m.Ack, m.Info))]
     assert kinds == ['Ack', 'Info', 'Ack', 'Info']

@@ -7,9 +7,9 @@ pty, the loop timing and the fault injection live in ``main.py`` and ``faults.py
 Firmware behaviour it models:
 - one sequence counter for every frame the MCU sends (the host counts gaps in it);
 - a uint32 millisecond clock (``clock_start_ms`` lets tests start it just before the wrap);
-- every host command is acked with its own seq; a repeated (seq, type) is re-acked with its
-  first answer but not executed again, so the host may retry; a frame of an MCU -> host type
-  is not acked (no ACK can name it);
+- every host command is acked with its own seq; a retry (the same seq, type and host stamp as
+  the last command of its channel) is re-acked with its first answer but not executed again,
+  so the host may retry; a frame of an MCU -> host type is not acked (no ACK can name it);
 - the watchdog: no valid host frame for ``watchdog_s`` stops legs and winch, sends an ERROR
   once; a later heartbeat clears the flag but does not restart motion;
 - the winch deadman: a non-zero winch speed not refreshed by a WINCH command for
@@ -73,7 +73,8 @@ class SimMcu:
         self._last_host_frame = now
         self._next_tel = now
         self._next_pow = now
-        self._last_cmd: tuple[tuple[int, int], int] | None = None   # (seq, type), result
+        # Per channel: the last command's (seq, type, host t_ms) and its answer.
+        self._last_cmd: dict[str, tuple[tuple[int, int, int], int]] = {}
         self._winch_cmd_t = now
         self._winch_hold = self.config.winch_deadman_s   # s the last WINCH may run
         self._watchdog_reported = False
@@ -121,10 +122,17 @@ class SimMcu:
             return self._frame(m.Ack(frame.seq, msg.TYPE, m.AckResult.OK), now)
         if int(msg.TYPE) not in m.HOST_TYPES:
             return b''   # an MCU -> host type sent the wrong way: no ack could name it
-        key = (frame.seq, int(msg.TYPE))
-        if self._last_cmd is not None and key == self._last_cmd[0]:
+        # The host resends only the newest command of a channel, as a byte copy: the same
+        # (seq, type, stamp) as that channel's last command is a retry. A newer command of
+        # another channel in between does not make it new (a BURROW resent after a WINCH
+        # must not restart the burrow); a new command 256 frames later with the same seq
+        # differs in its stamp.
+        channel = m.COMMAND_CHANNEL[msg.TYPE]
+        key = (frame.seq, int(msg.TYPE), frame.t_mcu_ms)
+        last = self._last_cmd.get(channel)
+        if last is not None and key == last[0]:
             # A host retry of a command already executed: the same answer, no second run.
-            return self._answer(frame.seq, msg, self._last_cmd[1], now)
+            return self._answer(frame.seq, msg, last[1], now)
         result = m.AckResult.OK
         if isinstance(msg, m.GetInfo):
             pass
@@ -149,7 +157,7 @@ class SimMcu:
                 and not isinstance(msg, (m.EStop, m.GetInfo))):
             robot.set_watchdog(False)
             self._watchdog_reported = False
-        self._last_cmd = (key, result)
+        self._last_cmd[channel] = (key, result)
         if self.on_command is not None:
             self.on_command(now, msg, int(result))
         return self._answer(frame.seq, msg, result, now)

@@ -29,11 +29,11 @@ Firmware::Firmware(const Hal& hal, const Config& config)
     : hal_(hal), config_(config), legs_(config), winch_(config), power_(config), seq_(0),
       reset_cause_(RESET_UNKNOWN), mode_(MODE_IDLE), estop_(false), watchdog_(false),
       watchdog_reported_(false), burrow_(BURROW_UNBURROW), unburrowing_(false),
-      reached_(false), reached_at_(0), last_host_frame_(0), have_last_command_(false),
-      last_seq_(0), last_type_(0), last_result_(0), next_control_(0), crc_reported_(0),
+      reached_(false), reached_at_(0), last_host_frame_(0), next_control_(0), crc_reported_(0),
       crc_reported_at_(0), servo_ok_(false), pitch_(0), pitch_rate_(0), imu_ok_(false),
       wrong_direction_(0), tx_dropped_(0), servo_errors_(0) {
   memset(servo_, 0, sizeof(servo_));
+  memset(last_, 0, sizeof(last_));
   for (int i = 0; i < 4; ++i) {
     angle_[i] = 0.0f;
     goal_[i] = 0;
@@ -106,8 +106,9 @@ void Firmware::on_frame(const Frame& frame, uint32_t now) {
     send_ack(frame.seq, type, ACK_OK, now);
     return;
   }
-  if (have_last_command_ && frame.seq == last_seq_ && type == last_type_) {
-    send_ack(frame.seq, type, last_result_, now);   // a retry: answer, do not execute again
+  LastCommand& last = last_[command_channel(type)];
+  if (last.have && frame.seq == last.seq && type == last.type && frame.t_ms == last.t_ms) {
+    send_ack(frame.seq, type, last.result, now);   // a retry: answer, do not execute again
     if (type == MSG_GET_INFO) send_about(MSG_INFO, now);
     return;
   }
@@ -116,10 +117,11 @@ void Firmware::on_frame(const Frame& frame, uint32_t now) {
     watchdog_ = false;
     watchdog_reported_ = false;
   }
-  have_last_command_ = true;
-  last_seq_ = frame.seq;
-  last_type_ = type;
-  last_result_ = result;
+  last.have = true;
+  last.seq = frame.seq;
+  last.type = type;
+  last.t_ms = frame.t_ms;
+  last.result = result;
   send_ack(frame.seq, type, result, now);
   if (type == MSG_GET_INFO) send_about(MSG_INFO, now);
 }

@@ -83,10 +83,17 @@ class Firmware {
   bool reached_;
   uint32_t reached_at_;
   uint32_t last_host_frame_;
-  bool have_last_command_;
-  uint8_t last_seq_;
-  uint8_t last_type_;
-  uint8_t last_result_;
+  // The last command executed on each channel and its answer. A host retry is a byte copy
+  // of its first frame, so the same (seq, type, t_ms) on its channel is a retry; a new
+  // command 256 frames later with the same seq differs in the host's millisecond stamp.
+  struct LastCommand {
+    bool have;
+    uint8_t seq;
+    uint8_t type;
+    uint32_t t_ms;
+    uint8_t result;
+  };
+  LastCommand last_[CHANNEL_COUNT];
   uint32_t next_control_;
   uint32_t crc_reported_;
   uint32_t crc_reported_at_;

@@ -66,6 +66,15 @@ bool reset_cause_ok(uint8_t c) { return c <= RESET_SOFTWARE || c == RESET_UNKNOW
 bool is_known_type(uint8_t type) { return payload_size(type) != -2; }
 bool is_host_type(uint8_t type) { return type >= MSG_HEARTBEAT && type <= MSG_GET_INFO; }
 
+Channel command_channel(uint8_t type) {
+  switch (type) {
+    case MSG_WINCH: return CHANNEL_WINCH;
+    case MSG_ESTOP: return CHANNEL_ESTOP;
+    case MSG_GET_INFO: return CHANNEL_INFO;
+    default: return CHANNEL_LEGS;   // SET_LEGS, SET_GAIT, BURROW
+  }
+}
+
 PayloadStatus unpack_payload(uint8_t type, const uint8_t* payload, size_t n, Message* out) {
   const int size = payload_size(type);
   if (size == -2) return PAYLOAD_BAD;

@@ -135,6 +135,14 @@ enum PayloadStatus {
 bool is_known_type(uint8_t type);
 bool is_host_type(uint8_t type);
 
+// What a host command sets: a newer command of the same channel replaces what an older one
+// set (the legs follow the last of SET_LEGS, SET_GAIT, BURROW). The host resends only the
+// newest command of a channel, so a retry is always recognised by that channel's last frame.
+enum Channel { CHANNEL_LEGS = 0, CHANNEL_WINCH = 1, CHANNEL_ESTOP = 2, CHANNEL_INFO = 3,
+               CHANNEL_COUNT = 4 };
+// Channel of a host command type other than HEARTBEAT (which sets nothing).
+Channel command_channel(uint8_t type);
+
 // Payload bytes -> message. The same checks, in the same order, as messages.py's unpack.
 PayloadStatus unpack_payload(uint8_t type, const uint8_t* payload, size_t n, Message* out);
 

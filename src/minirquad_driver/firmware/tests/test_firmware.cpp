@@ -22,6 +22,7 @@ struct Rig {
   mrq::Firmware fw;
   std::vector<Frame> out;
   uint8_t host_seq;
+  std::vector<uint8_t> sent[256];   // the last frame sent with each seq, for retries
   explicit Rig(uint32_t start_ms = 0, mrq::Config c = mrq::default_config())
       : config(c), fw(board.hal(), config), host_seq(0) {
     board.clock.ms = start_ms;
@@ -44,13 +45,21 @@ struct Rig {
     }
     collect();
   }
+  // A new frame, stamped with the clock in ms as the host stamps its own.
   uint8_t send(const Message& m, int seq = -1) {
     const uint8_t s = seq < 0 ? host_seq++ : uint8_t(seq);
-    board.serial.feed(fake::wire(m, s));
+    sent[s] = fake::wire(m, s, board.clock.ms);
+    board.serial.feed(sent[s]);
     return s;
   }
   void send_now(const Message& m, int seq = -1) {
     send(m, seq);
+    fw.loop();
+    collect();
+  }
+  // The host's retry: the same bytes as the frame first sent with this seq.
+  void resend_now(uint8_t seq) {
+    board.serial.feed(sent[seq]);
     fw.loop();
     collect();
   }
@@ -149,11 +158,36 @@ TEST(commands_are_acked_and_retries_not_executed_twice) {
   r.run(4000);
   CHECK_EQ(r.fw.mode(), mrq::MODE_ANCHORED);
   r.out.clear();
-  r.send_now(burrow(mrq::BURROW_SH), s);   // the host's retry of the same (seq, type)
+  r.resend_now(s);                             // the host's retry: the same frame
   ack = r.last(mrq::MSG_ACK);
   CHECK(ack && ack->message.ack.acked_seq == s && ack->message.ack.result == mrq::ACK_OK);
   CHECK_EQ(r.fw.mode(), mrq::MODE_ANCHORED);   // not restarted
   r.send_now(burrow(mrq::BURROW_SH));          // a new seq: executed
+  CHECK_EQ(r.fw.mode(), mrq::MODE_BURROW_RETRACT);
+}
+
+TEST(a_retry_after_a_command_of_another_channel_is_not_executed_twice) {
+  // The BURROW's ack was lost and a WINCH went out before the host's retry: the retry is
+  // still recognised (each channel remembers its last command), so the legs do not start
+  // the burrow over from its retracting pose.
+  Rig r;
+  const uint8_t s = r.send(burrow(mrq::BURROW_SH));
+  r.run(4000);
+  CHECK_EQ(r.fw.mode(), mrq::MODE_ANCHORED);
+  r.send_now(winch(0));
+  r.resend_now(s);
+  const Frame* ack = r.last(mrq::MSG_ACK);
+  CHECK(ack && ack->message.ack.acked_seq == s && ack->message.ack.acked_type == mrq::MSG_BURROW);
+  CHECK_EQ(r.fw.mode(), mrq::MODE_ANCHORED);
+}
+
+TEST(a_new_command_with_its_channels_last_seq_is_executed) {
+  // 256 host frames later the seq counter comes round: the same seq and type, a new stamp.
+  Rig r;
+  const uint8_t s = r.send(burrow(mrq::BURROW_SH));
+  r.run(4000);
+  CHECK_EQ(r.fw.mode(), mrq::MODE_ANCHORED);
+  r.send_now(burrow(mrq::BURROW_SH), s);
   CHECK_EQ(r.fw.mode(), mrq::MODE_BURROW_RETRACT);
 }
 
@@ -163,7 +197,7 @@ TEST(a_retry_of_a_refused_command_gets_the_same_answer) {
   const uint8_t s = r.send(winch(20000));
   r.run(5);
   CHECK_EQ(r.last(mrq::MSG_ACK)->message.ack.result, mrq::ACK_ESTOPPED);
-  r.send_now(winch(20000), s);
+  r.resend_now(s);
   CHECK_EQ(r.last(mrq::MSG_ACK)->message.ack.result, mrq::ACK_ESTOPPED);
   CHECK_EQ(r.fw.winch().speed_command(), 0);
 }
