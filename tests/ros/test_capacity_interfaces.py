@@ -93,6 +93,7 @@ def test_query_service_refuses_bad_requests(stack):
                                                  theta_l2_rad=0.0, phi_rad=PHI))
     assert off_grid.status == 'out_of_range' and not off_grid.has_value
     assert math.isnan(off_grid.capacity_n)
+    assert math.isnan(off_grid.capacity_lower_n)
     nan = call(probe, QueryCapacity.Request(h_m=math.nan, phi_rad=PHI))
     assert nan.status == 'invalid_input' and nan.reason == 'not_finite'
     bad_pull = call(probe, QueryCapacity.Request(h_m=DH.h, phi_rad=PHI, pull='sideways'))
@@ -187,6 +188,7 @@ def test_behavior_asks_capacity_node(ros_context):
     import threading
 
     from rftgls_ros.behavior import ANCHOR_MODES
+    from rftgls_ros.behavior.model import ModeChooser
     from rftgls_ros.capacity.node_predictor import DEFAULT_MAP, node_predictor
     from rftgls_ros.capacity_query import ServicePredictor
     node = CapacityNode(context=ros_context, parameter_overrides=[
@@ -210,6 +212,23 @@ def test_behavior_asks_capacity_node(ros_context):
                 if cap is not None:
                     assert cap == pytest.approx(ref_cap, abs=1e-9)
         assert pred.calls == 2 * len(ANCHOR_MODES)
+        # The lower bound over each mode's height band: capacity_node's own (one question
+        # per angle), the same as the chooser computes in this process over the predictor
+        # capacity_node builds (the map and its live answers next to the support edge, which
+        # SH's band reaches at 51 mm; the node's bound here is its range part alone:
+        # lower_bound_level 0).
+        like_node = node_predictor(DEFAULT_MAP, robot=None, medium=None,
+                                   edge_live_method='direct-warm')
+        asked, own = ModeChooser(pred), ModeChooser(like_node)
+        for name, mode in ANCHOR_MODES.items():
+            for phi in (0.0, PHI):
+                state = mode.expected_state()
+                got, ref = (c.band_scan(state, phi, mode.h_band) for c in (asked, own))
+                assert (got.status, got.gap) == (ref.status, ref.gap), name
+                assert got.lower == pytest.approx(ref.lower, abs=1e-9), name
+                assert got.point == pytest.approx(ref.point, abs=1e-9), name
+                assert got.lower is not None and got.lower <= got.point
+        assert pred.calls == 4 * len(ANCHOR_MODES)
     finally:
         pred.destroy()
         asker.destroy_node()

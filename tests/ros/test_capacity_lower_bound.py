@@ -80,6 +80,34 @@ def test_node_publishes_the_lower_bound(ros_context, cmap):
                                       math.radians(1.0), 0.1)
         assert along(cap) == pytest.approx(c, rel=1e-6)
         assert along(low) == pytest.approx(expect, rel=1e-6) and along(low) < along(cap)
+
+        # One bound: asked about the same state (~/query_capacity, what behavior_node chooses
+        # and checks on), the node answers the bound it published. The message carries
+        # lower x d(phi) and `along` projects it back onto the unit d: a few ulps apart.
+        from rftgls_interfaces.srv import QueryCapacity
+        client = probe.node.create_client(QueryCapacity, '/capacity_node/query_capacity')
+        assert probe.spin_until(client.service_is_ready)
+
+        def ask(h_band):
+            fut = client.call_async(QueryCapacity.Request(
+                h_m=DH.h, theta_b_rad=DH.theta_b, theta_l1_rad=DH.theta_l1,
+                theta_l2_rad=DH.theta_l2, phi_rad=PHI, h_band_m=h_band))
+            assert probe.spin_until(fut.done), 'no answer from the query service'
+            return fut.result()
+
+        exact = ask(0.0)
+        assert exact.capacity_n == c and exact.capacity_lower_n == pytest.approx(
+            along(low), rel=1e-12)
+        # With h known only within +- 3 mm, the range part joins: the smallest capacity of
+        # the map at the five heights range_bound scans (h, +-1.5 mm, +-3 mm), if smaller.
+        band = ask(0.003)
+        hs = [DH.h + f * 0.003 for f in (-1.0, -0.5, 0.0, 0.5, 1.0)]
+        scan = min(cmap.query(AnchorState(h, *DH.as_tuple()[1:]), PHI, 'backward').capacity_N
+                   for h in hs)
+        assert band.capacity_lower_n == min(expect, scan) <= exact.capacity_lower_n
+        refused = ask(-0.001)
+        assert refused.status == 'invalid_input' and refused.reason == 'bad_h_band'
+        assert math.isnan(refused.capacity_lower_n)
     finally:
         ex.shutdown()
         node.destroy_node()

@@ -93,16 +93,48 @@ def test_the_default_demo_burrows_with_the_physics_and_decides_on_the_lower_boun
     assert 'physics stopped' not in report and 'physics_behind_s' in report, report
 
 
+def dh_lower_bound() -> float:
+    """DH's lower bound (N) as capacity_node computes it with the shipped parameters, from
+    rftgls_core alone: the shipped map at Table II's DH pose, the smaller of the one-sided
+    confidence bound (rftgls_core.uncertainty) and the smallest capacity over the height band
+    (34 +- 2 x 1 mm, the five heights capacity_node scans), the weaker of phi 0 and -20 deg."""
+    import yaml
+
+    from rftgls_core.maps import CapacityMap, shipped_map_path
+    from rftgls_core.types import AnchorState
+    from rftgls_core.uncertainty import capacity_lower_bound
+    p = yaml.safe_load((REPO / 'ros2_ws/params/capacity_node.yaml').read_text())
+    p = p['/**/capacity_node']['ros__parameters']
+    cmap = CapacityMap.load(shipped_map_path('minirquad'))
+    dh = AnchorState.from_degrees(0.034, 5.0, -40.0, 30.0)
+    out = []
+    for phi in (0.0, math.radians(-20.0)):
+        def cap(st, phi=phi):
+            return cmap.query(st, phi, 'backward')
+        c = cap(dh).capacity_N
+        sigma = capacity_lower_bound(cap, dh, phi, c, p['lower_bound_level'], p['h_sigma_m'],
+                                     p['theta_b_sigma_rad'], p['capacity_rel_sigma'])
+        band = min(cap(AnchorState(dh.h + f * 0.002, *dh.as_tuple()[1:])).capacity_N
+                   for f in (-1.0, -0.5, 0.0, 0.5, 1.0))
+        out.append(min(sigma, band))
+    return min(out)
+
+
 @pytest.mark.slow
 def test_demo_refuses_a_sled_no_lower_bound_covers(tmp_path):
-    # 1 kg needs 4.9 N: DH's point estimate (5.24 N) covers it, its lower bound over
-    # 34 +- 2 mm (4.73 N) does not. No burrow, no tug, exit 4 and the reason on stderr.
+    # 1 kg needs 4.9 N: DH's point estimate (5.24 N) covers it, its lower bound (capacity_node's:
+    # the medium's 5 % and one sigma of pose, and 34 +- 2 mm) does not. No burrow, no tug,
+    # exit 4 and the reason on stderr.
     out = tmp_path / 'demo'
     proc = demo(out, 1.0, 'burrow_modes:=table_ii')   # no gait map for a 1 kg sled
     text = proc.stdout + proc.stderr
     assert proc.returncode == 4, text
-    assert re.search(r'1000 g REFUSED, no tug: no mode suffices: need 4\.9\d N x 1\.00 / 0\.97, '
-                     r'strongest DH has a lower bound of 4\.7\d N', proc.stderr), text
+    said = re.search(r'1000 g REFUSED, no tug: no mode suffices: need 4\.9\d N x 1\.00 / '
+                     r'0\.97, strongest DH has a lower bound of (\d+\.\d\d) N', proc.stderr)
+    assert said, text
+    # printed to 0.01 N; the map's DH pose lies away from its support edge, where
+    # capacity_node's live answers would replace the map's
+    assert float(said.group(1)) == pytest.approx(dh_lower_bound(), abs=0.0051), text
     assert '1000 g sled -> REFUSED' in proc.stdout, text
     (row,) = read_csv(out / 'cycle_report.csv')
     assert (row.mode, row.outcome, row.reason) == ('-', 'refused', 'no_sufficient_mode')

@@ -169,7 +169,8 @@ class CapacityNode(Node):
         return SetParametersResult(successful=True)
 
     def on_query(self, req, res):
-        return answer_query(self.estimator.predictor, self.params['pull'], req, res)
+        return answer_query(self.estimator.predictor, self.params['pull'], req, res,
+                            self.estimator.hypothetical_bound)
 
     def now_s(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9

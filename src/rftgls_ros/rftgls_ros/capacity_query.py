@@ -3,15 +3,18 @@ behavior_node's "what if I burrow to this pose" question and capacity_node's ans
 
 ``answer_query`` fills the response from capacity_node's own predictor, so the answer gives the
 numbers of `rftgls capacity --method map` for the same map, and the behaviour decides on the same
-map or model as the estimates it tugs on (it loads no copy of its own).
+map or model as the estimates it tugs on (it loads no copy of its own). With the capacity it
+sends capacity_node's own lower bound at that state, h known only within a band: the bound
+the node publishes for a live state, so a mode is chosen and checked on the number its tug
+will be gated on (docs/design/capacity-inputs.md, "One bound").
 
 ``ServicePredictor`` is the ModeChooser's predictor ``(state, phi) -> (capacity N | None,
-Status)`` answered by that service. The call blocks the caller for at most ``timeout_s``: the
-client lives on a private node spun by a private executor, so it can be called from a callback
-of the behaviour node's own executor. It waits in slices of ``WAIT_SLICE_S`` and gives up
-within one slice once ``stopping()`` is true (node_main.stop_requested: a SIGINT): a mode
-choice asks dozens of questions in one callback, and the node's stop cannot begin before that
-callback returns.
+Status)`` answered by that service, and its ``bound`` the lower bound. The call blocks the
+caller for at most ``timeout_s``: the client lives on a private node spun by a private
+executor, so it can be called from a callback of the behaviour node's own executor. It waits
+in slices of ``WAIT_SLICE_S`` and gives up within one slice once ``stopping()`` is true
+(node_main.stop_requested: a SIGINT): a mode choice asks several questions in one callback,
+and the node's stop cannot begin before that callback returns.
 
 Safety: an unanswered question is no value. A missing service, a timeout or a malformed answer
 gives ``(None, Status.STALE)``, which the chooser never counts as sufficient (no tug on it);
@@ -38,9 +41,14 @@ CAPACITY_SOURCES = ('service', 'local_map')
 WAIT_SLICE_S = 0.05
 
 
-def answer_query(predictor, default_pull: str, req, res):
-    """Fill a QueryCapacity response from predictor.predict (invalid_input on a bad request)."""
-    res.capacity_n = num_or_nan(None)
+#: (state, phi, pull, h_band m, prediction at the state or None) -> lower bound N or None
+Bound = Callable[[AnchorState, float, str, float, CapacityResult | None], float | None]
+
+
+def answer_query(predictor, default_pull: str, req, res, bound: Bound | None = None):
+    """Fill a QueryCapacity response from predictor.predict and, when given, ``bound``
+    (capacity_node: CapacityEstimator.hypothetical_bound); invalid_input on a bad request."""
+    res.capacity_n = res.capacity_lower_n = num_or_nan(None)
     res.slip_twist = res.slip_twist_scaled = twist_msg(None)
     res.method = predictor.name
     values = (req.h_m, req.theta_b_rad, req.theta_l1_rad, req.theta_l2_rad, req.phi_rad)
@@ -55,10 +63,17 @@ def answer_query(predictor, default_pull: str, req, res):
         res.status, res.reason = str(Status.INVALID_INPUT), 'not_finite'
         res.detail = f'state and phi must be finite, got {values}'
         return res
-    r = predictor.predict(AnchorState(*values[:4]), values[4], pull)
+    if not (math.isfinite(req.h_band_m) and req.h_band_m >= 0.0):
+        res.status, res.reason = str(Status.INVALID_INPUT), 'bad_h_band'
+        res.detail = f'h_band_m must be finite and >= 0, got {req.h_band_m!r}'
+        return res
+    state = AnchorState(*values[:4])
+    r = predictor.predict(state, values[4], pull)
     res.status, res.reason, res.detail = str(r.status), r.reason, r.detail
     res.has_value = r.status.has_value
     res.capacity_n = num_or_nan(r.capacity_N)
+    if bound is not None and r.status.has_value and r.capacity_N is not None:
+        res.capacity_lower_n = num_or_nan(bound(state, values[4], pull, req.h_band_m, r))
     res.slip_twist = twist_msg(r.slip_twist)
     res.slip_twist_scaled = twist_msg(r.slip_twist_scaled)
     res.flags = list(r.flags)
@@ -90,26 +105,33 @@ class ServicePredictor:
     def predict(self, state: AnchorState, phi: float, pull: Pull | str = '') -> CapacityResult:
         """The core Predictor protocol (rftgls_core.predictor) over the query service. No
         answer in time, or an answer this node cannot read, is `stale` with no value."""
+        return self.bound(state, phi, 0.0, pull)[0]
+
+    def bound(self, state: AnchorState, phi: float, h_band: float,
+              pull: Pull | str = '') -> tuple[CapacityResult, float | None]:
+        """(the prediction, capacity_node's lower bound N with h within +- h_band m, or None
+        where the node gives none). The prediction is `stale` without a value when the
+        question went unanswered (``predict``)."""
         if time.monotonic() < self._down_until:
-            return self._no_value(phi, 'capacity_query_backoff')
+            return self._no_value(phi, 'capacity_query_backoff'), None
         if self.stopping():                   # no new question once a stop is requested
-            return self._no_value(phi, 'stopping')
+            return self._no_value(phi, 'stopping'), None
         if not self._wait(self._client.service_is_ready):
-            return self._failed(phi, f'service {self._client.srv_name} not available')
+            return self._failed(phi, f'service {self._client.srv_name} not available'), None
         req = QueryCapacity.Request(h_m=float(state.h), theta_b_rad=float(state.theta_b),
                                     theta_l1_rad=float(state.theta_l1),
                                     theta_l2_rad=float(state.theta_l2), phi_rad=float(phi),
-                                    pull=str(pull or self.pull))
+                                    pull=str(pull or self.pull), h_band_m=float(h_band))
         future = self._client.call_async(req)
         self._wait(future.done)
         res = future.result() if future.done() else None
         if res is None:
             self._client.remove_pending_request(future)
-            return self._failed(phi, f'no answer within {self.timeout_s:g} s')
+            return self._failed(phi, f'no answer within {self.timeout_s:g} s'), None
         try:
             status = Status(res.status)
         except ValueError:
-            return self._failed(phi, f'unknown status {res.status!r}')
+            return self._failed(phi, f'unknown status {res.status!r}'), None
         self.calls += 1
         cap = res.capacity_n
         has = status.has_value and math.isfinite(cap)
@@ -117,11 +139,13 @@ class ServicePredictor:
         def twist(t) -> tuple[float, float, float] | None:
             v = (t.linear.x, t.linear.z, t.angular.y)
             return v if has and all(math.isfinite(x) for x in v) else None
+        lower = res.capacity_lower_n
         return CapacityResult(phi=phi, status=status, method=res.method,
                               capacity_N=cap if has else None,
                               slip_twist=twist(res.slip_twist),
                               slip_twist_scaled=twist(res.slip_twist_scaled),
-                              reason=res.reason, detail=res.detail, flags=tuple(res.flags))
+                              reason=res.reason, detail=res.detail, flags=tuple(res.flags)), \
+            (lower if has and math.isfinite(lower) and lower >= 0.0 else None)
 
     def __call__(self, state: AnchorState, phi: float) -> tuple[float | None, Status]:
         """(capacity N or None, status): the short form the tests and tools print."""

@@ -10,13 +10,17 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Protocol, runtime_checkable
 
 from rftgls_conventions import G
 from rftgls_core.multibody.gaits import TABLE_II_BURROWS
 from rftgls_core.predictor import Predictor
 from rftgls_core.robots.measured_burrows import MEASURED_BURROWS, MEASURED_ENERGY_RATIOS
+from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull, Status
 
+from ..capacity.estimator import EstimatorConfig
+from ..capacity.lower_bound import BoundSettings, LowerBound
 from ..capacity.range_bound import scan_points
 
 
@@ -151,11 +155,53 @@ class EnergyModel:
 Prediction = tuple[float | None, Status]
 
 
+@runtime_checkable
+class BoundSource(Protocol):
+    """Where the chooser's lower bounds come from: capacity_node's query service
+    (capacity_query.ServicePredictor) or a predictor in this process (LocalBound)."""
+
+    def bound(self, state: AnchorState, phi: float, h_band: float,
+              pull: Pull | str = '') -> tuple[CapacityResult, float | None]:
+        """(the prediction at state, the lower bound N with h within +- h_band m; None
+        where no part of the bound applies)."""
+        ...
+
+
+class LocalBound:
+    """Lower bounds over a predictor in this process (behavior_node's capacity_source
+    local_map, and the tests' predictors), computed as capacity_node computes its own
+    (capacity.lower_bound.LowerBound). ``settings``: the bound's sigma part and limits; the
+    default is the range part alone within capacity_node's default h limits, because this
+    process does not know the sigmas a capacity_node is configured with."""
+
+    def __init__(self, predictor: Predictor, pull: Pull | str = 'backward',
+                 settings: BoundSettings | None = None):
+        c = EstimatorConfig()
+        self.predictor = predictor
+        self.pull = Pull(pull)
+        self.settings = settings or BoundSettings(0.0, 0.0, 0.0, 0.0, c.h_range_m,
+                                                  c.phi_limit_rad)
+        self._bounds: dict[Pull, LowerBound] = {}
+
+    def bound(self, state: AnchorState, phi: float, h_band: float,
+              pull: Pull | str = '') -> tuple[CapacityResult, float | None]:
+        key = Pull(pull or self.pull)
+        r = self.predictor.predict(state, phi, key)
+        if not r.status.has_value or r.capacity_N is None:
+            return r, None
+        if key not in self._bounds:
+            self._bounds[key] = LowerBound(
+                lambda st, ph: self.predictor.predict(st, ph, key), self.settings)
+        ranges = (('height', h_band),) if h_band > 0.0 else ()
+        return r, self._bounds[key].bound(state, phi, r, ranges)
+
+
 @dataclass(frozen=True)
 class BandScan:
     """One pull angle over a height band: the lower bound (N, None without an answer), the
     point estimate at the band's centre (N, None without a value), the status (stale: a
-    question went unanswered) and the first height without a value ('' = none)."""
+    question went unanswered) and, when the bound is 0 for want of a value, where ('' =
+    nowhere)."""
 
     lower: float | None
     point: float | None
@@ -229,7 +275,9 @@ class ModeChooser:
     the sled moves, so it does not suffice.
 
     ``predictor``: any rftgls_core ``Predictor`` (the map capacity_node loads, or the live
-    model), asked for ``pull`` (MiniRQuad's winch is on its back: 'backward').
+    model), asked for ``pull`` (MiniRQuad's winch is on its back: 'backward'). Its lower
+    bounds come from the predictor itself when it is a ``BoundSource`` (capacity_node's query
+    service: the bound capacity_node gates the tug on), else from ``LocalBound`` over it.
     Only a measured ``ok`` prediction counts (``assumed``, ``extrapolated`` and every
     no-value status do not). ``scale`` (<= 1) multiplies every prediction once the robot has
     seen its anchor slip below the prediction (the ground is weaker than the model)."""
@@ -242,6 +290,8 @@ class ModeChooser:
         self.phis = tuple(phis)
         self.modes = modes or ANCHOR_MODES
         self.pull = Pull(pull)
+        self.bounds: BoundSource = predictor if isinstance(predictor, BoundSource) \
+            else LocalBound(predictor, self.pull)
         self.scale = 1.0
         self.stop_ratio = 1.0
 
@@ -261,34 +311,39 @@ class ModeChooser:
         return (r.capacity_N if r.status.has_value else None), r.status
 
     def lower_capacity(self, state: AnchorState, phi: float, h_band: float) -> Prediction:
-        """(smallest capacity N over h +- h_band, status): the height of p is not measured,
-        only known to lie in the band; the scan points are capacity_node's (range_bound.py).
-        A point without a value makes it 0 (the anchor may hold nothing there). Status: stale
-        when a question went unanswered (no value: missing evidence, not a weak anchor), else
-        ok. h_band 0 or NaN: the state's h alone."""
+        """(lower bound N, status) at state: the bound capacity_node computes (``bounds``),
+        with the height of p known only to lie within h +- h_band (m; 0 or NaN: the state's h
+        alone). 0 when the prediction at the state has no value. Status: stale when the
+        question went unanswered (no value: missing evidence, not a weak anchor), else ok."""
         scan = self.band_scan(state, phi, h_band)
         return scan.lower, scan.status
 
     def band_scan(self, state: AnchorState, phi: float, h_band: float) -> BandScan:
-        """``lower_capacity`` with the point estimate at the state's own h and the first
-        height without a value (the scan includes h itself: the point costs no question)."""
-        hs = [state.h] if not (h_band > 0.0) else scan_points(state.h, h_band, 0.0, math.inf)
-        lower: float | None = None
-        point: float | None = None
-        gap = ''
-        for h in hs:
-            cap, status = self.capacity(AnchorState(h, state.theta_b, state.theta_l1,
-                                                    state.theta_l2), phi)
-            if status == Status.STALE:            # unanswered: no value, not a weak anchor
-                return BandScan(None, None, status, f'{status} at h {1e3 * h:.0f} mm')
-            valid = status == Status.OK and cap is not None and math.isfinite(cap)
-            if not valid:
-                gap = gap or f'{status} at h {1e3 * h:.0f} mm'
-            elif h == state.h:
-                point = cap
-            cap = cap if valid else 0.0
-            lower = cap if lower is None else min(lower, cap)
-        return BandScan(lower, point, Status.OK, gap)
+        """``lower_capacity`` with the point estimate at the state itself and, when the
+        bound is 0 for want of a value, where ('' = nowhere)."""
+        r, lower = self.bounds.bound(state, phi, h_band if h_band > 0.0 else 0.0, self.pull)
+        if r.status == Status.STALE:            # unanswered: no value, not a weak anchor
+            return BandScan(None, None, r.status, f'{r.status} at h {1e3 * state.h:.0f} mm')
+        cap = r.capacity_N
+        if r.status != Status.OK or cap is None or not math.isfinite(cap):
+            return BandScan(0.0, None, Status.OK, f'at its pose ({r.status} at h '
+                                                  f'{1e3 * state.h:.0f} mm)')
+        lower = cap if lower is None else min(lower, cap)
+        gap = '' if lower > 0.0 or cap == 0.0 else self._no_value_at(state, phi, h_band)
+        return BandScan(lower, cap, Status.OK, gap)
+
+    def _no_value_at(self, state: AnchorState, phi: float, h_band: float) -> str:
+        """Where a bound of 0 found no value, for the decision's text: the first height of
+        the band's scan (range_bound.scan_points, within capacity_node's default h limits)
+        whose prediction has none, else one sigma of the pose (the bound's sigma part).
+        Asked only for a bound of 0, so the extra questions cost nothing on the way to a
+        tug."""
+        if h_band > 0.0:
+            for h in scan_points(state.h, h_band, *EstimatorConfig().h_range_m):
+                r = self.predictor.predict(replace(state, h=h), phi, self.pull)
+                if not r.status.has_value or r.capacity_N is None:
+                    return f'somewhere in its height band ({r.status} at h {1e3 * h:.0f} mm)'
+        return 'within one sigma of its pose (the bound\'s sigma part)'
 
     def evaluate(self, mode: str, state: AnchorState, need: float, energy: float,
                  h_band: float | None = None) -> Candidate:
@@ -318,7 +373,7 @@ class ModeChooser:
         ok = weakest >= required
         why = (f'lower bound {weakest:.2f} N >= {required:.2f} N' if ok
                else f'lower bound {weakest:.2f} N < {required:.2f} N'
-               + (f': no value somewhere in its height band ({gaps[0]})' if gaps else ''))
+               + (f': no value {gaps[0]}' if gaps else ''))
         return Candidate(mode, tuple(caps), tuple(stats), weakest, energy, ok, why,
                          weakest_point)
 
