@@ -128,12 +128,18 @@ def test_reset_notice_first_then_telemetry_and_power_at_their_rates(bench):
     assert all(9 <= y - x <= 11 for x, y in zip(stamps[1:], stamps[2:]))
 
 
-def test_every_command_is_acked_and_a_retry_is_not_executed_again(bench):
-    b = bench()
+def anchored_by_sh(b: Bench) -> int:
+    """Burrow SH and run until the MCU reports the robot anchored; the BURROW's seq."""
     s = b.send(m.Burrow(m.BurrowMode.SH))
     assert b.acks()[-1] == m.Ack(s, m.MsgType.BURROW, m.AckResult.OK)
     b.run(8.0, until=lambda: b.last_telemetry().mode == m.Mode.ANCHORED)
     assert b.last_telemetry().mode == m.Mode.ANCHORED
+    return s
+
+
+def test_every_command_is_acked_and_a_retry_is_not_executed_again(bench):
+    b = bench()
+    s = anchored_by_sh(b)
     b.resend(s)                                     # the host's retry: the same frame
     assert b.acks()[-1] == m.Ack(s, m.MsgType.BURROW, m.AckResult.OK)
     b.run(0.1)
@@ -164,8 +170,7 @@ def test_a_retry_after_a_command_of_another_channel_is_not_executed_again(bench)
     # the MCU must still know the copy (the legs' channel still has it last), or the burrow
     # starts over from its retracting pose under an anchored robot.
     b = bench()
-    s = b.send(m.Burrow(m.BurrowMode.SH))
-    b.run(8.0, until=lambda: b.last_telemetry().mode == m.Mode.ANCHORED)
+    s = anchored_by_sh(b)
     b.send(m.Winch(0.0))
     b.resend(s)
     assert b.acks()[-1] == m.Ack(s, m.MsgType.BURROW, m.AckResult.OK)
@@ -177,8 +182,7 @@ def test_a_new_command_with_the_seq_of_its_channels_last_is_executed(bench):
     # After 256 host frames the seq comes round: the same seq and type, but a new command
     # (a later stamp), so it runs. Sent here with that seq directly.
     b = bench()
-    s = b.send(m.Burrow(m.BurrowMode.SH))
-    b.run(8.0, until=lambda: b.last_telemetry().mode == m.Mode.ANCHORED)
+    s = anchored_by_sh(b)
     b.send(m.Burrow(m.BurrowMode.SH), seq=s)
     b.run(0.05)
     assert b.last_telemetry().mode == m.Mode.BURROW_RETRACT

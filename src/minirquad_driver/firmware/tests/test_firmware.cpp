@@ -166,14 +166,20 @@ TEST(commands_are_acked_and_retries_not_executed_twice) {
   CHECK_EQ(r.fw.mode(), mrq::MODE_BURROW_RETRACT);
 }
 
+// Burrow SH and run until anchored; the BURROW's seq.
+static uint8_t anchored_by_sh(Rig& r) {
+  const uint8_t s = r.send(burrow(mrq::BURROW_SH));
+  r.run(4000);
+  CHECK_EQ(r.fw.mode(), mrq::MODE_ANCHORED);
+  return s;
+}
+
 TEST(a_retry_after_a_command_of_another_channel_is_not_executed_twice) {
   // The BURROW's ack was lost and a WINCH went out before the host's retry: the retry is
   // still recognised (each channel remembers its last command), so the legs do not start
   // the burrow over from its retracting pose.
   Rig r;
-  const uint8_t s = r.send(burrow(mrq::BURROW_SH));
-  r.run(4000);
-  CHECK_EQ(r.fw.mode(), mrq::MODE_ANCHORED);
+  const uint8_t s = anchored_by_sh(r);
   r.send_now(winch(0));
   r.resend_now(s);
   const Frame* ack = r.last(mrq::MSG_ACK);
@@ -184,9 +190,7 @@ TEST(a_retry_after_a_command_of_another_channel_is_not_executed_twice) {
 TEST(a_new_command_with_its_channels_last_seq_is_executed) {
   // 256 host frames later the seq counter comes round: the same seq and type, a new stamp.
   Rig r;
-  const uint8_t s = r.send(burrow(mrq::BURROW_SH));
-  r.run(4000);
-  CHECK_EQ(r.fw.mode(), mrq::MODE_ANCHORED);
+  const uint8_t s = anchored_by_sh(r);
   r.send_now(burrow(mrq::BURROW_SH), s);
   CHECK_EQ(r.fw.mode(), mrq::MODE_BURROW_RETRACT);
 }
