@@ -170,7 +170,7 @@ class CapacityNode(Node):
 
     def on_query(self, req, res):
         return answer_query(self.estimator.predictor, self.params['pull'], req, res,
-                            self.estimator.hypothetical_bound)
+                            self.estimator.asked.bound)
 
     def now_s(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9

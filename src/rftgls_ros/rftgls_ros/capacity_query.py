@@ -47,7 +47,7 @@ Bound = Callable[[AnchorState, float, str, float, CapacityResult | None], float 
 
 def answer_query(predictor, default_pull: str, req, res, bound: Bound | None = None):
     """Fill a QueryCapacity response from predictor.predict and, when given, ``bound``
-    (capacity_node: CapacityEstimator.hypothetical_bound); invalid_input on a bad request."""
+    (capacity_node: lower_bound.AskedBound.bound); invalid_input on a bad request."""
     res.capacity_n = res.capacity_lower_n = num_or_nan(None)
     res.slip_twist = res.slip_twist_scaled = twist_msg(None)
     res.method = predictor.name

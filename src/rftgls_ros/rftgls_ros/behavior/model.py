@@ -20,7 +20,7 @@ from rftgls_core.surfaces.base import CapacityResult
 from rftgls_core.types import AnchorState, Pull, Status
 
 from ..capacity.estimator import EstimatorConfig
-from ..capacity.lower_bound import BoundSettings, LowerBound
+from ..capacity.lower_bound import AskedBound, BoundSettings
 from ..capacity.range_bound import scan_points
 
 
@@ -153,6 +153,9 @@ class EnergyModel:
 
 # --------------------------------------------------------------------------- predictions
 Prediction = tuple[float | None, Status]
+# Where a height band is scanned, m: capacity_node's default limits (its configured ones are
+# not known in this process).
+H_LIMITS_M = EstimatorConfig().h_range_m
 
 
 @runtime_checkable
@@ -169,19 +172,17 @@ class BoundSource(Protocol):
 
 class LocalBound:
     """Lower bounds over a predictor in this process (behavior_node's capacity_source
-    local_map, and the tests' predictors), computed as capacity_node computes its own
-    (capacity.lower_bound.LowerBound). ``settings``: the bound's sigma part and limits; the
+    local_map, and the tests' predictors), by capacity_node's own code for asked states
+    (capacity.lower_bound.AskedBound). ``settings``: the bound's sigma part and limits; the
     default is the range part alone within capacity_node's default h limits, because this
     process does not know the sigmas a capacity_node is configured with."""
 
     def __init__(self, predictor: Predictor, pull: Pull | str = 'backward',
                  settings: BoundSettings | None = None):
-        c = EstimatorConfig()
         self.predictor = predictor
         self.pull = Pull(pull)
-        self.settings = settings or BoundSettings(0.0, 0.0, 0.0, 0.0, c.h_range_m,
-                                                  c.phi_limit_rad)
-        self._bounds: dict[Pull, LowerBound] = {}
+        self.asked = AskedBound(predictor.predict, settings or BoundSettings(
+            0.0, 0.0, 0.0, 0.0, H_LIMITS_M, EstimatorConfig().phi_limit_rad))
 
     def bound(self, state: AnchorState, phi: float, h_band: float,
               pull: Pull | str = '') -> tuple[CapacityResult, float | None]:
@@ -189,11 +190,7 @@ class LocalBound:
         r = self.predictor.predict(state, phi, key)
         if not r.status.has_value or r.capacity_N is None:
             return r, None
-        if key not in self._bounds:
-            self._bounds[key] = LowerBound(
-                lambda st, ph: self.predictor.predict(st, ph, key), self.settings)
-        ranges = (('height', h_band),) if h_band > 0.0 else ()
-        return r, self._bounds[key].bound(state, phi, r, ranges)
+        return r, self.asked.bound(state, phi, key, h_band, r)
 
 
 @dataclass(frozen=True)
@@ -339,7 +336,7 @@ class ModeChooser:
         Asked only for a bound of 0, so the extra questions cost nothing on the way to a
         tug."""
         if h_band > 0.0:
-            for h in scan_points(state.h, h_band, *EstimatorConfig().h_range_m):
+            for h in scan_points(state.h, h_band, *H_LIMITS_M):
                 r = self.predictor.predict(replace(state, h=h), phi, self.pull)
                 if not r.status.has_value or r.capacity_N is None:
                     return f'somewhere in its height band ({r.status} at h {1e3 * h:.0f} mm)'

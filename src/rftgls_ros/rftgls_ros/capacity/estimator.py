@@ -38,7 +38,7 @@ from rftgls_node_base.diagnostics import DiagStatus
 from rftgls_node_base.parameters import ConfigError
 
 from .inputs import LEG_LIMIT_RAD, band_problem
-from .lower_bound import BoundSettings, LowerBound, nearest
+from .lower_bound import AskedBound, BoundSettings, LowerBound, nearest
 
 JOINTS = LEG_KEYS  # leg angle keys, rftgls_conventions
 # Input names, as used for timeouts and in stale/invalid reasons.
@@ -281,7 +281,7 @@ class CapacityEstimator:
         self._malformed: dict[str, Problem] = {}  # input -> why its latest message is unusable
         self._answers: OrderedDict[tuple, CapacityResult] = OrderedDict()
         self._bound = self._new_bound()
-        self._query_bounds: dict[Pull, LowerBound] = {}   # per pull asked (hypothetical_bound)
+        self.asked = self._new_asked()   # the bound at states asked about (query service)
         self.predictions = 0  # predictor calls (cache misses), for diagnostics and tests
 
     def reconfigure(self, config: EstimatorConfig) -> None:
@@ -293,7 +293,7 @@ class CapacityEstimator:
         self.config = config
         self._answers.clear()
         self._bound = self._new_bound()
-        self._query_bounds.clear()
+        self.asked = self._new_asked()
 
     def _new_bound(self) -> LowerBound:
         c = self.config
@@ -302,23 +302,11 @@ class CapacityEstimator:
             c.h_range_m, c.phi_limit_rad, c.lower_bound_phi_step_rad,
             c.lower_bound_theta_b_step_rad))
 
-    def hypothetical_bound(self, state: AnchorState, phi: float, pull: Pull | str,
-                           h_band: float, center: CapacityResult | None) -> float | None:
-        """The lower bound (N) at a state the node is asked about (~/query_capacity, "what
-        if I burrow to this pose?") rather than one it measures: the live bound's two parts
-        with its settings, h known to lie in h +- h_band (m; 0: exact) and every other input
-        taken as given. At the exact pitch and tether angle: the live bound's grids serve
-        inputs that creep from sample to sample, and a question does not creep. ``center``:
-        the prediction at the state itself if made (lower_bound.LowerBound.bound). None when
-        neither part applies (no sigma part configured, h_band 0)."""
-        c, key = self.config, Pull(pull)
-        bound = self._query_bounds.get(key)
-        if bound is None:
-            bound = self._query_bounds[key] = LowerBound(
-                lambda st, ph: self.predictor.predict(st, ph, key), BoundSettings(
-                    c.lower_bound_level, c.h_sigma_m, c.theta_b_sigma_rad,
-                    c.capacity_rel_sigma, c.h_range_m, c.phi_limit_rad))
-        return bound.bound(state, phi, center, (('height', h_band),) if h_band > 0.0 else ())
+    def _new_asked(self) -> AskedBound:
+        c = self.config
+        return AskedBound(self.predictor.predict, BoundSettings(
+            c.lower_bound_level, c.h_sigma_m, c.theta_b_sigma_rad, c.capacity_rel_sigma,
+            c.h_range_m, c.phi_limit_rad))
 
     # -- inputs -----------------------------------------------------------------------------
     def update_joints(self, t: float, angles: Mapping[str, float]) -> None:

@@ -41,10 +41,10 @@ from __future__ import annotations
 import math
 from collections import OrderedDict
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from rftgls_core.surfaces.base import CapacityResult
-from rftgls_core.types import AnchorState
+from rftgls_core.types import AnchorState, Pull
 from rftgls_core.uncertainty import capacity_lower_bound
 
 from .range_bound import range_minimum
@@ -202,6 +202,33 @@ class LowerBound:
         while len(self._known) > (self.CACHE if self.settings.gridded else 1):
             self._known.popitem(last=False)
         return lower
+
+
+class AskedBound:
+    """The lower bound at states asked about rather than measured ("what if I burrow to this
+    pose?": capacity_node's query service, and behavior_node's chooser over its own map): the
+    live bound's two parts with ``settings``, h known only within a band and every other input
+    taken as given, at the exact pitch and tether angle (the grids serve inputs that creep
+    from sample to sample; a question does not creep). One LowerBound per pull asked.
+    ``predict``: (state, phi, pull) -> CapacityResult."""
+
+    def __init__(self, predict: Callable[[AnchorState, float, Pull], CapacityResult],
+                 settings: BoundSettings):
+        self.predict = predict
+        self.settings = replace(settings, phi_step_rad=0.0, theta_b_step_rad=0.0)
+        self._bounds: dict[Pull, LowerBound] = {}
+
+    def bound(self, state: AnchorState, phi: float, pull: Pull | str, h_band: float,
+              center: CapacityResult | None) -> float | None:
+        """The lower bound (N) with h within +- h_band (m; 0: exact); ``center``: the
+        prediction at the state itself if made (LowerBound.bound). None when neither part
+        applies (no sigma part configured, h_band 0)."""
+        key = Pull(pull)
+        if key not in self._bounds:
+            self._bounds[key] = LowerBound(lambda st, ph: self.predict(st, ph, key),
+                                           self.settings)
+        return self._bounds[key].bound(state, phi, center,
+                                       (('height', h_band),) if h_band > 0.0 else ())
 
 
 def _grid(i: int, step: float) -> float:
