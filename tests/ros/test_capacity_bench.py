@@ -4,6 +4,7 @@ its own process (real DDS on loopback), its in-node figures read from its /diagn
 Only that the bench works and what it reports is asserted here; the rates it finds depend on
 the machine (they are figures for the README, not verdicts of a test)."""
 import math
+import os
 
 import pytest
 
@@ -20,6 +21,9 @@ def test_live_bench_runs_the_node_in_its_own_process_and_reads_its_figures():
     assert res['node_latency_ms_median'] <= res['node_latency_ms_p99']
     assert res['solver_steps'] >= 40 and 0.0 <= res['solver_fallback_rate'] <= 1.0
     assert res['solver_solve_us_median'] > 0.0
+    # the figures say where they were measured: this machine's CPU and cores
+    assert res['machine']['cores'] == len(os.sched_getaffinity(0)), res['machine']
+    assert res['machine']['cpu_model'] and res['machine']['numba_target'], res['machine']
     # the sustained phase went through the rates in order and stopped at the first drop
     tried = [r for r in RATES_HZ if f'rate_{r}hz_delivered' in res]
     assert tried == list(RATES_HZ[:len(tried)]) and tried

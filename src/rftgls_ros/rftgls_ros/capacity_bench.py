@@ -31,6 +31,8 @@ Figures:
   solver_*: with --live, the warm solver's own time per call and its fallback rate (over the
       node's last 1000 calls, so mostly the free-running phase).
   status_last: the node's status at the end (`ok`: it really solved).
+  machine: where it ran (CPU, cores, SIMD, numba's target, load at the start), as
+      `rftgls bench` records it.
 """
 from __future__ import annotations
 
@@ -52,6 +54,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
 
 from rftgls_conventions import LEG_JOINT_NAMES, pitch_to_quat_xyzw
+from rftgls_core.benchmarks.machine import describe, machine_record
 from rftgls_core.maps import resolve_map
 from rftgls_node_base.dds_loopback import during_init
 from rftgls_node_base.node_main import program_args
@@ -208,6 +211,9 @@ def spin_in_thread(executor, stop: threading.Event, period_s: float) -> threadin
 
 
 def run(map_file: str, n: int, in_process: bool = False) -> dict:
+    # Where the figures were measured (the CPU, its load at the start), as `rftgls bench`
+    # records it: a latency means little without the machine behind it.
+    machine = machine_record()
     ctx = rclpy.Context()
     with during_init():
         rclpy.init(context=ctx, domain_id=int(os.environ.get('ROS_DOMAIN_ID', '0')))
@@ -224,7 +230,7 @@ def run(map_file: str, n: int, in_process: bool = False) -> dict:
     where = 'in process' if in_process else 'own process'
     out: dict = {'predictor': (rig.node.estimator.predictor.name if rig.node is not None
                                else 'live:direct-warm' if not map_file else map_file)
-                 + f' ({where})'}
+                 + f' ({where})', 'machine': machine}
     try:
         pubs = (rig.pub_joints, rig.pub_imu, rig.pub_tension, rig.pub_height, rig.pub_phi)
         if not spin_until(ex, lambda: all(p.get_subscription_count() for p in pubs), 10.0):
@@ -406,6 +412,7 @@ def main(args=None) -> int:
         print(line + (f'  budget {budget}' if budget else ''))
     print(f'predictor: {res["predictor"]}' + (f' ({note})' if note else '')
           + f'; last status {res.get("status_last", "?")}')
+    print(f'measured on: {describe(res["machine"])}')
     for k in sorted(res):
         if k.startswith('rate_') or k.startswith('solver_'):
             print(f'  {k:<32} {res[k]:.3f}')
