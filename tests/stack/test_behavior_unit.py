@@ -544,13 +544,15 @@ def test_evidence_needs_a_lower_bound(status, lower, usable, reason):
 
 
 def test_a_tug_that_crawls_in_the_slow_band_until_its_timeout_reburrows_stronger(predictor):
-    """capacity_node's bound for DL just covers the need: the sled's sliding tension (1.96 N)
-    sits at 96 % of 2.04 N, inside the slow band, and the reel crawls (6 mm/s). At the tug
-    timeout the robot re-burrows into a stronger mode (DH), whose tug runs at speed; a run
-    without a stronger mode, or a timeout at full speed, stops the cycle as before."""
+    """capacity_node's bound for DL drops, once the tug runs, to just above the need: the
+    sled's sliding tension (1.96 N) sits at 96 % of 2.04 N, inside the slow band, and the reel
+    crawls (6 mm/s). At the tug timeout the robot re-burrows into a stronger mode (DH), whose
+    tug runs at speed; a run without a stronger mode, or a timeout at full speed, stops the
+    cycle as before. (A bound that low before the tug is refused at CHECK: the test below.)"""
     m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1, tug_timeout_s=25.0)
     plant = Plant(0.4, predictor)
-    plant.capacity_fault = lambda p: (2.04, 'ok', None) if m.mode == 'DL' else None
+    plant.capacity_fault = lambda p: (2.04, 'ok', None) \
+        if m.mode == 'DL' and m.state == State.TUG else None
     reels = []
     run_loop(m, plant, on_step=lambda p, mach: reels.append((mach.mode, mach.winch))
              if mach.state == State.TUG else None)
@@ -564,7 +566,7 @@ def test_a_tug_that_crawls_in_the_slow_band_until_its_timeout_reburrows_stronger
     # no stronger mode than DH: the cycle stops at the timeout, winch braked
     m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1, tug_timeout_s=25.0)
     plant = Plant(0.4, predictor)
-    plant.capacity_fault = lambda p: (2.04, 'ok', None)
+    plant.capacity_fault = lambda p: (2.04, 'ok', None) if m.state == State.TUG else None
     run_loop(m, plant)
     assert m.records[0].outcome == 'stopped' and m.records[0].reason == 'tug_slow', m.records
     assert m.records[0].mode == 'DL+DH'
@@ -573,3 +575,65 @@ def test_a_tug_that_crawls_in_the_slow_band_until_its_timeout_reburrows_stronger
     run_loop(m, Plant(0.4, predictor))
     assert m.records[0].mode == 'DL' and m.records[0].outcome == 'stopped', m.records
     assert 'tug timeout (2 s)' in m.reason
+
+
+def test_the_tug_ratio_is_the_guards_when_the_crawl_reels_in_time_else_the_speed_that_does():
+    from rftgls_ros.behavior.reel import reel_fraction, tug_ratio
+    cfg = BehaviorConfig(tug_timeout_s=40.0)   # 50 mm/s: 2 m in 40 s, 0.2 m at the 10 % crawl
+    assert tug_ratio(cfg, 0.0) == tug_ratio(cfg, 0.2) == cfg.stop_ratio
+    assert tug_ratio(cfg, 2.0) == pytest.approx(cfg.slow_ratio, abs=1e-12)   # full speed only
+    assert tug_ratio(cfg, 5.0) == pytest.approx(cfg.slow_ratio, abs=1e-12)   # not even that
+    for reel_m in (0.3, 0.42, 1.0, 1.9):
+        r = tug_ratio(cfg, reel_m)
+        assert cfg.slow_ratio < r < cfg.stop_ratio
+        # at that ratio the reel's law runs exactly fast enough
+        assert reel_fraction(cfg, r) * cfg.tug_speed_m_s * cfg.tug_timeout_s \
+            == pytest.approx(reel_m, rel=1e-9)
+
+
+def test_a_bound_that_would_leave_the_reel_crawling_past_its_timeout_is_refused_at_check(
+        predictor):
+    """The same thin bound for DL (2.04 N: the sliding tension 1.96 N at 96 %, where the reel
+    crawls at 6 mm/s) known before the tug. With more tether left than the crawl brings in
+    within the tug timeout, CHECK refuses it (reel.tug_ratio) and the robot re-burrows DH at
+    once, instead of crawling 25 s first; with a tether the crawl brings in in time, DL tugs.
+    The ratio is worked out here from the reel's law as BehaviorConfig states it: reeling
+    reel_m in t_out needs the speed fraction f = reel_m / (v t_out); the reel runs at f where
+    the tension / capacity ratio is stop - f (stop - slow), and at min_speed_fraction or more
+    up to the guard."""
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1, tug_timeout_s=25.0)
+    plant = Plant(0.4, predictor)
+    plant.capacity_fault = lambda p: (2.04, 'ok', None) if m.mode == 'DL' else None
+    reels, checked = [], []
+
+    def watch(p, mach):
+        if mach.state == State.TUG:
+            reels.append((mach.mode, mach.winch))
+        if mach.state == State.CHECK and mach.mode == 'DL':
+            checked.append(mach.tether.free_length)
+
+    run_loop(m, plant, on_step=watch)
+    texts = ' '.join(e['text'] for e in m.events)
+    cfg = m.cfg
+    f = (checked[-1] - cfg.arrive_length_m) / (cfg.tug_speed_m_s * cfg.tug_timeout_s)
+    assert cfg.min_speed_fraction < f < 1.0, f     # the crawl would take longer than 25 s
+    ratio = cfg.stop_ratio - f * (cfg.stop_ratio - cfg.slow_ratio)
+    required = 0.5 * 0.4 * G / ratio
+    assert 2.04 < required < 0.5 * 0.4 * G / cfg.slow_ratio, required
+    assert f'capacity_node: DL holds 2.04 N (lower bound) < {required:.2f} N required' in texts, \
+        texts
+    assert not [w for mode, w in reels if mode == 'DL' and w > 0.0], reels   # never reeled
+    assert 'tug timeout' not in texts, texts
+    assert (m.records[0].mode, m.records[0].outcome) == ('DL+DH', 'ok'), m.records
+    # A tether short enough for the crawl: the same bound tugs DL, slowly, and brings it in.
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1, tug_timeout_s=25.0,
+                         rope_length_m=0.15)
+    plant = Plant(0.4, predictor)
+    plant.capacity_fault = lambda p: (2.04, 'ok', None) if m.mode == 'DL' else None
+    reels.clear()
+    run_loop(m, plant, on_step=lambda p, mach: reels.append((mach.mode, mach.winch))
+             if mach.state == State.TUG else None)
+    texts = ' '.join(e['text'] for e in m.events)
+    assert (m.records[0].mode, m.records[0].outcome) == ('DL', 'ok'), texts
+    dl = [w for mode, w in reels if mode == 'DL' and w > 0.0]
+    assert dl and max(dl[len(dl) // 2:]) < 0.2 * cfg.tug_speed_m_s, dl      # it crawled

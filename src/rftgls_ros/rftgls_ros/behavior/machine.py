@@ -62,6 +62,7 @@ from .model import (
     ModeChooser,
 )
 from .planned import GaitChooser, PlannedGait
+from .reel import tug_ratio
 from .replay import InlineReplayer
 from .report import CycleRecord
 from .retry import EvidenceRetry
@@ -189,8 +190,9 @@ class BehaviorMachine:
             enter()
 
     def required(self) -> float:
-        """The lower bound a tug needs now, N: the chooser's rule (safety factor and margin
-        guard) on the current required force."""
+        """The lower bound a decision needs now, N: the chooser's rule (safety factor, margin
+        guard, and the reel bringing in the tether left within the tug timeout) on the
+        current required force."""
         return self.chooser.required(self.need.value)
 
     def elapsed(self) -> float:
@@ -306,6 +308,9 @@ class BehaviorMachine:
     def step(self, obs: Observation) -> Commands:
         self.obs = obs
         self._track_spool(obs)
+        # A decision asks for a bound the reel can bring the tether left in on (reel.py).
+        self.chooser.reel_ratio = tug_ratio(self.cfg,
+                                            self.tether.free_length - self.cfg.arrive_length_m)
         if self.state in ACTIVE and not self.inputs_fresh():
             self.link.interrupt()
         handler = self._handlers.get(self.state)

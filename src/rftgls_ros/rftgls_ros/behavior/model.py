@@ -226,7 +226,9 @@ class Candidate:
 @dataclass(frozen=True)
 class Decision:
     """The chooser's answer: ``mode`` (None = do not tug), the required force, the safety
-    factor and the guard's stop ratio used, every candidate, and a one-line human reason."""
+    factor and the tug ratio used (ModeChooser.tug_ratio: the guard's stop ratio, or lower
+    for a tether the reel must bring in at speed), every candidate, and a one-line human
+    reason."""
 
     mode: str | None
     need_n: float
@@ -235,12 +237,12 @@ class Decision:
     candidates: tuple[Candidate, ...]
     reason: str
     pose: str = 'expected'
-    stop_ratio: float = 1.0
+    tug_ratio: float = 1.0
 
     @property
     def required_n(self) -> float:
         """The lower bound a mode needs, N (ModeChooser.required)."""
-        return self.safety_factor * self.need_n / self.stop_ratio
+        return self.safety_factor * self.need_n / self.tug_ratio
 
     def candidate(self, mode: str) -> Candidate | None:
         """The candidate of ``mode`` (None if it was not assessed)."""
@@ -248,8 +250,8 @@ class Decision:
 
     def table(self) -> str:
         phis = '/'.join(f'{math.degrees(p):.0f}' for p in self.phis)
-        lines = [f'  need {self.need_n:.2f} N x SF {self.safety_factor:.2f} / guard '
-                 f'{self.stop_ratio:.2f} = {self.required_n:.2f} N; lower bound over the '
+        lines = [f'  need {self.need_n:.2f} N x SF {self.safety_factor:.2f} / tug ratio '
+                 f'{self.tug_ratio:.2f} = {self.required_n:.2f} N; lower bound over the '
                  f'height band at phi {phis} deg ({self.pose} pose):']
         for c in self.candidates:
             caps = '/'.join(f'{x:.2f}' if x is not None else s
@@ -263,13 +265,17 @@ class Decision:
 class ModeChooser:
     """Cheapest sufficient mode: a mode is sufficient when every pull angle in ``phis`` has a
     valid prediction whose lower end over the mode's height band (``lower_capacity``) is
-    >= ``required(need)`` (N): safety_factor x need / stop_ratio. Ties go to the stronger.
+    >= ``required(need)`` (N): safety_factor x need / tug_ratio. Ties go to the stronger.
 
     ``stop_ratio`` is the margin guard's (BehaviorConfig.stop_ratio, set by the machine that
     tugs on the decision; 1.0 for a chooser alone): the guard stops the winch when the tension
     reaches stop_ratio x the lower bound, and the sled moves only at its sliding tension, the
     need. A lower bound between need and need / stop_ratio is a tug the guard stops before
-    the sled moves, so it does not suffice.
+    the sled moves, so it does not suffice. ``reel_ratio`` (set by the machine from the
+    tether left, reel.tug_ratio; 1.0 alone) is the largest need / lower bound at which the
+    reel, slowed inside its slow band, still brings the tether in within the tug timeout: a
+    bound that leaves the tug crawling past its timeout does not suffice either.
+    ``tug_ratio`` is the smaller of the two.
 
     ``predictor``: any rftgls_core ``Predictor`` (the map capacity_node loads, or the live
     model), asked for ``pull`` (MiniRQuad's winch is on its back: 'backward'). Its lower
@@ -291,10 +297,22 @@ class ModeChooser:
             else LocalBound(predictor, self.pull)
         self.scale = 1.0
         self.stop_ratio = 1.0
+        self.reel_ratio = 1.0
+
+    @property
+    def tug_ratio(self) -> float:
+        """The tension / lower bound ratio a tug on the decision may run at (class doc)."""
+        return min(self.stop_ratio, self.reel_ratio)
 
     def required(self, need: float) -> float:
-        """The lower bound (N) that lets a tug move a sled needing ``need`` (N) under the
-        margin guard, with the safety factor."""
+        """The lower bound (N) a decision asks for a sled needing ``need`` (N): the tug
+        moves it under the margin guard and brings it in within its timeout, with the safety
+        factor."""
+        return self.safety_factor * need / self.tug_ratio
+
+    def guard_required(self, need: float) -> float:
+        """The lower bound (N) below which a running tug stops: the margin guard would stop
+        the winch before the sled moved. (A tug that merely crawls is its timeout's.)"""
         return self.safety_factor * need / self.stop_ratio
 
     def observe(self, mode: str, lower: float) -> None:
@@ -396,16 +414,16 @@ class ModeChooser:
             best = max((c for c in cands if c.weakest is not None),
                        key=lambda c: c.weakest, default=None)
             reason = (f'no mode suffices: need {need:.2f} N x {self.safety_factor:.2f} / '
-                      f'{self.stop_ratio:.2f}'
+                      f'{self.tug_ratio:.2f}'
                       + (f', strongest {best.mode} has a lower bound of {best.weakest:.2f} N'
                          if best else ', no valid prediction'))
             return Decision(None, need, self.safety_factor, self.phis, tuple(cands), reason,
-                            pose, self.stop_ratio)
+                            pose, self.tug_ratio)
         pick = min(ok, key=lambda c: (c.energy_j, -(c.weakest or 0.0)))
         others = [c.mode for c in ok if c is not pick]
         reason = (f'{pick.mode}: cheapest sufficient mode ({pick.energy_j:.2f} J, '
                   f'{energy.source(pick.mode)}); lower bound {pick.weakest:.2f} N >= '
-                  f'{self.safety_factor:.2f} x {need:.2f} N / {self.stop_ratio:.2f}'
+                  f'{self.safety_factor:.2f} x {need:.2f} N / {self.tug_ratio:.2f}'
                   + (f'; also sufficient: {", ".join(others)}' if others else ''))
         return Decision(pick.mode, need, self.safety_factor, self.phis, tuple(cands), reason,
-                        pose, self.stop_ratio)
+                        pose, self.tug_ratio)

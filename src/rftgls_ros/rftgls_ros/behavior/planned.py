@@ -4,7 +4,7 @@
 the configured sled (rftgls_core.planning: the burrow simulation over the medium's and the
 servos' spread, and the capacity at each predicted pose over the tether angles in use) at the
 configured one-sided confidence, and the cheapest gait whose lower bound, times the learned
-scale, covers safety_factor x need / stop_ratio (ModeChooser) is chosen. The gait becomes a
+scale, covers safety_factor x need / tug_ratio (ModeChooser) is chosen. The gait becomes a
 burrow the machine runs like a Table II mode (``AnchorMode``): its final pose, its *predicted*
 burrowed h and pitch, and a band of H_BAND_SDS of the predicted h's standard deviations. The
 gait map is per sled (the sled is tied to p while the robot burrows); with no map for the sled
@@ -226,7 +226,7 @@ class GaitChooser(ModeChooser):
             confirmed.add(id(a))
             if cands[i][0].weakest is None:          # unanswered: wait for the evidence
                 return Decision(None, need, self.safety_factor, self.phis, (cands[i][0],),
-                                f'{c.mode}: {cands[i][0].why}', 'planned', self.stop_ratio)
+                                f'{c.mode}: {cands[i][0].why}', 'planned', self.tug_ratio)
         pick = (best[1], best[2]) if best is not None else None
         # Shown in the decision: the Pareto front, the gaits confirmed now and the pick.
         front = {id(a) for a in plan.front}
@@ -236,18 +236,18 @@ class GaitChooser(ModeChooser):
         if pick is None:
             best = max((c for c, _ in cands), key=lambda c: c.weakest or 0.0, default=None)
             reason = (f'no planned gait suffices: need {need:.2f} N x {self.safety_factor:.2f}'
-                      f' / {self.stop_ratio:.2f} (scale {self.scale:.2f}) at '
+                      f' / {self.tug_ratio:.2f} (scale {self.scale:.2f}) at '
                       f'{self.confidence:.0%} over phi {phis_txt} deg'
                       + (f', strongest {best.mode} has a lower bound of {best.weakest:.2f} N'
                          if best else ''))
             return Decision(None, need, self.safety_factor, self.phis, shown, reason, 'planned',
-                            self.stop_ratio)
+                            self.tug_ratio)
         pick, answer = pick
         pose = burrowed_pose(answer, f'burrow simulation of gait {pick.mode} (planner)')
         if pose is None:     # a candidate has a nominal pose; refuse rather than guess one
             return Decision(None, need, self.safety_factor, self.phis, shown,
                             f'{pick.mode}: the plan has no predicted pose', 'planned',
-                            self.stop_ratio)
+                            self.tug_ratio)
         gait = PlannedGait(pick.mode, answer.gait.retract, answer.gait.final, answer.gait.speed,
                            answer, p_hold(answer, required, self.scale), pose)
         self.gaits[pick.mode] = gait
@@ -257,9 +257,9 @@ class GaitChooser(ModeChooser):
         reason = (f'{pick.mode}: cheapest sufficient planned gait ({pick.energy_j:.2f} J, '
                   f'{energy.source(pick.mode)}'
                   f'); lower bound {pick.weakest:.2f} N >= {self.safety_factor:.2f} x '
-                  f'{need:.2f} N / {self.stop_ratio:.2f} at {self.confidence:.0%}, holds with p '
+                  f'{need:.2f} N / {self.tug_ratio:.2f} at {self.confidence:.0%}, holds with p '
                   f'{gait.p_hold:.3f}; '
                   f'predicted h {1e3 * pose.h_m:.1f} +- {1e3 * pose.h_band_m:.1f} mm, pitch '
                   f'{math.degrees(pose.theta_b_rad):.1f} deg')
         return Decision(pick.mode, need, self.safety_factor, self.phis, shown, reason,
-                        'planned', self.stop_ratio)
+                        'planned', self.tug_ratio)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from . import evidence
+from .reel import reel_fraction
 from .slip import SlipEvent
 from .states import HoldCause, State
 
@@ -189,7 +190,7 @@ class Tug:
         """Capacity below what the tug needs (the guard would stop it before the sled moves):
         stop and hold (SHORT)."""
         m = self.m
-        required = m.required()
+        required = m.chooser.guard_required(m.need.value)
         if capacity >= required:
             return False
         m.winch = 0.0
@@ -223,9 +224,7 @@ class Tug:
         cfg, o = m.cfg, m.obs
         tension = o.tension or 0.0
         ratio = tension / capacity if capacity > 0 else math.inf
-        band = max(cfg.stop_ratio - cfg.slow_ratio, 1e-6)
-        frac = min(1.0, max(cfg.min_speed_fraction, (cfg.stop_ratio - ratio) / band))
-        m.winch = cfg.tug_speed_m_s * frac
+        m.winch = cfg.tug_speed_m_s * reel_fraction(cfg, ratio)
         a.ratio = ratio
         # The reel-in may run until its estimate ages out (the MCU enforces it); the own-map
         # fallback has no estimate to age: the MCU's deadman alone.
