@@ -263,10 +263,12 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     csv_path, png_path = write_report(records, out)
     print(f'\n=== summary ({time.monotonic() - t0:.0f} s) ===')
-    print(f'{"sled":>6} {"cycle":>5} {"mode":>8} {"outcome":>8} {"walk J":>7} {"burrow J":>8} '
-          f'{"tug J":>6} {"dist m":>7}  reason')
+    # a cycle's modes are its burrows joined by '+' (a planned gait's name alone is 16 wide)
+    w = max(8, *(len(r.mode) for r in records))
+    print(f'{"sled":>6} {"cycle":>5} {"mode":>{w}} {"outcome":>8} {"walk J":>7} {"burrow J":>8} '
+          f'{"tug J":>6} {"dist m":>7}  last stop (resumed, or why the cycle ended)')
     for r in records:
-        print(f'{1e3 * r.sled_kg:>4.0f} g {r.cycle:>5} {r.mode:>8} {r.outcome:>8} '
+        print(f'{1e3 * r.sled_kg:>4.0f} g {r.cycle:>5} {r.mode:>{w}} {r.outcome:>8} '
               f'{r.walk_j:>7.2f} {r.burrow_j:>8.2f} {r.tug_j:>6.2f} {r.distance_m:>7.3f}  '
               f'{r.reason}')
     for sled in sorted({r.sled_kg for r in records}):
