@@ -623,6 +623,10 @@ def test_a_bound_that_would_leave_the_reel_crawling_past_its_timeout_is_refused_
     assert f'capacity_node: DL holds 2.04 N (lower bound) < {required:.2f} N required' in texts, \
         texts
     assert not [w for mode, w in reels if mode == 'DL' and w > 0.0], reels   # never reeled
+    # the re-burrow's decision (~/events) carries the bound it asked for and the ratio
+    last = [e for e in m.events if e['kind'] == 'decision' and 'required_n' in e][-1]
+    assert last['mode'] == 'DH' and last['tug_ratio'] == pytest.approx(ratio, abs=1e-9)
+    assert last['required_n'] == pytest.approx(required, abs=1e-9), last
     assert 'tug timeout' not in texts, texts
     assert (m.records[0].mode, m.records[0].outcome) == ('DL+DH', 'ok'), m.records
     # A tether short enough for the crawl: the same bound tugs DL, slowly, and brings it in.

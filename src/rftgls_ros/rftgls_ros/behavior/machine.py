@@ -381,7 +381,7 @@ class BehaviorMachine:
                 c.choice = max((x for x in d.candidates if x.weakest is not None),
                                key=lambda x: x.weakest, default=None)
         self.event('decision', f'decision ({d.pose} pose): {d.reason}\n{d.table()}',
-                   mode=d.mode, need_n=d.need_n,
+                   mode=d.mode, need_n=d.need_n, required_n=d.required_n, tug_ratio=d.tug_ratio,
                    candidates=[{'mode': c.mode, 'capacities': c.capacities,
                                 'statuses': c.statuses, 'energy_j': c.energy_j,
                                 'sufficient': c.sufficient, 'why': c.why}
