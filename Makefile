@@ -23,6 +23,9 @@ ENV := source tools/env.sh
 # worksteal: an idle worker takes queued tests from the busy one, so the long end-to-end tests
 # do not leave one worker running alone at the end (first phase 5:34 -> 4:41 on this machine).
 PYTEST_ARGS ?= -n 2 --dist worksteal
+# make test's first phase (no real-time test in it) has a third worker on the two cores: its
+# stacks and subprocesses wait, and two workers kept 1.7 of the 2 cores busy (5:37 -> 4:35).
+FIRST_PHASE_ARGS ?= -n 3 --dist worksteal
 
 .PHONY: setup build demo teleop-sim test test-campaign test-cpus colcon-test lint bench lock clean firmware firmware-size
 
@@ -91,13 +94,13 @@ teleop-sim: setup
 demo: setup
 	$(ENV) && unset ROS_DOMAIN_ID && ros2 run rftgls_ros behavior_demo --out out/demo
 
-# Three phases: everything else on two workers; then the real-time end-to-end tests, two at a
-# time (a CPU-heavy test on the other worker can stall a whole simulated stack for seconds on 2
-# cores, another stack does not; a test is `realtime` only if it fails under load); last the
+# Three phases: everything else on three workers; then the real-time end-to-end tests, two at
+# a time (a CPU-heavy test on the other worker can stall a whole simulated stack for seconds on
+# 2 cores, another stack does not; a test is `realtime` only if it fails under load); last the
 # stop campaign by itself, which loads both cores on purpose (docs/design/deviations.md). Each
 # claim once; its repetitions and variants are the campaign below.
 test: setup
-	$(ENV) && python -m pytest tests $(PYTEST_ARGS) -m "not realtime and not campaign" \
+	$(ENV) && python -m pytest tests $(FIRST_PHASE_ARGS) -m "not realtime and not campaign" \
 	    && python -m pytest tests $(PYTEST_ARGS) -m "realtime and not alone and not campaign" \
 	    && python -m pytest tests -m "alone and not campaign"
 
