@@ -153,9 +153,11 @@ class EnergyModel:
 
 # --------------------------------------------------------------------------- predictions
 Prediction = tuple[float | None, Status]
-# Where a height band is scanned, m: capacity_node's default limits (its configured ones are
-# not known in this process).
-H_LIMITS_M = EstimatorConfig().h_range_m
+# Where a height band is scanned (m) and the largest tether angle (rad): capacity_node's
+# defaults (its configured ones are not known in this process).
+_NODE_DEFAULTS = EstimatorConfig()
+H_LIMITS_M = _NODE_DEFAULTS.h_range_m
+PHI_LIMIT_RAD = _NODE_DEFAULTS.phi_limit_rad
 
 
 @runtime_checkable
@@ -182,7 +184,7 @@ class LocalBound:
         self.predictor = predictor
         self.pull = Pull(pull)
         self.asked = AskedBound(predictor.predict, settings or BoundSettings(
-            0.0, 0.0, 0.0, 0.0, H_LIMITS_M, EstimatorConfig().phi_limit_rad))
+            0.0, 0.0, 0.0, 0.0, H_LIMITS_M, PHI_LIMIT_RAD))
 
     def bound(self, state: AnchorState, phi: float, h_band: float,
               pull: Pull | str = '') -> tuple[CapacityResult, float | None]:
