@@ -11,6 +11,7 @@ import pytest
 
 from rftgls_core.planning.burrowed import BurrowedPose
 from rftgls_core.types import Provenance
+from rftgls_ros.behavior.config import BehaviorConfig
 from rftgls_ros.behavior.model import ANCHOR_MODES
 from rftgls_ros.teleop import TeleopModel
 from rftgls_ros.teleop.model import GREY
@@ -256,7 +257,10 @@ def test_the_modelled_height_holds_only_at_the_final_pose():
     m.anchor.legs(*retract, 0.5)                              # under way
     assert m.height().provenance is Provenance.ASSUMED
     final = ANCHOR_MODES['SH'].final
-    m.anchor.legs(final[0] + 1.5 * DEG, final[1], 1.0)        # within 2 deg: there
+    tol = BehaviorConfig().burrow_tolerance_rad               # behavior_node's "arrived"
+    m.anchor.legs(final[0], final[1] + 1.5 * tol, 0.8)        # short of it: not there
+    assert m.height().provenance is Provenance.ASSUMED
+    m.anchor.legs(final[0] + 0.9 * tol, final[1], 1.0)        # within it: there
     assert m.height().provenance is Provenance.MODELLED
     assert m.height().source == SH_POSE.source
     m.anchor.legs(0.0, 0.0, 2.0)                              # stood up (an MCU reset)

@@ -26,9 +26,13 @@ from dataclasses import dataclass
 from rftgls_core.planning.burrowed import BurrowedPose
 from rftgls_core.types import Provenance
 
+from ..behavior.config import BehaviorConfig
 from ..behavior.model import ANCHOR_MODES
 
-LEG_TOLERANCE_RAD = math.radians(2.0)   # legs this close to the final pose hold it
+# Legs this close to the final pose are at it (rad, per axle): behavior_node's
+# burrow_tolerance_rad, so an operator's burrow and the autonomous one count the same legs as
+# arrived and send the same height with the same provenance.
+LEG_TOLERANCE_RAD = BehaviorConfig().burrow_tolerance_rad
 
 
 @dataclass(frozen=True)
