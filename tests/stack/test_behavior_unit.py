@@ -184,6 +184,28 @@ def test_machine_400g_chooses_dl_on_the_lower_bound_and_completes_cycles(predict
     assert {'transition', 'decision', 'live', 'cycle'} <= kinds
 
 
+def test_the_report_keeps_the_bound_each_tug_was_started_on(predictor):
+    """lower_n is the choice's bound (a prediction at the mode's pose); check_lower_n the one
+    CHECK started the tug on: capacity_node's lower bound at the pose the burrow reached,
+    times the learned scale, as the machine saw it at the step CHECK handed over to TUG."""
+    m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=2)
+    started: list[float] = []
+    prev = [m.state]
+
+    def watch(plant, machine):
+        if prev[0] == State.CHECK and machine.state == State.TUG:
+            started.append(machine.obs.capacity_lower * machine.chooser.scale)
+        prev[0] = machine.state
+
+    run_loop(m, Plant(0.4, predictor), on_step=watch)
+    assert m.state == State.FINISHED and len(started) == len(m.records) == 2, m.records
+    for r, bound in zip(m.records, started):
+        assert r.check_lower_n == bound >= r.need_n, (r, bound)
+    refused = table_ii_machine(predictor, sled_mass_kg=1.5, cycles=1)
+    run_loop(refused, Plant(1.5, predictor), t_max=20)
+    assert math.isnan(refused.records[0].check_lower_n)     # no tug, no bound it started on
+
+
 def test_step_returns_its_events_once(predictor):
     """The node publishes what step returns: every event exactly once, in order."""
     m = table_ii_machine(predictor, sled_mass_kg=0.4, cycles=1)
@@ -482,8 +504,8 @@ def test_report_csv_and_png(tmp_path, predictor):
     rows = read_csv(csv_path)
     assert rows[0].mode == 'DL' and rows[0].cycle == 1
     got, want = rows[0], m.records[0]     # the decision basis survives the CSV (4 decimals)
-    assert (got.lower_n, got.point_n, got.energy_pred_j) == pytest.approx(
-        (want.lower_n, want.point_n, want.energy_pred_j), abs=1e-4)
+    assert (got.lower_n, got.point_n, got.energy_pred_j, got.check_lower_n) == pytest.approx(
+        (want.lower_n, want.point_n, want.energy_pred_j, want.check_lower_n), abs=1e-4)
     assert got.decision == want.decision and got.decision.startswith('DL: cheapest')
     assert png_path.stat().st_size > 10_000
 

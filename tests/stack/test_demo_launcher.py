@@ -49,12 +49,13 @@ def test_demo_one_cycle_exits_and_writes_report(tmp_path):
     # (a measured pitch outside the replayed band: seen once under CI load, the scripted body
     # then at -11.6 deg); the numbers are those of the gait the tug was decided on.
     line = re.search(r'400 g sled -> g-40/-20>-40/-20(?:\+g-[\d/>-]+)*: lower bound ([\d.]+) N '
-                     r'\(decided on\), point estimate '
-                     r'([\d.]+) N, need ([\d.]+) N; burrow energy [\d.]+ J above idle predicted, '
-                     r'[\d.]+ J measured', text)
+                     r'\(chosen on\), ([\d.]+) N at the measured pose \(tug started on\), '
+                     r'point estimate ([\d.]+) N, need ([\d.]+) N; burrow energy [\d.]+ J above '
+                     r'idle predicted, [\d.]+ J measured', text)
     assert line, text
-    lower, point, need = map(float, line.groups())
+    lower, started, point, need = map(float, line.groups())
     assert point > lower >= need == pytest.approx(0.5 * 0.4 * G, abs=0.01)
+    assert started >= need
     assert (out / 'cycle_report.csv').exists() and (out / 'cycle_report.png').exists()
     # Never a reel-in below the need: the machine books capacity_node's lower bound against
     # the need at every step that commanded the winch in (reel_lower_margin_n).

@@ -304,7 +304,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def sled_line(rows: list[CycleRecord]) -> str:
     """One sled's decision basis, from its cycle report rows: the modes chosen (or why not)
-    with the lower bound the choice was made on, the point estimate, the need, the burrow
+    with the lower bound the choice was made on and the one the last tug was started on (at
+    the measured pose, by CHECK), the point estimate, the need, the burrow
     energy above idle the chooser predicted for the last choice, and the burrow phase's
     measured energy (idle included, mean over the cycles)."""
     sled = f'{1e3 * rows[0].sled_kg:.0f} g sled'
@@ -317,10 +318,12 @@ def sled_line(rows: list[CycleRecord]) -> str:
     # The last cycle that chose (a retried cycle re-checks the anchor without a new choice).
     last = next((r for r in reversed(chosen) if math.isfinite(r.lower_n)), chosen[-1])
     burrow = sum(r.burrow_j for r in chosen) / len(chosen)
-    return (f'{sled} -> {", ".join(modes)}: lower bound {last.lower_n:.2f} N (decided on), '
-            f'point estimate {last.point_n:.2f} N, need {last.need_n:.2f} N; burrow energy '
-            f'{last.energy_pred_j:.2f} J above idle predicted, {burrow:.2f} J measured (phase '
-            f'mean, idle included)' + _plan_text(last))
+    tugged = (f'{last.check_lower_n:.2f} N at the measured pose (tug started on)'
+              if math.isfinite(last.check_lower_n) else 'no tug started')
+    return (f'{sled} -> {", ".join(modes)}: lower bound {last.lower_n:.2f} N (chosen on), '
+            f'{tugged}, point estimate {last.point_n:.2f} N, need {last.need_n:.2f} N; burrow '
+            f'energy {last.energy_pred_j:.2f} J above idle predicted, {burrow:.2f} J measured '
+            f'(phase mean, idle included)' + _plan_text(last))
 
 
 def _plan_text(r: CycleRecord) -> str:

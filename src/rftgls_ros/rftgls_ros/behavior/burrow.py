@@ -397,6 +397,7 @@ class Burrow:
                                 f'{required:.2f} N required', mode=m.mode)
             self.reselect(f'{m.mode} insufficient per capacity_node', cap)
             return
+        m.cycle.check_lower = cap
         m.go(State.TUG, f'{m.mode} holds at the measured pose ({self.check.why}; '
                         f'capacity_node lower bound {cap:.2f} N >= {required:.2f} N)')
 

@@ -108,6 +108,9 @@ class CycleTally:
     # Smallest (capacity_node lower bound x scale - safety_factor x need), N, over the steps
     # that commanded the winch to reel in: negative would be a tug below the need.
     reel_lower_margin: float = math.inf
+    # The lower bound x scale (N) CHECK last started a tug on: capacity_node's at the measured
+    # pose (NaN: no tug started).
+    check_lower: float = math.nan
     plan: PlannedGait | None = None     # the planned gait chosen last ('planned' burrows)
 
 
@@ -403,7 +406,8 @@ class BehaviorMachine:
             lower_n=_num(c.choice.weakest if c.choice else None),
             point_n=_num(c.choice.point if c.choice else None),
             energy_pred_j=_num(c.choice.energy_j if c.choice else None),
-            reel_lower_margin_n=_num(c.reel_lower_margin), decision=c.decision,
+            reel_lower_margin_n=_num(c.reel_lower_margin), check_lower_n=c.check_lower,
+            decision=c.decision,
             **plan_columns(c.plan)))
         r = self.records[-1]
         self.event('cycle', r.summary(), cycle=r.cycle, outcome=r.outcome, reason=r.reason,

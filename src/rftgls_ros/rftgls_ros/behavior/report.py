@@ -49,12 +49,14 @@ class CycleRecord:
     # at the Table II pose, N (reported, never decided on); energy_pred_j: its predicted
     # burrow energy, J; reel_lower_margin_n: the smallest (capacity_node lower bound - safety
     # factor x need), N, over the steps the winch reeled in (negative: a tug below the need);
-    # decision: the chooser's reason, one line.
+    # decision: the chooser's reason, one line; check_lower_n: the lower bound the last tug
+    # was started on (capacity_node's at the measured pose, times the learned scale), N.
     lower_n: float = float('nan')
     point_n: float = float('nan')
     energy_pred_j: float = float('nan')
     reel_lower_margin_n: float = float('nan')
     decision: str = ''
+    check_lower_n: float = float('nan')
     # A planned gait's prediction (NaN for a Table II mode): h of p and its sigma, m; pitch,
     # rad; the probability that it holds the required pull (the lower bound's normal model).
     h_pred_m: float = float('nan')
