@@ -21,6 +21,7 @@ from rftgls_ros.behavior import (
     State,
     write_report,
 )
+from rftgls_ros.behavior.model import versus
 from rftgls_ros.behavior.report import read_csv
 from rftgls_ros.tether import TetherTracker
 
@@ -150,6 +151,15 @@ def test_chooser_stronger_than(predictor):
     d = ModeChooser(predictor).choose(0.5 * 0.4 * G, EnergyModel(), exclude=['SH'],
                                       stronger_than=2.0)
     assert d.mode == 'DL'
+
+
+def test_a_bound_just_short_of_the_need_never_prints_equal_to_it():
+    # Seen in make demo: 'holds 2.02 N (lower bound) < 2.02 N required'.
+    assert versus(2.018, 2.022) == '2.018 N < 2.022 N'
+    assert versus(1.99999, 2.0) == '1.99999 N < 2.00000 N'
+    assert versus(2.0149, 2.0151) == '2.01 N < 2.02 N'       # apart at two decimals already
+    assert versus(2.02, 2.02) == '2.02 N >= 2.02 N'          # equal is enough
+    assert versus(3.06, 2.06) == '3.06 N >= 2.06 N'
 
 
 def test_tether_length_and_phi():
@@ -642,7 +652,7 @@ def test_a_bound_that_would_leave_the_reel_crawling_past_its_timeout_is_refused_
     ratio = cfg.stop_ratio - f * (cfg.stop_ratio - cfg.slow_ratio)
     required = 0.5 * 0.4 * G / ratio
     assert 2.04 < required < 0.5 * 0.4 * G / cfg.slow_ratio, required
-    assert f'capacity_node: DL holds 2.04 N (lower bound) < {required:.2f} N required' in texts, \
+    assert f'capacity_node: DL holds 2.04 N < {required:.2f} N required (lower bound)' in texts, \
         texts
     assert not [w for mode, w in reels if mode == 'DL' and w > 0.0], reels   # never reeled
     # the re-burrow's decision (~/events) carries the bound it asked for and the ratio

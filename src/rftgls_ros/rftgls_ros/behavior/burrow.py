@@ -22,6 +22,7 @@ from rftgls_core.types import AnchorState, Status
 
 from . import evidence
 from .gait_motion import RAMP_LEAD_S, RampClock, gait_duration, gait_targets, leg_span, stand_time
+from .model import versus
 from .states import REBURROW_WHY, HoldCause, State
 
 # Longest a planned burrow's ramp waits for the measured legs, at standing or anywhere along
@@ -393,13 +394,13 @@ class Burrow:
         m.chooser.observe(m.mode, m.obs.capacity_lower)
         required = m.required()
         if cap < required:
-            m.event('decision', f'capacity_node: {m.mode} holds {cap:.2f} N (lower bound) < '
-                                f'{required:.2f} N required', mode=m.mode)
+            m.event('decision', f'capacity_node: {m.mode} holds {versus(cap, required)} '
+                                'required (lower bound)', mode=m.mode)
             self.reselect(f'{m.mode} insufficient per capacity_node', cap)
             return
         m.cycle.check_lower = cap
         m.go(State.TUG, f'{m.mode} holds at the measured pose ({self.check.why}; '
-                        f'capacity_node lower bound {cap:.2f} N >= {required:.2f} N)')
+                        f'capacity_node lower bound {versus(cap, required)})')
 
     def _waited(self) -> float:
         """s CHECK has waited for capacity_node since the height it checks settled: not since

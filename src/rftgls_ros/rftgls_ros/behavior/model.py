@@ -208,6 +208,17 @@ class BandScan:
     gap: str = ''
 
 
+def versus(lower: float, required: float) -> str:
+    """'L N >= R N' or 'L N < R N' for a lower bound against what is required (N): two
+    decimals, more where a bound just short of the need would print equal to it ('2.018 N <
+    2.022 N', not '2.02 N < 2.02 N')."""
+    ok = lower >= required
+    d = 2
+    while not ok and d < 6 and f'{lower:.{d}f}' == f'{required:.{d}f}':
+        d += 1
+    return f'{lower:.{d}f} N {">=" if ok else "<"} {required:.{d}f} N'
+
+
 @dataclass(frozen=True)
 class Candidate:
     """One mode as the chooser saw it: per pull angle the lower bound it decides on (N, the
@@ -388,9 +399,8 @@ class ModeChooser:
                              f'no valid prediction: {", ".join(bad)}', weakest_point)
         weakest = min(caps)
         ok = weakest >= required
-        why = (f'lower bound {weakest:.2f} N >= {required:.2f} N' if ok
-               else f'lower bound {weakest:.2f} N < {required:.2f} N'
-               + (f': no value {gaps[0]}' if gaps else ''))
+        why = f'lower bound {versus(weakest, required)}' + (
+            f': no value {gaps[0]}' if gaps and not ok else '')
         return Candidate(mode, tuple(caps), tuple(stats), weakest, energy, ok, why,
                          weakest_point)
 

@@ -40,7 +40,7 @@ from rftgls_core.predictor import Predictor
 from rftgls_core.types import AnchorState
 
 from .gait_energy import GaitEnergyModel
-from .model import H_BAND_SDS, AnchorMode, Candidate, Decision, EnergyModel, ModeChooser
+from .model import H_BAND_SDS, AnchorMode, Candidate, Decision, EnergyModel, ModeChooser, versus
 
 
 class PlanUnavailable(ValueError):
@@ -172,9 +172,8 @@ class GaitChooser(ModeChooser):
         lower = min(caps)
         required = self.required(need)
         ok = lower >= required and (stronger_than is None or lower > stronger_than)
-        why = (f'lower bound {lower:.2f} N {">=" if lower >= required else "<"} '
-               f'{required:.2f} N (planner {c.weakest:.2f} N, capacity_node at the predicted '
-               f'pose {e.weakest:.2f} N)')
+        why = (f'lower bound {versus(lower, required)} (planner {c.weakest:.2f} N, '
+               f'capacity_node at the predicted pose {e.weakest:.2f} N)')
         if lower < required and 'no value' in e.why:
             why += e.why[e.why.index(':'):]
         elif lower >= required and not ok:
@@ -203,9 +202,7 @@ class GaitChooser(ModeChooser):
             lower = min(a.lower_bound_N or 0.0, seen) * self.scale
             caps = tuple(min(lo, seen) * self.scale for _, _, lo in a.per_phi)
             e = energy.estimate(name) if name in energy.ratios else float(a.energy_elec_J or 0)
-            ok, why = lower >= required, (f'lower bound {lower:.2f} N '
-                                          f'{">=" if lower >= required else "<"} '
-                                          f'{required:.2f} N')
+            ok, why = lower >= required, f'lower bound {versus(lower, required)}'
             if ok and name in excluded:
                 ok, why = False, 'excluded: ' + why
             elif ok and stronger_than is not None and lower <= stronger_than:
