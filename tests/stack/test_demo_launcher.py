@@ -2,7 +2,8 @@
 every tug on the lower bound, and a sled no mode's lower bound holds refused cleanly. The
 decisions' numbers are checked on the scripted body (its burrows end where the gait map
 predicts); the default body, the physics, is checked for what it must do whatever the sand
-does: burrow with the physics, decide on the lower bound, say why, exit cleanly."""
+does: burrow with the physics, decide on the lower bound, say why, exit cleanly. The
+per-sled summary line is checked from report rows too, without a stack."""
 from __future__ import annotations
 
 import math
@@ -48,7 +49,7 @@ def test_demo_one_cycle_exits_and_writes_report(tmp_path):
     # The cycle's burrows: the planned gait first, then any re-burrow its check asked for
     # (a measured pitch outside the replayed band: seen once under CI load, the scripted body
     # then at -11.6 deg); the numbers are those of the gait the tug was decided on.
-    line = re.search(r'400 g sled -> g-40/-20>-40/-20(?:\+g-[\d/>-]+)*: lower bound ([\d.]+) N '
+    line = re.search(r'400 g sled -> g-40/-20>-40/-20(?:, g-[\d/>-]+)*: lower bound ([\d.]+) N '
                      r'\(chosen on\), ([\d.]+) N at the measured pose \(tug started on\), '
                      r'point estimate ([\d.]+) N, need ([\d.]+) N; burrow energy [\d.]+ J above '
                      r'idle predicted, [\d.]+ J measured', text)
@@ -152,3 +153,23 @@ def test_demo_planned_refuses_a_sled_without_a_gait_map(tmp_path):
     assert proc.returncode != 0, text
     assert "burrow_modes 'planned': no gait map for a 1000 g sled" in text, text
     assert '[live] tug' not in text
+
+
+def test_the_sled_line_names_each_gait_burrowed_once_in_order_with_both_bounds():
+    """behavior_demo's per-sled line from report rows (no stack): a re-burrowed cycle's mode
+    is 'A+B'; the line lists A, B once each, first burrowed first, and the bounds of the last
+    cycle that chose: the one it was chosen on and the one its tug was started on."""
+    from rftgls_ros.behavior.report import CycleRecord
+    from rftgls_ros.demo import sled_line
+
+    def row(cycle, mode, lower, started):
+        return CycleRecord(0.4, cycle, mode, 'ok', 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.1, 0.5,
+                           1.962, 1.962, 1.0, lower_n=lower, point_n=lower + 0.5,
+                           energy_pred_j=1.0, check_lower_n=started)
+
+    line = sled_line([row(1, 'g-b', 3.0, 3.1), row(2, 'g-a+g-b', 2.5, 2.9),
+                      row(3, 'g-a', 2.4, 2.2)])
+    assert line.startswith('400 g sled -> g-b, g-a: lower bound 2.40 N (chosen on), 2.20 N at '
+                           'the measured pose (tug started on), point estimate 2.90 N'), line
+    untugged = sled_line([row(1, 'g-b', 3.0, math.nan)])
+    assert 'lower bound 3.00 N (chosen on), no tug started,' in untugged, untugged

@@ -303,7 +303,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def sled_line(rows: list[CycleRecord]) -> str:
-    """One sled's decision basis, from its cycle report rows: the modes chosen (or why not)
+    """One sled's decision basis, from its cycle report rows: the modes burrowed (or why not)
     with the lower bound the choice was made on and the one the last tug was started on (at
     the measured pose, by CHECK), the point estimate, the need, the burrow
     energy above idle the chooser predicted for the last choice, and the burrow phase's
@@ -314,7 +314,9 @@ def sled_line(rows: list[CycleRecord]) -> str:
         r = rows[-1]
         return (f'{sled} -> REFUSED: {r.decision} (point estimate {r.point_n:.2f} N; the '
                 f'point estimate is never decided on)')
-    modes = sorted({r.mode for r in chosen})
+    # every gait burrowed, once, in the order first burrowed (a cycle's mode is 'A+B' when
+    # its check sent the robot to burrow again)
+    modes = list(dict.fromkeys(g for r in chosen for g in r.mode.split('+')))
     # The last cycle that chose (a retried cycle re-checks the anchor without a new choice).
     last = next((r for r in reversed(chosen) if math.isfinite(r.lower_n)), chosen[-1])
     burrow = sum(r.burrow_j for r in chosen) / len(chosen)
