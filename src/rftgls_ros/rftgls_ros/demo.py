@@ -305,9 +305,9 @@ def main(argv: list[str] | None = None) -> int:
 def sled_line(rows: list[CycleRecord]) -> str:
     """One sled's decision basis, from its cycle report rows: the modes burrowed (or why not)
     with the lower bound the choice was made on and the one the last tug was started on (at
-    the measured pose, by CHECK), the point estimate, the need, the burrow
-    energy above idle the chooser predicted for the last choice, and the burrow phase's
-    measured energy (idle included, mean over the cycles)."""
+    the measured pose, by CHECK), the point estimate, the need, the burrow energy above idle
+    the chooser predicted for the last choice, and the burrow phase's measured energy (idle
+    included, mean over the cycles)."""
     sled = f'{1e3 * rows[0].sled_kg:.0f} g sled'
     chosen = [r for r in rows if r.outcome != 'refused' and r.mode != '-']
     if not chosen:
