@@ -18,7 +18,7 @@ from minirquad_driver.protocol import messages as m
 
 # Real-time: with three test workers on the two cores the disconnect and latency faults failed
 # (a late last frame; a published frame missing from the simulator's record), so `make test`
-# runs these alone (pytest.ini, Makefile).
+# runs these in its real-time phase, two stacks at a time (pytest.ini, Makefile).
 pytestmark = pytest.mark.realtime
 
 

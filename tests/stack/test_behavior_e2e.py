@@ -14,7 +14,8 @@ from pathlib import Path
 
 import pytest
 
-# Real-time end-to-end stacks: `make test` runs them alone (pytest.ini, Makefile).
+# Real-time end-to-end stacks: `make test` runs them in its real-time
+# phase, two stacks at a time (pytest.ini, Makefile).
 pytestmark = pytest.mark.realtime
 
 REPO = Path(__file__).resolve().parents[2]

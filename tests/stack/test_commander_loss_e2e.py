@@ -23,7 +23,8 @@ from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.qos import qos_profile_sensor_data  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 
-# Real-time end-to-end stack: `make test` runs it alone (pytest.ini, Makefile).
+# Real-time end-to-end stack: `make test` runs it in its real-time phase
+# (pytest.ini, Makefile).
 pytestmark = [pytest.mark.realtime, pytest.mark.slow]
 LEG = 'leg_proximal_left'
 

@@ -20,7 +20,8 @@ from pathlib import Path
 import pytest
 from test_behavior_e2e import run_stack
 
-# Real-time end-to-end stacks: `make test` runs them alone (pytest.ini, Makefile).
+# Real-time end-to-end stacks: `make test` runs them in its real-time
+# phase, two stacks at a time (pytest.ini, Makefile).
 pytestmark = pytest.mark.realtime
 
 HERE = Path(__file__).resolve().parent
