@@ -9,7 +9,9 @@ from __future__ import annotations
 import math
 import os
 import re
+import signal
 import subprocess
+import time
 from pathlib import Path
 
 import pytest
@@ -20,25 +22,89 @@ REPO = Path(__file__).resolve().parents[2]
 G = 9.81
 
 
-def demo(out: Path, sled: float, *params: str, body: str = 'scripted', run_s: float = 60.0
-         ) -> subprocess.CompletedProcess:
-    """One cycle of behavior_demo; run_s: its per-sled timeout (--timeout), s."""
+PROGRAMS = ('minirquad_sim', 'bridge_node', 'capacity_node', 'state_publisher', 'behavior_node')
+TUG_PATH = {'bridge_node', 'capacity_node', 'behavior_node'}
+
+
+def demo(out: Path, sled: float, *params: str, body: str = 'scripted', run_s: float = 60.0,
+         nice: dict[str, set[int]] | None = None) -> subprocess.CompletedProcess:
+    """One cycle of behavior_demo; run_s: its per-sled timeout (--timeout), s. nice, if given,
+    collects the nice levels seen for each of PROGRAMS among the demo's processes while it
+    runs (every 0.1 s)."""
     env = {k: v for k, v in os.environ.items() if k != 'ROS_DOMAIN_ID'}
     extra = [a for kv in params for a in ('--param', kv)]
     body_arg = ['--body', body] if body else []
-    return subprocess.run(
-        ['ros2', 'run', 'rftgls_ros', 'behavior_demo', '--out', str(out), '--sleds', str(sled),
-         '--cycles', '1', '--param', 'walk_time_s:=1.0', '--param', 'idle_measure_time_s:=0.5',
-         *extra, *body_arg, '--timeout', f'{run_s:g}'],
-        cwd=REPO, env=env, capture_output=True, text=True, timeout=run_s + 30.0)
+    argv = ['ros2', 'run', 'rftgls_ros', 'behavior_demo', '--out', str(out), '--sleds', str(sled),
+            '--cycles', '1', '--param', 'walk_time_s:=1.0', '--param', 'idle_measure_time_s:=0.5',
+            *extra, *body_arg, '--timeout', f'{run_s:g}']
+    if nice is None:
+        return subprocess.run(argv, cwd=REPO, env=env, capture_output=True, text=True,
+                              timeout=run_s + 30.0)
+    logs = out.parent / 'demo_stdout.txt', out.parent / 'demo_stderr.txt'
+    with logs[0].open('w') as o, logs[1].open('w') as e:
+        proc = subprocess.Popen(argv, cwd=REPO, env=env, stdout=o, stderr=e, text=True)
+        try:
+            end = time.monotonic() + run_s + 30.0
+            while proc.poll() is None and time.monotonic() < end:
+                for pid in descendants(proc.pid):
+                    name, level = program_nice(pid)
+                    if name:
+                        nice.setdefault(name, set()).add(level)
+                time.sleep(0.1)
+        finally:
+            if proc.poll() is None:      # past its time: stopped as a user would (Ctrl-C)
+                proc.send_signal(signal.SIGINT)
+                try:
+                    proc.wait(10.0)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    proc.wait(5.0)
+    return subprocess.CompletedProcess(argv, proc.returncode, logs[0].read_text(),
+                                       logs[1].read_text())
+
+
+def descendants(pid: int) -> list[int]:
+    """Every process below pid (Linux's /proc/PID/task/PID/children lists)."""
+    found, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        try:
+            kids = [int(k) for k in Path(f'/proc/{p}/task/{p}/children').read_text().split()]
+        except OSError:                  # gone meanwhile
+            continue
+        found += kids
+        todo += kids
+    return found
+
+
+def program_nice(pid: int) -> tuple[str | None, int]:
+    """Which of PROGRAMS pid runs (None: another, or `nice` itself before it execs the
+    program: its level is not set yet) and its nice level."""
+    try:
+        argv = Path(f'/proc/{pid}/cmdline').read_bytes().decode().split('\0')
+        level = os.getpriority(os.PRIO_PROCESS, pid)
+    except OSError:
+        return None, 0
+    if Path(argv[0]).name == 'nice':
+        return None, 0
+    names = [n for n in PROGRAMS if any(Path(a).name == n for a in argv[:3])]
+    return (names[0] if names else None), level
 
 
 @pytest.mark.slow
 def test_demo_one_cycle_exits_and_writes_report(tmp_path):
     out = tmp_path / 'demo'
-    proc = demo(out, 0.4)
+    nice: dict[str, set[int]] = {}
+    proc = demo(out, 0.4, nice=nice)
     text = proc.stdout + proc.stderr
     assert proc.returncode == 0, text
+    # The tug path runs 5 nice levels above the demo, as bringup.launch.py runs it on the
+    # robot; the simulator and state_publisher at the demo's own level. Only a process allowed
+    # to raise a priority gets it (root here; otherwise nice warns and runs the node as is).
+    base = os.getpriority(os.PRIO_PROCESS, 0)
+    raised = base - 5 if os.geteuid() == 0 else base
+    assert nice == {n: {raised if n in TUG_PATH else base} for n in PROGRAMS}, nice
+    assert 'tug path (bridge_node, capacity_node, behavior_node) behind nice -n -5' in text
     m = re.search(r'ROS_DOMAIN_ID=(\d+), DDS discovery LOCALHOST', text)
     assert m and 1 <= int(m.group(1)) <= 100, text
     # the solvers compiled (or loaded) before any node needs them (rftgls_ros/warm_up.py)
@@ -173,3 +239,25 @@ def test_the_sled_line_names_each_gait_burrowed_once_in_order_with_both_bounds()
                            'the measured pose (tug started on), point estimate 2.90 N'), line
     untugged = sled_line([row(1, 'g-b', 3.0, math.nan)])
     assert 'lower bound 3.00 N (chosen on), no tug started,' in untugged, untugged
+
+
+def test_the_demo_prefixes_the_tug_path_as_the_launch_files_do(capsys):
+    """behavior_demo's default --tug-path-prefix is bringup.launch.py's tug_path_prefix (one
+    priority for the tug path, on the robot and in the demo); a prefix that is no command is a
+    one-line usage error before anything starts."""
+    from rftgls_ros import launch_model
+    from rftgls_ros.demo import TUG_PATH_PREFIX, command_prefix, main
+    launch = launch_model.parse(REPO / 'src/rftgls_ros/launch/bringup.launch.py')
+    assert not launch.problems, launch.problems
+    prefixes = {p.executable: p.prefix for p in launch.nodes}
+    assert all(prefixes[n] == command_prefix(TUG_PATH_PREFIX) == ['nice', '-n', '-5']
+               for n in TUG_PATH), prefixes
+    assert prefixes['state_publisher'] == []
+    assert command_prefix('') == []
+    for bad, why in (("nice -n '-5", 'No closing quotation'),
+                     ('no-such-program-here -n -5', 'is not a program on PATH')):
+        with pytest.raises(SystemExit) as exit_:
+            main(['--tug-path-prefix', bad, '--out', '/nonexistent/never-written'])
+        err = capsys.readouterr().err
+        assert exit_.value.code == 2 and err.count('\n') == 1, err
+        assert err.startswith('behavior_demo: error: argument --tug-path-prefix: ') and why in err

@@ -15,6 +15,11 @@ The simulated robot burrows, tugs and slips with the whole-robot RFT physics by 
 the planned gait and the simulator's own medium, nothing copied from the paper's Table II;
 only the walk is scripted (the physics' walk overturns: docs/design/walk-burrow-physics.md).
 
+The tug path (bridge_node, capacity_node, behavior_node: the nodes a winch stop goes through)
+runs behind ``--tug-path-prefix``, by default ``nice -n -5``, the priority bringup.launch.py
+gives it on the robot (docs/design/stop-budget.md, "Priority of the tug path"); the simulator
+and state_publisher run at the demo's own.
+
 DDS stays on loopback (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST unless set) and the demo uses
 its own ROS_DOMAIN_ID when none is set (reserved like ROS 2's domain_coordinator).
 
@@ -31,8 +36,10 @@ need (a broken safety rule); 1 when a sled produced no report (behavior_node did
 """
 from __future__ import annotations
 
+import argparse
 import math
 import os
+import shlex
 import shutil
 import signal
 import socket
@@ -54,6 +61,8 @@ from .warm_up import warm_up
 
 _stop = threading.Event()
 CAPACITY_PARAMS = Path('ros2_ws/params/capacity_node.yaml')   # the shipped capacity_node file
+# bringup.launch.py's tug_path_prefix default: the demo runs the tug path as the robot does
+TUG_PATH_PREFIX = 'nice -n -5'
 
 
 def _reserve_domain() -> tuple[int, socket.socket]:
@@ -79,6 +88,18 @@ PROGRAMS = {
     'state_publisher': ('rftgls_ros', 'rftgls_ros.state_publisher'),
     'behavior_node': ('rftgls_ros', 'rftgls_ros.behavior_node'),
 }
+
+
+def command_prefix(text: str) -> list[str]:
+    """An argparse `type`: a command to put in front of a node's command line, split as a
+    shell would ('' = none); its program must be on PATH."""
+    try:
+        words = shlex.split(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f'not a command: {text!r} ({exc})') from None
+    if words and shutil.which(words[0]) is None:
+        raise argparse.ArgumentTypeError(f'{words[0]!r} is not a program on PATH')
+    return words
 
 
 def _ros2_run(exe: str) -> list[str]:
@@ -159,9 +180,10 @@ def run_set(args, sled: float, env: dict, out: Path, params: Path | None) -> Pat
             if not link_file.exists():
                 print('demo: the simulator did not open its pty', file=sys.stderr)
                 return None
-        stack.start('bridge_node', [*_ros2_run('bridge_node'),
+        tug_path = args.tug_path_prefix
+        stack.start('bridge_node', [*tug_path, *_ros2_run('bridge_node'),
                                     '--ros-args', '-p', f'port:={port}'])
-        cap = [*_ros2_run('capacity_node'), '--ros-args']
+        cap = [*tug_path, *_ros2_run('capacity_node'), '--ros-args']
         if CAPACITY_PARAMS.exists():
             cap += ['--params-file', str(CAPACITY_PARAMS)]
         cap += ['-p', 'phi_topic:=winch/phi']   # relative: behavior_node's winch/phi
@@ -169,7 +191,7 @@ def run_set(args, sled: float, env: dict, out: Path, params: Path | None) -> Pat
         # /tf and /tf_static for RViz/Foxglove (odom -> base_link -> legs, imu_link, winch_link)
         stack.start('state_publisher', [*_ros2_run('state_publisher'),
                                         '--ros-args', '-p', 'robot:=minirquad'])
-        beh = [*_ros2_run('behavior_node'), '--ros-args']
+        beh = [*tug_path, *_ros2_run('behavior_node'), '--ros-args']
         if params:
             beh += ['--params-file', str(params)]
         beh += ['-p', f'sled_mass_kg:={sled}', '-p', f'cycles:={args.cycles}',
@@ -211,6 +233,10 @@ def main(argv: list[str] | None = None) -> int:
                         "walk scripted); scripted, burrows ending at the gait map's predicted "
                         "pose (default %(default)s)")
     p.add_argument('--sim-arg', action='append', help='extra minirquad_sim argument')
+    p.add_argument('--tug-path-prefix', type=command_prefix, default=TUG_PATH_PREFIX,
+                   help='command in front of bridge_node, capacity_node and behavior_node, as '
+                        "bringup.launch.py's tug_path_prefix ('' = none; default "
+                        '%(default)s)')
     # A sled's three cycles may each burrow up to max_burrows_per_cycle (3) times when the
     # check at the measured pose falls short: 29 s for such a 600 g cycle here, so 75 s cut
     # the third cycle of runs that were going well (demo exit 3, "aborted (shutdown)").
@@ -239,6 +265,8 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.monotonic()
     print(f'behavior_demo: ROS_DOMAIN_ID={env["ROS_DOMAIN_ID"]}, DDS discovery '
           f'{env["ROS_AUTOMATIC_DISCOVERY_RANGE"]}, logs in {out / "logs"}', flush=True)
+    print('behavior_demo: tug path (bridge_node, capacity_node, behavior_node) behind '
+          f"{shlex.join(args.tug_path_prefix) or 'no prefix'}", flush=True)
     # The nodes' numba kernels, compiled before they are needed mid-tug (warm_up.py).
     print('behavior_demo: preparing the solvers (compiled on first use: slow only on a '
           "machine's first run)", flush=True)
