@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 import os
 import re
+import shlex
+import shutil
 import signal
 import subprocess
 import time
@@ -261,3 +263,30 @@ def test_the_demo_prefixes_the_tug_path_as_the_launch_files_do(capsys):
         err = capsys.readouterr().err
         assert exit_.value.code == 2 and err.count('\n') == 1, err
         assert err.startswith('behavior_demo: error: argument --tug-path-prefix: ') and why in err
+
+
+@pytest.mark.skipif(os.geteuid() != 0 or shutil.which('setpriv') is None,
+                    reason='runs the prefix as another user (root and setpriv needed)')
+def test_a_prefix_without_the_right_to_raise_priority_is_said_once_or_refused(tmp_path, capsys):
+    """As a user without the right to raise a priority (nobody, through setpriv): GNU nice
+    warns and runs the command, so the demo runs and says so in its tug-path line; chrt runs
+    nothing, so the demo refuses it before starting anything (a stack whose nodes never start
+    would sit out its timeout)."""
+    from rftgls_ros.demo import main, try_prefix, tug_path_line
+    nobody = ['setpriv', '--reuid=65534', '--regid=65534', '--clear-groups']
+    code, said = try_prefix([*nobody, 'nice', '-n', '-5'])
+    assert code == 0 and 'cannot set niceness' in said, said
+    line = tug_path_line(['nice', '-n', '-5'], said)
+    assert line.startswith('behavior_demo: tug path (bridge_node, capacity_node, behavior_node) '
+                           'behind nice -n -5 (it says: nice: cannot set niceness'), line
+    assert "docs/design/stop-budget.md, 'Priority of the tug path'" in line
+    assert (REPO / 'docs/design/stop-budget.md').read_text().count(
+        '## Priority of the tug path') == 1
+    assert try_prefix(['nice', '-n', '-5']) == (0, '')      # root may
+    out = tmp_path / 'never'
+    with pytest.raises(SystemExit) as exit_:
+        main(['--tug-path-prefix', shlex.join([*nobody, 'chrt', '-f', '10']), '--out', str(out)])
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and err.count('\n') == 1, err
+    assert "fails here (exit 1): chrt: failed to set pid 0's policy" in err, err
+    assert not out.exists()

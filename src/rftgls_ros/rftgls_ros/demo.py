@@ -102,6 +102,29 @@ def command_prefix(text: str) -> list[str]:
     return words
 
 
+def try_prefix(prefix: list[str]) -> tuple[int, str]:
+    """Run `true` behind prefix: its exit status and what it said on stderr. GNU nice without
+    the right to raise a priority says "cannot set niceness" and runs the command anyway (0);
+    chrt without it runs nothing (1)."""
+    if not prefix:
+        return 0, ''
+    try:
+        r = subprocess.run([*prefix, 'true'], capture_output=True, text=True, timeout=10.0)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return 1, str(exc)
+    return r.returncode, r.stderr.strip()
+
+
+def tug_path_line(prefix: list[str], said: str) -> str:
+    """The demo's line on the tug path's prefix, with what the prefix said when tried."""
+    line = ('behavior_demo: tug path (bridge_node, capacity_node, behavior_node) behind '
+            + (shlex.join(prefix) or 'no prefix'))
+    if said:
+        line += (f" (it says: {said.splitlines()[-1]}; how to give this user the right: "
+                 "docs/design/stop-budget.md, 'Priority of the tug path')")
+    return line
+
+
 def _ros2_run(exe: str) -> list[str]:
     pkg, module = PROGRAMS[exe]
     ros2 = shutil.which('ros2')
@@ -244,6 +267,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument('--allow-aborts', action='store_true',
                    help='exit 0 even if a tug was aborted (fault-injection runs)')
     args = p.parse_args(program_args(argv, p.prog))
+    # A prefix that runs nothing would leave the stack unstarted until the timeout.
+    code, said = try_prefix(args.tug_path_prefix)
+    if code != 0:
+        p.error(f'argument --tug-path-prefix: {shlex.join(args.tug_path_prefix)!r} fails here '
+                f'(exit {code}){": " + said.splitlines()[-1] if said else ""}')
 
     env = dict(os.environ)
     env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
@@ -265,8 +293,7 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.monotonic()
     print(f'behavior_demo: ROS_DOMAIN_ID={env["ROS_DOMAIN_ID"]}, DDS discovery '
           f'{env["ROS_AUTOMATIC_DISCOVERY_RANGE"]}, logs in {out / "logs"}', flush=True)
-    print('behavior_demo: tug path (bridge_node, capacity_node, behavior_node) behind '
-          f"{shlex.join(args.tug_path_prefix) or 'no prefix'}", flush=True)
+    print(tug_path_line(args.tug_path_prefix, said), flush=True)
     # The nodes' numba kernels, compiled before they are needed mid-tug (warm_up.py).
     print('behavior_demo: preparing the solvers (compiled on first use: slow only on a '
           "machine's first run)", flush=True)
