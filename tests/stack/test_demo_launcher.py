@@ -11,7 +11,6 @@ import os
 import re
 import shlex
 import shutil
-import signal
 import subprocess
 import time
 from pathlib import Path
@@ -19,6 +18,7 @@ from pathlib import Path
 import pytest
 
 from rftgls_ros.behavior.report import read_csv
+from rftgls_ros.demo import stop_process
 
 REPO = Path(__file__).resolve().parents[2]
 G = 9.81
@@ -54,13 +54,7 @@ def demo(out: Path, sled: float, *params: str, body: str = 'scripted', run_s: fl
                         nice.setdefault(name, set()).add(level)
                 time.sleep(0.1)
         finally:
-            if proc.poll() is None:      # past its time: stopped as a user would (Ctrl-C)
-                proc.send_signal(signal.SIGINT)
-                try:
-                    proc.wait(10.0)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
-                    proc.wait(5.0)
+            stop_process(proc, timeout=10.0)    # past its time: stopped as a user would
     return subprocess.CompletedProcess(argv, proc.returncode, logs[0].read_text(),
                                        logs[1].read_text())
 
