@@ -247,6 +247,83 @@ def test_prefetch_prepares_the_side_phi_moved_to_first(cmap):
         assert {p for _, p in calls[n:]} == {side}, (direction, calls[n:])
 
 
+def _tug_course(n_left: float = 0.15):
+    """(theta_B, phi) rad per tension sample of the demo's 400 g tug: 0.754 m of tether
+    reeled at 0.5 mm per sample (50 mm/s at 100 Hz) to 0.15 m, phi following the taut tether
+    at h 44 mm (rftgls_ros.tether: -2.6 deg at the start, -13 deg at the end, ten times
+    faster there), the pitch creeping 0.001 deg per sample from 10.3 deg (the physics body
+    under pre-tension)."""
+    from rftgls_ros.tether import TetherTracker
+    tether = TetherTracker(rope_length=0.754)
+    course = []
+    for k in range(int((0.754 - n_left) / 5e-4)):
+        tether.update(k * 5e-4)
+        course.append((math.radians(10.3 + 0.001 * k), tether.phi(0.044)))
+    return course
+
+
+def test_prefetch_keeps_up_with_the_end_of_a_tug(cmap):
+    """With one prefetch call after each bound (as capacity_node makes them: one prediction per
+    tension sample), no bound of the demo's 400 g tug after its first ten (the first cells,
+    which nothing before them prepared) waits for a prediction: prefetch prepares the
+    corners ahead, earliest needed first, and skips the corners the course leaves before it
+    needs them. Preparing only the cells next to the current one, 14 of those bounds waited,
+    six of them on 9 to 18 predictions (next to the support edge each is a live solve of
+    20-28 ms): near the end phi enters a new cell every ten samples while the pitch enters
+    new rows."""
+    from rftgls_ros.capacity.lower_bound import BoundSettings, LowerBound
+    f, calls = counted(cmap)
+    bound = LowerBound(f, BoundSettings(**SETTINGS, phi_step_rad=STEP,
+                                        theta_b_step_rad=PITCH_STEP))
+    waited = []
+    for k, (tb, phi) in enumerate(_tug_course()):
+        st = AnchorState(0.044, tb, math.radians(-20.0), math.radians(-20.0))
+        before = len(calls)
+        bound.bound(st, phi, None, MODELLED_H)
+        if k >= 10 and len(calls) > before:
+            waited.append((k, len(calls) - before))
+        bound.prefetch()
+    assert not waited, waited
+
+
+def test_prefetch_ahead_gives_the_bounds_a_bound_without_prefetch_gives(cmap):
+    """Prefetching changes when a corner is predicted, never the bound: along the tug's
+    course every bound equals, to the last bit, that of a LowerBound that never prefetches
+    (the map's answers do not depend on their order)."""
+    from rftgls_ros.capacity.lower_bound import BoundSettings, LowerBound
+    settings = BoundSettings(**SETTINGS, phi_step_rad=STEP, theta_b_step_rad=PITCH_STEP)
+    ahead, plain = LowerBound(predict(cmap), settings), LowerBound(predict(cmap), settings)
+    for tb, phi in _tug_course()[::7]:
+        st = AnchorState(0.044, tb, math.radians(-20.0), math.radians(-20.0))
+        got = ahead.bound(st, phi, None, MODELLED_H)
+        for _ in range(7):
+            ahead.prefetch()
+        assert got == plain.bound(st, phi, None, MODELLED_H)
+
+
+def test_a_value_is_a_corner_from_one_step_before_until_one_step_after():
+    """_ahead's spans: values ahead enter when x comes within a step and leave a step past;
+    the bracket's values are in use now; an axis that does not move has no value ahead."""
+    from rftgls_ros.capacity.lower_bound import _ahead
+    step = 0.5
+    got = _ahead(0.1, step, 0.01, math.inf, 3, 1e9)
+    assert [v for v, _, _ in got] == [0.0, 0.5, 1.0, 1.5, 2.0]
+    enter = {v: e for v, e, _ in got}
+    leave = {v: lv for v, _, lv in got}
+    assert enter[0.0] == enter[0.5] == 0.0
+    assert leave[0.0] == pytest.approx(40.0) and leave[0.5] == pytest.approx(90.0)
+    assert enter[1.0] == pytest.approx(40.0) and leave[1.0] == pytest.approx(140.0)
+    assert enter[2.0] == pytest.approx(140.0)
+    down = _ahead(0.1, step, -0.01, math.inf, 2, 1e9)
+    assert [v for v, _, _ in down] == [0.0, 0.5, -0.5, -1.0]
+    assert {v: e for v, e, _ in down}[-0.5] == pytest.approx(10.0)
+    assert {v: lv for v, _, lv in down}[0.5] == pytest.approx(10.0)
+    assert _ahead(0.1, step, 0.0, math.inf, 3, 1e9) == [(0.0, 0.0, math.inf),
+                                                        (0.5, 0.0, math.inf)]
+    assert [v for v, _, _ in _ahead(0.1, step, 0.01, 1.2, 5, 1e9)] == [0.0, 0.5, 1.0]
+    assert [v for v, _, _ in _ahead(0.1, step, 0.01, math.inf, 5, 100.0)] == [0.0, 0.5, 1.0, 1.5]
+
+
 def test_prefetch_does_nothing_at_the_exact_phi():
     from rftgls_ros.capacity.lower_bound import BoundSettings, LowerBound
     bound = LowerBound(lambda st, ph: pytest.fail('no prediction expected'),

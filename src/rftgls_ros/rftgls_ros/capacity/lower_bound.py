@@ -29,10 +29,18 @@ shipped 0.1 deg against 1 deg) moves the bound's own +-1 sigma band by a tenth o
 width, and is well inside the IMU's own error.
 
 A new grid cell still costs its nine solves per corner at once, 25-40 ms next to the edge:
-longer than the tension period. `prefetch` prepares the cells on either side of the current
-one one prediction per call (capacity_node calls it after each answer), first the side each
-of phi and theta_B last moved to (a tug's phi creeps one way), so the cell the creeping phi or
-pitch enters next is usually known before it gets there.
+longer than the tension period. `prefetch` prepares corners ahead one prediction per call
+(capacity_node calls it after each answer), earliest needed first: phi and theta_B each move at
+a rate (an average of their change per bound), so a corner ahead on both axes is needed once
+both have come within a grid step of it, and no longer once either has passed it by a step
+(such corners, behind on one axis before the other gets there, are skipped). Corners up to
+LOOKAHEAD_CELLS cells ahead and needed within HORIZON_BOUNDS bounds are prepared that way; then
+the cells on either side of the current one (a reversal, or an axis that does not move). Ahead
+matters at the end of a tug: as the sled nears, phi steepens more than ten times faster than at
+the start (a new 0.5 deg cell every ten to fifteen samples, two new corners each, while the
+pitch creeps into a new 0.1 deg row every hundred), more than one prediction per sample can
+keep up with; the slow start of the tug, when nothing new is needed for a second at a time,
+prepares those cells.
 
 Units SI: h in m, angles in rad, capacities in N. No ROS.
 """
@@ -85,7 +93,15 @@ class _Missing(Exception):
 class LowerBound:
     """predict: the estimator's predictor call for its pull, (state, phi) -> result."""
 
-    CACHE = 32     # bounds remembered on the grid: a cell's 4 corners and 8 prefetched
+    # bounds remembered on the grid: a cell's corners, its neighbours and the corners ahead
+    CACHE = 256
+    # how far ahead prefetch prepares: cells per axis, and bounds until a corner is needed
+    # (capacity_node bounds once per tension sample: 300 at 100 Hz are 3 s)
+    LOOKAHEAD_CELLS = 12
+    HORIZON_BOUNDS = 300.0
+    # weight of the newest change in each axis's rate (an average over ~20 bounds: an IMU's
+    # noise averages out, a tug's steady creep does not)
+    RATE_WEIGHT = 0.05
 
     def __init__(self, predict: Predict, settings: BoundSettings):
         self.predict = predict
@@ -94,6 +110,8 @@ class LowerBound:
         self._last: tuple[AnchorState, float, Ranges] | None = None
         # which way phi and theta_B moved last (-1, 0, +1): prefetch prepares that side first
         self._heading = (0, 0)
+        # phi and theta_B change per bound (rad), averaged with RATE_WEIGHT
+        self._rate = (0.0, 0.0)
         # predictions made ahead for a grid angle's bound, by that bound's key
         self._ahead: dict[tuple, dict[tuple, CapacityResult]] = {}
 
@@ -111,26 +129,31 @@ class LowerBound:
             last, last_phi, _ = self._last
             self._heading = (_sign(phi - last_phi, self._heading[0]),
                              _sign(state.theta_b - last.theta_b, self._heading[1]))
+            w = self.RATE_WEIGHT
+            self._rate = ((1.0 - w) * self._rate[0] + w * (phi - last_phi),
+                          (1.0 - w) * self._rate[1] + w * (state.theta_b - last.theta_b))
         self._last = (state, phi, ranges)
         return min(self._at(st, p, ranges, None)
                    for st in self._pitches(state) for p in self._phis(phi))
 
     def prefetch(self) -> bool:
-        """Make one prediction toward the bound of a grid corner next to the last cell: the
-        phi row on the side phi last moved to, the theta_B row on the side theta_B last moved
-        to, then the other two. False when all are known or there is nothing to do."""
+        """Make one prediction toward the bound of a grid corner not known yet: the corners
+        ahead, earliest needed first (module doc), then those of the cells next to the last
+        one: the phi row on the side phi last moved to, the theta_B row on the side theta_B
+        last moved to, then the other two. False when all are known or there is nothing to
+        do."""
         if self._last is None or not self.settings.gridded:
             return False
         state, phi, ranges = self._last
         s = self.settings
-        rows: list[list[tuple[AnchorState, float]]] = [[], [], [], []]
+        rows: list[list[tuple[AnchorState, float]]] = [self._ahead_of(state, phi), [], [], [], []]
         for k, p in enumerate(_neighbours(phi, s.phi_step_rad)):
             if abs(p) <= s.phi_limit_rad:   # k 0: below, 1: above
                 ahead = (k == 1) == (self._heading[0] > 0)
-                rows[0 if ahead else 2] += [(st, p) for st in self._pitches(state)]
+                rows[1 if ahead else 3] += [(st, p) for st in self._pitches(state)]
         for k, t in enumerate(_neighbours(state.theta_b, s.theta_b_step_rad)):
             ahead = (k == 1) == (self._heading[1] > 0)
-            rows[1 if ahead else 3] += [(_with_pitch(state, t), p) for p in self._phis(phi)]
+            rows[2 if ahead else 4] += [(_with_pitch(state, t), p) for p in self._phis(phi)]
         todo = [corner for row in rows for corner in row]
         for st, p in todo:
             key = (st.as_tuple(), p, ranges)
@@ -144,6 +167,23 @@ class LowerBound:
             return True
         return False
 
+    def _ahead_of(self, state: AnchorState, phi: float) -> list[tuple[AnchorState, float]]:
+        """The grid corners ahead of (state, phi) along each axis's rate, earliest needed
+        first, within LOOKAHEAD_CELLS and HORIZON_BOUNDS (the corners in use now included:
+        they are known after any bound)."""
+        s = self.settings
+        phis = _ahead(phi, s.phi_step_rad, self._rate[0], s.phi_limit_rad,
+                      self.LOOKAHEAD_CELLS, self.HORIZON_BOUNDS)
+        pitches = _ahead(state.theta_b, s.theta_b_step_rad, self._rate[1], math.inf,
+                         self.LOOKAHEAD_CELLS, self.HORIZON_BOUNDS)
+        # a corner is needed from when both its values are corners until either stops being
+        # one: corners whose two spans do not meet are never needed on this course
+        corners = sorted((max(ep, et), k, t, p) for k, ((p, ep, lp), (t, et, lt))
+                         in enumerate((a, b) for a in phis for b in pitches)
+                         if max(ep, et) < min(lp, lt))
+        return [(_with_pitch(state, t), p) for when, _, t, p in corners
+                if when <= self.HORIZON_BOUNDS]
+
     def _phis(self, phi: float) -> list[float]:
         return _bracket(phi, self.settings.phi_step_rad, self.settings.phi_limit_rad)
 
@@ -152,11 +192,13 @@ class LowerBound:
                 for t in _bracket(state.theta_b, self.settings.theta_b_step_rad, math.inf)]
 
     def _near(self, a: tuple, b: tuple) -> bool:
-        """a and b (state tuples) the same pose but for a pitch within two grid steps."""
+        """a and b (state tuples) the same pose but for a pitch within prefetch's reach
+        (LOOKAHEAD_CELLS and the neighbouring row beyond the cell)."""
         step = self.settings.theta_b_step_rad
         if a[0] != b[0] or a[2:] != b[2:]:
             return False
-        return a[1] == b[1] if step <= 0.0 else abs(a[1] - b[1]) < 2.5 * step
+        return a[1] == b[1] if step <= 0.0 else \
+            abs(a[1] - b[1]) < (self.LOOKAHEAD_CELLS + 2.5) * step
 
     def _at(self, state: AnchorState, phi: float, ranges: Ranges,
             center: CapacityResult | None, only_ahead: bool = False) -> float:
@@ -259,6 +301,34 @@ def _neighbours(x: float, step: float) -> list[float]:
         return []
     i = math.floor(x / step)
     return [_grid(i - 1, step), _grid((i if _grid(i, step) == x else i + 1) + 1, step)]
+
+
+def _ahead(x: float, step: float, rate: float, limit: float, cells: int,
+           horizon: float) -> list[tuple[float, float, float]]:
+    """(grid value, bounds until it becomes a corner of x's cell, bounds until it stops being
+    one) for the values of x's bracket and up to `cells` grid values beyond it the way x moves
+    at `rate` (per bound), while within `horizon` bounds and |value| <= limit. A value is a
+    corner while x lies within one step of it."""
+    if step <= 0.0:
+        return [(x, 0.0, math.inf)]
+    if rate == 0.0:
+        return [(v, 0.0, math.inf) for v in _bracket(x, step, limit)]
+    speed = abs(rate)
+    # in use now: the value behind x leaves when x is a step past it, the one ahead when x
+    # is a step past that one
+    out = [(v, 0.0, (step - abs(v - x) if (v - x) * rate <= 0.0 else step + abs(v - x)) / speed)
+           for v in _bracket(x, step, limit)]
+    i = math.floor(x / step)
+    first, way = (i + (1 if _grid(i, step) == x else 2), 1) if rate > 0.0 else (i - 1, -1)
+    for n in range(cells):
+        v = _grid(first + way * n, step)
+        if abs(v) > limit:
+            break
+        enter = (abs(v - x) - step) / speed
+        if enter > horizon:
+            break
+        out.append((v, max(enter, 0.0), (abs(v - x) + step) / speed))
+    return out
 
 
 def _sign(change: float, before: int) -> int:
